@@ -1,0 +1,23 @@
+"""Backends connect the relay to robots: ``sim`` (built in), ``ros`` (rclpy) and ``bag`` (recordings).
+
+``create_backend`` imports the chosen one lazily, so that ROS is only needed when it is used.
+"""
+
+from __future__ import annotations
+
+from ..config import FleetConfig
+from ..errors import BackendUnavailable
+from ..events import EventSink
+from .base import Backend
+
+BACKENDS = ("sim", "ros", "bag")
+
+
+def create_backend(name: str, config: FleetConfig, sink: EventSink) -> Backend:
+    if name == "sim":
+        from .sim import SimBackend
+
+        return SimBackend(config, sink)
+    if name in ("ros", "bag"):
+        raise BackendUnavailable(f"the {name!r} backend is not part of this release yet; use --backend sim")
+    raise BackendUnavailable(f"unknown backend {name!r}; expected one of {', '.join(BACKENDS)}")

@@ -1,0 +1,57 @@
+"""The one small interface every backend implements; everything above it is backend-agnostic."""
+
+from __future__ import annotations
+
+import abc
+from typing import ClassVar
+
+from ..config import FleetConfig
+from ..events import EventSink, FrameEvent
+from ..occupancy import OccupancyGrid
+
+
+class Backend(abc.ABC):
+    """A source of robot events and a sink of robot commands.
+
+    Methods are called on the event loop. Commands are already validated and clamped by the relay; a backend
+    raises :class:`~relay.errors.CommandRejected` for what only it can know (no path to a goal, a robot that is
+    a recording). ``stop`` must leave every robot stopped.
+    """
+
+    name: ClassVar[str]
+
+    def __init__(self, config: FleetConfig, sink: EventSink) -> None:
+        self.config = config
+        self.sink = sink
+
+    @abc.abstractmethod
+    async def start(self) -> None: ...
+
+    @abc.abstractmethod
+    async def stop(self) -> None: ...
+
+    @abc.abstractmethod
+    async def send_velocity(self, robot: str, linear: float, angular: float) -> None: ...
+
+    @abc.abstractmethod
+    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None: ...
+
+    @abc.abstractmethod
+    async def cancel(self, robot: str) -> None:
+        """Stop navigating (the robot stops where it is)."""
+
+    async def stop_robot(self, robot: str) -> None:
+        """Zero velocity and no goal: what deadman, estop and shutdown use."""
+        await self.cancel(robot)
+        await self.send_velocity(robot, 0.0, 0.0)
+
+    async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
+        """The next (or a fresh enough) frame of a camera, or None when this backend has none."""
+        return None
+
+    def set_stream(self, robot: str, camera: str, fps: float) -> None:  # noqa: B027 - optional hook
+        """Produce frames of a camera at up to ``fps`` (0 stops); frames arrive as FrameEvents."""
+
+    def map_grid(self) -> OccupancyGrid | None:
+        """The occupancy grid goals are checked against, when this backend knows one."""
+        return None

@@ -1,0 +1,447 @@
+"""The relay: client commands through the safety rules to the backend, backend events out through the hub.
+
+``relay.server`` owns sockets and HTTP; this module owns what the relay *does*, independently of aiohttp:
+
+- every client frame is parsed by ``relay.protocol``; a bad one gets exactly one ``error`` and changes nothing;
+- every command with an ``id`` gets exactly one ``ack`` or ``error`` with that id;
+- velocities are clamped, goals checked against the map, and the deadman stops a robot whose operator
+  fell silent (``safety.deadman_timeout``) or disconnected;
+- ``estop`` stops every (or one) robot at once, cancels goals, and is announced to every client ahead of
+  anything else they have queued.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import logging
+import secrets
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+
+from . import SERVER_NAME, __version__
+from .backends import create_backend
+from .backends.base import Backend
+from .config import FleetConfig, Robot
+from .errors import CommandRejected, ProtocolError
+from .events import Event, FrameEvent, NavEvent, PoseEvent, SensorEvent
+from .fleet import FleetState
+from .hub import Channel, Hub, Transport
+from .occupancy import OccupancyGrid, from_map_yaml
+from .protocol import (
+    PROTOCOL_VERSION,
+    Cancel,
+    CmdVel,
+    Command,
+    ErrorCode,
+    EStop,
+    FrameHeader,
+    GoalPose,
+    HelloMessage,
+    Lens,
+    Ping,
+    RequestId,
+    RobotDescription,
+    Role,
+    Snapshot,
+    Stream,
+    ack_message,
+    encode,
+    encode_frame,
+    error_message,
+    estop_message,
+    parse_command,
+    pong_message,
+)
+from .safety import Deadman, check_goal, clamp_velocity
+
+logger = logging.getLogger(__name__)
+
+#: How often the deadman is checked; with a 0.5 s timeout a silent operator's robot stops within 0.55 s.
+DEADMAN_PERIOD = 0.05
+#: How often every robot's status (its data age) is sent even when nothing else changed.
+STATUS_PERIOD = 1.0
+
+
+@dataclass
+class Client:
+    """One connected client, as the relay sees it."""
+
+    client_id: str
+    role: Role
+    channel: Channel
+    tasks: set[asyncio.Task[None]] = field(default_factory=set)
+
+
+def lens_description(robot: Robot, camera_name: str) -> Lens:
+    camera = robot.camera(camera_name)
+    assert camera is not None
+    lens: Lens = {"model": camera.lens.model, "fov": camera.lens.fov}
+    if camera.lens.k is not None and camera.lens.d is not None:
+        lens["K"] = list(camera.lens.k)
+        lens["D"] = list(camera.lens.d)
+    return lens
+
+
+def describe_robot(robot: Robot) -> RobotDescription:
+    return {
+        "name": robot.name,
+        "colour": robot.colour,
+        "model": robot.model or "",
+        "cameras": [
+            {
+                "name": c.name,
+                "identifier": f"{robot.name}/camera/{c.name}",
+                "lens": lens_description(robot, c.name),
+                "width": c.width,
+                "height": c.height,
+            }
+            for c in robot.cameras
+        ],
+        "sensors": [
+            {"name": s.name, "unit": s.unit, "warn_above": s.warn_above, "warn_below": s.warn_below}
+            for s in robot.sensors
+        ],
+        "limits": {"linear": robot.limits.linear, "angular": robot.limits.angular},
+    }
+
+
+class Relay:
+    """Ties the fleet config, one backend, the hub and the safety rules together."""
+
+    def __init__(self, config: FleetConfig, backend: str | Callable[..., Backend] = "sim") -> None:
+        self.config = config
+        self.hub = Hub()
+        self.fleet = FleetState(config, config.safety.offline_after)
+        self.deadman = Deadman(config.safety.deadman_timeout)
+        self._robots = {r.name: r for r in config.robots}
+        if isinstance(backend, str):
+            self.backend = create_backend(backend, config, self.on_event)
+        else:
+            self.backend = backend(config, self.on_event)
+        self.started_at = time.monotonic()
+        self._clients: dict[str, Client] = {}
+        self._ids = itertools.count(1)
+        self._frame_seq: dict[str, int] = {}
+        self._ticker: asyncio.Task[None] | None = None
+        self._map: OccupancyGrid | None = None
+        self._was_online: dict[str, bool] = {name: False for name in self._robots}
+
+    # -- lifecycle --------------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        if self.config.map is not None:
+            # Reading and thresholding a large PGM is milliseconds of numpy work: off the loop.
+            self._map = await asyncio.to_thread(from_map_yaml, self.config.map)
+        await self.backend.start()
+        self._ticker = asyncio.get_running_loop().create_task(self._tick(), name="relay-ticker")
+        logger.info("backend %s started with %d robots", self.backend.name, len(self._robots))
+
+    async def stop(self) -> None:
+        """Stop every robot first, then the ticker, the client writers and the backend."""
+        await self.stop_all_robots("shutdown")
+        if self._ticker is not None:
+            self._ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._ticker
+        for client in list(self._clients.values()):
+            await self._drop_client(client)
+        await self.backend.stop()
+
+    async def stop_all_robots(self, reason: str) -> None:
+        robots = list(self._robots)
+        for robot in robots:
+            self.deadman.release_robot(robot)
+            self.fleet.set_teleop(robot, None)
+        results = await asyncio.gather(*(self.backend.stop_robot(r) for r in robots), return_exceptions=True)
+        for robot, result in zip(robots, results, strict=True):
+            if isinstance(result, BaseException):
+                logger.error("could not stop %s (%s): %r", robot, reason, result)
+        logger.info("all robots stopped (%s)", reason)
+
+    @property
+    def clients(self) -> int:
+        return len(self._clients)
+
+    def uptime(self) -> float:
+        return time.monotonic() - self.started_at
+
+    def map_grid(self) -> OccupancyGrid | None:
+        return self.backend.map_grid() or self._map
+
+    # -- connections ------------------------------------------------------------------------------
+
+    def connect(self, transport: Transport, role: Role = "operator") -> Client:
+        client_id = f"c{next(self._ids)}-{secrets.token_hex(3)}"
+        channel = self.hub.add(client_id, transport)
+        client = Client(client_id, role, channel)
+        self._clients[client_id] = client
+        channel.put_priority(encode(self.hello(client)))
+        logger.info("client %s connected as %s", client_id, role)
+        return client
+
+    async def disconnect(self, client: Client) -> None:
+        if self._clients.get(client.client_id) is not client:
+            return
+        # Robots this client was driving stop *before* anything else happens.
+        for robot in self.deadman.release_client(client.client_id):
+            await self._stop_robot(robot, f"operator {client.client_id} disconnected")
+        await self._drop_client(client)
+        logger.info("client %s disconnected", client.client_id)
+
+    async def _drop_client(self, client: Client) -> None:
+        self._clients.pop(client.client_id, None)
+        for task in list(client.tasks):
+            task.cancel()
+        streams = list(client.channel.streams)
+        await self.hub.remove(client.channel)
+        for identifier in streams:
+            self._update_stream_demand(identifier)
+
+    def hello(self, client: Client) -> HelloMessage:
+        scene = self.config.scene
+        grid = self.map_grid()
+        now = time.monotonic()
+        return {
+            "identifier": "hello",
+            "protocol": PROTOCOL_VERSION,
+            "server": {"name": SERVER_NAME, "version": __version__},
+            "client_id": client.client_id,
+            "role": client.role,
+            "scene": {
+                "url": scene.url,
+                "map_to_scene": {
+                    "x": scene.map_to_scene.x,
+                    "y": scene.map_to_scene.y,
+                    "z": scene.map_to_scene.z,
+                    "yaw": scene.map_to_scene.yaw,
+                },
+            },
+            "bounds": list(grid.bounds) if grid is not None else None,
+            "robots": [describe_robot(r) for r in self.config.robots],
+            "state": self.fleet.snapshot(now),
+        }
+
+    # -- client frames ----------------------------------------------------------------------------
+
+    def handle_binary(self, client: Client) -> None:
+        self.hub.counters.messages_in += 1
+        self._reply_error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
+
+    async def handle_text(self, client: Client, data: str | bytes) -> None:
+        """Handle one text frame. Only unexpected failures propagate (the server then closes with 1011)."""
+        self.hub.counters.messages_in += 1
+        try:
+            command = parse_command(data, self._robots)
+        except ProtocolError as exc:
+            self._reply_error(client, exc.request_id, exc.code, exc.message)
+            return
+        request_id = getattr(command, "id", None)
+        if isinstance(command, Snapshot):
+            # Rendering or waiting for the next camera frame takes a while: do not hold up this
+            # client's later frames (an estop among them) behind it.
+            self._spawn(client, self._run(client, command.id, self._snapshot(client, command)))
+            return
+        try:
+            await self._dispatch(client, command)
+        except ProtocolError as exc:
+            self._reply_error(client, request_id if exc.request_id is None else exc.request_id, exc.code, exc.message)
+
+    def _spawn(self, client: Client, coro: Awaitable[None]) -> None:
+        task: asyncio.Task[None] = asyncio.ensure_future(coro)
+        client.tasks.add(task)
+        task.add_done_callback(client.tasks.discard)
+
+    async def _run(self, client: Client, request_id: RequestId, coro: Awaitable[None]) -> None:
+        try:
+            await coro
+        except ProtocolError as exc:
+            self._reply_error(
+                client, exc.request_id if exc.request_id is not None else request_id, exc.code, exc.message
+            )
+        except Exception:
+            logger.exception("command %r of client %s failed", request_id, client.client_id)
+            self._reply_error(client, request_id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+
+    def _reply(self, client: Client, message: dict[str, object]) -> None:
+        client.channel.put_priority(encode(message))
+
+    def _reply_error(self, client: Client, request_id: RequestId | None, code: str, message: str) -> None:
+        logger.debug("error to %s: %s %s", client.client_id, code, message)
+        self._reply(client, error_message(request_id, code, message))
+
+    def _require_operator(self, client: Client, identifier: str, request_id: RequestId | None) -> None:
+        if client.role != "operator":
+            raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
+
+    async def _dispatch(self, client: Client, command: Command) -> None:
+        now = time.monotonic()
+        if isinstance(command, Ping):
+            self._reply(client, pong_message(command.t, time.time()))
+        elif isinstance(command, EStop):
+            self._require_operator(client, "estop", command.id)
+            await self.estop(command.robot, client.client_id)
+            self._reply(client, ack_message(command.id))
+        elif isinstance(command, CmdVel):
+            await self._cmd_vel(client, command, now)
+        elif isinstance(command, GoalPose):
+            await self._goal(client, command)
+        elif isinstance(command, Cancel):
+            self._require_operator(client, f"{command.robot}/cancel", command.id)
+            await self.backend.cancel(command.robot)
+            self._reply(client, ack_message(command.id))
+        elif isinstance(command, Stream):
+            self._stream(client, command)
+
+    async def estop(self, robot: str | None, client_id: str | None) -> None:
+        robots = [robot] if robot is not None else list(self._robots)
+        for name in robots:
+            self.deadman.release_robot(name)
+            self.fleet.set_teleop(name, None)
+        await asyncio.gather(*(self.backend.stop_robot(name) for name in robots))
+        logger.warning("EMERGENCY STOP of %s by %s", ", ".join(robots), client_id)
+        self.hub.broadcast_priority(encode(estop_message(robots, client_id)))
+        for name in robots:
+            self._publish_status(name)
+
+    async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
+        robot = self._robots[command.robot]
+        self._require_operator(client, f"{robot.name}/cmd_vel", command.id)
+        clamped = clamp_velocity(command.linear, command.angular, robot.limits)
+        previous = self.deadman.feed(robot.name, client.client_id, now)
+        if previous is not None:
+            # Control changed hands: the robot stops before the new operator's command applies.
+            await self.backend.send_velocity(robot.name, 0.0, 0.0)
+        first = self.fleet.status(robot.name, now)["mode"] != "teleop" or previous is not None
+        if first:
+            # Teleoperation overrides navigation.
+            await self.backend.cancel(robot.name)
+            self.fleet.set_teleop(robot.name, client.client_id)
+            self._publish_status(robot.name)
+        await self.backend.send_velocity(robot.name, clamped.linear, clamped.angular)
+        if command.id is not None:
+            self._reply(client, ack_message(command.id))
+
+    async def _goal(self, client: Client, command: GoalPose) -> None:
+        identifier = f"{command.robot}/goal_pose"
+        self._require_operator(client, identifier, command.id)
+        check_goal(command.robot, command.x, command.y, self.map_grid())
+        if self.deadman.controller(command.robot) is not None:
+            self.deadman.release_robot(command.robot)
+            self.fleet.set_teleop(command.robot, None)
+            await self.backend.send_velocity(command.robot, 0.0, 0.0)
+        try:
+            await self.backend.send_goal(command.robot, command.x, command.y, command.yaw)
+        except CommandRejected as exc:
+            exc.request_id = command.id
+            raise
+        self.fleet.set_controller(command.robot, client.client_id)
+        self._publish_status(command.robot)
+        self._reply(client, ack_message(command.id))
+
+    async def _snapshot(self, client: Client, command: Snapshot) -> None:
+        robot = self._robots[command.robot]
+        camera = robot.camera(command.camera)
+        if camera is None:
+            what = f"no camera named {command.camera!r}" if command.camera else "no camera"
+            raise CommandRejected(ErrorCode.NO_CAMERA, f"{robot.name}/snapshot: {robot.name} has {what}", command.id)
+        frame = await self.backend.snapshot(robot.name, camera.name)
+        if frame is None:
+            raise CommandRejected(
+                ErrorCode.NO_CAMERA,
+                f"{robot.name}/snapshot: camera {camera.name!r} has produced no image yet; try again shortly",
+                command.id,
+            )
+        client.channel.put_priority(self._encode_frame(frame, command.id), binary=True)
+        self._reply(client, ack_message(command.id))
+
+    def _stream(self, client: Client, command: Stream) -> None:
+        robot = self._robots[command.robot]
+        if robot.camera(command.camera) is None:
+            raise CommandRejected(
+                ErrorCode.NO_CAMERA,
+                f"{robot.name}/stream: {robot.name} has no camera named {command.camera!r}",
+                command.id,
+            )
+        identifier = f"{robot.name}/camera/{command.camera}"
+        self.hub.set_stream(client.channel, identifier, command.fps)
+        self._update_stream_demand(identifier)
+        self._reply(client, ack_message(command.id))
+
+    def _update_stream_demand(self, identifier: str) -> None:
+        robot, _, camera = identifier.replace("/camera/", "/", 1).partition("/")
+        spec = self._robots[robot].camera(camera)
+        if spec is not None:
+            self.backend.set_stream(robot, camera, min(spec.rate, self.hub.stream_demand(identifier)))
+
+    def _encode_frame(self, frame: FrameEvent, request_id: RequestId | None) -> bytes:
+        identifier = f"{frame.robot}/camera/{frame.camera}"
+        seq = self._frame_seq.get(identifier, 0) + 1
+        self._frame_seq[identifier] = seq
+        header: FrameHeader = {
+            "identifier": identifier,
+            "seq": seq,
+            "stamp": round(frame.stamp, 6),
+            "encoding": "jpeg",
+            "width": frame.width,
+            "height": frame.height,
+            "lens": lens_description(self._robots[frame.robot], frame.camera),
+            "request_id": request_id,
+        }
+        return encode_frame(header, frame.jpeg)
+
+    # -- backend events (always on the loop thread) -----------------------------------------------
+
+    def on_event(self, event: Event) -> None:
+        if event.robot not in self._robots:
+            logger.warning("backend reported unknown robot %r; ignored", event.robot)
+            return
+        now = time.monotonic()
+        if isinstance(event, PoseEvent):
+            message = self.fleet.on_pose(event, now)
+            self.hub.publish_state(message["identifier"], encode(message))
+            if not self._was_online[event.robot]:
+                self._publish_status(event.robot)
+        elif isinstance(event, SensorEvent):
+            sensor = self.fleet.on_sensor(event)
+            if sensor is not None:
+                self.hub.publish_state(f"{event.robot}/sensor/{event.name}", encode(sensor))
+        elif isinstance(event, NavEvent):
+            self.fleet.on_nav(event)
+            if not event.navigating and self.deadman.controller(event.robot) is None:
+                self.fleet.set_controller(event.robot, None)
+            self._publish_status(event.robot)
+        elif isinstance(event, FrameEvent):
+            identifier = f"{event.robot}/camera/{event.camera}"
+            if self.hub.stream_demand(identifier) > 0:
+                self.hub.publish_frame(identifier, self._encode_frame(event, None), now)
+
+    def _publish_status(self, robot: str) -> None:
+        status = self.fleet.status(robot, time.monotonic())
+        self._was_online[robot] = status["online"]
+        self.hub.publish_state(status["identifier"], encode(status))
+
+    async def _stop_robot(self, robot: str, reason: str) -> None:
+        logger.info("stopping %s: %s", robot, reason)
+        self.fleet.set_teleop(robot, None)
+        try:
+            await self.backend.send_velocity(robot, 0.0, 0.0)
+        finally:
+            self._publish_status(robot)
+
+    async def _tick(self) -> None:
+        next_status = 0.0
+        while True:
+            await asyncio.sleep(DEADMAN_PERIOD)
+            now = time.monotonic()
+            for robot in self.deadman.expired(now):
+                await self._stop_robot(robot, "operator stopped sending cmd_vel (deadman)")
+            for robot, was in self._was_online.items():
+                if was != self.fleet.online(robot, now):
+                    self._publish_status(robot)
+            if now >= next_status:
+                next_status = now + STATUS_PERIOD
+                for robot in self._robots:
+                    self._publish_status(robot)

@@ -1,0 +1,231 @@
+"""Fan-out from the backend to every client, with bounded memory per client.
+
+Each message is encoded once by the caller; the hub hands the *same bytes object* to every interested
+client. Per client there are three lanes, drained by one writer task:
+
+- **priority**: ``ack``, ``error``, ``estop``, ``hello`` and snapshot replies, in order. They overtake
+  everything. A client that lets more than ``max_priority`` of them pile up is not reading its own replies
+  and is disconnected (close code 1008) rather than buffered without bound.
+- **state**: latest-value coalescing keyed by what the value describes (``robot1/pose``,
+  ``robot1/sensor/gas``, ``robot1/status``): a slow client gets the newest value, never a backlog.
+- **frames**: camera frames, at most ``max_frames`` queued; the oldest is dropped first.
+
+The writer awaits each send, so a client that stops reading blocks only its own writer (aiohttp waits for
+the socket to drain past its high-water mark) while the lanes above keep its memory bounded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Protocol
+
+logger = logging.getLogger(__name__)
+
+#: Close code for a client that does not read its own replies (RFC 6455: policy violation).
+CLOSE_NOT_READING = 1008
+
+
+class Transport(Protocol):
+    """What the hub needs from a connection: send pre-encoded frames, and close it."""
+
+    async def send_text(self, data: bytes) -> None: ...
+
+    async def send_binary(self, data: bytes) -> None: ...
+
+    async def close(self, code: int, reason: str) -> None: ...
+
+
+@dataclass
+class Counters:
+    """Totals since start, exported by /metrics."""
+
+    messages_in: int = 0
+    messages_out: int = 0
+    bytes_out: int = 0
+    state_coalesced: int = 0  # state values replaced by a newer one before they were sent
+    frames_dropped: int = 0  # camera frames dropped because a client's frame lane was full
+    clients_total: int = 0
+    clients_dropped: int = 0  # clients disconnected for not reading
+
+
+class Channel:
+    """One client's lanes and its writer task."""
+
+    def __init__(
+        self, client_id: str, transport: Transport, counters: Counters, *, max_frames: int, max_priority: int
+    ) -> None:
+        self.client_id = client_id
+        self.transport = transport
+        self._counters = counters
+        self._max_priority = max_priority
+        self._priority: deque[tuple[bool, bytes]] = deque()
+        self._state: dict[str, bytes] = {}
+        self._frames: deque[bytes] = deque(maxlen=max_frames)
+        self._wake = asyncio.Event()
+        self._frames_next = False  # alternate state and frames so neither starves the other
+        self._task: asyncio.Task[None] | None = None
+        self.closed = False
+        #: camera identifier -> (requested fps, loop time of the last frame queued to this client)
+        self.streams: dict[str, tuple[float, float]] = {}
+
+    # -- lanes ------------------------------------------------------------------------------------
+
+    def put_priority(self, data: bytes, *, binary: bool = False) -> None:
+        if self.closed:
+            return
+        if len(self._priority) >= self._max_priority:
+            logger.warning("client %s does not read its replies; disconnecting it", self.client_id)
+            self._counters.clients_dropped += 1
+            self.closed = True
+            self._priority.clear()
+            self._state.clear()
+            self._frames.clear()
+            asyncio.get_running_loop().create_task(
+                self.transport.close(CLOSE_NOT_READING, "client is not reading its replies")
+            )
+            return
+        self._priority.append((binary, data))
+        self._wake.set()
+
+    def put_state(self, key: str, data: bytes) -> None:
+        if self.closed:
+            return
+        if key in self._state:
+            self._counters.state_coalesced += 1
+        # Assigning to an existing key keeps its place in the dict, so a value updated at 30 Hz is not
+        # pushed behind the others forever.
+        self._state[key] = data
+        self._wake.set()
+
+    def put_frame(self, data: bytes) -> None:
+        if self.closed:
+            return
+        if len(self._frames) == self._frames.maxlen:
+            self._counters.frames_dropped += 1
+        self._frames.append(data)
+        self._wake.set()
+
+    @property
+    def queued(self) -> int:
+        return len(self._priority) + len(self._state) + len(self._frames)
+
+    def _next(self) -> tuple[bool, bytes] | None:
+        if self._priority:
+            return self._priority.popleft()
+        take_frame = bool(self._frames) and (self._frames_next or not self._state)
+        if take_frame:
+            self._frames_next = False
+            return True, self._frames.popleft()
+        if self._state:
+            self._frames_next = True
+            key = next(iter(self._state))
+            return False, self._state.pop(key)
+        return None
+
+    # -- writer -----------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        self._task = asyncio.get_running_loop().create_task(self._run(), name=f"writer-{self.client_id}")
+
+    async def _run(self) -> None:
+        while not self.closed:
+            await self._wake.wait()
+            self._wake.clear()
+            while not self.closed and (item := self._next()) is not None:
+                binary, data = item
+                try:
+                    if binary:
+                        await self.transport.send_binary(data)
+                    else:
+                        await self.transport.send_text(data)
+                except (ConnectionError, RuntimeError) as exc:
+                    # The peer went away mid-send; the server's reader notices and removes the client.
+                    logger.debug("send to %s failed: %s", self.client_id, exc)
+                    self.closed = True
+                    return
+                self._counters.messages_out += 1
+                self._counters.bytes_out += len(data)
+
+    async def stop(self) -> None:
+        self.closed = True
+        self._wake.set()
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+
+
+class Hub:
+    """Routes encoded messages to client channels."""
+
+    def __init__(self, *, max_frames: int = 2, max_priority: int = 1024) -> None:
+        self.counters = Counters()
+        self._channels: dict[str, Channel] = {}
+        self._max_frames = max_frames
+        self._max_priority = max_priority
+
+    def __len__(self) -> int:
+        return len(self._channels)
+
+    def __iter__(self) -> Iterator[Channel]:
+        return iter(list(self._channels.values()))
+
+    def add(self, client_id: str, transport: Transport) -> Channel:
+        channel = Channel(
+            client_id,
+            transport,
+            self.counters,
+            max_frames=self._max_frames,
+            max_priority=self._max_priority,
+        )
+        self._channels[client_id] = channel
+        self.counters.clients_total += 1
+        channel.start()
+        return channel
+
+    async def remove(self, channel: Channel) -> None:
+        self._channels.pop(channel.client_id, None)
+        await channel.stop()
+
+    def publish_state(self, key: str, data: bytes) -> None:
+        """Latest-value state (pose, sensor, status) to every client."""
+        for channel in self._channels.values():
+            channel.put_state(key, data)
+
+    def broadcast_priority(self, data: bytes) -> None:
+        """A message that must overtake everything, to every client (e.g. an emergency stop)."""
+        for channel in list(self._channels.values()):
+            channel.put_priority(data)
+
+    def publish_frame(self, identifier: str, data: bytes, now: float) -> int:
+        """A camera frame to every client streaming ``identifier``, throttled to each client's rate.
+
+        Returns how many clients took it.
+        """
+        taken = 0
+        for channel in self._channels.values():
+            stream = channel.streams.get(identifier)
+            if stream is None:
+                continue
+            fps, last = stream
+            # 10 % slack so that a 30 fps source is not halved by jitter against a 30 fps request.
+            if now - last >= 0.9 / fps:
+                channel.streams[identifier] = (fps, now)
+                channel.put_frame(data)
+                taken += 1
+        return taken
+
+    def set_stream(self, channel: Channel, identifier: str, fps: float) -> None:
+        if fps <= 0:
+            channel.streams.pop(identifier, None)
+        else:
+            channel.streams[identifier] = (fps, -1e9)
+
+    def stream_demand(self, identifier: str) -> float:
+        """The highest rate any client wants ``identifier`` at (0 when nobody streams it)."""
+        return max((c.streams[identifier][0] for c in self._channels.values() if identifier in c.streams), default=0.0)

@@ -1,0 +1,536 @@
+"""Wire protocol v1: the typed form of docs/protocol.md, with no I/O.
+
+Text frames are JSON objects with a mandatory string ``identifier``; robot-scoped identifiers are
+``<robot>/<kind>``. Binary frames carry camera images: a 4-byte big-endian header length, the header as
+UTF-8 JSON, then the encoded image. This module turns client frames into typed commands (or raises
+:class:`~relay.errors.ProtocolError`) and builds the bytes of every server message. It imports neither
+asyncio nor any ROS module, so it is tested without sockets, and the browser reads its constants from the
+generated ``xr_client/src/protocol_constants.js`` (``tools/gen_protocol_js.py``).
+
+Coordinates follow REP 103: map frame, metres, radians, quaternion ``qx, qy, qz, qw``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import struct
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass
+from typing import Any, Final, Literal, NotRequired, TypedDict
+
+import orjson
+
+from .errors import ProtocolError
+
+PROTOCOL_VERSION: Final = 1
+
+#: Largest text frame the relay parses; larger ones get ``too_large`` (the socket itself caps at 1 MiB).
+MAX_TEXT_BYTES: Final = 64 * 1024
+#: Longest accepted ``id`` string: ids are echoed back, so they must stay small.
+MAX_ID_LENGTH: Final = 128
+#: Highest camera stream rate a client may ask for.
+MAX_STREAM_FPS: Final = 60.0
+#: Binary frame header length prefix: 4 bytes, big-endian unsigned.
+FRAME_PREFIX: Final = struct.Struct(">I")
+
+ROBOT_NAME_PATTERN: Final = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
+
+
+class ErrorCode:
+    """The ``code`` values of ``error`` messages: short words a program can switch on."""
+
+    BAD_REQUEST: Final = "bad_request"  # not JSON, not an object, missing or ill-typed field
+    UNKNOWN_IDENTIFIER: Final = "unknown_identifier"  # no such message kind
+    UNKNOWN_ROBOT: Final = "unknown_robot"
+    OUT_OF_BOUNDS: Final = "out_of_bounds"  # goal outside the known map
+    NO_PATH: Final = "no_path"  # goal inside an obstacle or unreachable
+    NO_CAMERA: Final = "no_camera"  # the robot has no such camera, or no frame to give
+    FORBIDDEN: Final = "forbidden"  # the client's role may not do this
+    TOO_LARGE: Final = "too_large"  # frame over MAX_TEXT_BYTES
+    UNSUPPORTED: Final = "unsupported"  # e.g. a binary frame from a client (none is defined)
+    INTERNAL: Final = "internal"  # the relay failed; the message says what to report
+
+    ALL: Final = (
+        BAD_REQUEST,
+        UNKNOWN_IDENTIFIER,
+        UNKNOWN_ROBOT,
+        OUT_OF_BOUNDS,
+        NO_PATH,
+        NO_CAMERA,
+        FORBIDDEN,
+        TOO_LARGE,
+        UNSUPPORTED,
+        INTERNAL,
+    )
+
+
+#: Robot-scoped kinds a client may send (``<robot>/<kind>``).
+CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stream")
+#: Global identifiers a client may send.
+CLIENT_GLOBAL_KINDS: Final = ("estop", "ping")
+#: Robot-scoped kinds the server sends.
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status")
+#: Global identifiers the server sends.
+SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop")
+
+Role = Literal["operator", "viewer"]
+Mode = Literal["idle", "teleop", "navigating"]
+RequestId = str | int
+
+# --------------------------------------------------------------------------------------------------
+# Server -> client messages (one TypedDict per kind, mirroring docs/protocol.md)
+# --------------------------------------------------------------------------------------------------
+
+
+class Lens(TypedDict):
+    model: str  # equidistant | equisolid | stereographic | pinhole | opencv_fisheye
+    fov: float  # degrees, full field of view across the image circle / width
+    K: NotRequired[list[float]]  # 3x3 row-major, opencv_fisheye only
+    D: NotRequired[list[float]]  # k1..k4, opencv_fisheye only
+
+
+class CameraDescription(TypedDict):
+    name: str
+    identifier: str  # identifier of its binary frames, e.g. "robot1/camera/front"
+    lens: Lens
+    width: int
+    height: int
+
+
+class SensorDescription(TypedDict):
+    name: str
+    unit: str
+    warn_above: float | None
+    warn_below: float | None
+
+
+class Limits(TypedDict):
+    linear: float
+    angular: float
+
+
+class RobotDescription(TypedDict):
+    name: str
+    colour: str
+    model: str
+    cameras: list[CameraDescription]
+    sensors: list[SensorDescription]
+    limits: Limits
+
+
+class Transform2D(TypedDict):
+    x: float
+    y: float
+    z: float
+    yaw: float
+
+
+class SceneDescription(TypedDict):
+    url: str | None
+    map_to_scene: Transform2D
+
+
+class GoalDescription(TypedDict):
+    x: float
+    y: float
+    yaw: float | None
+
+
+class PoseMessage(TypedDict):
+    identifier: str
+    stamp: float
+    frame: str
+    x: float
+    y: float
+    z: float
+    qx: float
+    qy: float
+    qz: float
+    qw: float
+    yaw: float
+
+
+class SensorMessage(TypedDict):
+    identifier: str
+    name: str
+    value: float
+    unit: str
+    warning: bool
+    stamp: float
+
+
+class StatusMessage(TypedDict):
+    identifier: str
+    online: bool
+    age: float | None
+    mode: Mode
+    goal: GoalDescription | None
+    controller: str | None
+
+
+class RobotState(TypedDict):
+    pose: PoseMessage | None
+    sensors: dict[str, SensorMessage]
+    status: StatusMessage
+
+
+class ServerInfo(TypedDict):
+    name: str
+    version: str
+
+
+class HelloMessage(TypedDict):
+    identifier: str
+    protocol: int
+    server: ServerInfo
+    client_id: str
+    role: Role
+    scene: SceneDescription
+    bounds: list[float] | None
+    robots: list[RobotDescription]
+    state: dict[str, RobotState]
+
+
+class FrameHeader(TypedDict):
+    identifier: str
+    seq: int
+    stamp: float
+    encoding: str
+    width: int
+    height: int
+    lens: Lens
+    request_id: RequestId | None
+
+
+# --------------------------------------------------------------------------------------------------
+# Client -> server commands
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class GoalPose:
+    robot: str
+    id: RequestId
+    x: float
+    y: float
+    yaw: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class CmdVel:
+    robot: str
+    linear: float
+    angular: float
+    id: RequestId | None
+
+
+@dataclass(frozen=True, slots=True)
+class Cancel:
+    robot: str
+    id: RequestId
+
+
+@dataclass(frozen=True, slots=True)
+class Snapshot:
+    robot: str
+    id: RequestId
+    camera: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class Stream:
+    robot: str
+    id: RequestId
+    camera: str
+    fps: float
+
+
+@dataclass(frozen=True, slots=True)
+class EStop:
+    id: RequestId
+    robot: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class Ping:
+    t: float
+
+
+Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping
+
+_MISSING: Final = object()
+
+
+def _request_id(obj: Mapping[str, Any], *, required: bool) -> RequestId | None:
+    value = obj.get("id", _MISSING)
+    if value is _MISSING or value is None:
+        if required:
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{obj.get('identifier')!s}: missing field 'id'")
+        return None
+    if isinstance(value, bool) or not isinstance(value, str | int):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, "field 'id' must be a string or an integer")
+    if isinstance(value, str) and not 0 < len(value) <= MAX_ID_LENGTH:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"field 'id' must be 1 to {MAX_ID_LENGTH} characters")
+    if isinstance(value, int) and abs(value) > 2**53:
+        # Larger integers do not survive a round trip through a JavaScript number.
+        raise ProtocolError(ErrorCode.BAD_REQUEST, "field 'id' must be an integer within +-2**53")
+    return value
+
+
+def peek_request_id(obj: object) -> RequestId | None:
+    """Best-effort ``id`` of a message that failed validation, so its ``error`` can name it."""
+    if not isinstance(obj, dict):
+        return None
+    try:
+        return _request_id(obj, required=False)
+    except ProtocolError:
+        return None
+
+
+def _number(
+    obj: Mapping[str, Any],
+    field: str,
+    identifier: str,
+    *,
+    required: bool = True,
+    low: float = -math.inf,
+    high: float = math.inf,
+) -> float | None:
+    value = obj.get(field, _MISSING)
+    if value is _MISSING or (value is None and not required):
+        if required:
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field '{field}'")
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be a number, got {_show(value)}"
+        )
+    number = float(value)
+    if not math.isfinite(number):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be finite")
+    if not low <= number <= high:
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be between {low:g} and {high:g}"
+        )
+    return number
+
+
+def _string(obj: Mapping[str, Any], field: str, identifier: str, *, required: bool) -> str | None:
+    value = obj.get(field, _MISSING)
+    if value is _MISSING or value is None:
+        if required:
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field '{field}'")
+        return None
+    if not isinstance(value, str) or not 0 < len(value) <= 64:
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST,
+            f"{identifier}: field '{field}' must be a string of 1 to 64 characters, got {_show(value)}",
+        )
+    return value
+
+
+def _show(value: object) -> str:
+    """A short rendering of a bad value for an error message (never echoes a huge payload)."""
+    text = orjson.dumps(value, default=repr).decode() if not isinstance(value, float) else repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def decode_json(data: str | bytes) -> dict[str, Any]:
+    """Parse one text frame into a JSON object, or raise ``bad_request`` / ``too_large``."""
+    size = len(data.encode() if isinstance(data, str) else data)
+    if size > MAX_TEXT_BYTES:
+        raise ProtocolError(
+            ErrorCode.TOO_LARGE, f"text frame of {size} bytes exceeds the limit of {MAX_TEXT_BYTES} bytes"
+        )
+    try:
+        obj = orjson.loads(data)
+    except orjson.JSONDecodeError as exc:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"frame is not valid JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"frame must be a JSON object, got {type(obj).__name__}")
+    return obj
+
+
+def parse_command(data: str | bytes, robots: Collection[str]) -> Command:
+    """Validate one client text frame and return its command.
+
+    ``robots`` are the configured robot names. Raises :class:`ProtocolError` carrying the message's ``id``
+    when it could be read; the caller replies with ``error`` and keeps the connection open.
+    """
+    obj = decode_json(data)
+    try:
+        return _parse_object(obj, robots)
+    except ProtocolError as exc:
+        if exc.request_id is None:
+            exc.request_id = peek_request_id(obj)
+        raise
+
+
+def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
+    identifier = obj.get("identifier", _MISSING)
+    if identifier is _MISSING:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, "message has no 'identifier' field")
+    if not isinstance(identifier, str):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"'identifier' must be a string, got {_show(identifier)}")
+
+    if identifier == "ping":
+        t = _number(obj, "t", identifier)
+        assert t is not None
+        return Ping(t=t)
+    if identifier == "estop":
+        rid = _request_id(obj, required=True)
+        assert rid is not None
+        robot = _string(obj, "robot", identifier, required=False)
+        if robot is not None and robot not in robots:
+            raise ProtocolError(ErrorCode.UNKNOWN_ROBOT, f"estop: unknown robot {robot!r}", rid)
+        return EStop(id=rid, robot=robot)
+
+    robot, sep, kind = identifier.partition("/")
+    if not sep or kind not in CLIENT_ROBOT_KINDS:
+        raise ProtocolError(
+            ErrorCode.UNKNOWN_IDENTIFIER,
+            f"unknown identifier {_show(identifier)}; expected one of "
+            + ", ".join([*CLIENT_GLOBAL_KINDS, *(f"<robot>/{k}" for k in CLIENT_ROBOT_KINDS)]),
+        )
+    if robot not in robots:
+        raise ProtocolError(
+            ErrorCode.UNKNOWN_ROBOT,
+            f"{identifier}: unknown robot {robot!r}; the fleet is " + ", ".join(sorted(robots)),
+        )
+
+    if kind == "cmd_vel":
+        linear = _number(obj, "linear", identifier)
+        angular = _number(obj, "angular", identifier)
+        assert linear is not None and angular is not None
+        return CmdVel(robot=robot, linear=linear, angular=angular, id=_request_id(obj, required=False))
+
+    rid = _request_id(obj, required=True)
+    assert rid is not None
+    if kind == "goal_pose":
+        x = _number(obj, "x", identifier)
+        y = _number(obj, "y", identifier)
+        assert x is not None and y is not None
+        yaw = _number(obj, "yaw", identifier, required=False)
+        return GoalPose(robot=robot, id=rid, x=x, y=y, yaw=yaw)
+    if kind == "cancel":
+        return Cancel(robot=robot, id=rid)
+    if kind == "snapshot":
+        return Snapshot(robot=robot, id=rid, camera=_string(obj, "camera", identifier, required=False))
+    # kind == "stream"
+    camera = _string(obj, "camera", identifier, required=True)
+    fps = _number(obj, "fps", identifier, low=0.0, high=MAX_STREAM_FPS)
+    assert camera is not None and fps is not None
+    return Stream(robot=robot, id=rid, camera=camera, fps=fps)
+
+
+# --------------------------------------------------------------------------------------------------
+# Encoding: each function returns the exact bytes of one text frame
+# --------------------------------------------------------------------------------------------------
+
+
+def encode(message: Mapping[str, Any]) -> bytes:
+    """Encode one message as it goes on the wire (UTF-8 JSON, keys in the documented order)."""
+    return orjson.dumps(message)
+
+
+def pose_message(
+    robot: str,
+    *,
+    stamp: float,
+    frame: str,
+    x: float,
+    y: float,
+    z: float,
+    qx: float,
+    qy: float,
+    qz: float,
+    qw: float,
+) -> PoseMessage:
+    # Rounding to 0.1 mm and 1e-6 keeps frames short without losing anything a twin can show.
+    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return {
+        "identifier": f"{robot}/pose",
+        "stamp": round(stamp, 6),
+        "frame": frame,
+        "x": round(x, 4),
+        "y": round(y, 4),
+        "z": round(z, 4),
+        "qx": round(qx, 6),
+        "qy": round(qy, 6),
+        "qz": round(qz, 6),
+        "qw": round(qw, 6),
+        "yaw": round(yaw, 6),
+    }
+
+
+def sensor_message(robot: str, *, name: str, value: float, unit: str, warning: bool, stamp: float) -> SensorMessage:
+    return {
+        "identifier": f"{robot}/sensor",
+        "name": name,
+        "value": round(value, 4),
+        "unit": unit,
+        "warning": warning,
+        "stamp": round(stamp, 6),
+    }
+
+
+def status_message(
+    robot: str,
+    *,
+    online: bool,
+    age: float | None,
+    mode: Mode,
+    goal: GoalDescription | None,
+    controller: str | None,
+) -> StatusMessage:
+    return {
+        "identifier": f"{robot}/status",
+        "online": online,
+        "age": None if age is None else round(age, 3),
+        "mode": mode,
+        "goal": goal,
+        "controller": controller,
+    }
+
+
+def ack_message(request_id: RequestId) -> dict[str, Any]:
+    return {"identifier": "ack", "id": request_id}
+
+
+def error_message(request_id: RequestId | None, code: str, message: str) -> dict[str, Any]:
+    return {"identifier": "error", "id": request_id, "code": code, "message": message}
+
+
+def pong_message(t: float, server_time: float) -> dict[str, Any]:
+    return {"identifier": "pong", "t": t, "server_time": round(server_time, 6)}
+
+
+def estop_message(robots: list[str], client_id: str | None) -> dict[str, Any]:
+    """Broadcast to every client when an emergency stop was carried out."""
+    return {"identifier": "estop", "robots": robots, "by": client_id}
+
+
+# --------------------------------------------------------------------------------------------------
+# Binary camera frames
+# --------------------------------------------------------------------------------------------------
+
+
+def encode_frame(header: FrameHeader, payload: bytes) -> bytes:
+    """``>I`` header length, UTF-8 JSON header, then the encoded image."""
+    head = orjson.dumps(header)
+    return FRAME_PREFIX.pack(len(head)) + head + payload
+
+
+def decode_frame(data: bytes) -> tuple[dict[str, Any], bytes]:
+    """Split a binary frame into its header object and payload (used by tools, tests and clients)."""
+    if len(data) < FRAME_PREFIX.size:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, "binary frame shorter than its 4-byte header length")
+    (length,) = FRAME_PREFIX.unpack_from(data)
+    end = FRAME_PREFIX.size + length
+    if end > len(data):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"binary frame header length {length} exceeds the frame")
+    header = orjson.loads(data[FRAME_PREFIX.size : end])
+    if not isinstance(header, dict):
+        raise ProtocolError(ErrorCode.BAD_REQUEST, "binary frame header is not a JSON object")
+    return header, data[end:]

@@ -1,0 +1,211 @@
+"""HTTP and WebSocket on one port (aiohttp): the static client, the scenes, /ws, /healthz and /metrics.
+
+Every background task, socket and the backend belong to the application's lifecycle: the relay starts in a
+``cleanup_ctx`` and stops there; on shutdown every robot is stopped first, then every WebSocket is closed
+with 1001 GOING_AWAY.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import signal
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable
+from pathlib import Path
+
+from aiohttp import WSCloseCode, WSMsgType, web
+
+from . import __version__
+from .config import FleetConfig
+from .core import Client, Relay
+
+logger = logging.getLogger(__name__)
+
+ROOT = Path(__file__).resolve().parent.parent
+CLIENT_DIR = ROOT / "xr_client"
+SCENES_DIR = ROOT / "scenes"
+
+#: aiohttp refuses larger frames outright (close 1009); smaller ones over protocol.MAX_TEXT_BYTES get an
+#: ``error`` ``too_large`` and the connection stays open.
+MAX_FRAME_BYTES = 1024 * 1024
+#: Shutdown budget: Ctrl-C must leave within 2 s, robots stopped and sockets closed.
+SHUTDOWN_TIMEOUT = 1.5
+
+RELAY_KEY = web.AppKey("relay", Relay)
+SOCKETS_KEY = web.AppKey("sockets", set[web.WebSocketResponse])
+
+
+class AiohttpTransport:
+    """The hub's view of one aiohttp WebSocket."""
+
+    def __init__(self, ws: web.WebSocketResponse) -> None:
+        self._ws = ws
+
+    async def send_text(self, data: bytes) -> None:
+        # Pre-encoded UTF-8 JSON goes out as a text frame without decoding it again.
+        await self._ws.send_frame(data, WSMsgType.TEXT)
+
+    async def send_binary(self, data: bytes) -> None:
+        await self._ws.send_frame(data, WSMsgType.BINARY)
+
+    async def close(self, code: int, reason: str) -> None:
+        await self._ws.close(code=code, message=reason.encode())
+
+
+#: Content types by extension. Explicit because ES modules must be served as JavaScript, glTF has no
+#: entry in many systems' mime.types, and aiohttp's own guesser ignores ``mimetypes.add_type``.
+CONTENT_TYPES = {
+    ".html": "text/html; charset=utf-8",
+    ".js": "text/javascript; charset=utf-8",
+    ".mjs": "text/javascript; charset=utf-8",
+    ".css": "text/css; charset=utf-8",
+    ".json": "application/json",
+    ".map": "application/json",
+    ".glb": "model/gltf-binary",
+    ".gltf": "model/gltf+json",
+    ".bin": "application/octet-stream",
+    ".png": "image/png",
+    ".jpg": "image/jpeg",
+    ".ktx2": "image/ktx2",
+    ".wasm": "application/wasm",
+    ".svg": "image/svg+xml",
+    ".woff2": "font/woff2",
+    ".ttf": "font/ttf",
+    ".yaml": "text/plain; charset=utf-8",
+}
+
+
+def static_handler(root: Path) -> Callable[[web.Request], Awaitable[web.StreamResponse]]:
+    """Serve files below ``root`` with the content types above; nothing outside it, no listings."""
+    base = root.resolve()
+
+    async def handler(request: web.Request) -> web.StreamResponse:
+        relative = request.match_info.get("path", "") or "index.html"
+        target = (base / relative).resolve()
+        if not target.is_relative_to(base) or not target.is_file():
+            raise web.HTTPNotFound()
+        content_type = CONTENT_TYPES.get(target.suffix.lower(), "application/octet-stream")
+        return web.FileResponse(target, headers={"Content-Type": content_type})
+
+    return handler
+
+
+async def websocket_handler(request: web.Request) -> web.WebSocketResponse:
+    relay = request.app[RELAY_KEY]
+    # compress=False: per-message deflate would compress per client and defeat "encode once".
+    ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
+    await ws.prepare(request)
+    request.app[SOCKETS_KEY].add(ws)
+    client: Client = relay.connect(AiohttpTransport(ws))
+    try:
+        async for msg in ws:
+            if msg.type == WSMsgType.TEXT:
+                await relay.handle_text(client, msg.data)
+            elif msg.type == WSMsgType.BINARY:
+                relay.handle_binary(client)
+            elif msg.type == WSMsgType.ERROR:
+                logger.info("client %s: connection error %s", client.client_id, ws.exception())
+    except asyncio.CancelledError:
+        raise
+    except Exception:
+        logger.exception("handler for client %s crashed; closing its connection", client.client_id)
+        await ws.close(code=WSCloseCode.INTERNAL_ERROR, message=b"internal error")
+    finally:
+        request.app[SOCKETS_KEY].discard(ws)
+        await relay.disconnect(client)
+    return ws
+
+
+async def healthz(request: web.Request) -> web.Response:
+    relay = request.app[RELAY_KEY]
+    now = time.monotonic()
+    return web.json_response(
+        {
+            "status": "ok",
+            "version": __version__,
+            "backend": relay.backend.name,
+            "robots": {r: relay.fleet.online(r, now) for r in relay.config.names},
+            "robots_online": relay.fleet.robots_online(now),
+            "clients": relay.clients,
+            "uptime": round(relay.uptime(), 3),
+        }
+    )
+
+
+async def metrics(request: web.Request) -> web.Response:
+    relay = request.app[RELAY_KEY]
+    c = relay.hub.counters
+    now = time.monotonic()
+    lines = [
+        ("xr_relay_messages_in_total", "counter", "Frames received from clients", c.messages_in),
+        ("xr_relay_messages_out_total", "counter", "Frames sent to clients", c.messages_out),
+        ("xr_relay_bytes_out_total", "counter", "Bytes sent to clients", c.bytes_out),
+        ("xr_relay_state_coalesced_total", "counter", "State values replaced before sending", c.state_coalesced),
+        ("xr_relay_frames_dropped_total", "counter", "Camera frames dropped for slow clients", c.frames_dropped),
+        ("xr_relay_clients_total", "counter", "Clients connected since start", c.clients_total),
+        ("xr_relay_clients_dropped_total", "counter", "Clients disconnected for not reading", c.clients_dropped),
+        ("xr_relay_clients", "gauge", "Clients connected now", relay.clients),
+        ("xr_relay_robots_online", "gauge", "Robots with fresh data", relay.fleet.robots_online(now)),
+        ("xr_relay_uptime_seconds", "gauge", "Seconds since start", round(relay.uptime(), 3)),
+    ]
+    text = "".join(f"# HELP {n} {h}\n# TYPE {n} {t}\n{n} {v}\n" for n, t, h, v in lines)
+    return web.Response(
+        text=text, content_type="text/plain", charset="utf-8", headers={"X-Content-Type-Options": "nosniff"}
+    )
+
+
+async def _relay_context(app: web.Application) -> AsyncIterator[None]:
+    relay = app[RELAY_KEY]
+    await relay.start()
+    yield
+    await relay.stop()
+
+
+async def _close_sockets(app: web.Application) -> None:
+    """on_shutdown: robots first, then every socket with GOING_AWAY."""
+    relay = app[RELAY_KEY]
+    await relay.stop_all_robots("relay shutting down")
+    open_sockets = app[SOCKETS_KEY]
+    sockets = list(open_sockets)
+    await asyncio.gather(
+        *(ws.close(code=WSCloseCode.GOING_AWAY, message=b"relay shutting down") for ws in sockets),
+        return_exceptions=True,
+    )
+
+
+def create_app(config: FleetConfig, backend: str = "sim", relay: Relay | None = None) -> web.Application:
+    app = web.Application()
+    app[RELAY_KEY] = relay or Relay(config, backend)
+    app[SOCKETS_KEY] = set()
+    app.cleanup_ctx.append(_relay_context)
+    app.on_shutdown.append(_close_sockets)
+    app.router.add_get("/ws", websocket_handler)
+    app.router.add_get("/healthz", healthz)
+    app.router.add_get("/metrics", metrics)
+    app.router.add_get("/scenes/{path:.*}", static_handler(SCENES_DIR))
+    app.router.add_get("/{path:.*}", static_handler(CLIENT_DIR))
+    return app
+
+
+async def serve(config: FleetConfig, backend: str, host: str, port: int) -> None:
+    """Run until SIGINT or SIGTERM, then shut down cleanly."""
+    app = create_app(config, backend)
+    runner = web.AppRunner(app, shutdown_timeout=SHUTDOWN_TIMEOUT, access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, host, port)
+    try:
+        await site.start()
+        bound = runner.addresses[0] if runner.addresses else (host, port)
+        shown = f"[{bound[0]}]" if ":" in str(bound[0]) else bound[0]
+        url = f"http://{shown}:{bound[1]}/"
+        logger.info("serving on %s", url)
+        print(f"xr-relay {__version__}: open {url}  (backend: {backend}; Ctrl-C to stop)", flush=True)  # noqa: T201
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        await stop.wait()
+        logger.info("shutting down")
+    finally:
+        await runner.cleanup()

@@ -1,0 +1,1 @@
+"""Pure building blocks of the simulated fleet: floor plan, planner, kinematics, path following, hazards."""

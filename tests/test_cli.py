@@ -1,0 +1,111 @@
+"""The command a user runs: ``xr-relay`` / ``python -m relay`` in its own process."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import aiohttp
+import pytest
+
+from tests.conftest import ROOT, SlowCallbackCollector
+from tests.wsclient import TestClient
+
+
+async def start_process(*args: str) -> tuple[asyncio.subprocess.Process, str]:
+    process = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-m",
+        "relay",
+        "--port",
+        "0",
+        *args,
+        cwd=ROOT,
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    assert process.stdout is not None
+    line = (await asyncio.wait_for(process.stdout.readline(), 30)).decode()
+    match = re.search(r"open (http://127\.0\.0\.1:\d+)/", line)
+    assert match, f"no URL in {line!r}"
+    return process, match.group(1)
+
+
+def test_help_documents_every_option() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "relay", "--help"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout
+    for option in ("--config", "--backend", "--host", "--port", "--log-level", "sim", "ros", "bag"):
+        assert option in out
+
+
+async def test_relay_process_serves_and_stops_cleanly_on_ctrl_c() -> None:
+    process, url = await start_process()
+    try:
+        async with aiohttp.ClientSession() as http, http.get(f"{url}/healthz") as response:
+            health = await response.json()
+        assert health["backend"] == "sim" and health["robots_online"] in (0, 1, 2, 3)
+        client = await TestClient.open(url.replace("http", "ws") + "/ws")
+        hello = await client.hello()
+        assert [r["name"] for r in hello["robots"]] == ["robot1", "robot2", "robot3"]
+        for _ in range(5):
+            await client.send({"identifier": "robot1/cmd_vel", "linear": 0.5, "angular": 0.0})
+            await asyncio.sleep(0.05)
+        sent_at = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        status = await asyncio.wait_for(process.wait(), 5)
+        assert time.monotonic() - sent_at < 2.0
+        assert status == 0
+        await asyncio.wait_for(client._reader, 2)
+        assert client.closed_code == 1001
+        assert process.stderr is not None
+        log = (await process.stderr.read()).decode()
+        assert "all robots stopped (relay shutting down)" in log
+        assert "Traceback" not in log
+    finally:
+        if process.returncode is None:
+            process.kill()
+            await process.wait()
+
+
+def test_unavailable_backend_and_busy_port_exit_with_status_2() -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "relay", "--backend", "bag", "--port", "0"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert result.returncode == 2 and "'bag' backend" in result.stderr and "Traceback" not in result.stderr
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        result = subprocess.run(
+            [sys.executable, "-m", "relay", "--port", str(port)], cwd=ROOT, capture_output=True, text=True, timeout=30
+        )
+    assert result.returncode == 2 and f"cannot listen on 127.0.0.1:{port}" in result.stderr
+
+
+@pytest.mark.allow_blocking
+async def test_the_loop_blocking_check_catches_a_blocking_call(
+    loop_block_collector: SlowCallbackCollector,
+) -> None:
+    """The autouse check is real: a synchronous sleep on the loop is reported."""
+    time.sleep(0.3)  # noqa: ASYNC251 - blocking on purpose
+    await asyncio.sleep(0)
+    assert loop_block_collector.reports and "took" in loop_block_collector.reports[0]
+
+
+def test_generated_protocol_constants_are_current() -> None:
+    sys.path.insert(0, str(ROOT / "tools"))
+    import gen_protocol_js
+
+    assert (ROOT / "xr_client/src/protocol_constants.js").read_text() == gen_protocol_js.render()

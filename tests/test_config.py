@@ -1,0 +1,185 @@
+"""robots.yaml: the demo file loads, defaults follow the namespace convention, and every error names
+the file, the line and the field."""
+
+from __future__ import annotations
+
+import logging
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from relay.cli import main
+from relay.config import load_config, parse_config
+from relay.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parent.parent
+
+MINIMAL = """\
+robots:
+  - name: alpha
+    limits: {linear: 0.5, angular: 1.0}
+"""
+
+
+def error_of(text: str) -> str:
+    with pytest.raises(ConfigError) as info:
+        parse_config(textwrap.dedent(text), "robots.yaml")
+    return str(info.value)
+
+
+def test_demo_fleet_loads() -> None:
+    config = load_config(ROOT / "robots.yaml")
+    assert config.names == ("robot1", "robot2", "robot3")
+    robot1 = config.robots[0]
+    assert robot1.limits.linear > 0 and robot1.limits.angular > 0
+    assert {s.name for s in robot1.sensors} == {"gas", "temperature", "humidity"}
+    gas = robot1.sensors[0]
+    assert gas.topic == "/robot1/gas" and gas.warn_above == 400
+    assert {h.kind for h in config.sim.hazards} == {"gas", "temperature", "humidity"}
+    assert len({r.colour for r in config.robots}) == 3
+
+
+def test_topic_defaults_follow_namespace() -> None:
+    robot = parse_config(MINIMAL).robots[0]
+    assert robot.namespace == "/alpha"
+    assert robot.pose.source == "odom" and robot.pose.topic == "/alpha/odom"
+    assert robot.cmd_vel_topic == "/alpha/cmd_vel"
+    assert robot.goal_topic == "/alpha/goal_pose"
+
+
+def test_topic_overrides_and_root_namespace() -> None:
+    config = parse_config(
+        textwrap.dedent(
+            """\
+            robots:
+              - name: tb3
+                namespace: ""
+                pose: {source: tf, base_frame: base_link}
+                cmd_vel: {topic: /mux/cmd_vel, stamped: true}
+                cameras:
+                  - {name: front, compressed: true, lens: {model: equisolid, fov: 190}, width: 1280, height: 720}
+                sensors:
+                  - {name: battery, type: sensor_msgs/msg/BatteryState, topic: battery_state, warn_below: 20}
+                limits: {linear: 0.26, angular: 1.82}
+            """
+        )
+    )
+    robot = config.robots[0]
+    assert robot.namespace == ""
+    assert robot.pose.topic == "/tf" and robot.pose.base_frame == "base_link"
+    assert robot.cmd_vel_topic == "/mux/cmd_vel" and robot.cmd_vel_stamped
+    assert robot.goal_topic == "/goal_pose"
+    camera = robot.cameras[0]
+    assert camera.topic == "/camera/image_raw/compressed" and camera.lens.fov == 190
+    sensor = robot.sensors[0]
+    assert sensor.topic == "/battery_state" and sensor.unit == "%"
+    assert sensor.is_warning(10) and not sensor.is_warning(50)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            """\
+            robots:
+              - name: a
+                limits: {linear: 0.5, angular: 1}
+              - name: b
+                limits:
+                  linear: fast
+                  angular: 1
+            """,
+            'robots.yaml:6: robots[1].limits.linear: expected a positive number, got "fast"',
+        ),
+        (
+            """\
+            robots:
+              - name: a
+                limits: {linear: -1, angular: 1}
+            """,
+            "robots.yaml:3: robots[0].limits.linear: expected a positive number, got -1",
+        ),
+        (
+            """\
+            robots:
+              - name: a
+                colr: red
+                limits: {linear: 1, angular: 1}
+            """,
+            "robots.yaml:3: robots[0].colr: unknown field; expected one of name, namespace, colour",
+        ),
+        ("scene: {}\n", "robots.yaml:1: robots: is required"),
+        ("robots: []\n", "robots.yaml:1: robots: expected at least one robot"),
+        ("robots: {a: 1}\n", "robots.yaml:1: robots: expected a list, got a mapping"),
+        ("robots:\n  - name: a\n", "robots.yaml:2: robots[0].limits: is required"),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n"
+            "  - name: a\n    limits: {linear: 1, angular: 1}\n",
+            'robots.yaml:4: robots[1].name: duplicate robot name "a"',
+        ),
+        (
+            "robots:\n  - name: 9lives\n    limits: {linear: 1, angular: 1}\n",
+            'robots.yaml:2: robots[0].name: expected a name of letters, digits and _, got "9lives"',
+        ),
+        (
+            "robots:\n  - name: a\n    colour: blue\n    limits: {linear: 1, angular: 1}\n",
+            'robots.yaml:3: robots[0].colour: expected a colour like #e6194b, got "blue"',
+        ),
+        (
+            "robots:\n  - name: a\n    pose: gps\n    limits: {linear: 1, angular: 1}\n",
+            'robots.yaml:3: robots[0].pose: expected one of tf, odom, amcl_pose, pose, got "gps"',
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    sensors:\n"
+            "      - {name: gas, type: std_msgs/String}\n",
+            "robots.yaml:5: robots[0].sensors[0].type: expected one of std_msgs/Float32",
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    sensors:\n"
+            "      - {name: t, type: std_msgs/Float32, warn_above: 10, warn_below: 20}\n",
+            "robots.yaml:5: robots[0].sensors[0].warn_below: must be below warn_above (10)",
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    cameras:\n"
+            "      - {name: front, lens: {model: opencv_fisheye}}\n",
+            "robots.yaml:5: robots[0].cameras[0].lens: opencv_fisheye needs K (9 numbers) and D (4 numbers)",
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    cameras:\n"
+            "      - {name: front}\n      - {name: rear}\n",
+            "robots.yaml:6: robots[0].cameras[1].topic: topic /a/camera/image_raw is already used",
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    cmd_vel: {topic: 'bad topic!'}\n",
+            "robots.yaml:4: robots[0].cmd_vel.topic: expected a ROS topic name",
+        ),
+        ("robots:\n  - name: a\n    limits: {linear: 1, angular: [\n", "robots.yaml:4: not valid YAML"),
+        ("", "robots.yaml: the file is empty"),
+        (
+            MINIMAL + "safety: {deadman_timeout: 0}\n",
+            "robots.yaml:4: safety.deadman_timeout: expected a positive number, got 0",
+        ),
+        (
+            MINIMAL + "sim:\n  hazards:\n    - {kind: gas, x: 1}\n",
+            "robots.yaml:6: sim.hazards[0].y: is required",
+        ),
+    ],
+)
+def test_errors_name_file_line_and_field(text: str, expected: str) -> None:
+    assert error_of(text).startswith(expected)
+
+
+def test_unreadable_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError) as info:
+        load_config(tmp_path / "missing.yaml")
+    assert "missing.yaml" in str(info.value) and "cannot read" in str(info.value)
+
+
+def test_relay_exits_2_on_bad_config(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    bad = tmp_path / "fleet.yaml"
+    bad.write_text("robots:\n  - name: a\n    limits: {linear: fast, angular: 1}\n")
+    with caplog.at_level(logging.ERROR):
+        status = main(["--config", str(bad), "--port", "0"])
+    assert status == 2
+    assert f'{bad}:3: robots[0].limits.linear: expected a positive number, got "fast"' in caplog.text

@@ -1,0 +1,203 @@
+"""Protocol v1 without sockets: the exact bytes of every message kind, and every error path."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from relay.errors import ProtocolError
+from relay.protocol import (
+    MAX_TEXT_BYTES,
+    Cancel,
+    CmdVel,
+    EStop,
+    FrameHeader,
+    GoalPose,
+    Ping,
+    Snapshot,
+    Stream,
+    ack_message,
+    decode_frame,
+    encode,
+    encode_frame,
+    error_message,
+    estop_message,
+    parse_command,
+    pong_message,
+    pose_message,
+    sensor_message,
+    status_message,
+)
+
+ROBOTS = ("robot1", "robot2")
+
+
+# -- encoded form of every server message (the bytes are the contract of docs/protocol.md) ----------
+
+
+def test_pose_bytes() -> None:
+    msg = pose_message(
+        "robot1",
+        stamp=1700000000.1234567,
+        frame="map",
+        x=1.23456,
+        y=-2.0,
+        z=0.0,
+        qx=0.0,
+        qy=0.0,
+        qz=math.sin(0.25),
+        qw=math.cos(0.25),
+    )
+    assert encode(msg) == (
+        b'{"identifier":"robot1/pose","stamp":1700000000.123457,"frame":"map","x":1.2346,"y":-2.0,"z":0.0,'
+        b'"qx":0.0,"qy":0.0,"qz":0.247404,"qw":0.968912,"yaw":0.5}'
+    )
+
+
+def test_sensor_bytes() -> None:
+    msg = sensor_message("robot1", name="gas", value=512.345678, unit="ppm", warning=True, stamp=12.5)
+    assert encode(msg) == (
+        b'{"identifier":"robot1/sensor","name":"gas","value":512.3457,"unit":"ppm","warning":true,"stamp":12.5}'
+    )
+
+
+def test_status_bytes() -> None:
+    msg = status_message(
+        "robot2",
+        online=True,
+        age=0.01234,
+        mode="navigating",
+        goal={"x": 3.0, "y": 6.0, "yaw": None},
+        controller="c1-abc",
+    )
+    assert encode(msg) == (
+        b'{"identifier":"robot2/status","online":true,"age":0.012,"mode":"navigating",'
+        b'"goal":{"x":3.0,"y":6.0,"yaw":null},"controller":"c1-abc"}'
+    )
+    idle = status_message("robot3", online=False, age=None, mode="idle", goal=None, controller=None)
+    assert encode(idle) == (
+        b'{"identifier":"robot3/status","online":false,"age":null,"mode":"idle","goal":null,"controller":null}'
+    )
+
+
+def test_ack_error_pong_estop_bytes() -> None:
+    assert encode(ack_message("g1")) == b'{"identifier":"ack","id":"g1"}'
+    assert encode(error_message(7, "unknown_robot", "no such robot")) == (
+        b'{"identifier":"error","id":7,"code":"unknown_robot","message":"no such robot"}'
+    )
+    assert encode(error_message(None, "bad_request", "x")) == (
+        b'{"identifier":"error","id":null,"code":"bad_request","message":"x"}'
+    )
+    assert encode(pong_message(12.5, 1000.0000004)) == b'{"identifier":"pong","t":12.5,"server_time":1000.0}'
+    assert encode(estop_message(["robot1"], "c1")) == b'{"identifier":"estop","robots":["robot1"],"by":"c1"}'
+
+
+def test_binary_frame_layout() -> None:
+    header: FrameHeader = {
+        "identifier": "robot1/camera/front",
+        "seq": 3,
+        "stamp": 1.5,
+        "encoding": "jpeg",
+        "width": 640,
+        "height": 480,
+        "lens": {"model": "equidistant", "fov": 180.0},
+        "request_id": None,
+    }
+    payload = b"\xff\xd8jpeg-bytes\xff\xd9"
+    data = encode_frame(header, payload)
+    head = (
+        b'{"identifier":"robot1/camera/front","seq":3,"stamp":1.5,"encoding":"jpeg","width":640,'
+        b'"height":480,"lens":{"model":"equidistant","fov":180.0},"request_id":null}'
+    )
+    assert data == len(head).to_bytes(4, "big") + head + payload
+    decoded, body = decode_frame(data)
+    assert decoded == header and body == payload
+
+
+@pytest.mark.parametrize("data", [b"", b"\x00\x00\x00\x10{}", b"\x00\x00\x00\x02[]"])
+def test_bad_binary_frames(data: bytes) -> None:
+    with pytest.raises(ProtocolError):
+        decode_frame(data)
+
+
+# -- parsing client commands ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('{"identifier":"robot1/goal_pose","id":"g","x":1,"y":2.5}', GoalPose("robot1", "g", 1.0, 2.5, None)),
+        ('{"identifier":"robot1/goal_pose","id":3,"x":1,"y":2,"yaw":-1.5}', GoalPose("robot1", 3, 1.0, 2.0, -1.5)),
+        ('{"identifier":"robot2/cmd_vel","linear":0.2,"angular":-0.1}', CmdVel("robot2", 0.2, -0.1, None)),
+        ('{"identifier":"robot2/cmd_vel","linear":0,"angular":0,"id":"v"}', CmdVel("robot2", 0.0, 0.0, "v")),
+        ('{"identifier":"robot1/cancel","id":"c"}', Cancel("robot1", "c")),
+        ('{"identifier":"robot1/snapshot","id":"s"}', Snapshot("robot1", "s", None)),
+        ('{"identifier":"robot1/snapshot","id":"s","camera":"front"}', Snapshot("robot1", "s", "front")),
+        ('{"identifier":"robot1/stream","id":"s","camera":"front","fps":15}', Stream("robot1", "s", "front", 15.0)),
+        ('{"identifier":"estop","id":"e"}', EStop("e", None)),
+        ('{"identifier":"estop","id":"e","robot":"robot2"}', EStop("e", "robot2")),
+        ('{"identifier":"ping","t":123.25}', Ping(123.25)),
+        ('{"identifier":"robot1/cancel","id":"c","future_field":[1,2]}', Cancel("robot1", "c")),
+    ],
+)
+def test_parse_commands(text: str, expected: object) -> None:
+    assert parse_command(text, ROBOTS) == expected
+    assert parse_command(text.encode(), ROBOTS) == expected
+
+
+@pytest.mark.parametrize(
+    ("text", "code", "request_id", "words"),
+    [
+        ("not json", "bad_request", None, "not valid JSON"),
+        ("[1, 2]", "bad_request", None, "JSON object"),
+        ('"hello"', "bad_request", None, "JSON object"),
+        ('{"id": "a"}', "bad_request", "a", "no 'identifier'"),
+        ('{"identifier": 5, "id": "a"}', "bad_request", "a", "'identifier' must be a string"),
+        ('{"identifier": "robot1/fly", "id": "a"}', "unknown_identifier", "a", "robot1/fly"),
+        ('{"identifier": "launch", "id": "a"}', "unknown_identifier", "a", "launch"),
+        ('{"identifier": "robot9/goal_pose", "id": "a", "x": 1, "y": 1}', "unknown_robot", "a", "robot9"),
+        ('{"identifier": "robot1/goal_pose", "id": "a", "x": 1}', "bad_request", "a", "missing field 'y'"),
+        ('{"identifier": "robot1/goal_pose", "x": 1, "y": 2}', "bad_request", None, "missing field 'id'"),
+        ('{"identifier": "robot1/goal_pose", "id": "a", "x": "1", "y": 2}', "bad_request", "a", "'x' must be a number"),
+        (
+            '{"identifier": "robot1/goal_pose", "id": "a", "x": true, "y": 2}',
+            "bad_request",
+            "a",
+            "'x' must be a number",
+        ),
+        ('{"identifier": "robot1/goal_pose", "id": "a", "x": 1e999, "y": 2}', "bad_request", None, "infinity"),
+        ('{"identifier": "robot1/goal_pose", "id": "a", "x": NaN, "y": 2}', "bad_request", None, "not valid JSON"),
+        ('{"identifier": "robot1/cmd_vel", "linear": null, "angular": 0}', "bad_request", None, "'linear'"),
+        ('{"identifier": "robot1/cmd_vel", "linear": [1], "angular": 0, "id": 4}', "bad_request", 4, "'linear'"),
+        ('{"identifier": "robot1/stream", "id": "a", "camera": "front", "fps": 500}', "bad_request", "a", "between"),
+        ('{"identifier": "robot1/stream", "id": "a", "fps": 5}', "bad_request", "a", "'camera'"),
+        ('{"identifier": "robot1/snapshot", "id": "a", "camera": 7}', "bad_request", "a", "'camera'"),
+        ('{"identifier": "estop", "id": "a", "robot": "robot7"}', "unknown_robot", "a", "robot7"),
+        ('{"identifier": "estop"}', "bad_request", None, "'id'"),
+        ('{"identifier": "ping"}', "bad_request", None, "'t'"),
+        ('{"identifier": "robot1/cancel", "id": {"a": 1}}', "bad_request", None, "'id' must be"),
+        ('{"identifier": "robot1/cancel", "id": ""}', "bad_request", None, "'id' must be"),
+        ('{"identifier": "robot1/cancel", "id": 9007199254740993}', "bad_request", None, "2**53"),
+    ],
+)
+def test_parse_errors(text: str, code: str, request_id: object, words: str) -> None:
+    with pytest.raises(ProtocolError) as info:
+        parse_command(text, ROBOTS)
+    assert info.value.code == code
+    assert info.value.request_id == request_id
+    assert words in info.value.message
+
+
+def test_too_large_frame() -> None:
+    text = '{"identifier":"ping","t":1,"pad":"' + "x" * MAX_TEXT_BYTES + '"}'
+    with pytest.raises(ProtocolError) as info:
+        parse_command(text, ROBOTS)
+    assert info.value.code == "too_large"
+    assert str(MAX_TEXT_BYTES) in info.value.message
+
+
+def test_bad_value_is_not_echoed_in_full() -> None:
+    with pytest.raises(ProtocolError) as info:
+        parse_command('{"identifier":"robot1/goal_pose","id":"a","x":"' + "z" * 5000 + '","y":1}', ROBOTS)
+    assert len(info.value.message) < 200

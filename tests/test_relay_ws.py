@@ -1,0 +1,297 @@
+"""End to end through /ws: a real relay with the simulated fleet on loopback port 0, real WebSocket clients."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import math
+import time
+from typing import Any
+
+import aiohttp
+import pytest
+
+from relay.config import FleetConfig
+from tests.conftest import RunningRelay, start_relay
+from tests.wsclient import TestClient
+
+
+async def client_of(relay: RunningRelay) -> TestClient:
+    client = await TestClient.open(relay.ws_url)
+    await client.hello()
+    return client
+
+
+def speeds(samples: list[tuple[float, dict[str, Any]]], window: int = 10) -> list[tuple[float, float]]:
+    """(stamp, speed in m/s) over ``window`` consecutive poses: single steps alias with the physics ticks."""
+    out = []
+    for (_, a), (_, b) in zip(samples, samples[window:], strict=False):
+        dt = b["stamp"] - a["stamp"]
+        if dt > 0:
+            out.append((b["stamp"], math.hypot(b["x"] - a["x"], b["y"] - a["y"]) / dt))
+    return out
+
+
+def poses_of(client: TestClient, robot: str, since: float = 0.0) -> list[tuple[float, dict[str, Any]]]:
+    return [(t, m) for t, m in client.messages if m["identifier"] == f"{robot}/pose" and t >= since]
+
+
+async def test_hello_describes_the_fleet_and_its_state(relay_server: RunningRelay) -> None:
+    await asyncio.sleep(0.2)  # let the simulator publish a first pose
+    client = await TestClient.open(relay_server.ws_url)
+    hello = await client.hello()
+    assert hello["protocol"] == 1
+    assert hello["server"]["name"] == "xr-relay"
+    assert hello["role"] == "operator" and hello["client_id"]
+    assert [r["name"] for r in hello["robots"]] == ["robot1", "robot2", "robot3"]
+    robot1 = hello["robots"][0]
+    assert robot1["limits"] == {"linear": 0.6, "angular": 1.8}
+    assert {s["name"] for s in robot1["sensors"]} == {"gas", "temperature", "humidity"}
+    assert hello["scene"]["map_to_scene"] == {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0}
+    assert hello["bounds"] == [0.0, 0.0, 18.0, 10.0]
+    state = hello["state"]["robot2"]
+    assert state["pose"]["x"] == pytest.approx(9.0, abs=0.01) and state["pose"]["y"] == pytest.approx(1.5, abs=0.01)
+    assert state["status"]["online"] is True and state["status"]["mode"] == "idle"
+    await client.close()
+
+
+async def test_poses_stream_at_the_configured_rate_while_idle(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    start = time.monotonic()
+    await asyncio.sleep(1.0)
+    count = len(poses_of(client, "robot3", start))
+    # 30 Hz configured; the coalescing hub may merge a few on a loaded machine.
+    assert 20 <= count <= 33
+    await client.close()
+
+
+async def test_goal_is_reached_around_walls_and_yaw_applied(relay_server: RunningRelay) -> None:
+    """robot2 starts in the corridor below power distribution; the goal is inside chemical storage."""
+    client = await client_of(relay_server)
+    reply = await client.request({"identifier": "robot2/goal_pose", "x": 3.0, "y": 6.0, "yaw": math.pi})
+    assert reply["identifier"] == "ack"
+    status = await client.wait_for(lambda m: m["identifier"] == "robot2/status" and m["mode"] == "navigating")
+    assert status["goal"] == {"x": 3.0, "y": 6.0, "yaw": math.pi}
+    assert status["controller"] == (await client.hello())["client_id"]
+    done = await client.wait_for(
+        lambda m: m["identifier"] == "robot2/status" and m["mode"] == "idle" and m["goal"] is None, timeout=60
+    )
+    assert done["controller"] is None
+    await asyncio.sleep(0.1)
+    pose = client.pose("robot2")
+    assert pose is not None
+    assert math.hypot(pose["x"] - 3.0, pose["y"] - 6.0) <= 0.2
+    assert abs(math.remainder(pose["yaw"] - math.pi, math.tau)) <= 0.1
+    # It went through the doors, never through a wall: every pose stays out of the wall along y = 3
+    # except within a door opening (x = 3 +- 0.7 or x = 9 +- 0.7).
+    for _, p in poses_of(client, "robot2"):
+        if 2.8 <= p["y"] <= 3.2:
+            assert abs(p["x"] - 3.0) < 0.7 or abs(p["x"] - 9.0) < 0.7, p
+    await client.close()
+
+
+async def test_bad_goals_are_refused_and_change_nothing(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    out = await client.request({"identifier": "robot1/goal_pose", "x": 40.0, "y": 2.0})
+    assert out["identifier"] == "error" and out["code"] == "out_of_bounds"
+    assert "outside the map" in out["message"]
+    wall = await client.request({"identifier": "robot1/goal_pose", "x": 6.0, "y": 6.0})  # inside a wall
+    assert wall["identifier"] == "error" and wall["code"] == "no_path"
+    unknown = await client.request({"identifier": "robot7/goal_pose", "x": 1.0, "y": 1.0})
+    assert unknown["code"] == "unknown_robot" and "robot7" in unknown["message"]
+    await asyncio.sleep(0.3)
+    assert relay_server.relay.fleet.status("robot1", time.monotonic())["mode"] == "idle"
+    pose = client.pose("robot1")
+    assert pose is not None and math.hypot(pose["x"] - 3.0, pose["y"] - 1.5) < 0.01
+    await client.close()
+
+
+async def test_malformed_frames_get_errors_and_the_connection_stays_usable(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    bad: list[str | bytes] = [
+        "not json",
+        "[1,2,3]",
+        '{"no_identifier": 1}',
+        '{"identifier": "robot1/teleport", "id": "x1"}',
+        '{"identifier": "robot1/cmd_vel", "linear": "fast", "angular": 0, "id": "x2"}',
+        '{"identifier": "robot1/goal_pose", "id": "x3", "x": 1e999, "y": 0}',
+        '{"identifier": "ping", "t": 1, "pad": "' + "x" * 70000 + '"}',
+        b"\x00\x01binary",
+    ]
+    for frame in bad:
+        start = len(client.messages)
+        await client.send_raw(frame)
+        error = await client.wait_for(lambda m: m["identifier"] == "error", start=start)
+        assert error["message"]
+    codes = [m["code"] for _, m in client.messages if m["identifier"] == "error"]
+    assert codes == [
+        "bad_request",
+        "bad_request",
+        "bad_request",
+        "unknown_identifier",
+        "bad_request",
+        "bad_request",
+        "too_large",
+        "unsupported",
+    ]
+    ids = [m["id"] for _, m in client.messages if m["identifier"] == "error"]
+    assert ids[3:5] == ["x1", "x2"]
+    t = time.time()
+    await client.send({"identifier": "ping", "t": t})
+    pong = await client.wait_for(lambda m: m["identifier"] == "pong")
+    assert pong["t"] == t and abs(pong["server_time"] - t) < 5
+    # Nothing reached a robot: all are still idle at their spawn poses.
+    for robot, x in (("robot1", 3.0), ("robot2", 9.0), ("robot3", 15.0)):
+        pose = await client.wait_for(lambda m, r=robot: m["identifier"] == f"{r}/pose")  # type: ignore[misc]
+        assert abs(pose["x"] - x) < 0.01 and abs(pose["y"] - 1.5) < 0.01
+    await client.close()
+
+
+async def test_every_id_gets_exactly_one_reply(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    messages: list[dict[str, Any]] = [
+        {"identifier": "robot1/cancel", "id": "a"},
+        {"identifier": "robot1/cmd_vel", "linear": 0.0, "angular": 0.0, "id": "b"},
+        {"identifier": "robot1/snapshot", "id": "c"},
+        {"identifier": "robot1/stream", "id": "d", "camera": "nope", "fps": 5},
+        {"identifier": "robot9/cancel", "id": "e"},
+        {"identifier": "estop", "id": "f", "robot": "robot3"},
+    ]
+    for message in messages:
+        await client.send(message)
+    await client.wait_for(lambda m: m.get("id") == "f" and m["identifier"] in ("ack", "error"))
+    await asyncio.sleep(0.3)
+    replies = [m for _, m in client.messages if m["identifier"] in ("ack", "error")]
+    assert sorted(m["id"] for m in replies) == ["a", "b", "c", "d", "e", "f"]
+    by_id = {m["id"]: m for m in replies}
+    assert by_id["c"]["code"] == "no_camera"  # the simulated fleet has no camera yet: nothing fakes one
+    assert by_id["d"]["code"] == "no_camera"
+    assert by_id["e"]["code"] == "unknown_robot"
+    await client.close()
+
+
+async def drive(client: TestClient, robot: str, linear: float, angular: float, seconds: float) -> None:
+    """Send cmd_vel at 20 Hz, as the client's teleop does."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        await client.send({"identifier": f"{robot}/cmd_vel", "linear": linear, "angular": angular})
+        await asyncio.sleep(0.05)
+
+
+async def test_teleop_moves_the_robot_clamped_to_its_limits(relay_server: RunningRelay) -> None:
+    observer = await client_of(relay_server)
+    operator = await client_of(relay_server)
+    await drive(operator, "robot1", 5.0, 0.0, 1.2)  # 5 m/s asked; robot1's limit is 0.6 m/s
+    status = observer.latest["robot1/status"]
+    assert status["mode"] == "teleop" and status["controller"] == (await operator.hello())["client_id"]
+    fastest = max(v for _, v in speeds(poses_of(observer, "robot1")))
+    assert 0.5 <= fastest <= 0.6 * 1.05
+    pose = observer.pose("robot1")
+    assert pose is not None and pose["y"] > 1.5 + 0.3  # it drove north, out of its spawn
+    await operator.close()
+    await observer.close()
+
+
+async def stopped_at(client: TestClient, robot: str, since: float, timeout: float = 3.0) -> float:
+    """Loop time of the first pose after ``since`` from which the robot no longer moves."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        await asyncio.sleep(0.1)
+        samples = poses_of(client, robot, since)
+        for i in range(len(samples) - 3):
+            window = samples[i : i + 4]
+            if all(
+                math.hypot(b["x"] - a["x"], b["y"] - a["y"]) < 1e-4 for (_, a), (_, b) in itertools.pairwise(window)
+            ):
+                return window[0][0]
+    raise AssertionError(f"{robot} still moving {timeout} s after {since}")
+
+
+async def test_deadman_stops_robot_when_operator_disconnects(relay_server: RunningRelay) -> None:
+    observer = await client_of(relay_server)
+    operator = await client_of(relay_server)
+    await drive(operator, "robot3", 0.6, 0.0, 1.0)
+    # Kill the connection without a closing handshake, as a crashed headset would.
+    transport = operator.ws.transport
+    lost_at = time.monotonic()
+    transport.abort()
+    stop = await stopped_at(observer, "robot3", lost_at)
+    assert stop - lost_at <= 0.6
+    status = await observer.wait_for(lambda m: m["identifier"] == "robot3/status" and m["mode"] == "idle")
+    assert status["controller"] is None
+    await observer.close()
+
+
+async def test_deadman_stops_robot_when_commands_stop(relay_server: RunningRelay) -> None:
+    observer = await client_of(relay_server)
+    operator = await client_of(relay_server)
+    await drive(operator, "robot1", 0.5, 0.0, 0.8)
+    last_command = time.monotonic()
+    stop = await stopped_at(observer, "robot1", last_command)
+    # deadman_timeout 0.5 s + its 0.05 s check period + braking (< 0.3 s at the simulator's deceleration)
+    assert 0.4 <= stop - last_command <= 0.5 + 0.05 + 0.3 + 0.1
+    assert operator.ws.state.name == "OPEN"  # still connected: it just went silent
+    await operator.close()
+    await observer.close()
+
+
+async def test_estop_stops_every_robot_and_cancels_goals(relay_server: RunningRelay) -> None:
+    a = await client_of(relay_server)
+    b = await client_of(relay_server)
+    assert (await a.request({"identifier": "robot2/goal_pose", "x": 15.0, "y": 6.0}))["identifier"] == "ack"
+    teleop = asyncio.ensure_future(drive(b, "robot1", 0.6, 0.5, 5.0))
+    await asyncio.sleep(1.0)
+    start = len(b.messages)
+    estop_at = time.monotonic()
+    assert (await a.request({"identifier": "estop"}))["identifier"] == "ack"
+    teleop.cancel()
+    notice = await b.wait_for(lambda m: m["identifier"] == "estop", start=start)
+    assert notice["robots"] == ["robot1", "robot2", "robot3"]
+    for robot in ("robot1", "robot2"):
+        stop = await stopped_at(a, robot, estop_at)
+        assert stop - estop_at <= 0.4
+    status = a.latest["robot2/status"]
+    assert status["goal"] is None and status["mode"] == "idle"
+    await a.close()
+    await b.close()
+
+
+async def test_health_metrics_and_static_files(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    async with aiohttp.ClientSession() as http:
+        async with http.get(f"{relay_server.url}/healthz") as response:
+            health = await response.json()
+        assert health["backend"] == "sim" and health["clients"] == 1
+        assert health["robots_online"] == 3 and health["uptime"] > 0
+        async with http.get(f"{relay_server.url}/metrics") as response:
+            text = await response.text()
+        assert "xr_relay_clients 1" in text and "xr_relay_messages_out_total" in text
+        async with http.get(f"{relay_server.url}/") as response:
+            assert response.content_type == "text/html" and "xr-relay" in await response.text()
+        async with http.get(f"{relay_server.url}/src/main.js") as response:
+            assert response.status == 200 and response.content_type == "text/javascript"
+        for path in ("/../pyproject.toml", "/src/../../robots.yaml", "/nope.js", "/scenes/../relay/core.py"):
+            async with http.get(f"{relay_server.url}{path}") as response:
+                assert response.status == 404, path
+    await client.close()
+
+
+async def test_shutdown_stops_robots_first_then_closes_with_going_away(fleet_config: FleetConfig) -> None:
+    running = await start_relay(fleet_config)
+    client = await client_of(running)
+    await drive(client, "robot1", 0.6, 0.0, 0.5)
+    sim = running.relay.backend
+    commands: list[tuple[float, str]] = []
+    original = sim.send_velocity
+
+    async def spy(robot: str, linear: float, angular: float) -> None:
+        commands.append((time.monotonic(), f"{robot}:{linear}:{angular}"))
+        await original(robot, linear, angular)
+
+    sim.send_velocity = spy  # type: ignore[method-assign]
+    started = time.monotonic()
+    await running.runner.cleanup()
+    assert time.monotonic() - started < 2.0
+    await asyncio.wait_for(client._reader, 2.0)
+    assert client.closed_code == 1001
+    assert "robot1:0.0:0.0" in [c for _, c in commands]

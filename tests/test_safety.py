@@ -1,0 +1,60 @@
+"""Safety rules without I/O: clamps, goal bounds and the deadman's timing (time is injected)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from relay.config import Limits
+from relay.errors import CommandRejected
+from relay.occupancy import OccupancyGrid
+from relay.safety import Deadman, check_goal, clamp_velocity
+
+LIMITS = Limits(linear=0.5, angular=1.0)
+
+
+@pytest.mark.parametrize(
+    ("linear", "angular", "expected", "clamped"),
+    [
+        (0.2, -0.3, (0.2, -0.3), False),
+        (5.0, 0.0, (0.5, 0.0), True),
+        (-5.0, -9.0, (-0.5, -1.0), True),
+        (0.5, 1.0, (0.5, 1.0), False),
+    ],
+)
+def test_clamp(linear: float, angular: float, expected: tuple[float, float], clamped: bool) -> None:
+    result = clamp_velocity(linear, angular, LIMITS)
+    assert (result.linear, result.angular) == expected
+    assert result.clamped is clamped
+
+
+def test_goal_bounds() -> None:
+    grid = OccupancyGrid(origin_x=-1.0, origin_y=-2.0, resolution=0.5, occupied=np.zeros((8, 4), dtype=bool))
+    check_goal("r", 0.5, 1.0, grid)
+    check_goal("r", 5.0, 5.0, None)  # no map known: only finiteness applies
+    with pytest.raises(CommandRejected) as info:
+        check_goal("r", 1.5, 0.0, grid)
+    assert info.value.code == "out_of_bounds" and "x -1.00..1.00" in info.value.message
+    with pytest.raises(CommandRejected):
+        check_goal("r", float("nan"), 0.0, None)
+
+
+def test_deadman_expires_after_timeout() -> None:
+    deadman = Deadman(0.5)
+    deadman.feed("robot1", "a", now=10.0)
+    deadman.feed("robot1", "a", now=10.3)
+    assert deadman.expired(10.7) == []
+    assert deadman.next_deadline() == pytest.approx(10.8)
+    assert deadman.expired(10.8) == ["robot1"]
+    assert deadman.controller("robot1") is None
+    assert deadman.expired(20.0) == []
+
+
+def test_deadman_release_on_disconnect_and_handover() -> None:
+    deadman = Deadman(0.5)
+    deadman.feed("robot1", "a", now=0.0)
+    deadman.feed("robot2", "a", now=0.0)
+    assert deadman.feed("robot3", "b", now=0.0) is None
+    assert deadman.feed("robot3", "a", now=0.1) == "b"  # control changed hands
+    assert sorted(deadman.release_client("a")) == ["robot1", "robot2", "robot3"]
+    assert deadman.release_client("b") == []
