@@ -10,7 +10,7 @@ ARGS   ?=
 
 .PHONY: setup run test lint bench clean
 
-setup: $(STAMPS)/python
+setup: $(STAMPS)/python $(STAMPS)/npm
 
 $(BIN)/python:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python 3.11 or newer is needed (set PYTHON=python3.11)")'
@@ -21,18 +21,27 @@ $(STAMPS)/python: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	@mkdir -p $(STAMPS) && touch $@
 
-# The client's npm packages (type checker now; three.js and friends as the 3D client lands).
-$(STAMPS)/npm: xr_client/package.json xr_client/package-lock.json | $(BIN)/python
+# The client's npm packages: three.js and the controller models it serves, and the tools the tests use
+# (TypeScript's checker, the Khronos glTF validator, the IWER headset emulator).
+$(STAMPS)/npm: xr_client/package.json xr_client/package-lock.json
 	cd xr_client && npm ci --no-audit --no-fund --loglevel=error
 	@mkdir -p $(STAMPS) && touch $@
 
 run: setup
 	$(BIN)/xr-relay $(ARGS)
 
-test: setup
+# The browser tests drive Debian's Chromium; Playwright never downloads one.
+CHROMIUM := /usr/bin/chromium
+
+$(CHROMIUM):
+	@command -v apt-get >/dev/null || { echo "Install Chromium at $(CHROMIUM) for the browser tests"; exit 1; }
+	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
+
+test: setup $(CHROMIUM)
+	cd xr_client && node --test test/
 	$(BIN)/python -m pytest -q -p no:cacheprovider
 
-lint: setup $(STAMPS)/npm
+lint: setup
 	$(BIN)/ruff check relay tools tests
 	$(BIN)/ruff format --check relay tools tests
 	$(BIN)/mypy

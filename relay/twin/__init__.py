@@ -1,0 +1,1 @@
+"""The digital twin: glTF scenes of the facility, of occupancy maps and of robots, and their frames."""
