@@ -437,7 +437,11 @@ class Relay:
             await asyncio.sleep(DEADMAN_PERIOD)
             now = time.monotonic()
             for robot in self.deadman.expired(now):
-                await self._stop_robot(robot, "operator stopped sending cmd_vel (deadman)")
+                try:
+                    await self._stop_robot(robot, "operator stopped sending cmd_vel (deadman)")
+                except Exception:
+                    # The ticker must outlive one failed stop, or no deadman would ever fire again.
+                    logger.exception("deadman could not stop %s", robot)
             for robot, was in self._was_online.items():
                 if was != self.fleet.online(robot, now):
                     self._publish_status(robot)

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from relay.backends.sim import build_fields
 from relay.config import load_config
 from relay.occupancy import OccupancyGrid, from_map_yaml
 from relay.sim.floorplan import FloorPlan, demo_facility, rasterise
@@ -19,6 +18,7 @@ from relay.sim.follower import PathFollower
 from relay.sim.hazards import HazardSource, SensorField
 from relay.sim.kinematics import DiffDriveState, DriveLimits, normalize_angle, step
 from relay.sim.planner import NoPathError, Planner, plan_path
+from relay.sim.world import build_fields
 
 TB3_MAP = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "maps" / "turtlebot3_world" / "map.yaml"
 

@@ -1,0 +1,159 @@
+"""The simulated fleet's world, without any I/O: robots, their commands, goals, and sensor readings.
+
+Two adapters drive it: the ``sim`` backend (``relay.backends.sim``, asyncio, the relay's default) and
+``tools/fake_fleet.py`` (rclpy timers, publishing the same robots over real ROS topics). Both call
+``step(dt)`` at ``physics_rate`` and read poses and sensors at their own rates, so both fleets behave alike.
+
+Each robot is a differential-drive base integrated within its limits, with a bumper against the occupancy
+grid. Goals are planned on the grid (A* around walls) and followed by pure pursuit; a velocity command
+overrides navigation. Like a real base, a robot keeps its last velocity command until told otherwise:
+stopping it on silence is the relay's deadman, not the simulator's.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from ..config import FleetConfig, Robot
+from ..occupancy import OccupancyGrid
+from .floorplan import demo_facility, rasterise
+from .follower import PathFollower
+from .hazards import HazardSource, SensorField
+from .kinematics import DiffDriveState, DriveLimits, step
+from .planner import NoPathError, Planner
+
+logger = logging.getLogger(__name__)
+
+#: Footprint radius of the simulated robots (a TurtleBot3 Waffle is 0.28 x 0.31 m).
+ROBOT_RADIUS = 0.2
+#: The planner keeps this much clearance so that paths do not graze walls.
+PLANNING_RADIUS = 0.3
+
+Outcome = Literal["started", "reached", "failed", "cancelled"]
+Goal = tuple[float, float, float | None]
+#: Called with (robot, navigating, goal, outcome, message) whenever navigation starts or ends.
+NavListener = Callable[[str, bool, Goal | None, Outcome, str], None]
+
+__all__ = ["NoPathError", "SimRobot", "SimWorld", "build_fields"]
+
+
+@dataclass
+class SimRobot:
+    spec: Robot
+    state: DiffDriveState
+    limits: DriveLimits
+    rng: np.random.Generator
+    command: tuple[float, float] = (0.0, 0.0)
+    follower: PathFollower | None = None
+    goal: Goal | None = None
+
+
+def build_fields(config: FleetConfig) -> dict[str, SensorField]:
+    """The sensor fields of robots.yaml's ``sim`` section, keyed by kind."""
+    fields: dict[str, SensorField] = {}
+    kinds = {f.kind for f in config.sim.fields} | {h.kind for h in config.sim.hazards}
+    for kind in sorted(kinds):
+        spec = next((f for f in config.sim.fields if f.kind == kind), None)
+        sources = tuple(
+            HazardSource(kind=h.kind, x=h.x, y=h.y, peak=h.peak, sigma=h.sigma)
+            for h in config.sim.hazards
+            if h.kind == kind
+        )
+        fields[kind] = SensorField(
+            kind=kind,
+            baseline=spec.baseline if spec else 0.0,
+            noise=spec.noise if spec else 0.0,
+            sources=sources,
+        )
+    return fields
+
+
+class SimWorld:
+    """Every simulated robot of a fleet config in one occupancy grid. Not thread-safe: one owner drives it."""
+
+    def __init__(self, config: FleetConfig, on_nav: NavListener, grid: OccupancyGrid | None = None) -> None:
+        self.config = config
+        self.grid = grid if grid is not None else rasterise(demo_facility())
+        self.planner = Planner(self.grid, PLANNING_RADIUS)
+        self.fields = build_fields(config)
+        self._on_nav = on_nav
+        self.robots: dict[str, SimRobot] = {}
+        for index, spec in enumerate(config.robots):
+            p = spec.initial_pose
+            self.robots[spec.name] = SimRobot(
+                spec=spec,
+                state=DiffDriveState(p.x, p.y, p.yaw, 0.0, 0.0),
+                limits=DriveLimits(max_linear=spec.limits.linear, max_angular=spec.limits.angular),
+                rng=np.random.default_rng(1000 + index),
+            )
+            if not self.grid.is_free(p.x, p.y):
+                logger.warning("%s starts at (%.2f, %.2f), inside an obstacle", spec.name, p.x, p.y)
+            for sensor in spec.sensors:
+                if sensor.hazard not in self.fields:
+                    logger.warning(
+                        "%s sensor %s: no sim field %r in robots.yaml (sim.fields / sim.hazards); it stays silent",
+                        spec.name,
+                        sensor.name,
+                        sensor.hazard,
+                    )
+
+    # -- commands ---------------------------------------------------------------------------------
+
+    def set_velocity(self, robot: str, linear: float, angular: float) -> None:
+        sim = self.robots[robot]
+        if sim.follower is not None and (linear != 0.0 or angular != 0.0):
+            self._end_navigation(sim, "cancelled", "teleoperation took over")
+        sim.command = (linear, angular)
+
+    def plan(self, robot: str, x: float, y: float) -> list[tuple[float, float]]:
+        """A path from the robot to (x, y); raises NoPathError. Safe to call from a worker thread."""
+        state = self.robots[robot].state
+        return self.planner.plan((state.x, state.y), (x, y))
+
+    def follow(self, robot: str, path: list[tuple[float, float]], yaw: float | None) -> None:
+        sim = self.robots[robot]
+        x, y = path[-1]
+        sim.follower = PathFollower(path, final_yaw=yaw)
+        sim.goal = (x, y, yaw)
+        sim.command = (0.0, 0.0)
+        self._on_nav(robot, True, sim.goal, "started", "")
+
+    def cancel(self, robot: str) -> None:
+        sim = self.robots[robot]
+        if sim.follower is not None:
+            self._end_navigation(sim, "cancelled", "cancelled")
+        sim.command = (0.0, 0.0)
+
+    def _end_navigation(self, sim: SimRobot, outcome: Outcome, message: str) -> None:
+        goal = sim.goal
+        sim.follower = None
+        sim.goal = None
+        self._on_nav(sim.spec.name, False, goal, outcome, message)
+
+    # -- time -------------------------------------------------------------------------------------
+
+    def step(self, dt: float) -> None:
+        for sim in self.robots.values():
+            linear, angular = sim.command
+            if sim.follower is not None:
+                linear, angular, done = sim.follower.command(sim.state, sim.limits)
+                if done:
+                    self._end_navigation(sim, "reached", "goal reached")
+                    linear, angular = 0.0, 0.0
+            # The bumper: robots may touch walls but never cross them, whoever drives.
+            sim.state = step(sim.state, linear, angular, dt, sim.limits, self.grid, radius=ROBOT_RADIUS)
+
+    def readings(self, robot: str) -> list[tuple[str, float]]:
+        """(sensor name, value) for each sensor of the robot that has a field."""
+        sim = self.robots[robot]
+        out = []
+        for sensor in sim.spec.sensors:
+            field = self.fields.get(sensor.hazard)
+            if field is not None:
+                out.append((sensor.name, field.value(sim.state.x, sim.state.y, sim.rng)))
+        return out
