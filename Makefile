@@ -18,7 +18,7 @@ $(BIN)/python:
 
 $(STAMPS)/python: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,ros]'
 	@mkdir -p $(STAMPS) && touch $@
 
 # The client's npm packages: three.js and the controller models it serves, and the tools the tests use

@@ -118,6 +118,7 @@ class Robot:
     sensors: tuple[Sensor, ...]
     limits: Limits
     initial_pose: Pose2D
+    scan_topic: str | None = None  # sensor_msgs/LaserScan; None: no scan
 
     def camera(self, name: str | None) -> Camera | None:
         """The named camera, or the first one when ``name`` is None."""
@@ -173,6 +174,29 @@ class Safety:
     offline_after: float = 2.0
 
 
+QOS_NAMES = ("pose", "sensors", "scan", "images", "commands", "map")
+Reliability = Literal["reliable", "best_effort"]
+
+
+@dataclass(frozen=True)
+class Ros:
+    """Settings of the ``ros`` backend."""
+
+    map_topic: str = "/map"
+    #: Reliability per kind of topic; depth and durability are fixed (images depth 1, map transient local).
+    qos: tuple[tuple[str, Reliability], ...] = (
+        ("pose", "best_effort"),
+        ("sensors", "best_effort"),
+        ("scan", "best_effort"),
+        ("images", "best_effort"),
+        ("commands", "reliable"),
+        ("map", "reliable"),
+    )
+
+    def reliability(self, kind: str) -> Reliability:
+        return dict(self.qos)[kind]
+
+
 @dataclass(frozen=True)
 class FleetConfig:
     source: str
@@ -181,6 +205,7 @@ class FleetConfig:
     map: Path | None = None
     sim: Sim = field(default_factory=Sim)
     safety: Safety = field(default_factory=Safety)
+    ros: Ros = field(default_factory=Ros)
 
     def robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)
@@ -337,7 +362,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     if root is None:
         raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
 
-    top = reader.mapping(root, "", ("robots", "scene", "map", "sim", "safety"), required=("robots",))
+    top = reader.mapping(root, "", ("robots", "scene", "map", "sim", "safety", "ros"), required=("robots",))
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
     map_path: Path | None = None
     if "map" in top and reader.value(top["map"]) is not None:
@@ -346,6 +371,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
             map_path = base_dir / map_path
     sim = _sim(reader, top["sim"]) if "sim" in top else Sim()
     safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
+    ros = _ros(reader, top["ros"]) if "ros" in top else Ros()
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
@@ -355,7 +381,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         robots.append(robot)
     if not robots:
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
-    return FleetConfig(source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety)
+    return FleetConfig(source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros)
 
 
 def _scene(reader: _Reader, node: Node) -> Scene:
@@ -429,6 +455,19 @@ def _safety(reader: _Reader, node: Node) -> Safety:
     )
 
 
+def _ros(reader: _Reader, node: Node) -> Ros:
+    f = reader.mapping(node, "ros", ("map_topic", "qos"))
+    map_topic = Ros.map_topic
+    if "map_topic" in f:
+        map_topic = _topic(reader, f["map_topic"], "ros.map_topic", "")
+    qos = dict(Ros.qos)
+    if "qos" in f:
+        q = reader.mapping(f["qos"], "ros.qos", QOS_NAMES)
+        for key, value in q.items():
+            qos[key] = reader.choice(value, f"ros.qos.{key}", ("reliable", "best_effort"))  # type: ignore[assignment]
+    return Ros(map_topic=map_topic, qos=tuple(qos.items()))
+
+
 _ROBOT_FIELDS = (
     "name",
     "namespace",
@@ -441,6 +480,7 @@ _ROBOT_FIELDS = (
     "sensors",
     "limits",
     "initial_pose",
+    "scan",
 )
 
 
@@ -519,7 +559,17 @@ def _robot(reader: _Reader, node: Node, path: str) -> Robot:
             reader.number(p["y"], f"{ip}.y"),
             reader.get(p, "yaw", ip, reader.number, 0.0),
         )
+    scan_topic: str | None = resolve_topic(namespace, "scan")
+    if "scan" in f:
+        raw_scan = reader.value(f["scan"])
+        if raw_scan is None or raw_scan is False:
+            scan_topic = None
+        else:
+            sc = reader.mapping(f["scan"], f"{path}.scan", ("topic",))
+            if "topic" in sc:
+                scan_topic = _topic(reader, sc["topic"], f"{path}.scan.topic", namespace)
     return Robot(
+        scan_topic=scan_topic,
         name=name,
         namespace=namespace,
         colour=colour,

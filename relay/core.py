@@ -26,7 +26,7 @@ from .backends import create_backend
 from .backends.base import Backend
 from .config import FleetConfig, Robot
 from .errors import CommandRejected, ProtocolError
-from .events import Event, FrameEvent, NavEvent, PoseEvent, SensorEvent
+from .events import Event, FrameEvent, MapEvent, NavEvent, PoseEvent, ScanEvent, SensorEvent
 from .fleet import FleetState
 from .hub import Channel, Hub, Transport
 from .occupancy import OccupancyGrid, from_map_yaml
@@ -54,6 +54,7 @@ from .protocol import (
     estop_message,
     parse_command,
     pong_message,
+    scan_message,
 )
 from .safety import Deadman, check_goal, clamp_velocity
 
@@ -126,7 +127,8 @@ class Relay:
         self._ids = itertools.count(1)
         self._frame_seq: dict[str, int] = {}
         self._ticker: asyncio.Task[None] | None = None
-        self._map: OccupancyGrid | None = None
+        self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
+        self._live_map: OccupancyGrid | None = None  # from the backend's /map
         self._was_online: dict[str, bool] = {name: False for name in self._robots}
 
     # -- lifecycle --------------------------------------------------------------------------------
@@ -169,7 +171,8 @@ class Relay:
         return time.monotonic() - self.started_at
 
     def map_grid(self) -> OccupancyGrid | None:
-        return self.backend.map_grid() or self._map
+        """The map goals are checked against: the backend's own, the live /map, or robots.yaml's."""
+        return self.backend.map_grid() or self._live_map or self._map
 
     # -- connections ------------------------------------------------------------------------------
 
@@ -395,6 +398,10 @@ class Relay:
     # -- backend events (always on the loop thread) -----------------------------------------------
 
     def on_event(self, event: Event) -> None:
+        if isinstance(event, MapEvent):
+            self._live_map = event.grid
+            logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)
+            return
         if event.robot not in self._robots:
             logger.warning("backend reported unknown robot %r; ignored", event.robot)
             return
@@ -413,6 +420,17 @@ class Relay:
             if not event.navigating and self.deadman.controller(event.robot) is None:
                 self.fleet.set_controller(event.robot, None)
             self._publish_status(event.robot)
+        elif isinstance(event, ScanEvent):
+            scan = scan_message(
+                event.robot,
+                stamp=event.stamp,
+                frame=event.frame,
+                angle_min=event.angle_min,
+                angle_increment=event.angle_increment,
+                range_max=event.range_max,
+                ranges=event.ranges,
+            )
+            self.hub.publish_state(scan["identifier"], encode(scan))
         elif isinstance(event, FrameEvent):
             identifier = f"{event.robot}/camera/{event.camera}"
             if self.hub.stream_demand(identifier) > 0:

@@ -10,6 +10,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+from .occupancy import OccupancyGrid
+
 
 @dataclass(frozen=True, slots=True)
 class PoseEvent:
@@ -56,5 +58,27 @@ class FrameEvent:
     jpeg: bytes
 
 
-Event = PoseEvent | SensorEvent | NavEvent | FrameEvent
+@dataclass(frozen=True, slots=True)
+class ScanEvent:
+    """A laser scan, already decimated, in the robot's scan frame (ranges in metres, NaN = no return)."""
+
+    robot: str
+    stamp: float
+    frame: str
+    angle_min: float
+    angle_increment: float
+    range_max: float
+    ranges: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class MapEvent:
+    """A new occupancy grid of the fleet's map (fleet-wide: ``robot`` is empty)."""
+
+    grid: OccupancyGrid
+    stamp: float
+    robot: str = ""
+
+
+Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent
 EventSink = Callable[[Event], None]

