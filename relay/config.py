@@ -161,6 +161,7 @@ class Field:
 
 @dataclass(frozen=True)
 class Sim:
+    world: Path | None = None  # a facility.yaml (scene tool output): occupancy grid and hazard sources
     physics_rate: float = 50.0
     pose_rate: float = 30.0
     sensor_rate: float = 5.0
@@ -369,7 +370,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         map_path = Path(reader.string(top["map"], "map", expected="a path to a map.yaml"))
         if base_dir is not None and not map_path.is_absolute():
             map_path = base_dir / map_path
-    sim = _sim(reader, top["sim"]) if "sim" in top else Sim()
+    sim = _sim(reader, top["sim"], base_dir) if "sim" in top else Sim()
     safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
     ros = _ros(reader, top["ros"]) if "ros" in top else Ros()
 
@@ -397,9 +398,16 @@ def _scene(reader: _Reader, node: Node) -> Scene:
     return Scene(url, transform)
 
 
-def _sim(reader: _Reader, node: Node) -> Sim:
+def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
     path = "sim"
-    f = reader.mapping(node, path, ("physics_rate", "pose_rate", "sensor_rate", "hazards", "fields"))
+    f = reader.mapping(node, path, ("world", "physics_rate", "pose_rate", "sensor_rate", "hazards", "fields"))
+    world: Path | None = None
+    if "world" in f and reader.value(f["world"]) is not None:
+        world = Path(reader.string(f["world"], "sim.world", expected="a path to a facility.yaml"))
+        if base_dir is not None and not world.is_absolute():
+            world = base_dir / world
+        if not world.is_file():
+            raise reader.fail(f["world"], "sim.world", f"no such file: {world}")
 
     def rate(n: Node, p: str) -> float:
         return reader.number(n, p, positive=True)
@@ -435,6 +443,7 @@ def _sim(reader: _Reader, node: Node) -> Sim:
                 )
             )
     return Sim(
+        world=world,
         physics_rate=reader.get(f, "physics_rate", path, rate, 50.0),
         pose_rate=reader.get(f, "pose_rate", path, rate, 30.0),
         sensor_rate=reader.get(f, "sensor_rate", path, rate, 5.0),

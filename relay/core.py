@@ -26,7 +26,7 @@ from .backends import create_backend
 from .backends.base import Backend
 from .config import FleetConfig, Robot
 from .errors import CommandRejected, ProtocolError
-from .events import Event, FrameEvent, MapEvent, NavEvent, PoseEvent, ScanEvent, SensorEvent
+from .events import Event, FrameEvent, MapEvent, NavEvent, PlaybackEvent, PoseEvent, ScanEvent, SensorEvent
 from .fleet import FleetState
 from .hub import Channel, Hub, Transport
 from .occupancy import OccupancyGrid, from_map_yaml
@@ -42,6 +42,7 @@ from .protocol import (
     HelloMessage,
     Lens,
     Ping,
+    Playback,
     RequestId,
     RobotDescription,
     Role,
@@ -53,6 +54,7 @@ from .protocol import (
     error_message,
     estop_message,
     parse_command,
+    playback_message,
     pong_message,
     scan_message,
 )
@@ -129,6 +131,7 @@ class Relay:
         self._ticker: asyncio.Task[None] | None = None
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
+        self._playback: dict[str, object] | None = None  # the latest `playback` message (bag backend)
         self._was_online: dict[str, bool] = {name: False for name in self._robots}
 
     # -- lifecycle --------------------------------------------------------------------------------
@@ -225,6 +228,7 @@ class Relay:
             "bounds": list(grid.bounds) if grid is not None else None,
             "robots": [describe_robot(r) for r in self.config.robots],
             "state": self.fleet.snapshot(now),
+            "playback": self._playback,
         }
 
     # -- client frames ----------------------------------------------------------------------------
@@ -279,6 +283,12 @@ class Relay:
         if client.role != "operator":
             raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
 
+    def _require_commandable(self, client: Client, robot: str, identifier: str, request_id: RequestId | None) -> None:
+        self._require_operator(client, identifier, request_id)
+        refusal = self.backend.command_refusal(robot)
+        if refusal is not None:
+            raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)
+
     async def _dispatch(self, client: Client, command: Command) -> None:
         now = time.monotonic()
         if isinstance(command, Ping):
@@ -292,8 +302,12 @@ class Relay:
         elif isinstance(command, GoalPose):
             await self._goal(client, command)
         elif isinstance(command, Cancel):
-            self._require_operator(client, f"{command.robot}/cancel", command.id)
+            self._require_commandable(client, command.robot, f"{command.robot}/cancel", command.id)
             await self.backend.cancel(command.robot)
+            self._reply(client, ack_message(command.id))
+        elif isinstance(command, Playback):
+            self._require_operator(client, f"playback/{command.action}", command.id)
+            await self.backend.playback(command.action, command.value)
             self._reply(client, ack_message(command.id))
         elif isinstance(command, Stream):
             self._stream(client, command)
@@ -311,7 +325,7 @@ class Relay:
 
     async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
         robot = self._robots[command.robot]
-        self._require_operator(client, f"{robot.name}/cmd_vel", command.id)
+        self._require_commandable(client, robot.name, f"{robot.name}/cmd_vel", command.id)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
         previous = self.deadman.feed(robot.name, client.client_id, now)
         if previous is not None:
@@ -329,7 +343,7 @@ class Relay:
 
     async def _goal(self, client: Client, command: GoalPose) -> None:
         identifier = f"{command.robot}/goal_pose"
-        self._require_operator(client, identifier, command.id)
+        self._require_commandable(client, command.robot, identifier, command.id)
         check_goal(command.robot, command.x, command.y, self.map_grid())
         if self.deadman.controller(command.robot) is not None:
             self.deadman.release_robot(command.robot)
@@ -398,6 +412,16 @@ class Relay:
     # -- backend events (always on the loop thread) -----------------------------------------------
 
     def on_event(self, event: Event) -> None:
+        if isinstance(event, PlaybackEvent):
+            self._playback = playback_message(
+                position=event.position,
+                duration=event.duration,
+                rate=event.rate,
+                paused=event.paused,
+                loop=event.loop,
+            )
+            self.hub.publish_state("playback", encode(self._playback))
+            return
         if isinstance(event, MapEvent):
             self._live_map = event.grid
             logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)

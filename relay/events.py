@@ -80,5 +80,17 @@ class MapEvent:
     robot: str = ""
 
 
-Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent
+@dataclass(frozen=True, slots=True)
+class PlaybackEvent:
+    """Where a replayed recording is (fleet-wide: ``robot`` is empty)."""
+
+    position: float
+    duration: float
+    rate: float
+    paused: bool
+    loop: bool
+    robot: str = ""
+
+
+Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent
 EventSink = Callable[[Event], None]

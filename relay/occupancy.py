@@ -220,7 +220,7 @@ _PGM_WHITESPACE = b" \t\n\r\v\f"
 _MODES = ("trinary", "scale", "raw")
 
 
-def _read_pgm(path: Path) -> tuple[NDArray[np.int64], int]:
+def read_pgm(path: Path) -> tuple[NDArray[np.int64], int]:
     """Parse a binary (P5) or plain (P2) PGM; return ``(pixels, maxval)``.
 
     ``pixels`` has shape ``(height, width)`` in *image* order (row 0 = top).
@@ -376,7 +376,7 @@ def from_map_yaml(path: str | os.PathLike[str]) -> OccupancyGrid:
     image_path = Path(image)
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
-    pixels, maxval = _read_pgm(image_path)
+    pixels, maxval = read_pgm(image_path)
 
     if mode == "raw":
         # map_server rescales to 8 bits before reading the value as percent.

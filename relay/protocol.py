@@ -50,6 +50,7 @@ class ErrorCode:
     TOO_LARGE: Final = "too_large"  # frame over MAX_TEXT_BYTES
     UNSUPPORTED: Final = "unsupported"  # e.g. a binary frame from a client (none is defined)
     INTERNAL: Final = "internal"  # the relay failed; the message says what to report
+    RECORDING: Final = "recording"  # the robot is a recording (bag backend): it cannot be commanded
 
     ALL: Final = (
         BAD_REQUEST,
@@ -62,20 +63,24 @@ class ErrorCode:
         TOO_LARGE,
         UNSUPPORTED,
         INTERNAL,
+        RECORDING,
     )
 
 
 #: Robot-scoped kinds a client may send (``<robot>/<kind>``).
 CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stream")
 #: Global identifiers a client may send.
-CLIENT_GLOBAL_KINDS: Final = ("estop", "ping")
+CLIENT_GLOBAL_KINDS: Final = ("estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate")
+#: Playback speed factors a client may ask for (bag backend).
+MIN_PLAYBACK_RATE: Final = 0.05
+MAX_PLAYBACK_RATE: Final = 20.0
 #: Robot-scoped kinds the server sends.
 SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan")
 #: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
-SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop")
+SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop", "scene", "playback")
 
 Role = Literal["operator", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
@@ -203,6 +208,7 @@ class HelloMessage(TypedDict):
     bounds: list[float] | None
     robots: list[RobotDescription]
     state: dict[str, RobotState]
+    playback: dict[str, Any] | None
 
 
 class FrameHeader(TypedDict):
@@ -270,7 +276,16 @@ class Ping:
     t: float
 
 
-Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping
+@dataclass(frozen=True, slots=True)
+class Playback:
+    """Control of a recording's replay: ``pause``, ``resume``, ``seek`` (to ``value`` s) or ``rate``."""
+
+    id: RequestId
+    action: Literal["pause", "resume", "seek", "rate"]
+    value: float | None
+
+
+Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback
 
 _MISSING: Final = object()
 
@@ -398,6 +413,17 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         if robot is not None and robot not in robots:
             raise ProtocolError(ErrorCode.UNKNOWN_ROBOT, f"estop: unknown robot {robot!r}", rid)
         return EStop(id=rid, robot=robot)
+
+    if identifier in ("playback/pause", "playback/resume", "playback/seek", "playback/rate"):
+        rid = _request_id(obj, required=True)
+        assert rid is not None
+        action = identifier.partition("/")[2]
+        value = None
+        if action == "seek":
+            value = _number(obj, "t", identifier, low=0.0)
+        elif action == "rate":
+            value = _number(obj, "rate", identifier, low=MIN_PLAYBACK_RATE, high=MAX_PLAYBACK_RATE)
+        return Playback(id=rid, action=action, value=value)  # type: ignore[arg-type]
 
     robot, sep, kind = identifier.partition("/")
     if not sep or kind not in CLIENT_ROBOT_KINDS:
@@ -539,6 +565,23 @@ def error_message(request_id: RequestId | None, code: str, message: str) -> dict
 
 def pong_message(t: float, server_time: float) -> dict[str, Any]:
     return {"identifier": "pong", "t": t, "server_time": round(server_time, 6)}
+
+
+def scene_message(url: str | None, map_to_scene: Transform2D) -> dict[str, Any]:
+    """A new twin for the clients to load (e.g. built from a live /map); same shape as ``hello.scene``."""
+    return {"identifier": "scene", "url": url, "map_to_scene": map_to_scene}
+
+
+def playback_message(*, position: float, duration: float, rate: float, paused: bool, loop: bool) -> dict[str, Any]:
+    """Where a replayed recording is (bag backend), in seconds from its start."""
+    return {
+        "identifier": "playback",
+        "position": round(position, 3),
+        "duration": round(duration, 3),
+        "rate": rate,
+        "paused": paused,
+        "loop": loop,
+    }
 
 
 def estop_message(robots: list[str], client_id: str | None) -> dict[str, Any]:

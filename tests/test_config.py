@@ -36,7 +36,7 @@ def test_demo_fleet_loads() -> None:
     assert {s.name for s in robot1.sensors} == {"gas", "temperature", "humidity"}
     gas = robot1.sensors[0]
     assert gas.topic == "/robot1/gas" and gas.warn_above == 400
-    assert {h.kind for h in config.sim.hazards} == {"gas", "temperature", "humidity"}
+    assert config.sim.world == ROOT / "scenes" / "facility.yaml"  # hazards and walls come from the scene
     assert len({r.colour for r in config.robots}) == 3
 
 
@@ -156,6 +156,10 @@ def test_topic_overrides_and_root_namespace() -> None:
         ),
         ("robots:\n  - name: a\n    limits: {linear: 1, angular: [\n", "robots.yaml:4: not valid YAML"),
         ("", "robots.yaml: the file is empty"),
+        (
+            MINIMAL + "sim: {world: nowhere/facility.yaml}\n",
+            "robots.yaml:4: sim.world: no such file: nowhere/facility.yaml",
+        ),
         (
             MINIMAL + "safety: {deadman_timeout: 0}\n",
             "robots.yaml:4: safety.deadman_timeout: expected a positive number, got 0",

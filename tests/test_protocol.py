@@ -15,6 +15,7 @@ from relay.protocol import (
     FrameHeader,
     GoalPose,
     Ping,
+    Playback,
     Snapshot,
     Stream,
     ack_message,
@@ -24,8 +25,11 @@ from relay.protocol import (
     error_message,
     estop_message,
     parse_command,
+    playback_message,
     pong_message,
     pose_message,
+    scan_message,
+    scene_message,
     sensor_message,
     status_message,
 )
@@ -93,6 +97,25 @@ def test_ack_error_pong_estop_bytes() -> None:
     assert encode(estop_message(["robot1"], "c1")) == b'{"identifier":"estop","robots":["robot1"],"by":"c1"}'
 
 
+def test_scan_scene_playback_bytes() -> None:
+    scan = scan_message(
+        "robot1", stamp=2.0, frame="base_scan", angle_min=-math.pi, angle_increment=math.pi / 2,
+        range_max=8.0, ranges=(1.234, float("inf"), float("nan"), 7.999),
+    )  # fmt: skip
+    assert encode(scan) == (
+        b'{"identifier":"robot1/scan","stamp":2.0,"frame":"base_scan","angle_min":-3.141593,'
+        b'"angle_increment":1.570796,"range_max":8.0,"ranges":[1.23,null,null,8.0]}'
+    )
+    scene = scene_message("/scenes/generated/m.glb", {"x": 1.0, "y": 0.0, "z": 0.0, "yaw": 0.5})
+    assert encode(scene) == (
+        b'{"identifier":"scene","url":"/scenes/generated/m.glb","map_to_scene":{"x":1.0,"y":0.0,"z":0.0,"yaw":0.5}}'
+    )
+    playback = playback_message(position=12.34567, duration=27.6, rate=1.0, paused=False, loop=True)
+    assert encode(playback) == (
+        b'{"identifier":"playback","position":12.346,"duration":27.6,"rate":1.0,"paused":false,"loop":true}'
+    )
+
+
 def test_binary_frame_layout() -> None:
     header: FrameHeader = {
         "identifier": "robot1/camera/front",
@@ -138,6 +161,9 @@ def test_bad_binary_frames(data: bytes) -> None:
         ('{"identifier":"estop","id":"e"}', EStop("e", None)),
         ('{"identifier":"estop","id":"e","robot":"robot2"}', EStop("e", "robot2")),
         ('{"identifier":"ping","t":123.25}', Ping(123.25)),
+        ('{"identifier":"playback/pause","id":"p"}', Playback("p", "pause", None)),
+        ('{"identifier":"playback/seek","id":"p","t":12.5}', Playback("p", "seek", 12.5)),
+        ('{"identifier":"playback/rate","id":"p","rate":2}', Playback("p", "rate", 2.0)),
         ('{"identifier":"robot1/cancel","id":"c","future_field":[1,2]}', Cancel("robot1", "c")),
     ],
 )
@@ -176,6 +202,9 @@ def test_parse_commands(text: str, expected: object) -> None:
         ('{"identifier": "estop", "id": "a", "robot": "robot7"}', "unknown_robot", "a", "robot7"),
         ('{"identifier": "estop"}', "bad_request", None, "'id'"),
         ('{"identifier": "ping"}', "bad_request", None, "'t'"),
+        ('{"identifier": "playback/seek", "id": "a", "t": -1}', "bad_request", "a", "between"),
+        ('{"identifier": "playback/rate", "id": "a", "rate": 100}', "bad_request", "a", "between"),
+        ('{"identifier": "playback/stop", "id": "a"}', "unknown_identifier", "a", "playback/stop"),
         ('{"identifier": "robot1/cancel", "id": {"a": 1}}', "bad_request", None, "'id' must be"),
         ('{"identifier": "robot1/cancel", "id": ""}', "bad_request", None, "'id' must be"),
         ('{"identifier": "robot1/cancel", "id": 9007199254740993}', "bad_request", None, "2**53"),

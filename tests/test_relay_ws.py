@@ -156,17 +156,19 @@ async def test_every_id_gets_exactly_one_reply(relay_server: RunningRelay) -> No
         {"identifier": "robot1/stream", "id": "d", "camera": "nope", "fps": 5},
         {"identifier": "robot9/cancel", "id": "e"},
         {"identifier": "estop", "id": "f", "robot": "robot3"},
+        {"identifier": "playback/pause", "id": "g"},
     ]
     for message in messages:
         await client.send(message)
-    await client.wait_for(lambda m: m.get("id") == "f" and m["identifier"] in ("ack", "error"))
+    await client.wait_for(lambda m: m.get("id") == "g" and m["identifier"] in ("ack", "error"))
     await asyncio.sleep(0.3)
     replies = [m for _, m in client.messages if m["identifier"] in ("ack", "error")]
-    assert sorted(m["id"] for m in replies) == ["a", "b", "c", "d", "e", "f"]
+    assert sorted(m["id"] for m in replies) == ["a", "b", "c", "d", "e", "f", "g"]
     by_id = {m["id"]: m for m in replies}
     assert by_id["c"]["code"] == "no_camera"  # the simulated fleet has no camera yet: nothing fakes one
     assert by_id["d"]["code"] == "no_camera"
     assert by_id["e"]["code"] == "unknown_robot"
+    assert by_id["g"]["code"] == "unsupported" and "live" in by_id["g"]["message"]
     await client.close()
 
 
@@ -242,9 +244,11 @@ async def test_estop_stops_every_robot_and_cancels_goals(relay_server: RunningRe
     teleop = asyncio.ensure_future(drive(b, "robot1", 0.6, 0.5, 5.0))
     await asyncio.sleep(1.0)
     start = len(b.messages)
+    # The operator stops sending as the estop goes out: the deadman alone would need over 0.5 s, so a stop
+    # well within that proves the estop stopped robot1 (and robot2, whose goal no deadman watches).
+    teleop.cancel()
     estop_at = time.monotonic()
     assert (await a.request({"identifier": "estop"}))["identifier"] == "ack"
-    teleop.cancel()
     notice = await b.wait_for(lambda m: m["identifier"] == "estop", start=start)
     assert notice["robots"] == ["robot1", "robot2", "robot3"]
     for robot in ("robot1", "robot2"):

@@ -18,7 +18,7 @@ from relay.sim.follower import PathFollower
 from relay.sim.hazards import HazardSource, SensorField
 from relay.sim.kinematics import DiffDriveState, DriveLimits, normalize_angle, step
 from relay.sim.planner import NoPathError, Planner, plan_path
-from relay.sim.world import build_fields
+from relay.sim.world import SimWorld
 
 TB3_MAP = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "maps" / "turtlebot3_world" / "map.yaml"
 
@@ -521,7 +521,8 @@ def test_follower_without_final_yaw_and_trivial_path(grid: OccupancyGrid) -> Non
 
 
 def test_hazard_fields_of_the_demo_fleet() -> None:
-    fields = build_fields(load_config(Path(__file__).resolve().parent.parent / "robots.yaml"))
+    # The demo fleet's fields: baselines from robots.yaml, hazard sources from scenes/facility.yaml.
+    fields = SimWorld(load_config(Path(__file__).resolve().parent.parent / "robots.yaml"), lambda *_: None).fields
     rng = np.random.default_rng(3)
     gas, temp, hum = fields["gas"], fields["temperature"], fields["humidity"]
     assert gas.value(1.8, 8.2, rng) > 400 and gas.value(2.3, 7.6, rng) > 400

@@ -6,8 +6,10 @@ import abc
 from typing import ClassVar
 
 from ..config import FleetConfig
+from ..errors import CommandRejected
 from ..events import EventSink, FrameEvent
 from ..occupancy import OccupancyGrid
+from ..protocol import ErrorCode
 
 
 class Backend(abc.ABC):
@@ -51,6 +53,16 @@ class Backend(abc.ABC):
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:  # noqa: B027 - optional hook
         """Produce frames of a camera at up to ``fps`` (0 stops); frames arrive as FrameEvents."""
+
+    def command_refusal(self, robot: str) -> str | None:
+        """Why ``robot`` cannot be commanded at all (e.g. it is a recording), or None when it can."""
+        return None
+
+    async def playback(self, action: str, value: float | None) -> None:
+        """Pause, resume, seek or change the rate of a replay; only the bag backend replays."""
+        raise CommandRejected(
+            ErrorCode.UNSUPPORTED, f"playback/{action}: the {self.name} backend is live, not a recording"
+        )
 
     def map_grid(self) -> OccupancyGrid | None:
         """The occupancy grid goals are checked against, when this backend knows one."""

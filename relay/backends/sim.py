@@ -13,7 +13,7 @@ import logging
 import time
 
 from ..config import FleetConfig
-from ..errors import CommandRejected
+from ..errors import BackendUnavailable, CommandRejected
 from ..events import EventSink, NavEvent, PoseEvent, SensorEvent
 from ..geometry import yaw_to_quaternion
 from ..occupancy import OccupancyGrid
@@ -29,7 +29,10 @@ class SimBackend(Backend):
 
     def __init__(self, config: FleetConfig, sink: EventSink) -> None:
         super().__init__(config, sink)
-        self.world = SimWorld(config, self._on_nav)
+        try:
+            self.world = SimWorld(config, self._on_nav)
+        except ValueError as exc:
+            raise BackendUnavailable(f"the simulated world cannot be loaded: {exc}") from None
         self._task: asyncio.Task[None] | None = None
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:

@@ -27,8 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from relay.occupancy import OccupancyGrid
+from relay.sim.hazards import HazardSource
 
-__all__ = ["Box", "FloorPlan", "Room", "Spawn", "demo_facility", "rasterise"]
+__all__ = ["Box", "Decal", "FloorPlan", "Pipe", "Room", "Spawn", "demo_facility", "rasterise"]
 
 # Shared geometry constants of the demo facility. Module-level constants are
 # immutable values (floats), not state.
@@ -110,11 +111,70 @@ class Spawn:
 
 
 @dataclass(frozen=True)
+class Decal:
+    """A flat marking on the floor (a spill, a puddle): visual only, never an obstacle.
+
+    The outline is an ellipse centred on ``(x, y)`` with semi-axes
+    ``radius_x`` / ``radius_y`` before rotating it by ``angle`` (rad, CCW
+    from +x); renderers may roughen its edge but stay within ``1.25x`` of the
+    nominal radii. ``kind`` is a free-form tag (``"spill"``, ``"puddle"``).
+    Contract: radii > 0.
+    """
+
+    name: str
+    kind: str
+    x: float
+    y: float
+    radius_x: float
+    radius_y: float
+    angle: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (self.radius_x > 0.0 and self.radius_y > 0.0):
+            raise ValueError(f"decal {self.name!r} needs positive radii")
+
+    def contains(self, x: float, y: float) -> bool:
+        """True when ``(x, y)`` lies in the closed nominal ellipse."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        dx, dy = x - self.x, y - self.y
+        u = (c * dx + s * dy) / self.radius_x
+        v = (-s * dx + c * dy) / self.radius_y
+        return u * u + v * v <= 1.0
+
+
+@dataclass(frozen=True)
+class Pipe:
+    """A horizontal overhead pipe along x: visual only (robots pass beneath it).
+
+    It runs from ``x0`` to ``x1`` at ``(y, z)`` with ``radius`` (metres), and
+    leaks at ``leak_x`` (``x0 <= leak_x <= x1``), from where it drips onto the floor.
+    """
+
+    name: str
+    x0: float
+    x1: float
+    y: float
+    z: float
+    radius: float
+    leak_x: float
+
+    def __post_init__(self) -> None:
+        if not (self.x0 < self.x1 and self.radius > 0.0 and self.z > self.radius):
+            raise ValueError(f"pipe {self.name!r} has a bad extent")
+        if not self.x0 <= self.leak_x <= self.x1:
+            raise ValueError(f"pipe {self.name!r} leaks outside its length")
+
+
+@dataclass(frozen=True)
 class FloorPlan:
     """A whole facility. ``doors`` are the openings (not solid), kept for tests and rendering.
 
     The building occupies ``x in [0, width]``, ``y in [0, depth]``; outer
-    walls lie inside that rectangle.
+    walls lie inside that rectangle. ``decals`` (floor markings) and
+    ``pipes`` (overhead) are visual only: :func:`rasterise` ignores them.
+    ``hazards`` are the sources of the simulated sensor fields (the scene
+    file carries them to the simulator; robots.yaml's ``sim.hazards`` holds
+    the same values).
     """
 
     width: float
@@ -125,6 +185,9 @@ class FloorPlan:
     rooms: tuple[Room, ...]
     spawns: tuple[Spawn, ...]
     doors: tuple[Box, ...]
+    decals: tuple[Decal, ...] = ()
+    pipes: tuple[Pipe, ...] = ()
+    hazards: tuple[HazardSource, ...] = ()
 
     @property
     def solids(self) -> tuple[Box, ...]:
@@ -212,7 +275,26 @@ def demo_facility() -> FloorPlan:
         Room("plumbing", "Plumbing", _DIVIDERS_X[1], _CORRIDOR_Y, _WIDTH, _DEPTH),
     )
     spawns = tuple(Spawn(f"robot{i + 1}", x, 1.5, math.pi / 2) for i, x in enumerate(_DOOR_CENTRES_X))
-    return FloorPlan(_WIDTH, _DEPTH, _WALL, walls, obstacles, rooms, spawns, doors)
+    # The spill runs from under the leaking barrel (1.0, 8.9) out into the room
+    # towards the gas source, so a robot at the door sees it in front of the
+    # barrel; the ellipse's long axis points from the barrel to (1.8, 8.2).
+    spill_axis = math.atan2(8.2 - 8.9, 1.8 - 1.0)
+    decals = (
+        Decal("spill", "spill", 1.65, 8.35, 0.95, 0.6, spill_axis),
+        Decal("puddle", "puddle", 15.6, 7.6, 0.7, 0.5, 0.3),
+    )
+    # The exhaust pipe spans the plumbing room wall to wall just below the
+    # ceiling line of the walls; the column at (16.8, 8.5) carries it via a bracket.
+    pipes = (Pipe("pipe", _DIVIDERS_X[1] + 0.5 * _WALL, _WIDTH - _WALL, 7.6, 2.2, 0.12, 15.6),)
+    # Sources of the sensor fields; robots.yaml's sim.hazards repeats them.
+    hazards = (
+        HazardSource("gas", 1.8, 8.2, 800.0, 1.5),  # the spill under the leaking barrel
+        HazardSource("temperature", 7.8, 9.6, 6.0, 1.2),  # electrical panels: warm, not hot
+        HazardSource("temperature", 9.0, 9.6, 6.0, 1.2),
+        HazardSource("temperature", 10.2, 9.6, 6.0, 1.2),
+        HazardSource("humidity", 15.6, 7.6, 45.0, 1.8),  # leaking exhaust pipe over a puddle
+    )
+    return FloorPlan(_WIDTH, _DEPTH, _WALL, walls, obstacles, rooms, spawns, doors, decals, pipes, hazards)
 
 
 def rasterise(plan: FloorPlan, resolution: float = 0.05) -> OccupancyGrid:

@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 
 from ..config import FleetConfig, Robot
-from ..occupancy import OccupancyGrid
+from ..twin.facility import load_facility
 from .floorplan import demo_facility, rasterise
 from .follower import PathFollower
 from .hazards import HazardSource, SensorField
@@ -53,17 +53,21 @@ class SimRobot:
     goal: Goal | None = None
 
 
-def build_fields(config: FleetConfig) -> dict[str, SensorField]:
-    """The sensor fields of robots.yaml's ``sim`` section, keyed by kind."""
+def build_fields(config: FleetConfig, scene_hazards: tuple[HazardSource, ...] = ()) -> dict[str, SensorField]:
+    """The sensor fields of robots.yaml's ``sim`` section, keyed by kind.
+
+    Hazard sources come from robots.yaml's ``sim.hazards`` when it lists any, else from the scene
+    (``sim.world``); baselines and noise from ``sim.fields``.
+    """
+    hazards = (
+        tuple(HazardSource(kind=h.kind, x=h.x, y=h.y, peak=h.peak, sigma=h.sigma) for h in config.sim.hazards)
+        or scene_hazards
+    )
     fields: dict[str, SensorField] = {}
-    kinds = {f.kind for f in config.sim.fields} | {h.kind for h in config.sim.hazards}
+    kinds = {f.kind for f in config.sim.fields} | {h.kind for h in hazards}
     for kind in sorted(kinds):
         spec = next((f for f in config.sim.fields if f.kind == kind), None)
-        sources = tuple(
-            HazardSource(kind=h.kind, x=h.x, y=h.y, peak=h.peak, sigma=h.sigma)
-            for h in config.sim.hazards
-            if h.kind == kind
-        )
+        sources = tuple(h for h in hazards if h.kind == kind)
         fields[kind] = SensorField(
             kind=kind,
             baseline=spec.baseline if spec else 0.0,
@@ -76,11 +80,19 @@ def build_fields(config: FleetConfig) -> dict[str, SensorField]:
 class SimWorld:
     """Every simulated robot of a fleet config in one occupancy grid. Not thread-safe: one owner drives it."""
 
-    def __init__(self, config: FleetConfig, on_nav: NavListener, grid: OccupancyGrid | None = None) -> None:
+    def __init__(self, config: FleetConfig, on_nav: NavListener) -> None:
+        """Raises ValueError naming the file when ``sim.world`` cannot be loaded."""
         self.config = config
-        self.grid = grid if grid is not None else rasterise(demo_facility())
+        scene_hazards: tuple[HazardSource, ...] = ()
+        if config.sim.world is not None:
+            facility = load_facility(config.sim.world)
+            self.grid = facility.grid
+            scene_hazards = facility.hazards
+        else:
+            # No scene file: the demo facility's floor plan, rasterised here.
+            self.grid = rasterise(demo_facility())
         self.planner = Planner(self.grid, PLANNING_RADIUS)
-        self.fields = build_fields(config)
+        self.fields = build_fields(config, scene_hazards)
         self._on_nav = on_nav
         self.robots: dict[str, SimRobot] = {}
         for index, spec in enumerate(config.robots):
