@@ -12,6 +12,7 @@ from . import __version__
 from .backends import BACKENDS
 from .config import load_config
 from .errors import BackendUnavailable, ConfigError
+from .options import BagOptions, Options
 
 EXIT_USAGE = 2
 
@@ -50,11 +51,32 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("debug", "info", "warning", "error"),
         help="logging verbosity (default info)",
     )
+    parser.add_argument(
+        "--audit-log",
+        default="xr-relay-audit.jsonl",
+        metavar="PATH",
+        help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
+        "(default ./xr-relay-audit.jsonl; '' turns it off)",
+    )
+    bag = parser.add_argument_group("recordings (--backend bag)")
+    bag.add_argument(
+        "--bag",
+        action="append",
+        default=[],
+        metavar="[ROBOT=]PATH",
+        help="a rosbag2 recording (sqlite3 or MCAP; a bag directory or file) to replay; ROBOT= binds it to a "
+        "robot of the config, otherwise a bag of un-namespaced topics plays as the first robot not yet bound. "
+        "Repeat for several robots",
+    )
+    bag.add_argument("--rate", type=float, default=1.0, help="replay speed factor (default 1.0)")
+    bag.add_argument("--loop", action="store_true", help="start over at the end of the recordings")
+    bag.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help="start this far into the recordings")
     parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     logging.basicConfig(
         level=getattr(logging, args.log_level.upper()),
@@ -69,7 +91,14 @@ def main(argv: list[str] | None = None) -> int:
     from .server import serve
 
     try:
-        asyncio.run(serve(config, args.backend, args.host, args.port))
+        options = Options(
+            backend=args.backend,
+            host=args.host,
+            port=args.port,
+            bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
+            audit_log=args.audit_log or None,
+        )
+        asyncio.run(serve(config, options))
     except BackendUnavailable as exc:
         log.error("%s", exc)
         return EXIT_USAGE

@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import itertools
 import logging
 import secrets
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable
 from dataclasses import dataclass, field
 
 from . import SERVER_NAME, __version__
+from .audit import AuditLog
 from .backends import create_backend
 from .backends.base import Backend
 from .config import FleetConfig, Robot
@@ -30,6 +32,7 @@ from .events import Event, FrameEvent, MapEvent, NavEvent, PlaybackEvent, PoseEv
 from .fleet import FleetState
 from .hub import Channel, Hub, Transport
 from .occupancy import OccupancyGrid, from_map_yaml
+from .options import Options
 from .protocol import (
     PROTOCOL_VERSION,
     Cancel,
@@ -49,6 +52,7 @@ from .protocol import (
     Snapshot,
     Stream,
     ack_message,
+    command_identifier,
     encode,
     encode_frame,
     error_message,
@@ -75,6 +79,7 @@ class Client:
     client_id: str
     role: Role
     channel: Channel
+    address: str | None = None
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
 
 
@@ -114,16 +119,16 @@ def describe_robot(robot: Robot) -> RobotDescription:
 class Relay:
     """Ties the fleet config, one backend, the hub and the safety rules together."""
 
-    def __init__(self, config: FleetConfig, backend: str | Callable[..., Backend] = "sim") -> None:
+    def __init__(self, config: FleetConfig, options: Options | None = None) -> None:
+        options = options or Options()
+        self.options = options
         self.config = config
         self.hub = Hub()
         self.fleet = FleetState(config, config.safety.offline_after)
         self.deadman = Deadman(config.safety.deadman_timeout)
         self._robots = {r.name: r for r in config.robots}
-        if isinstance(backend, str):
-            self.backend = create_backend(backend, config, self.on_event)
-        else:
-            self.backend = backend(config, self.on_event)
+        self.backend: Backend = create_backend(config, self.on_event, options)
+        self.audit = AuditLog(options.audit_log) if options.audit_log else None
         self.started_at = time.monotonic()
         self._clients: dict[str, Client] = {}
         self._ids = itertools.count(1)
@@ -154,6 +159,8 @@ class Relay:
         for client in list(self._clients.values()):
             await self._drop_client(client)
         await self.backend.stop()
+        if self.audit is not None:
+            self.audit.close()
 
     async def stop_all_robots(self, reason: str) -> None:
         robots = list(self._robots)
@@ -179,10 +186,10 @@ class Relay:
 
     # -- connections ------------------------------------------------------------------------------
 
-    def connect(self, transport: Transport, role: Role = "operator") -> Client:
+    def connect(self, transport: Transport, role: Role = "operator", address: str | None = None) -> Client:
         client_id = f"c{next(self._ids)}-{secrets.token_hex(3)}"
         channel = self.hub.add(client_id, transport)
-        client = Client(client_id, role, channel)
+        client = Client(client_id, role, channel, address)
         self._clients[client_id] = client
         channel.put_priority(encode(self.hello(client)))
         logger.info("client %s connected as %s", client_id, role)
@@ -244,33 +251,68 @@ class Relay:
             command = parse_command(data, self._robots)
         except ProtocolError as exc:
             self._reply_error(client, exc.request_id, exc.code, exc.message)
+            self._audit(client, exc.identifier, exc.request_id, None, exc)
             return
         request_id = getattr(command, "id", None)
         if isinstance(command, Snapshot):
             # Rendering or waiting for the next camera frame takes a while: do not hold up this
             # client's later frames (an estop among them) behind it.
-            self._spawn(client, self._run(client, command.id, self._snapshot(client, command)))
+            self._spawn(client, self._run(client, command, self._snapshot(client, command)))
             return
         try:
             await self._dispatch(client, command)
         except ProtocolError as exc:
-            self._reply_error(client, request_id if exc.request_id is None else exc.request_id, exc.code, exc.message)
+            exc.request_id = request_id if exc.request_id is None else exc.request_id
+            self._reply_error(client, exc.request_id, exc.code, exc.message)
+            self._audit_command(client, command, exc)
+            return
+        self._audit_command(client, command, None)
+
+    def _audit_command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
+        if isinstance(command, Ping):
+            return
+        values = {k: v for k, v in dataclasses.asdict(command).items() if k not in ("robot", "id")}
+        self._audit(client, command_identifier(command), getattr(command, "id", None), values, error)
+
+    def _audit(
+        self,
+        client: Client,
+        identifier: str | None,
+        request_id: RequestId | None,
+        values: dict[str, object] | None,
+        error: ProtocolError | None,
+    ) -> None:
+        if self.audit is None:
+            return
+        self.audit.record(
+            client=client.client_id,
+            role=client.role,
+            address=client.address,
+            identifier=identifier,
+            request_id=request_id,
+            values=values,
+            outcome="refused" if error else "accepted",
+            code=error.code if error else None,
+            message=error.message if error else None,
+        )
 
     def _spawn(self, client: Client, coro: Awaitable[None]) -> None:
         task: asyncio.Task[None] = asyncio.ensure_future(coro)
         client.tasks.add(task)
         task.add_done_callback(client.tasks.discard)
 
-    async def _run(self, client: Client, request_id: RequestId, coro: Awaitable[None]) -> None:
+    async def _run(self, client: Client, command: Snapshot, coro: Awaitable[None]) -> None:
         try:
             await coro
         except ProtocolError as exc:
-            self._reply_error(
-                client, exc.request_id if exc.request_id is not None else request_id, exc.code, exc.message
-            )
+            exc.request_id = command.id if exc.request_id is None else exc.request_id
+            self._reply_error(client, exc.request_id, exc.code, exc.message)
+            self._audit_command(client, command, exc)
         except Exception:
-            logger.exception("command %r of client %s failed", request_id, client.client_id)
-            self._reply_error(client, request_id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+            logger.exception("command %r of client %s failed", command.id, client.client_id)
+            self._reply_error(client, command.id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+        else:
+            self._audit_command(client, command, None)
 
     def _reply(self, client: Client, message: dict[str, object]) -> None:
         client.channel.put_priority(encode(message))

@@ -40,6 +40,7 @@ class ProtocolError(RelayError):
         self.code = code
         self.message = message
         self.request_id = request_id
+        self.identifier: str | None = None  # the offending message's identifier, when it had one
 
 
 class CommandRejected(ProtocolError):

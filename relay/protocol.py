@@ -392,7 +392,21 @@ def parse_command(data: str | bytes, robots: Collection[str]) -> Command:
     except ProtocolError as exc:
         if exc.request_id is None:
             exc.request_id = peek_request_id(obj)
+        identifier = obj.get("identifier")
+        exc.identifier = identifier[:80] if isinstance(identifier, str) else None
         raise
+
+
+def command_identifier(command: Command) -> str:
+    """The identifier a command arrived with."""
+    if isinstance(command, Ping):
+        return "ping"
+    if isinstance(command, EStop):
+        return "estop"
+    if isinstance(command, Playback):
+        return f"playback/{command.action}"
+    kind = {GoalPose: "goal_pose", CmdVel: "cmd_vel", Cancel: "cancel", Snapshot: "snapshot", Stream: "stream"}
+    return f"{command.robot}/{kind[type(command)]}"
 
 
 def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:

@@ -19,6 +19,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 from . import __version__
 from .config import FleetConfig
 from .core import Client, Relay
+from .options import Options
 
 logger = logging.getLogger(__name__)
 
@@ -97,7 +98,7 @@ async def websocket_handler(request: web.Request) -> web.WebSocketResponse:
     ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
     await ws.prepare(request)
     request.app[SOCKETS_KEY].add(ws)
-    client: Client = relay.connect(AiohttpTransport(ws))
+    client: Client = relay.connect(AiohttpTransport(ws), address=request.remote)
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
@@ -174,9 +175,9 @@ async def _close_sockets(app: web.Application) -> None:
     )
 
 
-def create_app(config: FleetConfig, backend: str = "sim", relay: Relay | None = None) -> web.Application:
+def create_app(config: FleetConfig, options: Options | None = None) -> web.Application:
     app = web.Application()
-    app[RELAY_KEY] = relay or Relay(config, backend)
+    app[RELAY_KEY] = Relay(config, options)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)
     app.on_shutdown.append(_close_sockets)
@@ -188,9 +189,10 @@ def create_app(config: FleetConfig, backend: str = "sim", relay: Relay | None = 
     return app
 
 
-async def serve(config: FleetConfig, backend: str, host: str, port: int) -> None:
+async def serve(config: FleetConfig, options: Options) -> None:
     """Run until SIGINT or SIGTERM, then shut down cleanly."""
-    app = create_app(config, backend)
+    host, port, backend = options.host, options.port, options.backend
+    app = create_app(config, options)
     runner = web.AppRunner(app, shutdown_timeout=SHUTDOWN_TIMEOUT, access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, host, port)

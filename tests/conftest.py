@@ -9,11 +9,16 @@ from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+import hypothesis  # noqa: F401 - imported up front: its plugin's lazy import at session end trips CPython 3.11.7
 import pytest
 from aiohttp import web
 
+import relay.backends.sim  # noqa: F401 - imported once here, as the relay does at start-up: trimesh and
+
+# Embree take a second to import, which would otherwise count as the first test's loop blocking.
 from relay.config import FleetConfig, load_config
 from relay.core import Relay
+from relay.options import Options
 from relay.server import RELAY_KEY, create_app
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -77,8 +82,8 @@ class RunningRelay:
     runner: web.AppRunner
 
 
-async def start_relay(config: FleetConfig, backend: str = "sim") -> RunningRelay:
-    app = create_app(config, backend)
+async def start_relay(config: FleetConfig, backend: str = "sim", options: Options | None = None) -> RunningRelay:
+    app = create_app(config, options or Options(backend=backend))
     runner = web.AppRunner(app, shutdown_timeout=1.0)
     await runner.setup()
     site = web.TCPSite(runner, "127.0.0.1", 0)

@@ -75,15 +75,7 @@ async def test_relay_process_serves_and_stops_cleanly_on_ctrl_c() -> None:
             await process.wait()
 
 
-def test_unavailable_backend_and_busy_port_exit_with_status_2() -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "relay", "--backend", "bag", "--port", "0"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=30,
-    )
-    assert result.returncode == 2 and "'bag' backend" in result.stderr and "Traceback" not in result.stderr
+def test_busy_port_exits_with_status_2() -> None:
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()

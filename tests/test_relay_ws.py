@@ -9,6 +9,8 @@ import time
 from typing import Any
 
 import aiohttp
+import cv2
+import numpy as np
 import pytest
 
 from relay.config import FleetConfig
@@ -165,8 +167,8 @@ async def test_every_id_gets_exactly_one_reply(relay_server: RunningRelay) -> No
     replies = [m for _, m in client.messages if m["identifier"] in ("ack", "error")]
     assert sorted(m["id"] for m in replies) == ["a", "b", "c", "d", "e", "f", "g"]
     by_id = {m["id"]: m for m in replies}
-    assert by_id["c"]["code"] == "no_camera"  # the simulated fleet has no camera yet: nothing fakes one
-    assert by_id["d"]["code"] == "no_camera"
+    assert by_id["c"]["identifier"] == "ack"  # robot1's first camera
+    assert by_id["d"]["code"] == "no_camera" and "nope" in by_id["d"]["message"]
     assert by_id["e"]["code"] == "unknown_robot"
     assert by_id["g"]["code"] == "unsupported" and "live" in by_id["g"]["message"]
     await client.close()
@@ -299,3 +301,66 @@ async def test_shutdown_stops_robots_first_then_closes_with_going_away(fleet_con
     await asyncio.wait_for(client._reader, 2.0)
     assert client.closed_code == 1001
     assert "robot1:0.0:0.0" in [c for _, c in commands]
+
+
+SPILL_RGB = (0.30, 0.90, 0.0)  # the spill's base colour in scenes/facility.glb (linear), shown as sRGB
+
+
+def spill_pixels(jpeg: bytes) -> tuple[float, float]:
+    """Fractions of (the whole image, its central third) that have the spill's yellow-green hue."""
+    image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert image is not None
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV).astype(int)
+    # OpenCV hue is 0..180; the spill (R:G about 0.6:1 in sRGB, no blue) sits near 40, far from any other
+    # material of the facility (beige walls ~20, grey floor unsaturated, blue puddle ~105).
+    mask = (abs(hsv[..., 0] - 39) <= 6) & (hsv[..., 1] > 150) & (hsv[..., 2] > 60)
+    h, w = mask.shape
+    centre = mask[h // 3 : 2 * h // 3, w // 3 : 2 * w // 3]
+    return float(mask.mean()), float(centre.mean())
+
+
+async def test_robot1_sees_the_spill_from_chemical_storage(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    x, y = 2.8, 7.0
+    yaw = math.atan2(8.2 - y, 1.8 - x)
+    assert (await client.request({"identifier": "robot1/goal_pose", "x": x, "y": y, "yaw": yaw}))["identifier"] == "ack"
+    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["mode"] == "navigating")
+    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["mode"] == "idle", timeout=60)
+    reply = await client.request({"identifier": "robot1/snapshot"}, timeout=10)
+    assert reply["identifier"] == "ack"
+    _, header, jpeg = client.frames[-1]
+    assert header["identifier"] == "robot1/camera/front" and header["request_id"] == reply["id"]
+    assert (header["width"], header["height"], header["encoding"]) == (480, 480, "jpeg")
+    assert header["lens"] == {"model": "equidistant", "fov": 180.0}
+    whole, centre = spill_pixels(jpeg)
+    assert centre > 0.03 and whole > 0.003, (whole, centre)
+    # Its gas sensor warns there.
+    gas = await client.wait_for(lambda m: m["identifier"] == "robot1/sensor" and m["name"] == "gas" and m["warning"])
+    assert gas["value"] > 400
+    # Turned to face the east divider wall, the spill is out of sight.
+    start = len(client.messages)
+    await client.request({"identifier": "robot1/goal_pose", "x": x, "y": y, "yaw": 0.0})
+    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["goal"] is not None, start=start)
+    await client.wait_for(
+        lambda m: m["identifier"] == "robot1/status" and m["mode"] == "idle", timeout=30, start=start
+    )
+    assert abs((client.pose("robot1") or {"yaw": 9.0})["yaw"]) < 0.1
+    assert (await client.request({"identifier": "robot1/snapshot"}, timeout=10))["identifier"] == "ack"
+    assert spill_pixels(client.frames[-1][2])[1] == 0.0
+    await client.close()
+
+
+async def test_camera_stream_starts_and_stops(relay_server: RunningRelay) -> None:
+    client = await client_of(relay_server)
+    assert (await client.request({"identifier": "robot3/stream", "camera": "front", "fps": 5}))["identifier"] == "ack"
+    await asyncio.sleep(2.0)
+    frames = [h for _, h, _ in client.frames if h["identifier"] == "robot3/camera/front"]
+    assert len(frames) >= 3
+    assert all(h["request_id"] is None for h in frames)
+    assert [h["seq"] for h in frames] == sorted(h["seq"] for h in frames)
+    assert (await client.request({"identifier": "robot3/stream", "camera": "front", "fps": 0}))["identifier"] == "ack"
+    await asyncio.sleep(0.4)
+    count = len(client.frames)
+    await asyncio.sleep(1.0)
+    assert len(client.frames) == count
+    await client.close()

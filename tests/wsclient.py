@@ -12,6 +12,7 @@ from typing import Any
 
 import orjson
 from websockets.asyncio.client import ClientConnection, connect
+from websockets.exceptions import ConnectionClosed
 
 from relay.protocol import decode_frame
 
@@ -51,6 +52,8 @@ class TestClient:
                         key = f"{key}/{message['name']}"
                     self.latest[key] = message
                 self._changed.set()
+        except ConnectionClosed:
+            pass  # the relay went away without a closing handshake (killed): closed_code says so
         finally:
             self.closed_code = self.ws.close_code
             self._changed.set()

@@ -17,6 +17,7 @@ import argparse
 import logging
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -118,6 +119,8 @@ class FakeFleet:
             )
         self.map_pub = self.node.create_publisher(OccupancyGrid, config.ros.map_topic, latched)
         self._publish_map(OccupancyGrid)
+        self._cameras: list[tuple[str, Any, Any, Any, float]] = []  # robot, camera spec, publisher, lens, period
+        self._start_cameras()
         sim = config.sim
         self.dt = 1.0 / max(sim.physics_rate, 50.0)
         self.node.create_timer(self.dt, self._step)
@@ -125,6 +128,51 @@ class FakeFleet:
         self.node.create_timer(1.0 / sim.sensor_rate, self._publish_sensors)
         self.node.create_timer(1.0 / SCAN_RATE, self._publish_scans)
         self._last_step = time.monotonic()
+
+    def _start_cameras(self) -> None:
+        """Render each robot's camera in its own thread, only while someone subscribes to it."""
+        cameras = [(r, c) for r in self.config.robots for c in r.cameras]
+        if not cameras or self.world.scene_glb is None:
+            return
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import CompressedImage, Image
+
+        from relay.sim.camera import SimCamera
+        from relay.twin.frames import map_to_scene_matrix
+
+        m = self.config.scene.map_to_scene
+        self.camera = SimCamera.load(self.world.scene_glb, map_to_scene=map_to_scene_matrix(m.x, m.y, m.z, m.yaw))
+        best_effort = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+        for robot, spec in cameras:
+            cls = CompressedImage if spec.compressed else Image
+            publisher = self.node.create_publisher(cls, spec.topic, best_effort)
+            lens = self.camera.fit_lens(spec.lens, spec.width, spec.height)
+            # Ray casting costs ~0.1 s a frame on two cores: 10 fps is the most a demo fleet can afford.
+            period = 1.0 / min(spec.rate, 10.0)
+            thread = threading.Thread(
+                target=self._camera_loop, args=(robot.name, spec, publisher, lens, period), daemon=True
+            )
+            thread.start()
+
+    def _camera_loop(self, robot: str, spec: Any, publisher: Any, lens: Any, period: float) -> None:
+        from sensor_msgs.msg import CompressedImage, Image
+
+        from relay.sim.camera import rgb_to_jpeg
+
+        while self.rclpy.ok():
+            started = time.monotonic()
+            if publisher.get_subscription_count() > 0:
+                state = self.world.robots[robot].state
+                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
+                header = self._header(f"{robot}/camera_{spec.name}")
+                if spec.compressed:
+                    message = CompressedImage(header=header, format="jpeg", data=rgb_to_jpeg(rgb))
+                else:
+                    message = Image(header=header, height=rgb.shape[0], width=rgb.shape[1], encoding="rgb8")
+                    message.step = rgb.shape[1] * 3
+                    message.data = rgb.tobytes()
+                publisher.publish(message)
+            time.sleep(max(0.05, period - (time.monotonic() - started)))
 
     def _header(self, frame: str) -> Any:
         from std_msgs.msg import Header

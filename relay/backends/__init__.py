@@ -8,12 +8,14 @@ from __future__ import annotations
 from ..config import FleetConfig
 from ..errors import BackendUnavailable
 from ..events import EventSink
+from ..options import Options
 from .base import Backend
 
 BACKENDS = ("sim", "ros", "bag")
 
 
-def create_backend(name: str, config: FleetConfig, sink: EventSink) -> Backend:
+def create_backend(config: FleetConfig, sink: EventSink, options: Options) -> Backend:
+    name = options.backend
     if name == "sim":
         from .sim import SimBackend
 

@@ -67,3 +67,7 @@ class Backend(abc.ABC):
     def map_grid(self) -> OccupancyGrid | None:
         """The occupancy grid goals are checked against, when this backend knows one."""
         return None
+
+    def health(self) -> dict[str, object]:
+        """Extra fields for ``/healthz`` (JSON-serialisable, cheap: called on the loop); none by default."""
+        return {}

@@ -35,11 +35,12 @@ import numpy as np
 
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, MapEvent, NavEvent, PoseEvent, ScanEvent, SensorEvent
+from ..events import Event, EventSink, FrameEvent, MapEvent, NavEvent, PoseEvent, SensorEvent
 from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
 from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
 from ..occupancy import OccupancyGrid
-from ..protocol import MAX_SCAN_POINTS, MAX_SCAN_RATE
+from ..protocol import MAX_SCAN_RATE
+from ..scan import scan_event
 from ..tf import TfPose, Transform
 from .base import Backend
 
@@ -348,29 +349,7 @@ class RosBackend(Backend):
         if now - self._last_scan.get(robot, 0.0) < 1.0 / MAX_SCAN_RATE:
             return
         self._last_scan[robot] = now
-        ranges = np.asarray(message.ranges, dtype=np.float32)
-        valid = np.isfinite(ranges) & (ranges >= message.range_min) & (ranges <= message.range_max)
-        ranges = np.where(valid, ranges, np.nan)
-        step = max(1, math.ceil(len(ranges) / MAX_SCAN_POINTS))
-        if step > 1:
-            # The nearest return of each bin: decimation must never hide an obstacle.
-            usable = len(ranges) // step * step
-            bins = ranges[:usable].reshape(-1, step)
-            with np.errstate(all="ignore"):
-                ranges = np.where(
-                    np.all(np.isnan(bins), axis=1), np.nan, np.nanmin(np.nan_to_num(bins, nan=np.inf), axis=1)
-                )
-        self._post(
-            ScanEvent(
-                robot,
-                stamp_of(message.header),
-                message.header.frame_id,
-                float(message.angle_min),
-                float(message.angle_increment) * step,
-                float(message.range_max),
-                tuple(float(r) for r in ranges),
-            )
-        )
+        self._post(scan_event(robot, stamp_of(message.header), message))
 
     def _on_map(self, message: Any) -> None:
         info = message.info

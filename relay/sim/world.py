@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -84,10 +85,13 @@ class SimWorld:
         """Raises ValueError naming the file when ``sim.world`` cannot be loaded."""
         self.config = config
         scene_hazards: tuple[HazardSource, ...] = ()
+        #: The scene's glTF, which the simulated cameras look at (None: the robots are blind).
+        self.scene_glb: Path | None = None
         if config.sim.world is not None:
             facility = load_facility(config.sim.world)
             self.grid = facility.grid
             scene_hazards = facility.hazards
+            self.scene_glb = facility.glb if facility.glb.is_file() else None
         else:
             # No scene file: the demo facility's floor plan, rasterised here.
             self.grid = rasterise(demo_facility())
