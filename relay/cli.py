@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import os
+import secrets
 import sys
 from pathlib import Path
 
@@ -44,7 +46,9 @@ def build_parser() -> argparse.ArgumentParser:
         default="127.0.0.1",
         help="address to listen on (default 127.0.0.1: this machine only; use 0.0.0.0 to serve the LAN)",
     )
-    parser.add_argument("--port", type=int, default=8080, help="TCP port (default 8080; 0 picks a free one)")
+    parser.add_argument(
+        "--port", type=int, default=None, help="TCP port (default 8080, or 8443 with TLS; 0 picks a free one)"
+    )
     parser.add_argument(
         "--log-level",
         default="info",
@@ -57,6 +61,56 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PATH",
         help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
         "(default ./xr-relay-audit.jsonl; '' turns it off)",
+    )
+    access = parser.add_argument_group("access (docs/security.md)")
+    access.add_argument(
+        "--token",
+        default=os.environ.get("XR_RELAY_TOKEN"),
+        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start); the relay prints "
+        "its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+    )
+    access.add_argument(
+        "--allow-viewers",
+        action="store_true",
+        help="let clients without a valid token connect as viewers: they see everything, command nothing",
+    )
+    access.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="a web origin (scheme://host:port) allowed to open /ws besides the relay's own; repeatable",
+    )
+    access.add_argument(
+        "--max-message-rate",
+        type=float,
+        default=60.0,
+        metavar="PER_SECOND",
+        help="messages a client may send per second, bursts of twice that allowed (default 60; estop is "
+        "never limited); faster ones get error rate_limited",
+    )
+    access.add_argument(
+        "--lease-timeout",
+        type=float,
+        default=30.0,
+        metavar="SECONDS",
+        help="release an idle robot's control lease after this long without commands (default 30)",
+    )
+    tls = parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)")
+    tls.add_argument(
+        "--tls",
+        choices=("off", "auto"),
+        default="off",
+        help="auto: create (once) and use a self-signed certificate for this machine's names and addresses, "
+        "serve https/wss and print the certificate's fingerprint",
+    )
+    tls.add_argument("--tls-cert", metavar="PEM", help="serve https/wss with this certificate (chain) ...")
+    tls.add_argument("--tls-key", metavar="PEM", help="... and this private key")
+    tls.add_argument(
+        "--tls-dir",
+        type=Path,
+        default=Path.home() / ".local" / "share" / "xr-relay" / "tls",
+        help="where --tls auto keeps its certificate (default ~/.local/share/xr-relay/tls)",
     )
     bag = parser.add_argument_group("recordings (--backend bag)")
     bag.add_argument(
@@ -91,10 +145,28 @@ def main(argv: list[str] | None = None) -> int:
     from .server import serve
 
     try:
+        if bool(args.tls_cert) != bool(args.tls_key):
+            log.error("--tls-cert and --tls-key go together")
+            return EXIT_USAGE
+        cert, key = args.tls_cert, args.tls_key
+        if args.tls == "auto" and not cert:
+            from .tls import ensure_certificate
+
+            extra = (args.host,) if args.host not in ("0.0.0.0", "::", "127.0.0.1") else ()
+            cert_path, key_path = ensure_certificate(args.tls_dir, extra)
+            cert, key = str(cert_path), str(key_path)
+        port = args.port if args.port is not None else (8443 if cert else 8080)
         options = Options(
             backend=args.backend,
             host=args.host,
-            port=args.port,
+            port=port,
+            token=args.token or secrets.token_urlsafe(24),
+            allow_viewers=args.allow_viewers,
+            allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
+            tls_cert=cert,
+            tls_key=key,
+            max_message_rate=args.max_message_rate,
+            lease_timeout=args.lease_timeout,
             bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
             audit_log=args.audit_log or None,
         )

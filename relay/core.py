@@ -31,6 +31,7 @@ from .errors import CommandRejected, ProtocolError
 from .events import Event, FrameEvent, MapEvent, NavEvent, PlaybackEvent, PoseEvent, ScanEvent, SensorEvent
 from .fleet import FleetState
 from .hub import Channel, Hub, Transport
+from .leases import LeaseTable
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .protocol import (
@@ -43,6 +44,7 @@ from .protocol import (
     FrameHeader,
     GoalPose,
     HelloMessage,
+    Lease,
     Lens,
     Ping,
     Playback,
@@ -57,6 +59,7 @@ from .protocol import (
     encode_frame,
     error_message,
     estop_message,
+    lease_message,
     parse_command,
     playback_message,
     pong_message,
@@ -80,6 +83,8 @@ class Client:
     role: Role
     channel: Channel
     address: str | None = None
+    #: Token bucket of the message rate limit: (tokens left, loop time of the last refill).
+    allowance: tuple[float, float] = (0.0, 0.0)
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
 
 
@@ -126,6 +131,7 @@ class Relay:
         self.hub = Hub()
         self.fleet = FleetState(config, config.safety.offline_after)
         self.deadman = Deadman(config.safety.deadman_timeout)
+        self.leases = LeaseTable(options.lease_timeout)
         self._robots = {r.name: r for r in config.robots}
         self.backend: Backend = create_backend(config, self.on_event, options)
         self.audit = AuditLog(options.audit_log) if options.audit_log else None
@@ -166,7 +172,7 @@ class Relay:
         robots = list(self._robots)
         for robot in robots:
             self.deadman.release_robot(robot)
-            self.fleet.set_teleop(robot, None)
+            self.fleet.set_teleop(robot, False)
         results = await asyncio.gather(*(self.backend.stop_robot(r) for r in robots), return_exceptions=True)
         for robot, result in zip(robots, results, strict=True):
             if isinstance(result, BaseException):
@@ -189,7 +195,7 @@ class Relay:
     def connect(self, transport: Transport, role: Role = "operator", address: str | None = None) -> Client:
         client_id = f"c{next(self._ids)}-{secrets.token_hex(3)}"
         channel = self.hub.add(client_id, transport)
-        client = Client(client_id, role, channel, address)
+        client = Client(client_id, role, channel, address, (2 * self.options.max_message_rate, time.monotonic()))
         self._clients[client_id] = client
         channel.put_priority(encode(self.hello(client)))
         logger.info("client %s connected as %s", client_id, role)
@@ -201,6 +207,10 @@ class Relay:
         # Robots this client was driving stop *before* anything else happens.
         for robot in self.deadman.release_client(client.client_id):
             await self._stop_robot(robot, f"operator {client.client_id} disconnected")
+        # Its leases end, and a robot it had sent somewhere stops too: nobody is watching it any more.
+        for robot in self.leases.release_client(client.client_id):
+            await self._halt(robot, f"lease holder {client.client_id} disconnected")
+            self._lease_changed(robot, None, client.client_id, "disconnected")
         await self._drop_client(client)
         logger.info("client %s disconnected", client.client_id)
 
@@ -254,6 +264,16 @@ class Relay:
             self._audit(client, exc.identifier, exc.request_id, None, exc)
             return
         request_id = getattr(command, "id", None)
+        if not isinstance(command, EStop) and not self._within_rate(client):
+            # Dropped before it can reach a robot; an estop is never held back.
+            error = ProtocolError(
+                ErrorCode.RATE_LIMITED,
+                f"more than {self.options.max_message_rate:g} messages a second; this one was dropped",
+                request_id,
+            )
+            self._reply_error(client, request_id, error.code, error.message)
+            self._audit_command(client, command, error)
+            return
         if isinstance(command, Snapshot):
             # Rendering or waiting for the next camera frame takes a while: do not hold up this
             # client's later frames (an estop among them) behind it.
@@ -267,6 +287,17 @@ class Relay:
             self._audit_command(client, command, exc)
             return
         self._audit_command(client, command, None)
+
+    def _within_rate(self, client: Client) -> bool:
+        rate = self.options.max_message_rate
+        tokens, last = client.allowance
+        now = time.monotonic()
+        tokens = min(2 * rate, tokens + (now - last) * rate)
+        if tokens < 1.0:
+            client.allowance = (tokens, now)
+            return False
+        client.allowance = (tokens - 1.0, now)
+        return True
 
     def _audit_command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
         if isinstance(command, Ping):
@@ -326,10 +357,62 @@ class Relay:
             raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
 
     def _require_commandable(self, client: Client, robot: str, identifier: str, request_id: RequestId | None) -> None:
+        """Operator role, a robot that is not a recording, and the robot's lease (taken when free)."""
         self._require_operator(client, identifier, request_id)
         refusal = self.backend.command_refusal(robot)
         if refusal is not None:
             raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)
+        allowed, before = self.leases.use(robot, client.client_id, time.monotonic())
+        if not allowed:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {before}; send {robot}/lease with force: true to take over",
+                request_id,
+            )
+        if before is None:
+            self._lease_changed(robot, client.client_id, None, "acquired")
+
+    def _lease_changed(self, robot: str, holder: str | None, previous: str | None, reason: str) -> None:
+        logger.info("lease of %s: %s -> %s (%s)", robot, previous, holder, reason)
+        self.fleet.set_controller(robot, holder)
+        # Priority: the operator who lost a robot must learn it before anything else they have queued.
+        self.hub.broadcast_priority(encode(lease_message(robot, holder=holder, previous=previous, reason=reason)))
+        self._publish_status(robot)
+
+    async def _halt(self, robot: str, reason: str) -> None:
+        """Zero velocity and no goal: before a lease changes hands."""
+        logger.info("stopping %s: %s", robot, reason)
+        self.deadman.release_robot(robot)
+        self.fleet.set_teleop(robot, False)
+        await self.backend.stop_robot(robot)
+
+    async def _lease(self, client: Client, command: Lease) -> None:
+        identifier = f"{command.robot}/lease"
+        self._require_operator(client, identifier, command.id)
+        robot, holder = command.robot, self.leases.holder(command.robot)
+        if command.action == "release":
+            if holder != client.client_id:
+                raise CommandRejected(
+                    ErrorCode.LEASED, f"{identifier}: {robot} is not controlled by you (holder: {holder})", command.id
+                )
+            await self._halt(robot, f"{client.client_id} released it")
+            self.leases.release(robot, client.client_id)
+            self._lease_changed(robot, None, client.client_id, "released")
+        elif holder is None or holder == client.client_id:
+            self.leases.take(robot, client.client_id, time.monotonic())
+            if holder is None:
+                self._lease_changed(robot, client.client_id, None, "acquired")
+        elif not command.force:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {holder}; add force: true to take over",
+                command.id,
+            )
+        else:
+            await self._halt(robot, f"{client.client_id} takes over from {holder}")
+            self.leases.take(robot, client.client_id, time.monotonic())
+            self._lease_changed(robot, client.client_id, holder, "taken_over")
+        self._reply(client, ack_message(command.id))
 
     async def _dispatch(self, client: Client, command: Command) -> None:
         now = time.monotonic()
@@ -353,12 +436,14 @@ class Relay:
             self._reply(client, ack_message(command.id))
         elif isinstance(command, Stream):
             self._stream(client, command)
+        elif isinstance(command, Lease):
+            await self._lease(client, command)
 
     async def estop(self, robot: str | None, client_id: str | None) -> None:
         robots = [robot] if robot is not None else list(self._robots)
         for name in robots:
             self.deadman.release_robot(name)
-            self.fleet.set_teleop(name, None)
+            self.fleet.set_teleop(name, False)
         await asyncio.gather(*(self.backend.stop_robot(name) for name in robots))
         logger.warning("EMERGENCY STOP of %s by %s", ", ".join(robots), client_id)
         self.hub.broadcast_priority(encode(estop_message(robots, client_id)))
@@ -377,7 +462,7 @@ class Relay:
         if first:
             # Teleoperation overrides navigation.
             await self.backend.cancel(robot.name)
-            self.fleet.set_teleop(robot.name, client.client_id)
+            self.fleet.set_teleop(robot.name, True)
             self._publish_status(robot.name)
         await self.backend.send_velocity(robot.name, clamped.linear, clamped.angular)
         if command.id is not None:
@@ -389,14 +474,13 @@ class Relay:
         check_goal(command.robot, command.x, command.y, self.map_grid())
         if self.deadman.controller(command.robot) is not None:
             self.deadman.release_robot(command.robot)
-            self.fleet.set_teleop(command.robot, None)
+            self.fleet.set_teleop(command.robot, False)
             await self.backend.send_velocity(command.robot, 0.0, 0.0)
         try:
             await self.backend.send_goal(command.robot, command.x, command.y, command.yaw)
         except CommandRejected as exc:
             exc.request_id = command.id
             raise
-        self.fleet.set_controller(command.robot, client.client_id)
         self._publish_status(command.robot)
         self._reply(client, ack_message(command.id))
 
@@ -483,8 +567,6 @@ class Relay:
                 self.hub.publish_state(f"{event.robot}/sensor/{event.name}", encode(sensor))
         elif isinstance(event, NavEvent):
             self.fleet.on_nav(event)
-            if not event.navigating and self.deadman.controller(event.robot) is None:
-                self.fleet.set_controller(event.robot, None)
             self._publish_status(event.robot)
         elif isinstance(event, ScanEvent):
             scan = scan_message(
@@ -509,7 +591,7 @@ class Relay:
 
     async def _stop_robot(self, robot: str, reason: str) -> None:
         logger.info("stopping %s: %s", robot, reason)
-        self.fleet.set_teleop(robot, None)
+        self.fleet.set_teleop(robot, False)
         try:
             await self.backend.send_velocity(robot, 0.0, 0.0)
         finally:
@@ -526,6 +608,16 @@ class Relay:
                 except Exception:
                     # The ticker must outlive one failed stop, or no deadman would ever fire again.
                     logger.exception("deadman could not stop %s", robot)
+            busy = self.fleet.busy()
+            for robot in busy:
+                self.leases.keep_alive(robot, now)
+            for robot in self.leases.expired(now, busy):
+                holder = self.fleet.status(robot, now)["controller"]
+                try:
+                    await self._halt(robot, "lease expired")
+                except Exception:
+                    logger.exception("could not stop %s when its lease expired", robot)
+                self._lease_changed(robot, None, holder, "expired")
             for robot, was in self._was_online.items():
                 if was != self.fleet.online(robot, now):
                     self._publish_status(robot)

@@ -82,16 +82,21 @@ class FleetState:
         elif not event.navigating:
             record.goal = None
 
-    def set_teleop(self, robot: str, controller: str | None) -> None:
+    def set_teleop(self, robot: str, active: bool) -> None:
+        """An operator drives the robot with cmd_vel (which overrides navigation), or stopped doing so."""
         record = self._robots[robot]
-        record.teleop = controller is not None
-        record.controller = controller
-        if controller is not None:
+        record.teleop = active
+        if active:
             record.navigating = False
             record.goal = None
 
     def set_controller(self, robot: str, controller: str | None) -> None:
+        """The lease holder, reported as the status' ``controller``."""
         self._robots[robot].controller = controller
+
+    def busy(self) -> set[str]:
+        """Robots navigating or driven: their leases do not expire."""
+        return {name for name, r in self._robots.items() if r.teleop or r.navigating}
 
     def online(self, robot: str, now: float) -> bool:
         last = self._robots[robot].last_data

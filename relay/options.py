@@ -24,3 +24,15 @@ class Options:
     bag: BagOptions = field(default_factory=BagOptions)
     #: JSON-lines file of every command accepted or refused (relay/audit.py); None: no audit log.
     audit_log: str | None = None
+    #: Seconds without commands after which an idle robot's lease is released.
+    lease_timeout: float = 30.0
+    #: The operator token; None: no token needed (library use and tests; the command line always sets one).
+    token: str | None = None
+    allow_viewers: bool = False
+    #: Origins allowed besides the relay's own, e.g. ("https://ops.example.org",).
+    allowed_origins: tuple[str, ...] = ()
+    #: Certificate and key (PEM) to serve https/wss; None: plain http/ws.
+    tls_cert: str | None = None
+    tls_key: str | None = None
+    #: Messages per second a client may send (sustained; bursts of twice that pass); estop is never limited.
+    max_message_rate: float = 60.0

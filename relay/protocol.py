@@ -51,6 +51,8 @@ class ErrorCode:
     UNSUPPORTED: Final = "unsupported"  # e.g. a binary frame from a client (none is defined)
     INTERNAL: Final = "internal"  # the relay failed; the message says what to report
     RECORDING: Final = "recording"  # the robot is a recording (bag backend): it cannot be commanded
+    LEASED: Final = "leased"  # another operator controls the robot
+    RATE_LIMITED: Final = "rate_limited"  # the client sends faster than the relay accepts
 
     ALL: Final = (
         BAD_REQUEST,
@@ -64,18 +66,26 @@ class ErrorCode:
         UNSUPPORTED,
         INTERNAL,
         RECORDING,
+        LEASED,
+        RATE_LIMITED,
     )
 
 
 #: Robot-scoped kinds a client may send (``<robot>/<kind>``).
-CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stream")
+CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease")
 #: Global identifiers a client may send.
 CLIENT_GLOBAL_KINDS: Final = ("estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate")
 #: Playback speed factors a client may ask for (bag backend).
 MIN_PLAYBACK_RATE: Final = 0.05
 MAX_PLAYBACK_RATE: Final = 20.0
 #: Robot-scoped kinds the server sends.
-SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan")
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "lease")
+#: Deepest nesting of a client message (objects and arrays); v1 messages need 2.
+MAX_JSON_DEPTH: Final = 8
+#: Longest string anywhere in a client message.
+MAX_STRING_LENGTH: Final = 1024
+#: Largest coordinate of a goal when no map bounds it (m): beyond any facility, below float trouble.
+MAX_COORDINATE: Final = 1.0e6
 #: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
@@ -285,7 +295,17 @@ class Playback:
     value: float | None
 
 
-Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback
+@dataclass(frozen=True, slots=True)
+class Lease:
+    """Take (``acquire``, with ``force`` to take over from another operator) or give back a robot."""
+
+    robot: str
+    id: RequestId
+    action: Literal["acquire", "release"]
+    force: bool
+
+
+Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
 
 _MISSING: Final = object()
 
@@ -377,7 +397,29 @@ def decode_json(data: str | bytes) -> dict[str, Any]:
         raise ProtocolError(ErrorCode.BAD_REQUEST, f"frame is not valid JSON: {exc}") from None
     if not isinstance(obj, dict):
         raise ProtocolError(ErrorCode.BAD_REQUEST, f"frame must be a JSON object, got {type(obj).__name__}")
+    _check_shape(obj)
     return obj
+
+
+def _check_shape(obj: object) -> None:
+    """Bound nesting and string lengths, iteratively (a deep document must not recurse here either)."""
+    stack: list[tuple[object, int]] = [(obj, 1)]
+    while stack:
+        value, depth = stack.pop()
+        if isinstance(value, str):
+            if len(value) > MAX_STRING_LENGTH:
+                raise ProtocolError(
+                    ErrorCode.BAD_REQUEST, f"a string of {len(value)} characters exceeds {MAX_STRING_LENGTH}"
+                )
+            continue
+        if isinstance(value, dict | list):
+            if depth > MAX_JSON_DEPTH:
+                raise ProtocolError(ErrorCode.BAD_REQUEST, f"message nested deeper than {MAX_JSON_DEPTH} levels")
+            items = value.items() if isinstance(value, dict) else enumerate(value)
+            for key, item in items:
+                if isinstance(key, str) and len(key) > MAX_STRING_LENGTH:
+                    raise ProtocolError(ErrorCode.BAD_REQUEST, f"a key exceeds {MAX_STRING_LENGTH} characters")
+                stack.append((item, depth + 1))
 
 
 def parse_command(data: str | bytes, robots: Collection[str]) -> Command:
@@ -405,7 +447,14 @@ def command_identifier(command: Command) -> str:
         return "estop"
     if isinstance(command, Playback):
         return f"playback/{command.action}"
-    kind = {GoalPose: "goal_pose", CmdVel: "cmd_vel", Cancel: "cancel", Snapshot: "snapshot", Stream: "stream"}
+    kind = {
+        GoalPose: "goal_pose",
+        CmdVel: "cmd_vel",
+        Cancel: "cancel",
+        Snapshot: "snapshot",
+        Stream: "stream",
+        Lease: "lease",
+    }
     return f"{command.robot}/{kind[type(command)]}"
 
 
@@ -461,13 +510,24 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
     rid = _request_id(obj, required=True)
     assert rid is not None
     if kind == "goal_pose":
-        x = _number(obj, "x", identifier)
-        y = _number(obj, "y", identifier)
+        x = _number(obj, "x", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
+        y = _number(obj, "y", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
         assert x is not None and y is not None
         yaw = _number(obj, "yaw", identifier, required=False)
         return GoalPose(robot=robot, id=rid, x=x, y=y, yaw=yaw)
     if kind == "cancel":
         return Cancel(robot=robot, id=rid)
+    if kind == "lease":
+        action = obj.get("action", "acquire")
+        if action not in ("acquire", "release"):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST,
+                f"{identifier}: field 'action' must be 'acquire' or 'release', got {_show(action)}",
+            )
+        force = obj.get("force", False)
+        if not isinstance(force, bool):
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: field 'force' must be true or false")
+        return Lease(robot=robot, id=rid, action=action, force=force)
     if kind == "snapshot":
         return Snapshot(robot=robot, id=rid, camera=_string(obj, "camera", identifier, required=False))
     # kind == "stream"
@@ -596,6 +656,11 @@ def playback_message(*, position: float, duration: float, rate: float, paused: b
         "paused": paused,
         "loop": loop,
     }
+
+
+def lease_message(robot: str, *, holder: str | None, previous: str | None, reason: str) -> dict[str, Any]:
+    """Who controls ``robot`` now; sent to every client when that changes."""
+    return {"identifier": f"{robot}/lease", "holder": holder, "previous": previous, "reason": reason}
 
 
 def estop_message(robots: list[str], client_id: str | None) -> dict[str, Any]:

@@ -17,9 +17,11 @@ from pathlib import Path
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from . import __version__
+from .access import Access, Refused
 from .config import FleetConfig
 from .core import Client, Relay
 from .options import Options
+from .tls import fingerprint, server_context
 
 logger = logging.getLogger(__name__)
 
@@ -34,6 +36,7 @@ MAX_FRAME_BYTES = 1024 * 1024
 SHUTDOWN_TIMEOUT = 1.5
 
 RELAY_KEY = web.AppKey("relay", Relay)
+ACCESS_KEY = web.AppKey("access", Access)
 SOCKETS_KEY = web.AppKey("sockets", set[web.WebSocketResponse])
 
 
@@ -92,13 +95,22 @@ def static_handler(root: Path) -> Callable[[web.Request], Awaitable[web.StreamRe
     return handler
 
 
-async def websocket_handler(request: web.Request) -> web.WebSocketResponse:
+async def websocket_handler(request: web.Request) -> web.StreamResponse:
     relay = request.app[RELAY_KEY]
+    access = request.app[ACCESS_KEY]
+    address = request.remote or "unknown"
+    try:
+        access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
+        role = access.role(request.query.get("token"), address, time.monotonic())
+    except Refused as exc:
+        # Never log the query string: it carries the token.
+        logger.warning("refused a connection from %s: %s", address, exc.reason)
+        return web.Response(status=exc.status, text=exc.reason + "\n")
     # compress=False: per-message deflate would compress per client and defeat "encode once".
     ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
     await ws.prepare(request)
     request.app[SOCKETS_KEY].add(ws)
-    client: Client = relay.connect(AiohttpTransport(ws), address=request.remote)
+    client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address)
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
@@ -176,8 +188,10 @@ async def _close_sockets(app: web.Application) -> None:
 
 
 def create_app(config: FleetConfig, options: Options | None = None) -> web.Application:
+    options = options or Options()
     app = web.Application()
     app[RELAY_KEY] = Relay(config, options)
+    app[ACCESS_KEY] = Access(options.token, options.allow_viewers, options.allowed_origins)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)
     app.on_shutdown.append(_close_sockets)
@@ -193,16 +207,25 @@ async def serve(config: FleetConfig, options: Options) -> None:
     """Run until SIGINT or SIGTERM, then shut down cleanly."""
     host, port, backend = options.host, options.port, options.backend
     app = create_app(config, options)
+    # access_log=None: the access log would write query strings, and /ws?token=... carries the token.
     runner = web.AppRunner(app, shutdown_timeout=SHUTDOWN_TIMEOUT, access_log=None)
     await runner.setup()
-    site = web.TCPSite(runner, host, port)
+    ssl_context = None
+    if options.tls_cert and options.tls_key:
+        ssl_context = server_context(Path(options.tls_cert), Path(options.tls_key))
+    site = web.TCPSite(runner, host, port, ssl_context=ssl_context)
     try:
         await site.start()
         bound = runner.addresses[0] if runner.addresses else (host, port)
-        shown = f"[{bound[0]}]" if ":" in str(bound[0]) else bound[0]
-        url = f"http://{shown}:{bound[1]}/"
+        shown_host = "127.0.0.1" if bound[0] in ("0.0.0.0", "::") else bound[0]
+        shown = f"[{shown_host}]" if ":" in str(shown_host) else shown_host
+        scheme = "https" if ssl_context else "http"
+        url = f"{scheme}://{shown}:{bound[1]}/"
         logger.info("serving on %s", url)
-        print(f"xr-relay {__version__}: open {url}  (backend: {backend}; Ctrl-C to stop)", flush=True)  # noqa: T201
+        fragment = f"#token={options.token}" if options.token else ""
+        print(f"xr-relay {__version__}: open {url}{fragment}  (backend: {backend}; Ctrl-C to stop)", flush=True)  # noqa: T201
+        if ssl_context and options.tls_cert:
+            print(f"TLS certificate SHA-256 fingerprint: {fingerprint(Path(options.tls_cert))}", flush=True)  # noqa: T201
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):

@@ -14,9 +14,9 @@ from tests.wsclient import TestClient
 
 async def test_scripted_session_is_in_the_audit_log_after_sigkill(tmp_path: Path) -> None:
     log = tmp_path / "audit" / "relay.jsonl"
-    process, url = await start_process("--audit-log", str(log))
+    process, _, ws_url = await start_process("--audit-log", str(log))
     try:
-        client = await TestClient.open(url.replace("http", "ws") + "/ws")
+        client = await TestClient.open(ws_url)
         hello = await client.hello()
         script = [
             ({"identifier": "robot2/goal_pose", "x": 3.0, "y": 6.0, "yaw": 1.5}, "accepted", None),

@@ -18,7 +18,8 @@ from tests.conftest import ROOT, SlowCallbackCollector
 from tests.wsclient import TestClient
 
 
-async def start_process(*args: str) -> tuple[asyncio.subprocess.Process, str]:
+async def start_process(*args: str) -> tuple[asyncio.subprocess.Process, str, str]:
+    """The relay as a user starts it; returns the process, its base URL and the WebSocket URL with the token."""
     process = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
@@ -33,9 +34,10 @@ async def start_process(*args: str) -> tuple[asyncio.subprocess.Process, str]:
     )
     assert process.stdout is not None
     line = (await asyncio.wait_for(process.stdout.readline(), 30)).decode()
-    match = re.search(r"open (http://127\.0\.0\.1:\d+)/", line)
-    assert match, f"no URL in {line!r}"
-    return process, match.group(1)
+    match = re.search(r"open (http://127\.0\.0\.1:\d+)/#token=(\S+)", line)
+    assert match, f"no URL with a token in {line!r}"
+    base, token = match.group(1), match.group(2)
+    return process, base, base.replace("http", "ws") + f"/ws?token={token}"
 
 
 def test_help_documents_every_option() -> None:
@@ -47,12 +49,12 @@ def test_help_documents_every_option() -> None:
 
 
 async def test_relay_process_serves_and_stops_cleanly_on_ctrl_c() -> None:
-    process, url = await start_process()
+    process, url, ws_url = await start_process()
     try:
         async with aiohttp.ClientSession() as http, http.get(f"{url}/healthz") as response:
             health = await response.json()
         assert health["backend"] == "sim" and health["robots_online"] in (0, 1, 2, 3)
-        client = await TestClient.open(url.replace("http", "ws") + "/ws")
+        client = await TestClient.open(ws_url)
         hello = await client.hello()
         assert [r["name"] for r in hello["robots"]] == ["robot1", "robot2", "robot3"]
         for _ in range(5):

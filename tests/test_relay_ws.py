@@ -75,10 +75,13 @@ async def test_goal_is_reached_around_walls_and_yaw_applied(relay_server: Runnin
     status = await client.wait_for(lambda m: m["identifier"] == "robot2/status" and m["mode"] == "navigating")
     assert status["goal"] == {"x": 3.0, "y": 6.0, "yaw": math.pi}
     assert status["controller"] == (await client.hello())["client_id"]
+    navigating_at = next(i for i, (_, m) in enumerate(client.messages) if m is status)
     done = await client.wait_for(
-        lambda m: m["identifier"] == "robot2/status" and m["mode"] == "idle" and m["goal"] is None, timeout=60
+        lambda m: m["identifier"] == "robot2/status" and m["mode"] == "idle" and m["goal"] is None,
+        timeout=60,
+        start=navigating_at,
     )
-    assert done["controller"] is None
+    assert done["controller"] == status["controller"]  # the lease stays with the operator who sent the goal
     await asyncio.sleep(0.1)
     pose = client.pose("robot2")
     assert pose is not None
@@ -162,8 +165,9 @@ async def test_every_id_gets_exactly_one_reply(relay_server: RunningRelay) -> No
     ]
     for message in messages:
         await client.send(message)
-    await client.wait_for(lambda m: m.get("id") == "g" and m["identifier"] in ("ack", "error"))
-    await asyncio.sleep(0.3)
+    for rid in "abcdefg":
+        await client.wait_for(lambda m, r=rid: m.get("id") == r and m["identifier"] in ("ack", "error"), timeout=10)  # type: ignore[misc]
+    await asyncio.sleep(0.3)  # and no second reply to any of them
     replies = [m for _, m in client.messages if m["identifier"] in ("ack", "error")]
     assert sorted(m["id"] for m in replies) == ["a", "b", "c", "d", "e", "f", "g"]
     by_id = {m["id"]: m for m in replies}
@@ -306,6 +310,17 @@ async def test_shutdown_stops_robots_first_then_closes_with_going_away(fleet_con
 SPILL_RGB = (0.30, 0.90, 0.0)  # the spill's base colour in scenes/facility.glb (linear), shown as sRGB
 
 
+async def goal_done(client: TestClient, robot: str, start: int, timeout: float = 60) -> dict[str, Any]:
+    """The status that ends the navigation which started after message index ``start``."""
+    navigating = await client.wait_for(
+        lambda m: m["identifier"] == f"{robot}/status" and m["mode"] == "navigating", start=start
+    )
+    index = next(i for i, (_, m) in enumerate(client.messages) if m is navigating)
+    return await client.wait_for(
+        lambda m: m["identifier"] == f"{robot}/status" and m["mode"] == "idle", timeout=timeout, start=index
+    )
+
+
 def spill_pixels(jpeg: bytes) -> tuple[float, float]:
     """Fractions of (the whole image, its central third) that have the spill's yellow-green hue."""
     image = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
@@ -323,9 +338,9 @@ async def test_robot1_sees_the_spill_from_chemical_storage(relay_server: Running
     client = await client_of(relay_server)
     x, y = 2.8, 7.0
     yaw = math.atan2(8.2 - y, 1.8 - x)
+    start = len(client.messages)
     assert (await client.request({"identifier": "robot1/goal_pose", "x": x, "y": y, "yaw": yaw}))["identifier"] == "ack"
-    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["mode"] == "navigating")
-    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["mode"] == "idle", timeout=60)
+    await goal_done(client, "robot1", start)
     reply = await client.request({"identifier": "robot1/snapshot"}, timeout=10)
     assert reply["identifier"] == "ack"
     _, header, jpeg = client.frames[-1]
@@ -340,10 +355,7 @@ async def test_robot1_sees_the_spill_from_chemical_storage(relay_server: Running
     # Turned to face the east divider wall, the spill is out of sight.
     start = len(client.messages)
     await client.request({"identifier": "robot1/goal_pose", "x": x, "y": y, "yaw": 0.0})
-    await client.wait_for(lambda m: m["identifier"] == "robot1/status" and m["goal"] is not None, start=start)
-    await client.wait_for(
-        lambda m: m["identifier"] == "robot1/status" and m["mode"] == "idle", timeout=30, start=start
-    )
+    await goal_done(client, "robot1", start)
     assert abs((client.pose("robot1") or {"yaw": 9.0})["yaw"]) < 0.1
     assert (await client.request({"identifier": "robot1/snapshot"}, timeout=10))["identifier"] == "ack"
     assert spill_pixels(client.frames[-1][2])[1] == 0.0

@@ -36,10 +36,7 @@ class SimBackend(Backend):
 
     def __init__(self, config: FleetConfig, sink: EventSink) -> None:
         super().__init__(config, sink)
-        try:
-            self.world = SimWorld(config, self._on_nav)
-        except ValueError as exc:
-            raise BackendUnavailable(f"the simulated world cannot be loaded: {exc}") from None
+        self._world: SimWorld | None = None
         self._task: asyncio.Task[None] | None = None
         self.camera: SimCamera | None = None
         self._lenses: dict[tuple[str, str], LensModel] = {}
@@ -48,7 +45,18 @@ class SimBackend(Backend):
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
         self.sink(NavEvent(robot, navigating, goal, outcome, message))
 
+    @property
+    def world(self) -> SimWorld:
+        if self._world is None:
+            raise RuntimeError("the sim backend has not started")
+        return self._world
+
     async def start(self) -> None:
+        try:
+            # Parsing the scene file and preparing the planner take a while: not on the event loop.
+            self._world = await asyncio.to_thread(SimWorld, self.config, self._on_nav)
+        except ValueError as exc:
+            raise BackendUnavailable(f"the simulated world cannot be loaded: {exc}") from None
         glb = self.world.scene_glb
         cameras = [(r, c) for r in self.config.robots for c in r.cameras]
         if cameras and glb is None:
@@ -67,6 +75,8 @@ class SimBackend(Backend):
         for _, task in self._streams.values():
             task.cancel()
         self._streams.clear()
+        if self._world is None:
+            return
         for name in self.world.robots:
             await self.stop_robot(name)
         if self._task is not None:
@@ -74,8 +84,8 @@ class SimBackend(Backend):
             with contextlib.suppress(asyncio.CancelledError):
                 await self._task
 
-    def map_grid(self) -> OccupancyGrid:
-        return self.world.grid
+    def map_grid(self) -> OccupancyGrid | None:
+        return self._world.grid if self._world is not None else None
 
     # -- commands ---------------------------------------------------------------------------------
 

@@ -1,0 +1,291 @@
+"""Access and control: the operator token, viewers, the Origin check, failed-attempt limits, message rate
+caps, control leases, and TLS. Every refusal is checked on the backend side too: nothing reaches a robot."""
+
+from __future__ import annotations
+
+import asyncio
+import ssl
+import subprocess
+import sys
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+import pytest
+from websockets.exceptions import InvalidStatus
+
+from relay.backends.sim import SimBackend
+from relay.config import FleetConfig
+from relay.options import Options
+from relay.tls import ensure_certificate, fingerprint
+from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.wsclient import TestClient
+
+TOKEN = "s3cret-operator-token"
+
+
+class CommandSpy:
+    """Records every velocity, goal and stop the sim backend receives."""
+
+    def __init__(self, backend: SimBackend) -> None:
+        self.calls: list[tuple[float, str, tuple[Any, ...]]] = []
+        for name in ("send_velocity", "send_goal", "cancel"):
+            original = getattr(backend, name)
+
+            async def spy(*args: Any, _name: str = name, _original: Any = original) -> None:
+                self.calls.append((time.monotonic(), _name, args))
+                await _original(*args)
+
+            setattr(backend, name, spy)
+
+    def moving_commands(self) -> list[tuple[str, tuple[Any, ...]]]:
+        return [(n, a) for _, n, a in self.calls if n == "send_goal" or (n == "send_velocity" and a[1:] != (0.0, 0.0))]
+
+
+@pytest.fixture
+async def guarded(fleet_config: FleetConfig) -> AsyncIterator[RunningRelay]:
+    running = await start_relay(fleet_config, options=Options(token=TOKEN, allow_viewers=False))
+    try:
+        yield running
+    finally:
+        await running.runner.cleanup()
+
+
+async def refused_status(url: str, **kwargs: Any) -> int:
+    with pytest.raises(InvalidStatus) as info:
+        await TestClient.open(url, **kwargs)
+    return info.value.response.status_code
+
+
+async def test_token_is_required_and_checked(guarded: RunningRelay) -> None:
+    spy = CommandSpy(guarded.relay.backend)  # type: ignore[arg-type]
+    assert await refused_status(guarded.ws_url) == 401
+    assert await refused_status(guarded.ws_url + "?token=wrong") == 401
+    assert await refused_status(guarded.ws_url + "?token=" + TOKEN[:-1]) == 401
+    client = await TestClient.open(guarded.ws_url + "?token=" + TOKEN)
+    hello = await client.hello()
+    assert hello["role"] == "operator"
+    assert (await client.request({"identifier": "robot1/cmd_vel", "linear": 0.1, "angular": 0.0}))[
+        "identifier"
+    ] == "ack"
+    assert spy.moving_commands() == [("send_velocity", ("robot1", 0.1, 0.0))]
+    await client.close()
+
+
+async def test_foreign_origin_is_refused_even_with_the_token(fleet_config: FleetConfig) -> None:
+    running = await start_relay(
+        fleet_config, options=Options(token=TOKEN, allowed_origins=("https://ops.example.org",))
+    )
+    try:
+        url = running.ws_url + "?token=" + TOKEN
+        assert await refused_status(url, origin="http://evil.example.com") == 403  # type: ignore[arg-type]
+        own = running.url  # the relay's own page: http://127.0.0.1:PORT
+        for origin in (own, "https://ops.example.org"):
+            client = await TestClient.open(url, origin=origin)  # type: ignore[arg-type]
+            assert (await client.hello())["role"] == "operator"
+            await client.close()
+        # Without Origin (a command-line tool) the token decides, as for anyone.
+        assert await refused_status(running.ws_url) == 401
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_viewers_see_everything_and_command_nothing(fleet_config: FleetConfig) -> None:
+    running = await start_relay(fleet_config, options=Options(token=TOKEN, allow_viewers=True))
+    spy = CommandSpy(running.relay.backend)  # type: ignore[arg-type]
+    try:
+        viewer = await TestClient.open(running.ws_url)  # no token
+        assert (await viewer.hello())["role"] == "viewer"
+        await viewer.wait_for(lambda m: m["identifier"] == "robot1/pose")
+        commands: list[dict[str, Any]] = [
+            {"identifier": "robot1/goal_pose", "x": 3.0, "y": 6.0},
+            {"identifier": "robot1/cmd_vel", "linear": 0.5, "angular": 0.0},
+            {"identifier": "robot1/cancel"},
+            {"identifier": "robot1/lease", "action": "acquire", "force": True},
+            {"identifier": "estop"},
+        ]
+        for command in commands:
+            reply = await viewer.request(command)
+            assert reply["identifier"] == "error" and reply["code"] == "forbidden", reply
+        # A wrong token is no better than none.
+        wrong = await TestClient.open(running.ws_url + "?token=nope")
+        assert (await wrong.hello())["role"] == "viewer"
+        await asyncio.sleep(0.2)
+        assert spy.calls == []
+        await viewer.close()
+        await wrong.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_wrong_tokens_are_rate_limited_per_address(guarded: RunningRelay) -> None:
+    for _ in range(10):
+        assert await refused_status(guarded.ws_url + "?token=guess") == 401
+    # Now even the right token waits: the address is throttled for a while.
+    assert await refused_status(guarded.ws_url + "?token=" + TOKEN) == 429
+
+
+async def test_flood_is_rate_limited_but_estop_always_passes(fleet_config: FleetConfig) -> None:
+    running = await start_relay(fleet_config, options=Options(max_message_rate=20.0))
+    try:
+        client = await TestClient.open(running.ws_url)
+        await client.hello()
+        for i in range(200):
+            await client.send({"identifier": "robot1/cancel", "id": f"f{i}"})
+        await client.send({"identifier": "estop", "id": "stop"})
+        reply = await client.wait_for(lambda m: m.get("id") == "stop", timeout=10)
+        assert reply["identifier"] == "ack"
+        await client.wait_for(lambda m: m.get("id") == "f199", timeout=10)
+        codes = [m.get("code") for _, m in client.messages if m["identifier"] == "error"]
+        assert codes.count("rate_limited") >= 150  # a burst of 40 passes, the rest is dropped
+        assert set(codes) == {"rate_limited"}
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_deep_or_huge_json_is_refused(relay_server: RunningRelay) -> None:
+    client = await TestClient.open(relay_server.ws_url)
+    await client.hello()
+    deep = '{"identifier": "ping", "t": 1, "x": ' + "[" * 20 + "]" * 20 + "}"
+    long_string = '{"identifier": "ping", "t": 1, "x": "' + "y" * 5000 + '"}'
+    for frame in (deep, long_string):
+        start = len(client.messages)
+        await client.send_raw(frame)
+        error = await client.wait_for(lambda m: m["identifier"] == "error", start=start)
+        assert error["code"] == "bad_request"
+    await client.close()
+
+
+async def test_two_operators_race_for_one_robot(relay_server: RunningRelay) -> None:
+    a = await TestClient.open(relay_server.ws_url)
+    b = await TestClient.open(relay_server.ws_url)
+    a_id, b_id = (await a.hello())["client_id"], (await b.hello())["client_id"]
+    replies = await asyncio.gather(
+        a.request({"identifier": "robot3/goal_pose", "x": 15.0, "y": 6.0}),
+        b.request({"identifier": "robot3/goal_pose", "x": 15.0, "y": 5.0}),
+    )
+    outcomes = sorted(r["identifier"] for r in replies)
+    assert outcomes == ["ack", "error"]
+    winner, loser = (a_id, b_id) if replies[0]["identifier"] == "ack" else (b_id, a_id)
+    refused = next(r for r in replies if r["identifier"] == "error")
+    assert refused["code"] == "leased" and winner in refused["message"]
+    status = await a.wait_for(lambda m: m["identifier"] == "robot3/status" and m["controller"] is not None)
+    assert status["controller"] == winner
+    # The loser cannot drive it either, and nothing of theirs reached it.
+    loser_client = b if loser == b_id else a
+    reply = await loser_client.request({"identifier": "robot3/cmd_vel", "linear": 0.3, "angular": 0.0})
+    assert reply["code"] == "leased"
+    await a.close()
+    await b.close()
+
+
+async def test_forced_takeover_stops_the_robot_first(relay_server: RunningRelay) -> None:
+    spy = CommandSpy(relay_server.relay.backend)  # type: ignore[arg-type]
+    a = await TestClient.open(relay_server.ws_url)
+    b = await TestClient.open(relay_server.ws_url)
+    a_id, b_id = (await a.hello())["client_id"], (await b.hello())["client_id"]
+    for _ in range(6):
+        await a.send({"identifier": "robot1/cmd_vel", "linear": 0.5, "angular": 0.0})
+        await asyncio.sleep(0.05)
+    assert (await b.request({"identifier": "robot1/lease"}))["code"] == "leased"
+    taken_at = time.monotonic()
+    assert (await b.request({"identifier": "robot1/lease", "force": True}))["identifier"] == "ack"
+    notice = await a.wait_for(lambda m: m["identifier"] == "robot1/lease" and m["reason"] == "taken_over")
+    assert (notice["holder"], notice["previous"]) == (b_id, a_id)
+    # The robot got a zero velocity (and its goal cancelled) as the lease changed hands.
+    stops = [(t, n, args) for t, n, args in spy.calls if t >= taken_at]
+    assert ("send_velocity", ("robot1", 0.0, 0.0)) in [(n, args) for _, n, args in stops]
+    # The previous holder is now refused; the new one drives.
+    assert (await a.request({"identifier": "robot1/cmd_vel", "linear": 0.5, "angular": 0.0}))["code"] == "leased"
+    reply = await b.request({"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.0})
+    assert reply["identifier"] == "ack"
+    await b.wait_for(
+        lambda m: m["identifier"] == "robot1/status" and m["controller"] == b_id and m["mode"] == "teleop"
+    )
+    # Release: the robot stops and anyone may take it.
+    assert (await b.request({"identifier": "robot1/lease", "action": "release"}))["identifier"] == "ack"
+    assert (await a.request({"identifier": "robot1/cancel"}))["identifier"] == "ack"
+    await a.close()
+    await b.close()
+
+
+async def test_idle_lease_expires(fleet_config: FleetConfig) -> None:
+    running = await start_relay(fleet_config, options=Options(lease_timeout=0.5))
+    try:
+        a = await TestClient.open(running.ws_url)
+        b = await TestClient.open(running.ws_url)
+        await a.hello()
+        await b.hello()
+        assert (await a.request({"identifier": "robot2/cancel"}))["identifier"] == "ack"
+        assert (await b.request({"identifier": "robot2/cancel"}))["code"] == "leased"
+        await b.wait_for(lambda m: m["identifier"] == "robot2/lease" and m["reason"] == "expired", timeout=5)
+        assert (await b.request({"identifier": "robot2/cancel"}))["identifier"] == "ack"
+        await a.close()
+        await b.close()
+    finally:
+        await running.runner.cleanup()
+
+
+def test_self_signed_certificate_is_created_once_and_reused(tmp_path: Path) -> None:
+    cert, key = ensure_certificate(tmp_path, ("relay.lan",))
+    first = fingerprint(cert)
+    again, _ = ensure_certificate(tmp_path, ("relay.lan",))
+    assert fingerprint(again) == first  # reused: a headset that accepted it keeps accepting it
+    assert key.stat().st_mode & 0o077 == 0
+    _, _ = ensure_certificate(tmp_path, ("other.lan",))
+    assert fingerprint(cert) != first  # a name it does not cover: renewed
+
+
+async def test_relay_serves_https_and_wss_with_tls_auto(tmp_path: Path) -> None:
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "relay", "--tls", "auto", "--tls-dir", str(tmp_path), "--port", "0",
+        "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    try:
+        assert process.stdout is not None
+        line = (await asyncio.wait_for(process.stdout.readline(), 30)).decode()
+        assert "open https://127.0.0.1:" in line and "#token=" in line
+        base, token = line.split("open ")[1].split()[0].rstrip("/").split("/#token=")
+        printed = (await asyncio.wait_for(process.stdout.readline(), 10)).decode()
+        assert fingerprint(tmp_path / "xr-relay-cert.pem") in printed
+        context = ssl.create_default_context(cafile=str(tmp_path / "xr-relay-cert.pem"))
+        async with aiohttp.ClientSession() as http, http.get(f"{base}/healthz", ssl=context) as response:
+            assert (await response.json())["backend"] == "sim"
+        client = await TestClient.open(base.replace("https", "wss") + f"/ws?token={token}", ssl=context)
+        assert (await client.hello())["role"] == "operator"
+        await client.close()
+    finally:
+        process.terminate()
+        await process.wait()
+
+
+def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
+    """The relay logs refusals and connections without the query string that carries the token."""
+    script = (
+        "import asyncio, sys\n"
+        "from relay.cli import main\n"
+        "sys.exit(main(['--port', '0', '--token', 'tok-SECRET-123', '--log-level', 'debug', '--audit-log', '']))\n"
+    )
+    process = subprocess.Popen(
+        [sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()
+        base = line.split("open ")[1].split("/#")[0]
+        import websockets.sync.client as sync_client
+
+        for token in ("tok-SECRET-123", "wrong-SECRET-guess"):
+            try:
+                with sync_client.connect(base.replace("http", "ws") + f"/ws?token={token}") as ws:
+                    ws.recv(timeout=5)
+            except Exception:  # noqa: BLE001, S110 - the wrong token is refused; only the log matters here
+                pass
+    finally:
+        process.terminate()
+        _, err = process.communicate(timeout=10)
+    assert "connected as operator" in err and "refused a connection" in err
+    assert "SECRET" not in err
