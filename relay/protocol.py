@@ -86,6 +86,8 @@ MAX_JSON_DEPTH: Final = 8
 MAX_STRING_LENGTH: Final = 1024
 #: Largest coordinate of a goal when no map bounds it (m): beyond any facility, below float trouble.
 MAX_COORDINATE: Final = 1.0e6
+#: Largest goal yaw (rad) accepted; yaws wrap, so this only catches nonsense.
+MAX_YAW: Final = 100.0
 #: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
@@ -513,7 +515,8 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         x = _number(obj, "x", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
         y = _number(obj, "y", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
         assert x is not None and y is not None
-        yaw = _number(obj, "yaw", identifier, required=False)
+        # Any finite yaw means something (it wraps), but not astronomically large ones: they are mistakes.
+        yaw = _number(obj, "yaw", identifier, required=False, low=-MAX_YAW, high=MAX_YAW)
         return GoalPose(robot=robot, id=rid, x=x, y=y, yaw=yaw)
     if kind == "cancel":
         return Cancel(robot=robot, id=rid)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import signal
+import socket
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
@@ -32,6 +33,10 @@ SCENES_DIR = ROOT / "scenes"
 #: aiohttp refuses larger frames outright (close 1009); smaller ones over protocol.MAX_TEXT_BYTES get an
 #: ``error`` ``too_large`` and the connection stays open.
 MAX_FRAME_BYTES = 1024 * 1024
+#: Kernel send buffer per WebSocket. Linux autotunes it up to 4 MB, which a client that stops reading would
+#: fill before the hub's lanes even notice; 256 kB (the kernel doubles it) still carries a 30 fps camera
+#: stream over a LAN round trip of tens of milliseconds.
+SOCKET_SEND_BUFFER = 256 * 1024
 #: Shutdown budget: Ctrl-C must leave within 2 s, robots stopped and sockets closed.
 SHUTDOWN_TIMEOUT = 1.5
 
@@ -108,6 +113,9 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
         return web.Response(status=exc.status, text=exc.reason + "\n")
     # compress=False: per-message deflate would compress per client and defeat "encode once".
     ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
+    sock = request.transport.get_extra_info("socket") if request.transport is not None else None
+    if sock is not None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_SEND_BUFFER)
     await ws.prepare(request)
     request.app[SOCKETS_KEY].add(ws)
     client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import logging
 import re
+import threading
+import time
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +32,33 @@ BLOCKING_THRESHOLD = 0.25
 _SLOW = re.compile(r"^Executing .* took (\d+\.\d+) seconds$", re.S)
 
 
+class Canary(threading.Thread):
+    """Wakes every 10 ms and notes how late it woke: the measure of the whole process being starved.
+
+    A callback that blocks the loop with a sleep or blocking I/O releases the GIL, and one that computes in
+    Python gives it up every 5 ms: either way the canary keeps waking on time. When the canary is late too,
+    the machine (or another thread holding the GIL in C code) starved the whole process, and a long callback
+    in that window says nothing about the relay.
+    """
+
+    def __init__(self) -> None:
+        super().__init__(name="loop-block-canary", daemon=True)
+        self.late: list[tuple[float, float]] = []  # (wake time, lateness) for wake-ups over 50 ms late
+        self.running = True
+
+    def run(self) -> None:
+        while self.running:
+            before = time.monotonic()
+            time.sleep(0.01)
+            lateness = time.monotonic() - before - 0.01
+            if lateness > 0.05:
+                self.late.append((time.monotonic(), lateness))
+
+    def starved(self, start: float, end: float) -> float:
+        """The longest lateness the canary saw between ``start`` and ``end`` (monotonic seconds)."""
+        return max((late for at, late in self.late if start <= at <= end + 0.05), default=0.0)
+
+
 class SlowCallbackCollector(logging.Handler):
     """Collects asyncio debug-mode reports of callbacks that held the event loop."""
 
@@ -37,12 +66,18 @@ class SlowCallbackCollector(logging.Handler):
         super().__init__(logging.WARNING)
         self.threshold = threshold
         self.reports: list[str] = []
+        self.slow: list[tuple[float, float, str]] = []  # (end, duration, report)
 
     def emit(self, record: logging.LogRecord) -> None:
         text = record.getMessage()
         match = _SLOW.match(text)
         if match and float(match.group(1)) >= self.threshold:
             self.reports.append(text)
+            self.slow.append((time.monotonic(), float(match.group(1)), text))
+
+    def blocking(self, canary: Canary) -> list[str]:
+        """Reports not explained by the process being starved while they ran."""
+        return [text for end, took, text in self.slow if canary.starved(end - took, end) < took / 2]
 
 
 @pytest.fixture
@@ -64,9 +99,13 @@ async def _fail_on_blocking(
     loop = asyncio.get_running_loop()
     loop.set_debug(True)
     loop.slow_callback_duration = BLOCKING_THRESHOLD
+    canary = Canary()
+    canary.start()
     yield
-    if loop_block_collector.reports and "allow_blocking" not in request.keywords:
-        pytest.fail("the event loop was blocked:\n" + "\n".join(loop_block_collector.reports[:5]))
+    canary.running = False
+    blocking = loop_block_collector.blocking(canary)
+    if blocking and "allow_blocking" not in request.keywords:
+        pytest.fail("the event loop was blocked:\n" + "\n".join(blocking[:5]))
 
 
 @pytest.fixture

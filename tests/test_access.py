@@ -80,10 +80,10 @@ async def test_foreign_origin_is_refused_even_with_the_token(fleet_config: Fleet
     )
     try:
         url = running.ws_url + "?token=" + TOKEN
-        assert await refused_status(url, origin="http://evil.example.com") == 403  # type: ignore[arg-type]
+        assert await refused_status(url, origin="http://evil.example.com") == 403
         own = running.url  # the relay's own page: http://127.0.0.1:PORT
         for origin in (own, "https://ops.example.org"):
-            client = await TestClient.open(url, origin=origin)  # type: ignore[arg-type]
+            client = await TestClient.open(url, origin=origin)
             assert (await client.hello())["role"] == "operator"
             await client.close()
         # Without Origin (a command-line tool) the token decides, as for anyone.
@@ -202,9 +202,7 @@ async def test_forced_takeover_stops_the_robot_first(relay_server: RunningRelay)
     assert (await a.request({"identifier": "robot1/cmd_vel", "linear": 0.5, "angular": 0.0}))["code"] == "leased"
     reply = await b.request({"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.0})
     assert reply["identifier"] == "ack"
-    await b.wait_for(
-        lambda m: m["identifier"] == "robot1/status" and m["controller"] == b_id and m["mode"] == "teleop"
-    )
+    await b.wait_for(lambda m: m["identifier"] == "robot1/status" and m["controller"] == b_id and m["mode"] == "teleop")
     # Release: the robot stops and anyone may take it.
     assert (await b.request({"identifier": "robot1/lease", "action": "release"}))["identifier"] == "ack"
     assert (await a.request({"identifier": "robot1/cancel"}))["identifier"] == "ack"
@@ -282,7 +280,7 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
             try:
                 with sync_client.connect(base.replace("http", "ws") + f"/ws?token={token}") as ws:
                     ws.recv(timeout=5)
-            except Exception:  # noqa: BLE001, S110 - the wrong token is refused; only the log matters here
+            except Exception:
                 pass
     finally:
         process.terminate()

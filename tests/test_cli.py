@@ -14,7 +14,7 @@ import time
 import aiohttp
 import pytest
 
-from tests.conftest import ROOT, SlowCallbackCollector
+from tests.conftest import ROOT, Canary, SlowCallbackCollector
 from tests.wsclient import TestClient
 
 
@@ -89,13 +89,24 @@ def test_busy_port_exits_with_status_2() -> None:
 
 
 @pytest.mark.allow_blocking
+@pytest.mark.parametrize("how", ["sleep", "compute"])
 async def test_the_loop_blocking_check_catches_a_blocking_call(
-    loop_block_collector: SlowCallbackCollector,
+    loop_block_collector: SlowCallbackCollector, how: str
 ) -> None:
-    """The autouse check is real: a synchronous sleep on the loop is reported."""
-    time.sleep(0.3)  # noqa: ASYNC251 - blocking on purpose
-    await asyncio.sleep(0)
-    assert loop_block_collector.reports and "took" in loop_block_collector.reports[0]
+    """The autouse check is real: a synchronous sleep or a long computation on the loop is reported."""
+    canary = Canary()
+    canary.start()
+    await asyncio.sleep(0.05)
+    if how == "sleep":
+        time.sleep(0.3)  # noqa: ASYNC251 - blocking on purpose
+    else:
+        end = time.monotonic() + 0.3
+        while time.monotonic() < end:
+            sum(range(1000))
+    await asyncio.sleep(0.05)
+    canary.running = False
+    blocking = loop_block_collector.blocking(canary)
+    assert blocking and "took" in blocking[0]
 
 
 def test_generated_protocol_constants_are_current() -> None:

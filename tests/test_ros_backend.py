@@ -12,6 +12,7 @@ import json
 import math
 import os
 import random
+import signal
 import sys
 import time
 from collections.abc import AsyncIterator
@@ -29,6 +30,13 @@ from tests.wsclient import TestClient
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
 
 pytestmark = pytest.mark.ros
+
+# Imported here rather than by the relay's start-up thread inside a test: importing holds the GIL for
+# long stretches, which the loop-blocking check would charge to the test.
+import geometry_msgs.msg  # noqa: E402, F401
+import nav_msgs.msg  # noqa: E402, F401
+import sensor_msgs.msg  # noqa: E402, F401
+import std_msgs.msg  # noqa: E402, F401
 
 FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4" / "front.jpg"
 _DOMAINS = itertools.count(random.randint(20, 120))
@@ -315,3 +323,34 @@ def test_demo_config_passes_the_ros_startup_checks() -> None:
     from relay.backends.ros import RosBackend
 
     RosBackend._check_messages(load_config(ROOT / "robots.yaml"))
+
+
+async def test_relay_terminated_during_teleop_stops_the_robot_before_exiting(ros_domain: int, tmp_path: Path) -> None:
+    config = tmp_path / "fleet.yaml"
+    config.write_text(FLEET)
+    peer = await start_peer(POSES, tmp_path)
+    relay = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0",
+        "--token", "t", "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE, env=dict(os.environ),
+    )  # fmt: skip
+    try:
+        assert relay.stdout is not None
+        line = (await asyncio.wait_for(relay.stdout.readline(), 60)).decode()
+        base = line.split("open ")[1].split("/#")[0]
+        client = await TestClient.open(base.replace("http", "ws") + "/ws?token=t")
+        await client.hello()
+        await drive_until_echoed(client, peer)
+        relay.send_signal(signal.SIGTERM)
+        assert await asyncio.wait_for(relay.wait(), 10) == 0
+        exited = time.monotonic()
+        await asyncio.sleep(0.5)  # let the peer print what it received before the exit
+        zeros = [line for line in peer.lines if line.get("topic") == "/alpha/cmd_vel" and line["linear"] == 0.0]
+        assert zeros and zeros[0]["t"] <= exited, "no zero Twist reached the robot before the relay exited"
+        await asyncio.wait_for(client._reader, 5)
+        assert client.closed_code == 1001
+    finally:
+        if relay.returncode is None:
+            relay.kill()
+            await relay.wait()
+        await peer.stop()
