@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import importlib
 import os
 import re
 import signal
@@ -111,6 +112,5 @@ async def test_the_loop_blocking_check_catches_a_blocking_call(
 
 def test_generated_protocol_constants_are_current() -> None:
     sys.path.insert(0, str(ROOT / "tools"))
-    import gen_protocol_js
-
+    gen_protocol_js = importlib.import_module("gen_protocol_js")
     assert (ROOT / "xr_client/src/protocol_constants.js").read_text() == gen_protocol_js.render()
