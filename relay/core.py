@@ -54,6 +54,7 @@ from .protocol import (
     Snapshot,
     Stream,
     ack_message,
+    backend_message,
     command_identifier,
     encode,
     encode_frame,
@@ -73,6 +74,8 @@ logger = logging.getLogger(__name__)
 DEADMAN_PERIOD = 0.05
 #: How often every robot's status (its data age) is sent even when nothing else changed.
 STATUS_PERIOD = 1.0
+#: How often a failed backend is asked to recover.
+RECOVERY_PERIOD = 3.0
 
 
 @dataclass
@@ -143,6 +146,8 @@ class Relay:
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
         self._playback: dict[str, object] | None = None  # the latest `playback` message (bag backend)
+        self._reported_failure: str | None = None
+        self._next_recovery = 0.0
         self._was_online: dict[str, bool] = {name: False for name in self._robots}
 
     # -- lifecycle --------------------------------------------------------------------------------
@@ -246,6 +251,7 @@ class Relay:
             "robots": [describe_robot(r) for r in self.config.robots],
             "state": self.fleet.snapshot(now),
             "playback": self._playback,
+            "backend": backend_message(self.backend.name, self.backend.failure),
         }
 
     # -- client frames ----------------------------------------------------------------------------
@@ -597,6 +603,21 @@ class Relay:
         finally:
             self._publish_status(robot)
 
+    async def _watch_backend(self, now: float) -> None:
+        """Report a backend failure (and its end) to every client, and keep trying to recover."""
+        failure = self.backend.failure
+        if failure != self._reported_failure:
+            self._reported_failure = failure
+            if failure:
+                logger.error("backend %s failed: %s", self.backend.name, failure)
+            self.hub.broadcast_priority(encode(backend_message(self.backend.name, failure)))
+        if failure and now >= self._next_recovery:
+            self._next_recovery = now + RECOVERY_PERIOD
+            try:
+                await self.backend.recover()
+            except Exception:
+                logger.exception("backend %s could not recover; retrying in %.0f s", self.backend.name, RECOVERY_PERIOD)
+
     async def _tick(self) -> None:
         next_status = 0.0
         while True:
@@ -625,3 +646,4 @@ class Relay:
                 next_status = now + STATUS_PERIOD
                 for robot in self._robots:
                     self._publish_status(robot)
+                await self._watch_backend(now)

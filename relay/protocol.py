@@ -92,7 +92,7 @@ MAX_YAW: Final = 100.0
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
-SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop", "scene", "playback")
+SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop", "scene", "playback", "backend")
 
 Role = Literal["operator", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
@@ -221,6 +221,7 @@ class HelloMessage(TypedDict):
     robots: list[RobotDescription]
     state: dict[str, RobotState]
     playback: dict[str, Any] | None
+    backend: dict[str, Any]
 
 
 class FrameHeader(TypedDict):
@@ -642,6 +643,11 @@ def error_message(request_id: RequestId | None, code: str, message: str) -> dict
 
 def pong_message(t: float, server_time: float) -> dict[str, Any]:
     return {"identifier": "pong", "t": t, "server_time": round(server_time, 6)}
+
+
+def backend_message(name: str, failure: str | None) -> dict[str, Any]:
+    """Whether the backend works; sent to every client when that changes (and in ``hello``)."""
+    return {"identifier": "backend", "name": name, "ok": failure is None, "message": failure}
 
 
 def scene_message(url: str | None, map_to_scene: Transform2D) -> dict[str, Any]:

@@ -141,15 +141,18 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
 async def healthz(request: web.Request) -> web.Response:
     relay = request.app[RELAY_KEY]
     now = time.monotonic()
+    failure = relay.backend.failure
     return web.json_response(
         {
-            "status": "ok",
+            "status": "degraded" if failure else "ok",
             "version": __version__,
             "backend": relay.backend.name,
+            "backend_error": failure,
             "robots": {r: relay.fleet.online(r, now) for r in relay.config.names},
             "robots_online": relay.fleet.robots_online(now),
             "clients": relay.clients,
             "uptime": round(relay.uptime(), 3),
+            **relay.backend.health(),  # e.g. the bag backend's playback position and duration
         }
     )
 

@@ -19,6 +19,7 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
+import aiohttp
 import cv2
 import numpy as np
 import pytest
@@ -353,4 +354,27 @@ async def test_relay_terminated_during_teleop_stops_the_robot_before_exiting(ros
         if relay.returncode is None:
             relay.kill()
             await relay.wait()
+        await peer.stop()
+
+
+async def test_a_dead_executor_is_reported_and_rebuilt(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
+        backend = ros_relay.relay.backend
+        # The executor dies under the relay (as when rclpy fails inside it): spin() returns.
+        await asyncio.to_thread(backend._executor.shutdown, 1.0)  # type: ignore[attr-defined]
+        down = await client.wait_for(lambda m: m["identifier"] == "backend" and not m["ok"], timeout=10)
+        assert "executor stopped" in down["message"]
+        async with aiohttp.ClientSession() as http, http.get(f"{ros_relay.url}/healthz") as response:
+            health = await response.json()
+        assert health["status"] in ("degraded", "ok")  # it may already have recovered
+        up = await client.wait_for(lambda m: m["identifier"] == "backend" and m["ok"], timeout=20)
+        assert up["message"] is None
+        start = len(client.messages)
+        pose = await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20, start=start)
+        assert pose["x"] == 1.25  # poses flow again through the re-created node
+    finally:
+        await client.close()
         await peer.stop()

@@ -25,6 +25,8 @@ class Backend(abc.ABC):
     def __init__(self, config: FleetConfig, sink: EventSink) -> None:
         self.config = config
         self.sink = sink
+        #: Why the backend is not working right now (None: it is); the relay reports it and calls ``recover``.
+        self.failure: str | None = None
 
     @abc.abstractmethod
     async def start(self) -> None: ...
@@ -67,6 +69,9 @@ class Backend(abc.ABC):
     def map_grid(self) -> OccupancyGrid | None:
         """The occupancy grid goals are checked against, when this backend knows one."""
         return None
+
+    async def recover(self) -> None:  # noqa: B027 - optional hook: most backends have nothing to rebuild
+        """Re-create what a failure took away; called by the relay while ``failure`` is set."""
 
     def health(self) -> dict[str, object]:
         """Extra fields for ``/healthz`` (JSON-serialisable, cheap: called on the loop); none by default."""

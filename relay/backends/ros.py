@@ -217,8 +217,34 @@ class RosBackend(Backend):
         try:
             self._executor.spin()
         except Exception as exc:  # the context was shut down under it, or rclpy failed
-            if self._context is not None and self._context.ok():
+            if self._node is not None:
                 logger.exception("ROS executor stopped: %s", exc)
+                self.failure = f"the ROS executor stopped: {exc}"
+            return
+        if self._node is not None:
+            # spin() returned although nobody stopped us: the executor was shut down under the relay.
+            self.failure = "the ROS executor stopped"
+
+    async def recover(self) -> None:
+        """Re-create the node, its subscriptions and publishers, and the executor thread."""
+        old_executor, old_node, old_context = self._executor, self._node, self._context
+
+        def rebuild() -> None:
+            with contextlib.suppress(Exception):  # the old node is already half gone: best effort
+                old_executor.shutdown(timeout_sec=1.0)
+                old_node.destroy_node()
+                if old_context.ok():
+                    self._rclpy.shutdown(context=old_context)
+            for state in self._cameras.values():
+                state.subscription = None
+            self._start_node()
+
+        await asyncio.to_thread(rebuild)
+        for (robot, camera), state in self._cameras.items():
+            if state.fps > 0:
+                self._subscribe_camera(robot, camera)
+        self.failure = None
+        logger.warning("ros backend recovered: node and subscriptions re-created")
 
     async def stop(self) -> None:
         if self._node is None:
