@@ -376,3 +376,21 @@ async def test_camera_stream_starts_and_stops(relay_server: RunningRelay) -> Non
     await asyncio.sleep(1.0)
     assert len(client.frames) == count
     await client.close()
+
+
+async def test_goal_is_abandoned_when_its_operator_disconnects(relay_server: RunningRelay) -> None:
+    observer = await client_of(relay_server)
+    operator = await client_of(relay_server)
+    start = len(observer.messages)
+    assert (await operator.request({"identifier": "robot3/goal_pose", "x": 15.0, "y": 6.5}))["identifier"] == "ack"
+    await observer.wait_for(lambda m: m["identifier"] == "robot3/status" and m["mode"] == "navigating", start=start)
+    await asyncio.sleep(1.0)
+    gone_at = time.monotonic()
+    operator.ws.transport.abort()
+    notice = await observer.wait_for(lambda m: m["identifier"] == "robot3/lease" and m["reason"] == "disconnected")
+    assert notice["holder"] is None
+    stop = await stopped_at(observer, "robot3", gone_at)
+    assert stop - gone_at <= 0.6
+    status = observer.latest["robot3/status"]
+    assert status["goal"] is None and status["controller"] is None
+    await observer.close()
