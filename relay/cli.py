@@ -26,7 +26,9 @@ def build_parser() -> argparse.ArgumentParser:
             "WebXR operator station relay: bridges a ROS 2 robot fleet (or the built-in simulated fleet) to "
             "browsers and headsets over one WebSocket, and serves the WebXR client on the same port."
         ),
-        epilog="Open the printed URL in a browser. Protocol: docs/protocol.md; configuration: docs/configuration.md.",
+        epilog="Open the printed URL in a browser. `xr-relay record --out DIR` records the fleet's topics from a "
+        "live ROS 2 graph (see `xr-relay record --help`). Protocol: docs/protocol.md; configuration: "
+        "docs/configuration.md; security: docs/security.md.",
     )
     parser.add_argument(
         "--config",
@@ -131,6 +133,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "record":
+        # `xr-relay record --out DIR`: record the fleet's topics from a live ROS graph (relay/record.py).
+        from .record import main as record_main
+
+        return record_main(argv[1:])
     args = build_parser().parse_args(argv)
     logging.basicConfig(
         level=getattr(logging, args.log_level.upper()),

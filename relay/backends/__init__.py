@@ -25,5 +25,7 @@ def create_backend(config: FleetConfig, sink: EventSink, options: Options) -> Ba
 
         return RosBackend(config, sink)
     if name == "bag":
-        raise BackendUnavailable(f"the {name!r} backend is not part of this release yet; use --backend sim")
+        from .bag import BagBackend
+
+        return BagBackend(config, sink, options.bag)
     raise BackendUnavailable(f"unknown backend {name!r}; expected one of {', '.join(BACKENDS)}")
