@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
+import hashlib
 import itertools
 import logging
 import secrets
@@ -53,6 +54,7 @@ from .protocol import (
     Role,
     Snapshot,
     Stream,
+    Transform2D,
     ack_message,
     backend_message,
     command_identifier,
@@ -65,8 +67,10 @@ from .protocol import (
     playback_message,
     pong_message,
     scan_message,
+    scene_message,
 )
 from .safety import Deadman, check_goal, clamp_velocity
+from .twin.map_twin import grid_to_glb
 
 logger = logging.getLogger(__name__)
 
@@ -74,6 +78,8 @@ logger = logging.getLogger(__name__)
 DEADMAN_PERIOD = 0.05
 #: How often every robot's status (its data age) is sent even when nothing else changed.
 STATUS_PERIOD = 1.0
+#: Where twins built from live maps are served.
+GENERATED_SCENES = "/scenes/generated"
 #: How often a failed backend is asked to recover.
 RECOVERY_PERIOD = 3.0
 
@@ -147,6 +153,11 @@ class Relay:
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
         self._playback: dict[str, object] | None = None  # the latest `playback` message (bag backend)
         self._reported_failure: str | None = None
+        #: The twin clients load: robots.yaml's, or one built from a live map (served from `generated`).
+        self.scene_url: str | None = config.scene.url
+        self.generated: dict[str, bytes] = {}
+        self._pending_map: MapEvent | None = None
+        self._twin_task: asyncio.Task[None] | None = None
         self._next_recovery = 0.0
         self._was_online: dict[str, bool] = {name: False for name in self._robots}
 
@@ -163,6 +174,8 @@ class Relay:
     async def stop(self) -> None:
         """Stop every robot first, then the ticker, the client writers and the backend."""
         await self.stop_all_robots("shutdown")
+        if self._twin_task is not None:
+            self._twin_task.cancel()
         if self._ticker is not None:
             self._ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -229,7 +242,6 @@ class Relay:
             self._update_stream_demand(identifier)
 
     def hello(self, client: Client) -> HelloMessage:
-        scene = self.config.scene
         grid = self.map_grid()
         now = time.monotonic()
         return {
@@ -238,15 +250,7 @@ class Relay:
             "server": {"name": SERVER_NAME, "version": __version__},
             "client_id": client.client_id,
             "role": client.role,
-            "scene": {
-                "url": scene.url,
-                "map_to_scene": {
-                    "x": scene.map_to_scene.x,
-                    "y": scene.map_to_scene.y,
-                    "z": scene.map_to_scene.z,
-                    "yaw": scene.map_to_scene.yaw,
-                },
-            },
+            "scene": {"url": self.scene_url, "map_to_scene": self._map_to_scene()},
             "bounds": list(grid.bounds) if grid is not None else None,
             "robots": [describe_robot(r) for r in self.config.robots],
             "state": self.fleet.snapshot(now),
@@ -557,6 +561,11 @@ class Relay:
         if isinstance(event, MapEvent):
             self._live_map = event.grid
             logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)
+            if self.config.scene.url is None:
+                # No hand-made twin: the map becomes one (built off the loop, once per map change).
+                self._pending_map = event
+                if self._twin_task is None or self._twin_task.done():
+                    self._twin_task = asyncio.get_running_loop().create_task(self._build_twins(), name="map-twin")
             return
         if event.robot not in self._robots:
             logger.warning("backend reported unknown robot %r; ignored", event.robot)
@@ -589,6 +598,41 @@ class Relay:
             identifier = f"{event.robot}/camera/{event.camera}"
             if self.hub.stream_demand(identifier) > 0:
                 self.hub.publish_frame(identifier, self._encode_frame(event, None), now)
+
+    async def _build_twins(self) -> None:
+        """Turn the newest map into a twin, then the next one if another arrived meanwhile."""
+        while self._pending_map is not None:
+            event, self._pending_map = self._pending_map, None
+            digest = hashlib.sha256(
+                event.grid.occupied.tobytes()
+                + (event.unknown.tobytes() if event.unknown is not None else b"")
+                + repr(
+                    (event.grid.origin_x, event.grid.origin_y, event.grid.resolution, event.grid.occupied.shape)
+                ).encode()
+            ).hexdigest()[:12]
+            name = f"map-{digest}.glb"
+            if name in self.generated:
+                continue  # the same map again (a re-published latched /map): nothing to rebuild
+            started = time.monotonic()
+            try:
+                glb = await asyncio.to_thread(grid_to_glb, event.grid, unknown=event.unknown)
+            except ValueError as exc:
+                logger.error("could not build a twin from the map: %s", exc)
+                continue
+            # Keep only the newest twin: clients that load it later must find it, older ones are stale.
+            self.generated = {name: glb}
+            self.scene_url = f"{GENERATED_SCENES}/{name}"
+            logger.info(
+                "twin of the map built in %.2f s (%d kB): %s",
+                time.monotonic() - started,
+                len(glb) // 1024,
+                self.scene_url,
+            )
+            self.hub.publish_state("scene", encode(scene_message(self.scene_url, self._map_to_scene())))
+
+    def _map_to_scene(self) -> Transform2D:
+        m = self.config.scene.map_to_scene
+        return {"x": m.x, "y": m.y, "z": m.z, "yaw": m.yaw}
 
     def _publish_status(self, robot: str) -> None:
         status = self.fleet.status(robot, time.monotonic())

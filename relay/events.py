@@ -10,6 +10,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+from numpy.typing import NDArray
+
 from .occupancy import OccupancyGrid
 
 
@@ -73,11 +76,16 @@ class ScanEvent:
 
 @dataclass(frozen=True, slots=True)
 class MapEvent:
-    """A new occupancy grid of the fleet's map (fleet-wide: ``robot`` is empty)."""
+    """A new occupancy grid of the fleet's map (fleet-wide: ``robot`` is empty).
+
+    ``grid`` counts unknown cells as occupied (what a planner must avoid); ``unknown`` marks them, so that
+    a twin can draw them as floor rather than walls.
+    """
 
     grid: OccupancyGrid
     stamp: float
     robot: str = ""
+    unknown: NDArray[np.bool_] | None = None
 
 
 @dataclass(frozen=True, slots=True)

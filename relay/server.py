@@ -138,6 +138,14 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     return ws
 
 
+async def generated_scene(request: web.Request) -> web.Response:
+    """A twin the relay built (from a live map); kept in memory, replaced when the map changes."""
+    glb = request.app[RELAY_KEY].generated.get(request.match_info["name"])
+    if glb is None:
+        raise web.HTTPNotFound(text="no such generated scene (the map may have changed since)")
+    return web.Response(body=glb, content_type="model/gltf-binary")
+
+
 async def healthz(request: web.Request) -> web.Response:
     relay = request.app[RELAY_KEY]
     now = time.monotonic()
@@ -209,6 +217,7 @@ def create_app(config: FleetConfig, options: Options | None = None) -> web.Appli
     app.router.add_get("/ws", websocket_handler)
     app.router.add_get("/healthz", healthz)
     app.router.add_get("/metrics", metrics)
+    app.router.add_get("/scenes/generated/{name}", generated_scene)
     app.router.add_get("/scenes/{path:.*}", static_handler(SCENES_DIR))
     app.router.add_get("/{path:.*}", static_handler(CLIENT_DIR))
     return app

@@ -7,6 +7,7 @@ other. Skipped, with the reason, only when rclpy is not importable.
 from __future__ import annotations
 
 import asyncio
+import io
 import itertools
 import json
 import math
@@ -23,9 +24,11 @@ import aiohttp
 import cv2
 import numpy as np
 import pytest
+import trimesh
 
 from relay.config import FleetConfig, load_config, parse_config
 from tests.conftest import ROOT, SHARED_DATA, RunningRelay, start_relay
+from tests.gltf_validate import validate_glb
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -378,3 +381,36 @@ async def test_a_dead_executor_is_reported_and_rebuilt(ros_relay: RunningRelay, 
     finally:
         await client.close()
         await peer.stop()
+
+
+async def test_a_live_map_becomes_the_twin(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    """No hand-made scene in the config: the /map that the fleet publishes becomes the clients' twin."""
+    config = tmp_path / "fleet.yaml"
+    config.write_text(FLEET)
+    fleet = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tools" / "fake_fleet.py"), "--config", str(config), "--log-level", "warning",
+        stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.DEVNULL, env=dict(os.environ),
+    )  # fmt: skip
+    client = await connected(ros_relay)
+    try:
+        scene = await client.wait_for(lambda m: m["identifier"] == "scene", timeout=30)
+        assert scene["url"].startswith("/scenes/generated/map-") and scene["url"].endswith(".glb")
+        async with aiohttp.ClientSession() as http, http.get(ros_relay.url + scene["url"]) as response:
+            assert response.content_type == "model/gltf-binary"
+            glb = await response.read()
+        report = await asyncio.to_thread(validate_glb, glb)
+        assert report["issues"]["numErrors"] == 0
+        # The fake fleet's map is the demo facility (18 x 10 m): the twin spans it, and goals are bounded by it.
+        mesh = await asyncio.to_thread(trimesh.load, io.BytesIO(glb), file_type="glb", force="scene")
+        (min_x, _, _), (max_x, _, max_z) = mesh.bounds
+        assert (min_x, max_x) == (pytest.approx(0.0, abs=0.06), pytest.approx(18.0, abs=0.06))
+        assert max_z == pytest.approx(0.0, abs=0.06)  # glTF +z is ROS -y: the map's y from 0 to 10
+        late = await TestClient.open(ros_relay.ws_url)
+        assert (await late.hello())["scene"]["url"] == scene["url"]  # a new client gets it in hello
+        await late.close()
+        out = await client.request({"identifier": "alpha/goal_pose", "x": 30.0, "y": 5.0})
+        assert out["code"] == "out_of_bounds"
+    finally:
+        await client.close()
+        fleet.terminate()
+        await fleet.wait()

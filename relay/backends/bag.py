@@ -38,14 +38,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..config import Camera, FleetConfig, Robot, Sensor
 from ..errors import BackendUnavailable, CommandRejected
 from ..events import Event, EventSink, FrameEvent, MapEvent, PlaybackEvent, PoseEvent, ScanEvent, SensorEvent
-from ..geometry import quaternion_to_yaw
 from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
-from ..occupancy import OccupancyGrid
+from ..maps import map_event
 from ..options import BagOptions
 from ..protocol import MAX_PLAYBACK_RATE, MAX_SCAN_RATE, MIN_PLAYBACK_RATE, ROBOT_NAME_PATTERN, ErrorCode
 from ..scan import scan_event
@@ -507,24 +504,8 @@ def _camera_handler(robot: str, camera: Camera) -> Handler:
 
 
 def _map_handler(topic: str) -> Handler:
-    warned = False
-
     def handle(message: Any, log_time: float) -> Payload:
-        nonlocal warned
-        info = message.info
-        data = np.asarray(message.data, dtype=np.int8).reshape(int(info.height), int(info.width))
-        q = info.origin.orientation
-        if abs(quaternion_to_yaw(q.x, q.y, q.z, q.w)) > 1e-3 and not warned:
-            warned = True
-            logger.warning("%s: the map's origin is rotated; its bounds use the unrotated extent", topic)
-        # Occupied at >= 65 % like map_server's default occupied_thresh; unknown (-1) is not a wall.
-        grid = OccupancyGrid(
-            origin_x=float(info.origin.position.x),
-            origin_y=float(info.origin.position.y),
-            resolution=float(info.resolution),
-            occupied=data >= 65,
-        )
-        return MapEvent(grid, _stamp(message, log_time))
+        return map_event(message, _stamp(message, log_time), topic)
 
     return handle
 

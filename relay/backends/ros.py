@@ -31,13 +31,12 @@ from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
 
-import numpy as np
-
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, MapEvent, NavEvent, PoseEvent, SensorEvent
+from ..events import Event, EventSink, FrameEvent, NavEvent, PoseEvent, SensorEvent
 from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
 from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
+from ..maps import map_event
 from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
 from ..scan import scan_event
@@ -378,19 +377,10 @@ class RosBackend(Backend):
         self._post(scan_event(robot, stamp_of(message.header), message))
 
     def _on_map(self, message: Any) -> None:
-        info = message.info
-        data = np.asarray(message.data, dtype=np.int8).reshape(info.height, info.width)
-        q = info.origin.orientation
-        if abs(quaternion_to_yaw(q.x, q.y, q.z, q.w)) > 1e-3:
-            logger.warning("/map origin is rotated; goal bounds use the unrotated extent")
-        # Occupied at >= 65 % like map_server's default occupied_thresh; unknown (-1) is not a wall.
-        grid = OccupancyGrid(
-            origin_x=float(info.origin.position.x),
-            origin_y=float(info.origin.position.y),
-            resolution=float(info.resolution),
-            occupied=data >= 65,
-        )
-        self._post(MapEvent(grid, stamp_of(message.header)))
+        try:
+            self._post(map_event(message, stamp_of(message.header), self.config.ros.map_topic))
+        except ValueError as exc:
+            logger.warning("%s: %s", self.config.ros.map_topic, exc)
 
     def _on_image(self, robot: str, camera: str, message: Any, compressed: bool) -> None:
         state = self._cameras[(robot, camera)]
