@@ -105,6 +105,15 @@ class Pose2D:
 
 
 @dataclass(frozen=True)
+class ModelSource:
+    """Build the robot's model from its URDF, published on ``topic`` (std_msgs/String, as robot_state_publisher
+    does); ``packages`` are the directories where ``package://`` meshes are looked up."""
+
+    topic: str
+    packages: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     namespace: str
@@ -119,6 +128,7 @@ class Robot:
     limits: Limits
     initial_pose: Pose2D
     scan_topic: str | None = None  # sensor_msgs/LaserScan; None: no scan
+    model_source: ModelSource | None = None
 
     def camera(self, name: str | None) -> Camera | None:
         """The named camera, or the first one when ``name`` is None."""
@@ -376,7 +386,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
-        robot = _robot(reader, node, f"robots[{index}]")
+        robot = _robot(reader, node, f"robots[{index}]", base_dir)
         if any(r.name == robot.name for r in robots):
             raise reader.fail(node, f"robots[{index}].name", f'duplicate robot name "{robot.name}"')
         robots.append(robot)
@@ -493,7 +503,7 @@ _ROBOT_FIELDS = (
 )
 
 
-def _robot(reader: _Reader, node: Node, path: str) -> Robot:
+def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Robot:
     f = reader.mapping(node, path, _ROBOT_FIELDS, required=("name", "limits"))
     name = reader.string(
         f["name"], f"{path}.name", pattern=ROBOT_NAME_PATTERN, expected="a name of letters, digits and _"
@@ -515,7 +525,21 @@ def _robot(reader: _Reader, node: Node, path: str) -> Robot:
         "#4363d8",
     )
     model = None
-    if "model" in f and reader.value(f["model"]) is not None:
+    model_source = None
+    if "model" in f and isinstance(f["model"], MappingNode):
+        mp = f"{path}.model"
+        m = reader.mapping(f["model"], mp, ("robot_description", "packages"))
+        topic = resolve_topic(namespace, "robot_description")
+        if "robot_description" in m:
+            topic = _topic(reader, m["robot_description"], f"{mp}.robot_description", namespace)
+        packages: list[Path] = []
+        for i, pnode in reader.sequence(m["packages"], f"{mp}.packages") if "packages" in m else ():
+            package = Path(reader.string(pnode, f"{mp}.packages[{i}]", expected="a directory"))
+            if base_dir is not None and not package.is_absolute():
+                package = base_dir / package
+            packages.append(package)
+        model_source = ModelSource(topic, tuple(packages))
+    elif "model" in f and reader.value(f["model"]) is not None:
         model = reader.string(f["model"], f"{path}.model", expected="a URL of a glTF model")
 
     pose = _pose_source(reader, f.get("pose"), f"{path}.pose", namespace)
@@ -578,6 +602,7 @@ def _robot(reader: _Reader, node: Node, path: str) -> Robot:
             if "topic" in sc:
                 scan_topic = _topic(reader, sc["topic"], f"{path}.scan.topic", namespace)
     return Robot(
+        model_source=model_source,
         scan_topic=scan_topic,
         name=name,
         namespace=namespace,

@@ -29,7 +29,17 @@ from .backends import create_backend
 from .backends.base import Backend
 from .config import FleetConfig, Robot
 from .errors import CommandRejected, ProtocolError
-from .events import Event, FrameEvent, MapEvent, NavEvent, PlaybackEvent, PoseEvent, ScanEvent, SensorEvent
+from .events import (
+    Event,
+    FrameEvent,
+    MapEvent,
+    NavEvent,
+    PlaybackEvent,
+    PoseEvent,
+    RobotModelEvent,
+    ScanEvent,
+    SensorEvent,
+)
 from .fleet import FleetState
 from .hub import Channel, Hub, Transport
 from .leases import LeaseTable
@@ -63,6 +73,7 @@ from .protocol import (
     error_message,
     estop_message,
     lease_message,
+    model_message,
     parse_command,
     playback_message,
     pong_message,
@@ -71,6 +82,7 @@ from .protocol import (
 )
 from .safety import Deadman, check_goal, clamp_velocity
 from .twin.map_twin import grid_to_glb
+from .twin.urdf import robot_description_glb
 
 logger = logging.getLogger(__name__)
 
@@ -107,11 +119,11 @@ def lens_description(robot: Robot, camera_name: str) -> Lens:
     return lens
 
 
-def describe_robot(robot: Robot) -> RobotDescription:
+def describe_robot(robot: Robot, model_url: str | None = None) -> RobotDescription:
     return {
         "name": robot.name,
         "colour": robot.colour,
-        "model": robot.model or "",
+        "model": model_url or robot.model or "",
         "cameras": [
             {
                 "name": c.name,
@@ -156,6 +168,8 @@ class Relay:
         #: The twin clients load: robots.yaml's, or one built from a live map (served from `generated`).
         self.scene_url: str | None = config.scene.url
         self.generated: dict[str, bytes] = {}
+        self.model_urls: dict[str, str] = {}  # robots whose model was built from robot_description
+        self._model_tasks: set[asyncio.Task[None]] = set()
         self._pending_map: MapEvent | None = None
         self._twin_task: asyncio.Task[None] | None = None
         self._next_recovery = 0.0
@@ -176,6 +190,8 @@ class Relay:
         await self.stop_all_robots("shutdown")
         if self._twin_task is not None:
             self._twin_task.cancel()
+        for task in list(self._model_tasks):
+            task.cancel()
         if self._ticker is not None:
             self._ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -252,7 +268,7 @@ class Relay:
             "role": client.role,
             "scene": {"url": self.scene_url, "map_to_scene": self._map_to_scene()},
             "bounds": list(grid.bounds) if grid is not None else None,
-            "robots": [describe_robot(r) for r in self.config.robots],
+            "robots": [describe_robot(r, self.model_urls.get(r.name)) for r in self.config.robots],
             "state": self.fleet.snapshot(now),
             "playback": self._playback,
             "backend": backend_message(self.backend.name, self.backend.failure),
@@ -570,6 +586,11 @@ class Relay:
         if event.robot not in self._robots:
             logger.warning("backend reported unknown robot %r; ignored", event.robot)
             return
+        if isinstance(event, RobotModelEvent):
+            task = asyncio.get_running_loop().create_task(self._build_model(event), name=f"model-{event.robot}")
+            self._model_tasks.add(task)
+            task.add_done_callback(self._model_tasks.discard)
+            return
         now = time.monotonic()
         if isinstance(event, PoseEvent):
             message = self.fleet.on_pose(event, now)
@@ -620,7 +641,9 @@ class Relay:
                 logger.error("could not build a twin from the map: %s", exc)
                 continue
             # Keep only the newest twin: clients that load it later must find it, older ones are stale.
-            self.generated = {name: glb}
+            for old in [k for k in self.generated if k.startswith("map-")]:
+                del self.generated[old]
+            self.generated[name] = glb
             self.scene_url = f"{GENERATED_SCENES}/{name}"
             logger.info(
                 "twin of the map built in %.2f s (%d kB): %s",
@@ -629,6 +652,26 @@ class Relay:
                 self.scene_url,
             )
             self.hub.publish_state("scene", encode(scene_message(self.scene_url, self._map_to_scene())))
+
+    async def _build_model(self, event: RobotModelEvent) -> None:
+        """A robot's URDF becomes its glTF model (off the loop, once per distinct description)."""
+        spec = self._robots[event.robot]
+        digest = hashlib.sha256(event.urdf.encode()).hexdigest()[:12]
+        name = f"robot-{event.robot}-{digest}.glb"
+        if name in self.generated:
+            return
+        packages = list(spec.model_source.packages) if spec.model_source is not None else []
+        namespace = spec.namespace.strip("/")
+        glb = await asyncio.to_thread(
+            robot_description_glb, event.urdf, packages, namespace=f"{namespace}/" if namespace else ""
+        )
+        for old in [k for k in self.generated if k.startswith(f"robot-{event.robot}-")]:
+            del self.generated[old]
+        self.generated[name] = glb
+        url = f"{GENERATED_SCENES}/{name}"
+        self.model_urls[event.robot] = url
+        logger.info("model of %s from its robot_description: %s (%d kB)", event.robot, url, len(glb) // 1024)
+        self.hub.broadcast_priority(encode(model_message(event.robot, url)))
 
     def _map_to_scene(self) -> Transform2D:
         m = self.config.scene.map_to_scene

@@ -89,6 +89,14 @@ class MapEvent:
 
 
 @dataclass(frozen=True, slots=True)
+class RobotModelEvent:
+    """A robot's URDF (its robot_description), for the relay to turn into its twin model."""
+
+    robot: str
+    urdf: str
+
+
+@dataclass(frozen=True, slots=True)
 class PlaybackEvent:
     """Where a replayed recording is (fleet-wide: ``robot`` is empty)."""
 
@@ -100,5 +108,5 @@ class PlaybackEvent:
     robot: str = ""
 
 
-Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent
+Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent | RobotModelEvent
 EventSink = Callable[[Event], None]

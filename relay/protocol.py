@@ -79,7 +79,7 @@ CLIENT_GLOBAL_KINDS: Final = ("estop", "ping", "playback/pause", "playback/resum
 MIN_PLAYBACK_RATE: Final = 0.05
 MAX_PLAYBACK_RATE: Final = 20.0
 #: Robot-scoped kinds the server sends.
-SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "lease")
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "lease", "model")
 #: Deepest nesting of a client message (objects and arrays); v1 messages need 2.
 MAX_JSON_DEPTH: Final = 8
 #: Longest string anywhere in a client message.
@@ -648,6 +648,11 @@ def pong_message(t: float, server_time: float) -> dict[str, Any]:
 def backend_message(name: str, failure: str | None) -> dict[str, Any]:
     """Whether the backend works; sent to every client when that changes (and in ``hello``)."""
     return {"identifier": "backend", "name": name, "ok": failure is None, "message": failure}
+
+
+def model_message(robot: str, url: str) -> dict[str, Any]:
+    """A new glTF model for ``robot`` (built from its robot_description); replaces hello's ``model``."""
+    return {"identifier": f"{robot}/model", "url": url}
 
 
 def scene_message(url: str | None, map_to_scene: Transform2D) -> dict[str, Any]:

@@ -31,6 +31,7 @@ from relay.config import FleetConfig, parse_config
 from relay.errors import BackendUnavailable
 from relay.options import BagOptions, Options
 from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.gltf_validate import validate_glb
 from tests.wsclient import TestClient
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -573,3 +574,35 @@ async def test_cameras_sensors_and_dense_scans_replay_from_a_bag(scout: ScoutRec
             assert (got is None and want is None) or (
                 got is not None and want is not None and abs(got - want) <= 0.006
             ), (got, want)
+
+
+async def test_robot_description_in_a_bag_becomes_the_robot_model() -> None:
+    """robots.yaml asks for the model from robot_description: the URDF recorded in the walker bag (TurtleBot3
+    Waffle Pi) becomes a glTF served by the relay, with the meshes of the shared turtlebot3_description."""
+    config = parse_config(
+        "robots:\n"
+        "  - name: tb3\n"
+        f"    model: {{robot_description: robot_description, packages: ['{DATA / 'robot'}']}}\n"
+        "    limits: {linear: 0.26, angular: 1.82}\n",
+        "fleet.yaml",
+    )
+    running = await start_relay(config, options=Options(backend="bag", bag=BagOptions(bags=(str(SYZYGY),), start=20)))
+    try:
+        # Built off the loop when the bag opens; then every client finds it in hello (and a connected one
+        # gets tb3/model).
+        deadline = time.monotonic() + 30
+        while "tb3" not in running.relay.model_urls and time.monotonic() < deadline:  # noqa: ASYNC110
+            await asyncio.sleep(0.1)
+        client = await TestClient.open(running.ws_url)
+        model = {"url": (await client.hello())["robots"][0]["model"]}
+        assert model["url"].startswith("/scenes/generated/robot-tb3-")
+        import aiohttp
+
+        async with aiohttp.ClientSession() as http, http.get(running.url + model["url"]) as response:
+            glb = await response.read()
+        report = await asyncio.to_thread(validate_glb, glb)
+        assert report["issues"]["numErrors"] == 0
+        assert b"base_link" in glb and b"wheel_left_link" in glb  # the robot's own links, not the fallback
+        await client.close()
+    finally:
+        await running.runner.cleanup()

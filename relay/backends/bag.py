@@ -40,7 +40,17 @@ from typing import Any
 
 from ..config import Camera, FleetConfig, Robot, Sensor
 from ..errors import BackendUnavailable, CommandRejected
-from ..events import Event, EventSink, FrameEvent, MapEvent, PlaybackEvent, PoseEvent, ScanEvent, SensorEvent
+from ..events import (
+    Event,
+    EventSink,
+    FrameEvent,
+    MapEvent,
+    PlaybackEvent,
+    PoseEvent,
+    RobotModelEvent,
+    ScanEvent,
+    SensorEvent,
+)
 from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
 from ..maps import map_event
 from ..options import BagOptions
@@ -568,6 +578,19 @@ def _size(payload: Payload) -> int:
     return 0
 
 
+def _first_string(path: Path, topic: str) -> str | None:
+    """The first std_msgs/String recorded on ``topic`` (worker thread)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    with AnyReader([path], default_typestore=get_typestore(Stores(DEFAULT_TYPESTORE))) as reader:
+        connections = [c for c in reader.connections if c.topic == topic]
+        for connection, _, raw in reader.messages(connections=connections):
+            message: Any = reader.deserialize(raw, connection.msgtype)
+            return str(message.data)
+    return None
+
+
 class _BagReader:
     """One bag: its reader thread and the bounded buffer of events it fills ahead of playback.
 
@@ -938,6 +961,22 @@ class BagBackend(Backend):
 
     # -- lifecycle --------------------------------------------------------------------------------
 
+    async def _send_models(self, plans: Sequence[BagPlan], contents: Sequence[BagContents]) -> None:
+        """Robots whose model comes from robot_description get the URDF recorded in their bag, whatever the
+        start position (it is published once, at the beginning)."""
+        for spec, plan, content in zip(self._specs, plans, contents, strict=True):
+            for topics in plan.robots:
+                source = topics.robot.model_source
+                if source is None:
+                    continue
+                topic = _lookup(source.topic, topics.robot, content.topics, strip=True)
+                if topic is None or content.topics[topic] != "std_msgs/msg/String":
+                    logger.warning("%s: no robot_description (%s) for %s", spec.shown, source.topic, topics.robot.name)
+                    continue
+                urdf = await asyncio.to_thread(_first_string, spec.path, topic)
+                if urdf:
+                    self.sink(RobotModelEvent(topics.robot.name, urdf))
+
     async def start(self) -> None:
         """Open every bag (reader threads), bind them to robots and start playing.
 
@@ -975,6 +1014,7 @@ class BagBackend(Backend):
         offline = [r for r in self.config.names if r not in self._bound]
         if offline:
             logger.info("not in any recording, offline: %s", ", ".join(offline))
+        await self._send_models(plans, contents)
         for reader, plan in zip(readers, plans, strict=True):
             reader.play(plan, start)
             self._tasks.append(loop.create_task(self._play(reader), name=f"bag-play-{reader.spec.path.name}"))

@@ -33,7 +33,7 @@ from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, NavEvent, PoseEvent, SensorEvent
+from ..events import Event, EventSink, FrameEvent, NavEvent, PoseEvent, RobotModelEvent, SensorEvent
 from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
 from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
 from ..maps import map_event
@@ -151,6 +151,8 @@ class RosBackend(Backend):
             for sensor in robot.sensors:
                 module, cls, _ = SENSOR_MESSAGES[sensor.type]
                 needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
+        if any(robot.model_source is not None for robot in config.robots):
+            needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
         for module, cls in (
             ("geometry_msgs.msg", "Twist"),
             ("geometry_msgs.msg", "TwistStamped"),
@@ -303,6 +305,14 @@ class RosBackend(Backend):
                 robot.scan_topic,
                 lambda m, r=name: self._on_scan(r, m),
                 self._qos("scan"),
+            )
+        if robot.model_source is not None:
+            # robot_state_publisher latches the description (transient local): a late subscriber still gets it.
+            node.create_subscription(
+                self._msg("std_msgs.msg", "String"),
+                robot.model_source.topic,
+                lambda m, r=name: self._post(RobotModelEvent(r, str(m.data))),
+                self._qos("map"),
             )
         twist = ("geometry_msgs.msg", "TwistStamped" if robot.cmd_vel_stamped else "Twist")
         self._cmd_pubs[name] = node.create_publisher(self._msg(*twist), robot.cmd_vel_topic, self._qos("commands"))

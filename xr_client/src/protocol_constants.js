@@ -9,5 +9,5 @@ export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"BAD_REQUEST": "bad_request", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate"]);
-export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "lease"]);
+export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "lease", "model"]);
 export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend"]);
