@@ -99,9 +99,9 @@ async def test_the_loop_blocking_check_catches_a_blocking_call(
     canary.start()
     await asyncio.sleep(0.05)
     if how == "sleep":
-        time.sleep(0.6)  # noqa: ASYNC251 - blocking on purpose
+        time.sleep(1.5)  # noqa: ASYNC251 - blocking on purpose
     else:
-        end = time.monotonic() + 0.6
+        end = time.monotonic() + 1.5
         while time.monotonic() < end:
             sum(range(1000))
     await asyncio.sleep(0.05)
