@@ -367,7 +367,7 @@ async def test_camera_stream_starts_and_stops(relay_server: RunningRelay) -> Non
     assert (await client.request({"identifier": "robot3/stream", "camera": "front", "fps": 5}))["identifier"] == "ack"
     deadline = time.monotonic() + 15
     frames: list[dict[str, Any]] = []
-    while len(frames) < 3 and time.monotonic() < deadline:  # noqa: ASYNC110 - polling what the reader collects
+    while len(frames) < 3 and time.monotonic() < deadline:
         await asyncio.sleep(0.2)
         frames = [h for _, h, _ in client.frames if h["identifier"] == "robot3/camera/front"]
     assert len(frames) >= 3
