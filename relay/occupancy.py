@@ -302,6 +302,19 @@ def _number(meta: dict[str, Any], key: str, where: Path) -> float:
     return float(value)
 
 
+def read_yaml(path: Path, what: str) -> Any:
+    """The YAML document in ``path``; ValueError naming the file (and ``what`` it should be) otherwise."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise ValueError(f"{path}: cannot read {what}: {reason}") from exc
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path}: invalid YAML: {exc}") from exc
+
+
 def from_map_yaml(path: str | os.PathLike[str]) -> OccupancyGrid:
     """Load a ROS ``map_server`` map (``map.yaml`` + PGM image) as an :class:`OccupancyGrid`.
 
@@ -328,15 +341,7 @@ def from_map_yaml(path: str | os.PathLike[str]) -> OccupancyGrid:
             missing, unreadable or malformed, or a field is invalid.
     """
     yaml_path = Path(path)
-    try:
-        text = yaml_path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise ValueError(f"{yaml_path}: cannot read map yaml: {reason}") from exc
-    try:
-        meta = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{yaml_path}: invalid YAML: {exc}") from exc
+    meta = read_yaml(yaml_path, "map yaml")
     # A non-mapping document is bad *content*, hence ValueError like every
     # other defect of the file.
     meta = meta if isinstance(meta, dict) else None

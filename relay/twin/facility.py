@@ -26,11 +26,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import NDArray
 
 from relay.geometry import yaw_to_quaternion
-from relay.occupancy import OccupancyGrid
+from relay.occupancy import OccupancyGrid, read_yaml
 from relay.sim.floorplan import Box, Decal, FloorPlan, Pipe, Room, Spawn, rasterise
 from relay.sim.hazards import HazardSource
 
@@ -451,15 +450,7 @@ def load_facility(path: str | os.PathLike[str]) -> Facility:
             (wrong ``format`` or ``encoding``, a room with empty bounds, rows that do not match the size).
     """
     source = Path(path)
-    try:
-        text = source.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise ValueError(f"{source}: cannot read facility file: {reason}") from exc
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{source}: invalid YAML: {exc}") from exc
+    doc = read_yaml(source, "facility file")
     f = _Fields(source)
     top = f.mapping(doc, "", ("format", "scene", "size", "hazards", "spawns", "rooms", "grid"))
     if top["format"] != FORMAT:
