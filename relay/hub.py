@@ -136,8 +136,14 @@ class Channel:
         while not self.closed:
             await self._wake.wait()
             self._wake.clear()
+            sent = 0
             while not self.closed and (item := self._next()) is not None:
                 binary, data = item
+                sent += 1
+                if sent % 64 == 0:
+                    # aiohttp returns without suspending until its buffer passes 64 kB: on a fast socket a
+                    # long backlog would otherwise go out in one step while every other client waits.
+                    await asyncio.sleep(0)
                 try:
                     if binary:
                         await self.transport.send_binary(data)

@@ -2,66 +2,135 @@
 /**
  * The WebSocket to the relay. The address comes from the page's own origin (ws:// or wss:// to match),
  * so no host name or IP address is ever written into the client. Commands are never queued while
- * disconnected: `send` returns false and the caller shows it; on reconnect `hello` restores the state.
+ * disconnected: `send` returns null and the caller shows it; on reconnect `hello` restores the state.
+ *
+ * Events: `status` (the link changed: `detail` is the ReconnectPolicy), `message` (a parsed JSON object),
+ * `frame` (a binary camera frame: `detail` is its ArrayBuffer).
  */
 import { PROTOCOL_VERSION } from './protocol_constants.js';
+import { PING_PERIOD_MS, ReconnectPolicy } from './reconnect.js';
 
-/** @param {Location | URL} location */
-export function relayUrl(location) {
+/**
+ * The WebSocket address of the relay that served this page, with the operator token when there is one.
+ * @param {Location | URL} location @param {string | null} [token]
+ */
+export function relayUrl(location, token = null) {
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
-  return `${scheme}//${location.host}/ws`;
+  return `${scheme}//${location.host}/ws${token ? `?token=${encodeURIComponent(token)}` : ''}`;
+}
+
+/**
+ * The operator token: the relay prints its address as http://HOST:PORT/#token=TOKEN. A fragment never
+ * reaches a server or a log; it is kept for this tab (sessionStorage) so that a reload without it still works.
+ * @param {Location | URL} location @param {Pick<Storage, 'getItem' | 'setItem'> | null} storage
+ */
+export function operatorToken(location, storage) {
+  const fromHash = new URLSearchParams(location.hash.replace(/^#/, '')).get('token');
+  try {
+    if (fromHash) storage?.setItem('xr-relay-token', fromHash);
+    return fromHash ?? storage?.getItem('xr-relay-token') ?? null;
+  } catch {
+    return fromHash; // storage refused (private mode): the fragment still works
+  }
 }
 
 export class RelayConnection extends EventTarget {
-  /** @param {string} url */
-  constructor(url) {
+  /** @param {string} url @param {{now?: () => number}} [options] */
+  constructor(url, options = {}) {
     super();
     this.url = url;
+    this.now = options.now ?? (() => performance.now());
+    this.policy = new ReconnectPolicy();
     /** @type {WebSocket | null} */
     this.socket = null;
-    this.connected = false;
-    this.retryDelay = 0.5;
     this.nextId = 1;
     /** @type {ReturnType<typeof setTimeout> | undefined} */
     this.retryTimer = undefined;
+    /** @type {ReturnType<typeof setInterval> | undefined} */
+    this.pingTimer = undefined;
     this.disposed = false;
+    this.messagesIn = 0;
+    this.framesIn = 0;
+  }
+
+  get connected() {
+    return this.socket !== null && this.socket.readyState === WebSocket.OPEN;
   }
 
   connect() {
+    if (this.disposed) return;
+    this.policy.connecting(this.now());
     const socket = new WebSocket(this.url);
     socket.binaryType = 'arraybuffer';
     this.socket = socket;
     socket.addEventListener('open', () => {
-      this.connected = true;
-      this.retryDelay = 0.5;
-      this.dispatchEvent(new CustomEvent('status', { detail: { connected: true } }));
+      if (socket !== this.socket) return;
+      this.policy.opened(this.now());
+      this.#status();
     });
     socket.addEventListener('message', (event) => {
-      if (typeof event.data !== 'string') return; // camera frames: not shown by this page
-      const message = JSON.parse(event.data);
-      if (message.identifier === 'hello' && message.protocol !== PROTOCOL_VERSION) {
+      if (socket !== this.socket) return;
+      if (typeof event.data !== 'string') {
+        this.framesIn++;
+        this.dispatchEvent(new CustomEvent('frame', { detail: event.data }));
+        return;
+      }
+      let message;
+      try {
+        message = JSON.parse(event.data);
+      } catch {
+        console.warn('relay sent a text frame that is not JSON; ignored');
+        return;
+      }
+      this.messagesIn++;
+      if (message.identifier === 'pong') {
+        this.policy.pong(message.t, this.now());
+        this.#status();
+      } else if (message.identifier === 'hello' && message.protocol !== PROTOCOL_VERSION) {
         console.warn(`relay speaks protocol ${message.protocol}, this page ${PROTOCOL_VERSION}`);
       }
       this.dispatchEvent(new CustomEvent('message', { detail: message }));
     });
     socket.addEventListener('close', () => {
-      this.connected = false;
+      if (socket !== this.socket) return;
+      this.socket = null;
       if (this.disposed) return;
-      const delay = this.retryDelay;
-      this.retryDelay = Math.min(this.retryDelay * 2, 5);
-      this.dispatchEvent(new CustomEvent('status', { detail: { connected: false, retryIn: delay } }));
-      this.retryTimer = setTimeout(() => this.connect(), delay * 1000);
+      const delay = this.policy.closed(this.now());
+      this.#status();
+      this.retryTimer = setTimeout(() => this.connect(), delay);
     });
+    if (this.pingTimer === undefined) {
+      this.pingTimer = setInterval(() => this.#ping(), PING_PERIOD_MS);
+    }
+    this.#status();
+  }
+
+  #ping() {
+    if (!this.connected) {
+      this.#status(); // the countdown moves
+      return;
+    }
+    if (this.policy.stale(this.now())) {
+      // The relay went silent without a close (Wi-Fi dropped): give up on this socket and reconnect.
+      this.socket?.close();
+      return;
+    }
+    this.send({ identifier: 'ping', t: this.now() }, false);
+  }
+
+  #status() {
+    this.dispatchEvent(new CustomEvent('status', { detail: this.policy }));
   }
 
   /**
-   * Send one message; returns its id, or null when disconnected (nothing is queued).
+   * Send one message; returns its id (or '' without one), or null when disconnected: nothing is queued.
    * @param {Record<string, unknown>} message
    * @param {boolean} [withId]
+   * @returns {string | null}
    */
   send(message, withId = true) {
     if (!this.socket || this.socket.readyState !== WebSocket.OPEN) return null;
-    const id = withId ? `r${this.nextId++}` : null;
+    const id = withId ? `r${this.nextId++}` : '';
     this.socket.send(JSON.stringify(withId ? { ...message, id } : message));
     return id;
   }
@@ -69,6 +138,8 @@ export class RelayConnection extends EventTarget {
   dispose() {
     this.disposed = true;
     clearTimeout(this.retryTimer);
+    clearInterval(this.pingTimer);
     this.socket?.close();
+    this.socket = null;
   }
 }

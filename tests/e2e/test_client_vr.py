@@ -1,0 +1,206 @@
+"""The demo scenario in VR, in Debian's Chromium with IWER's emulated Meta Quest 3: enter VR, open the menu
+with the controller button, pick robot2 and Goal by pointing and pulling the trigger, send a goal by
+pointing the arc at the floor (drag for the heading), drive with the stick; Robot POV with a snapshot and a
+live stream; teleport and snap turn.
+Every step waits on a condition (IWER applies input on the next XR frame); screenshots go to
+test-artifacts/."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Awaitable, Callable
+
+import pytest
+
+from .conftest import SOFTWARE_GL, Client, OpenClient, Station, distance, record_timing, wait_until, window_stats
+from .xr_helpers import aim_arc, button, press_menu_button, set_menu, stick
+
+GOAL = (9.0, 6.0)
+
+
+async def enter_vr(open_client: OpenClient, url: str) -> Client:
+    client = await open_client(f"{url}/?emulate=quest3&{SOFTWARE_GL}", "vr", 640, 400)
+    await client.wait("s.vr.available", 10)
+    await client.page.click("#enter-vr")
+    await client.wait("s.presenting && s.rig.position[2] !== 0")
+    await client.frames(5)
+    return client
+
+
+async def test_vr_goal_and_teleop(station: Station, open_client: OpenClient) -> None:
+    client = await enter_vr(open_client, station.url)
+    await client.shot("01-entered")
+
+    # The menu opens with the Y button, in front of the operator.
+    await set_menu(client, True)
+    await client.frames(3)
+    await client.shot("02-menu", "vr-menu.png")
+    s = await press_menu_button(client, "robot:robot2")
+    await client.wait("s.menu.selected === 'robot2'")
+    s = await press_menu_button(client, "tool:goal")
+    s = await client.wait("s.menu.tool === 'goal' && s")
+    await set_menu(client, False)
+
+    # The goal pointer: an arc to the floor, press for the position, drag north for the heading.
+    x, y = GOAL
+    target = await client.page.evaluate("([x, y]) => window.__xrRelay.mapToScene(x, y, 0)", [x, y])
+    await aim_arc(client, "right", target)
+    hover = await client.wait(
+        "s.goal.hover && Math.hypot(s.goal.hover.x - arg[0], s.goal.hover.y - arg[1]) < 0.15 && s.goal.hover",
+        10,
+        [x, y],
+    )
+    await button(client, "right", "trigger", 1)
+    await client.wait("s.goal.pointer === 'placing'")
+    # Drag back towards the operator: the robot is to face south (a shorter arc stays inside the doorway).
+    south = await client.page.evaluate("([x, y]) => window.__xrRelay.mapToScene(x, y, 0)", [x, y - 1.5])
+    await aim_arc(client, "right", south)
+    await client.wait("s.goal.marker && s.goal.marker.yaw !== null && Math.abs(s.goal.marker.yaw + Math.PI / 2) < 0.2")
+    await client.shot("03-goal-drag", "vr-goal.png")
+    await button(client, "right", "trigger", 0)
+    await client.wait("s.goal.sent === 1")
+
+    # The relay got that goal, from the hit point (not the operator's position), and robot2 moves.
+    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
+    robot, gx, gy, gyaw = station.goals[0]
+    assert robot == "robot2"
+    assert math.hypot(gx - hover["x"], gy - hover["y"]) < 1e-3
+    assert gyaw is not None and abs(gyaw + math.pi / 2) < 0.2
+    # The spy sees the goal before the relay has planned it: wait for the status that follows.
+    await wait_until(lambda: station.status("robot2")["mode"] == "navigating", 10, "robot2 navigating")
+    status = station.status("robot2")
+    assert status["controller"] == (await client.state())["clientId"]
+    assert status["goal"] is not None and distance((status["goal"]["x"], status["goal"]["y"]), (gx, gy)) < 1e-3
+    start = station.pose("robot2")
+    await wait_until(lambda: distance(station.pose("robot2"), start) > 0.3, 15, "robot2 moving")
+    await client.wait("s.robots.robot2.position[2] < -2.0", 15)  # drawn moving north in the twin
+    await client.shot("04-robot-moving")
+
+    # Teleop: the right stick drives robot2 at 20 Hz within its limits; release sends a zero.
+    await set_menu(client, True)
+    await press_menu_button(client, "tool:teleop")
+    await client.wait("s.menu.tool === 'teleop'")
+    await set_menu(client, False)
+    before = (await client.state())["commands"]["cmdVel"]
+    pushed = time.monotonic()
+    await stick(client, "right", 0.0, -1.0)
+    await wait_until(
+        lambda: any(lin > 0.5 for _, lin, _ in station.velocities_of("robot2", pushed)), 10, "cmd_vel forward"
+    )
+    me = (await client.state())["clientId"]
+    await wait_until(
+        lambda: station.status("robot2")["mode"] == "teleop" and station.status("robot2")["controller"] == me,
+        5,
+        "robot2 in teleop by this client",
+    )
+    rate = await measure_rate(station, "robot2", 2.0)
+    record_timing("vr_teleop_cmd_vel_per_s", {"rate": rate})
+    # The exact 20 Hz cadence is pinned by xr_client/test/teleop.test.js; here, on a machine whose
+    # browser may be starved, commands must keep coming faster than the relay's deadman (0.5 s).
+    assert 2 <= rate <= 24, f"{rate:.1f} cmd_vel per second; the client sends at 20 Hz"
+    assert all(
+        abs(lin) <= 0.6 + 1e-9 and abs(ang) <= 1.8 + 1e-9 for _, lin, ang in station.velocities_of("robot2", pushed)
+    )
+    await client.shot("05-teleop")
+    released = time.monotonic()
+    await stick(client, "right", 0.0, 0.0)
+    await wait_until(
+        lambda: any(lin == 0 and ang == 0 for _, lin, ang in station.velocities_of("robot2", released)),
+        5,
+        "the zero on release",
+    )
+    s = await client.state()
+    assert s["commands"]["zeros"] >= 1 and s["commands"]["cmdVel"] > before
+    assert client.errors == [], client.errors
+
+
+async def test_vr_robot_pov(station: Station, open_client: OpenClient) -> None:
+    if station.camera is None:
+        pytest.skip("no robot of this fleet has a camera")
+    client = await enter_vr(open_client, station.url)
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot2")
+    await client.wait("s.menu.selected === 'robot2'")
+
+    # Robot POV: the hemisphere in a neutral space, a snapshot onto the one fixed texture.
+    rig_before = (await client.state())["rig"]["position"]
+    await set_menu(client, True)
+    await press_menu_button(client, "mode:pov")
+    await client.wait("s.menu.mode === 'pov' && !s.world && s.pov.visible")
+    await snapshot_until_uploaded(client, press=lambda: press_menu_button(client, "camera:snapshot"))
+    s = await client.state()
+    assert s["pov"]["identifier"] == f"robot2/camera/{station.camera}"
+    assert s["pov"]["mipmaps"] is False
+    await set_menu(client, False)
+    await client.frames(5)
+    await client.shot("06-pov-snapshot", "vr-pov.png")
+
+    # Live, with 3 robots moving: JS time per frame, and never a new texture per frame.
+    await set_menu(client, True)
+    await press_menu_button(client, "camera:live")
+    await set_menu(client, False)
+    before = await client.state()
+    await client.wait("s.pov.uploads >= arg", 30, before["pov"]["uploads"] + 6)
+    s = await client.state()
+    assert s["textures"] == before["textures"], "a texture was created while streaming"
+    record_timing("vr_live", {**window_stats(before["timing"], s["timing"]), "pov": s["pov"]})
+
+    # Free Roam returns the operator where they were.
+    await set_menu(client, True)
+    await press_menu_button(client, "mode:free_roam")
+    s = await client.wait("s.menu.mode === 'free_roam' && s.world && s")
+    assert s["rig"]["position"] == rig_before
+    assert not s["menu"]["live"]
+    assert client.errors == [], client.errors
+
+
+async def test_vr_locomotion(station: Station, open_client: OpenClient) -> None:
+    client = await enter_vr(open_client, station.url)
+    rig_before = (await client.state())["rig"]["position"]
+
+    # Locomotion on the left stick: push forward to aim the teleport arc, release to land on its ring;
+    # push sideways for a 30 degree snap turn (once per push).
+    await aim_arc(client, "left", [rig_before[0] - 0.5, 0.0, rig_before[2] - 2.0])
+    await stick(client, "left", 0.0, -1.0)
+    target = await client.wait("Array.isArray(s.xr.teleport) && s.xr.teleport", 10)
+    await stick(client, "left", 0.0, 0.0)
+    s = await client.wait("s.rig.position[2] < arg - 1.0 && s", 10, rig_before[2])
+    await client.shot("07-teleported")
+    assert abs(s["rig"]["position"][2] - rig_before[2]) > 1.0, (target, s["rig"])
+    yaw = s["rig"]["yaw"]
+    await stick(client, "left", 1.0, 0.0)
+    await client.wait("Math.abs(s.rig.yaw - (arg - Math.PI / 6)) < 1e-6", 10, yaw)
+    await client.frames(3)  # held: no second turn
+    assert abs((await client.state())["rig"]["yaw"] - (yaw - math.pi / 6)) < 1e-6
+    await stick(client, "left", 0.0, 0.0)
+    assert client.errors == [], client.errors
+
+
+async def measure_rate(station: Station, robot: str, seconds: float) -> float:
+    """cmd_vel per second at the backend over a window (waiting on the clock is the measurement)."""
+    t0 = time.monotonic()
+    await wait_until(lambda: time.monotonic() - t0 >= seconds, seconds + 1, "the measuring window")
+    stamps = [t for t, _, _ in station.velocities_of(robot, t0)]
+    return len(stamps) / seconds
+
+
+async def snapshot_until_uploaded(
+    client: Client, press: Callable[[], Awaitable[object]], timeout: float = 60.0
+) -> None:
+    """Ask for snapshots until one reaches the texture. A simulated camera may not have rendered its first
+    image yet (`no_camera`, "try again shortly"): ask again after each answer."""
+    deadline = time.monotonic() + timeout
+    start = (await client.state())["pov"]["uploads"]
+    while True:
+        s = await client.state()
+        requested = s["pov"]["snapshots"]["requested"]
+        await press()
+        answered = await client.wait(
+            "(s.pov.snapshots.acked + s.pov.snapshots.failed >= arg) && s.pov.snapshots", 15, requested + 1
+        )
+        if answered["acked"] > 0:
+            await client.wait("s.pov.uploads > arg", 15, start)
+            return
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no snapshot within {timeout} s: {answered}")

@@ -1,0 +1,115 @@
+"""Driving IWER's emulated Quest 3 from a test: aim a controller at a world point, pull its trigger, press
+its buttons, push its stick. Controller poses are in the XR reference space (local-floor), which the client's
+rig carries through the scene; the rig's pose comes from the client's state."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .conftest import Client
+
+#: Where the emulated hands are held, in the reference space (metres): in front of the chest.
+HAND_ORIGIN = {"left": [-0.2, 1.35, -0.25], "right": [0.2, 1.35, -0.25]}
+
+_AIM = """
+async ([hand, origin, target]) => {
+  const THREE = await import('three');
+  const s = window.__xrRelay.state;
+  const rigPosition = new THREE.Vector3(...s.rig.position);
+  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
+  const from = new THREE.Vector3(...origin).applyQuaternion(rigRotation).add(rigPosition);
+  const direction = new THREE.Vector3(...target).sub(from).normalize().applyQuaternion(rigRotation.clone().invert());
+  const q = new THREE.Quaternion().setFromUnitVectors(new THREE.Vector3(0, 0, -1), direction);
+  const c = window.__iwer.controllers[hand];
+  c.position.set(...origin);
+  c.quaternion.set(q.x, q.y, q.z, q.w);
+}
+"""
+
+# Aim so that the client's pointer arc (src/arc.js, the same function the client uses) lands on a point of
+# the floor: bisect the pitch, the yaw pointing at the target.
+_AIM_ARC = """
+async ([hand, origin, target]) => {
+  const THREE = await import('three');
+  const { arcPoints } = await import('/src/arc.js');
+  const s = window.__xrRelay.state;
+  const rigPosition = new THREE.Vector3(...s.rig.position);
+  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
+  const from = new THREE.Vector3(...origin).applyQuaternion(rigRotation).add(rigPosition);
+  const flat = new THREE.Vector3(target[0] - from.x, 0, target[2] - from.z);
+  const want = flat.length();
+  flat.normalize();
+  const dir = (pitch) => new THREE.Vector3(flat.x * Math.cos(pitch), Math.sin(pitch), flat.z * Math.cos(pitch));
+  const reach = (pitch) => {
+    const d = dir(pitch);
+    const { hit } = arcPoints([from.x, from.y, from.z], [d.x, d.y, d.z], { floorY: target[1], maxPoints: 400 });
+    return hit ? Math.hypot(hit[0] - from.x, hit[2] - from.z) : Infinity;
+  };
+  let lo = -1.2, hi = 0.7;
+  for (let i = 0; i < 50; i++) {
+    const mid = (lo + hi) / 2;
+    if (reach(mid) < want) lo = mid; else hi = mid;
+  }
+  const world = dir((lo + hi) / 2);
+  const local = world.applyQuaternion(rigRotation.clone().invert());
+  const q = new THREE.Quaternion().setFromUnitVectors(new THREE.Vector3(0, 0, -1), local);
+  const c = window.__iwer.controllers[hand];
+  c.position.set(...origin);
+  c.quaternion.set(q.x, q.y, q.z, q.w);
+}
+"""
+
+
+async def aim(client: Client, hand: str, target: list[float]) -> None:
+    await client.page.evaluate(_AIM, [hand, HAND_ORIGIN[hand], target])
+    await client.frames(2)
+
+
+async def aim_arc(client: Client, hand: str, target: list[float]) -> None:
+    await client.page.evaluate(_AIM_ARC, [hand, HAND_ORIGIN[hand], target])
+    await client.frames(2)
+
+
+async def button(client: Client, hand: str, name: str, value: float) -> None:
+    await client.page.evaluate(
+        "([hand, name, value]) => window.__iwer.controllers[hand].updateButtonValue(name, value)", [hand, name, value]
+    )
+
+
+async def click(client: Client, hand: str, name: str = "trigger") -> None:
+    """Press and release, a few frames apart so that the client sees both edges."""
+    await button(client, hand, name, 1)
+    await client.frames(2)
+    await button(client, hand, name, 0)
+    await client.frames(2)
+
+
+async def stick(client: Client, hand: str, x: float, y: float) -> None:
+    await client.page.evaluate(
+        "([hand, x, y]) => window.__iwer.controllers[hand].updateAxes('thumbstick', x, y)", [hand, x, y]
+    )
+
+
+async def press_menu_button(client: Client, button_id: str, hand: str = "right") -> dict[str, Any]:
+    """Point at a button of the open VR menu and pull the trigger."""
+    s = await client.state()
+    assert s["menu"]["open"], "the menu is closed"
+    centre = s["menu"]["centres"][button_id]
+    await aim(client, hand, centre)
+    # The ray must be on the button (hover highlight) before the trigger is pulled.
+    await client.wait("s.xr.hover[arg[0]] === arg[1]", 20, [hand, button_id])
+    await click(client, hand)
+    return await client.state()
+
+
+async def set_menu(client: Client, open_: bool) -> None:
+    """Open or close the menu with the left controller's Y button (one press, one toggle)."""
+    s = await client.state()
+    if s["menu"]["open"] == open_:
+        return
+    await button(client, "left", "y-button", 1)
+    await client.wait(f"s.menu.open === {'true' if open_ else 'false'}")
+    await client.frames(2)  # held: must not toggle again
+    assert (await client.state())["menu"]["open"] == open_
+    await button(client, "left", "y-button", 0)
+    await client.frames(2)

@@ -1,0 +1,273 @@
+// @ts-check
+/**
+ * The floating menu as a state machine, without DOM or WebGL: the VR panel and the desktop overlay both
+ * render `buttons()` and feed `press(id)`; the application carries out the returned effects.
+ *
+ * Rules:
+ * - mode `free_roam` | `pov`; `pov` needs a selected robot with a camera;
+ * - robots are a radio group where pressing the selected one selects none;
+ * - tools `teleop` and `goal` are exclusive; both need a selected robot and an operator connection;
+ *   `goal` only in free roam (there is no floor in the POV space);
+ * - `Snapshot` / `Live` only in POV; `Live` is a switch;
+ * - E-STOP is always there;
+ * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
+ *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
+ */
+import { MAX_STREAM_FPS } from './protocol_constants.js';
+
+/** @typedef {'free_roam' | 'pov'} Mode */
+/** @typedef {'none' | 'teleop' | 'goal'} Tool */
+/** @typedef {{name: string, hasCamera: boolean}} MenuRobot */
+/**
+ * @typedef {{id: string, label: string, group: string, active: boolean, enabled: boolean, danger?: boolean}} MenuButton
+ */
+/**
+ * @typedef {{type: 'menu', open: boolean}
+ *   | {type: 'mode', mode: Mode}
+ *   | {type: 'stop_teleop', robot: string}
+ *   | {type: 'stream', robot: string, fps: number}
+ *   | {type: 'snapshot', robot: string}
+ *   | {type: 'estop'}
+ *   | {type: 'select', robot: string | null}
+ *   | {type: 'cancel', robot: string}
+ *   | {type: 'tool', tool: Tool}} MenuEffect
+ */
+
+export const MODE_FREE_ROAM = 'free_roam';
+export const MODE_POV = 'pov';
+
+export class MenuState {
+  constructor() {
+    this.open = false;
+    /** @type {Mode} */
+    this.mode = 'free_roam';
+    /** @type {string | null} */
+    this.selected = null;
+    /** @type {Tool} */
+    this.tool = 'none';
+    this.live = false;
+    this.seated = false;
+    this.smooth = false;
+    /** @type {MenuRobot[]} */
+    this.robots = [];
+    this.operator = true;
+    this.connected = false;
+    /** The selected robot follows a goal (from its status): `Cancel goal` is enabled. */
+    this.goalActive = false;
+    /** Increments on every change, so that views redraw only when something changed. */
+    this.version = 0;
+  }
+
+  /**
+   * The fleet from `hello` (also after a reconnect: the selection survives when the robot still exists,
+   * and a live stream is asked for again on the new connection).
+   * @param {MenuRobot[]} robots @param {boolean} operator
+   * @returns {MenuEffect[]}
+   */
+  setFleet(robots, operator) {
+    this.robots = robots.map((r) => ({ ...r }));
+    this.operator = operator;
+    this.connected = true;
+    /** @type {MenuEffect[]} */
+    const effects = [];
+    if (this.selected !== null && !this.robot(this.selected)) {
+      effects.push(...this.#select(null));
+    } else if (this.mode === 'pov' && !this.robot(this.selected)?.hasCamera) {
+      effects.push(...this.#setMode('free_roam'));
+    }
+    if (!operator && this.tool !== 'none') effects.push(...this.#setTool('none'));
+    if (this.live && this.selected) effects.push({ type: 'stream', robot: this.selected, fps: MAX_STREAM_FPS });
+    this.#changed();
+    return effects;
+  }
+
+  /** @param {boolean} connected */
+  setConnected(connected) {
+    if (this.connected !== connected) {
+      this.connected = connected;
+      this.#changed();
+    }
+  }
+
+  /** @param {string | null} name */
+  robot(name) {
+    return this.robots.find((r) => r.name === name) ?? null;
+  }
+
+  /** Whether the selected robot follows a goal now (its status). @param {boolean} active */
+  setGoalActive(active) {
+    if (active !== this.goalActive) {
+      this.goalActive = active;
+      this.#changed();
+    }
+  }
+
+  get canCommand() {
+    return this.operator && this.connected;
+  }
+
+  /** Open or close (one controller button press). @returns {MenuEffect[]} */
+  toggle() {
+    return this.setOpen(!this.open);
+  }
+
+  /** @param {boolean} open @returns {MenuEffect[]} */
+  setOpen(open) {
+    if (open === this.open) return [];
+    this.open = open;
+    this.#changed();
+    /** @type {MenuEffect[]} */
+    const effects = [{ type: 'menu', open }];
+    // The sticks and triggers now work the menu: whatever robot was being driven stops.
+    if (open && this.tool === 'teleop' && this.selected) effects.unshift({ type: 'stop_teleop', robot: this.selected });
+    return effects;
+  }
+
+  /** @returns {MenuButton[]} */
+  buttons() {
+    const selected = this.robot(this.selected);
+    const pov = this.mode === 'pov';
+    const command = this.canCommand && selected !== null;
+    const why = !this.operator ? ' (viewer)' : !this.connected ? ' (offline)' : '';
+    /** @type {MenuButton[]} */
+    const list = [
+      { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
+      {
+        id: 'mode:pov',
+        label: selected === null ? 'Robot POV (select a robot)' : selected.hasCamera ? 'Robot POV' : 'Robot POV (no camera)',
+        group: 'mode',
+        active: pov,
+        enabled: pov || (selected?.hasCamera ?? false),
+      },
+    ];
+    for (const robot of this.robots) {
+      list.push({ id: `robot:${robot.name}`, label: robot.name, group: 'robots', active: robot.name === this.selected, enabled: true });
+    }
+    list.push(
+      { id: 'tool:teleop', label: `Teleop${why}`, group: 'tools', active: this.tool === 'teleop', enabled: command },
+      {
+        id: 'tool:goal',
+        label: pov ? 'Goal (free roam only)' : `Goal${why}`,
+        group: 'tools',
+        active: this.tool === 'goal',
+        enabled: command && !pov,
+      },
+      { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive },
+      { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
+      { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
+      { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
+      { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
+      { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
+      { id: 'estop', label: 'E-STOP', group: 'estop', active: false, enabled: this.operator, danger: true },
+    );
+    return list;
+  }
+
+  /**
+   * A button was pressed (disabled buttons do nothing).
+   * @param {string} id
+   * @returns {MenuEffect[]}
+   */
+  press(id) {
+    const button = this.buttons().find((b) => b.id === id);
+    if (!button || !button.enabled) return [];
+    /** @type {MenuEffect[]} */
+    let effects = [];
+    const [kind, arg] = id.includes(':') ? [id.slice(0, id.indexOf(':')), id.slice(id.indexOf(':') + 1)] : [id, ''];
+    if (kind === 'mode') effects = this.#setMode(/** @type {Mode} */ (arg));
+    else if (kind === 'robot') effects = this.#select(this.selected === arg ? null : arg);
+    else if (kind === 'tool') effects = this.#setTool(this.tool === arg ? 'none' : /** @type {Tool} */ (arg));
+    else if (id === 'goal:cancel' && this.selected) effects = [{ type: 'cancel', robot: this.selected }];
+    else if (id === 'camera:snapshot' && this.selected) effects = [{ type: 'snapshot', robot: this.selected }];
+    else if (id === 'camera:live' && this.selected) {
+      this.live = !this.live;
+      effects = [{ type: 'stream', robot: this.selected, fps: this.live ? MAX_STREAM_FPS : 0 }];
+    } else if (id === 'opt:seated') this.seated = !this.seated;
+    else if (id === 'opt:smooth') this.smooth = !this.smooth;
+    else if (id === 'menu:close') effects = this.setOpen(false);
+    else if (id === 'estop') effects = [...this.#setTool('none'), { type: 'estop' }];
+    this.#changed();
+    return effects;
+  }
+
+  /** Select a robot directly (desktop click on a robot, or pointing at it). @param {string | null} name */
+  select(name) {
+    const effects = this.#select(name);
+    this.#changed();
+    return effects;
+  }
+
+  /** Stop driving when the robot or mode changes: one effect, or none. @returns {MenuEffect[]} */
+  #stopDriving() {
+    return this.tool === 'teleop' && this.selected ? [{ type: 'stop_teleop', robot: this.selected }] : [];
+  }
+
+  /** @returns {MenuEffect[]} */
+  #stopLive() {
+    if (!this.live || !this.selected) return [];
+    this.live = false;
+    return [{ type: 'stream', robot: this.selected, fps: 0 }];
+  }
+
+  /** @param {string | null} name @returns {MenuEffect[]} */
+  #select(name) {
+    if (name !== null && !this.robot(name)) return [];
+    if (name === this.selected) return [];
+    const effects = [...this.#stopDriving(), ...this.#stopLive()];
+    this.selected = name;
+    this.goalActive = false; // until the new robot's status says otherwise
+    effects.push({ type: 'select', robot: name });
+    if (name === null && this.tool !== 'none') {
+      this.tool = 'none';
+      effects.push({ type: 'tool', tool: 'none' });
+    }
+    if (this.mode === 'pov') {
+      if (name !== null && this.robot(name)?.hasCamera) effects.push({ type: 'snapshot', robot: name });
+      else effects.push(...this.#setMode('free_roam'));
+    }
+    return effects;
+  }
+
+  /** @param {Mode} mode @returns {MenuEffect[]} */
+  #setMode(mode) {
+    if (mode === this.mode) return [];
+    if (mode === 'pov' && !this.robot(this.selected)?.hasCamera) return [];
+    /** @type {MenuEffect[]} */
+    const effects = [...this.#stopDriving(), ...this.#stopLive()];
+    if (mode === 'pov' && this.tool === 'goal') {
+      this.tool = 'none';
+      effects.push({ type: 'tool', tool: 'none' });
+    }
+    this.mode = mode;
+    effects.push({ type: 'mode', mode });
+    if (mode === 'pov' && this.selected) effects.push({ type: 'snapshot', robot: this.selected });
+    return effects;
+  }
+
+  /** @param {Tool} tool @returns {MenuEffect[]} */
+  #setTool(tool) {
+    if (tool === this.tool) return [];
+    const effects = this.tool === 'teleop' ? this.#stopDriving() : [];
+    this.tool = tool;
+    effects.push({ type: 'tool', tool });
+    return effects;
+  }
+
+  #changed() {
+    this.version++;
+  }
+}
+
+/** One press = one toggle: reports the rising edge of a button, never repeats while it is held. */
+export class ButtonEdge {
+  constructor() {
+    this.down = false;
+  }
+
+  /** @param {boolean} pressed @returns {boolean} true once per press */
+  update(pressed) {
+    const rising = pressed && !this.down;
+    this.down = pressed;
+    return rising;
+  }
+}

@@ -1,0 +1,93 @@
+// @ts-check
+/**
+ * Connection behaviour without sockets: the reconnect schedule (exponential backoff with a cap, reset by a
+ * connection that lasted), the status line the operator always sees, and latency from ping/pong.
+ * Times are milliseconds from any monotonic clock (performance.now()).
+ */
+
+export const FIRST_RETRY_MS = 500;
+export const MAX_RETRY_MS = 5000;
+export const PING_PERIOD_MS = 2000;
+/** No pong for this long: the link is dead even if the socket has not noticed (Wi-Fi roaming). */
+export const PONG_TIMEOUT_MS = 6000;
+
+/** @typedef {'connecting' | 'connected' | 'reconnecting'} LinkState */
+
+export class ReconnectPolicy {
+  /** @param {{first?: number, max?: number}} [options] */
+  constructor(options = {}) {
+    this.first = options.first ?? FIRST_RETRY_MS;
+    this.max = options.max ?? MAX_RETRY_MS;
+    /** @type {LinkState} */
+    this.state = 'connecting';
+    this.delay = this.first;
+    /** @type {number | null} */
+    this.retryAt = null;
+    this.attempts = 0;
+    /** @type {number | null} */
+    this.latency = null;
+    /** @type {number | null} */
+    this.lastPong = null;
+    /** @type {number | null} */
+    this.openedAt = null;
+    this.everOpened = false;
+  }
+
+  /** A socket is being opened. @param {number} now */
+  connecting(now) {
+    this.attempts++;
+    this.retryAt = null;
+    if (this.state !== 'reconnecting') this.state = 'connecting';
+    return now;
+  }
+
+  /** The socket opened (the relay's hello follows). @param {number} now */
+  opened(now) {
+    this.state = 'connected';
+    this.everOpened = true;
+    this.openedAt = now;
+    this.lastPong = now;
+    this.retryAt = null;
+  }
+
+  /**
+   * The socket closed: when to try again (ms from now). The delay doubles up to the cap, and starts over
+   * once a connection has stayed up for a while.
+   * @param {number} now
+   */
+  closed(now) {
+    if (this.openedAt !== null && now - this.openedAt > 10000) this.delay = this.first;
+    const delay = this.delay;
+    this.delay = Math.min(this.delay * 2, this.max);
+    this.state = 'reconnecting';
+    this.openedAt = null;
+    this.latency = null;
+    this.retryAt = now + delay;
+    return delay;
+  }
+
+  /** A pong echoing the `t` of our ping. @param {number} t @param {number} now */
+  pong(t, now) {
+    const sample = Math.max(0, now - t);
+    // A light moving average: one slow frame does not make the number jump.
+    this.latency = this.latency === null ? sample : this.latency * 0.7 + sample * 0.3;
+    this.lastPong = now;
+  }
+
+  /** Whether the open link has gone silent past PONG_TIMEOUT_MS. @param {number} now */
+  stale(now) {
+    return this.state === 'connected' && this.lastPong !== null && now - this.lastPong > PONG_TIMEOUT_MS;
+  }
+
+  /** The status line: "connected · 12 ms", "reconnecting in 3 s", "connecting…". @param {number} now */
+  describe(now) {
+    if (this.state === 'connected') return this.latency === null ? 'connected' : `connected · ${Math.round(this.latency)} ms`;
+    if (this.state === 'reconnecting' && this.retryAt !== null) {
+      const countdown = `reconnecting in ${Math.max(0, Math.ceil((this.retryAt - now) / 1000))} s`;
+      // A relay that refuses every attempt usually wants its operator token (the browser cannot see why).
+      if (!this.everOpened && this.attempts >= 3) return `cannot connect · ${countdown} · open the address the relay printed (…/#token=…)`;
+      return `disconnected · ${countdown}`;
+    }
+    return this.attempts > 1 ? 'reconnecting…' : 'connecting…';
+  }
+}

@@ -1,0 +1,80 @@
+// @ts-check
+/**
+ * The last minute of each sensor of each robot, for the sparklines, and the warning crossings that raise
+ * a haptic pulse and a banner: a reading whose `warning` turns true after being false (or first seen).
+ */
+
+export const HISTORY_MS = 60000;
+
+export class SensorHistory {
+  /** @param {number} [window] ms kept */
+  constructor(window = HISTORY_MS) {
+    this.window = window;
+    /** @type {Map<string, {t: number[], v: number[]}>} */
+    this.series = new Map();
+    /** @type {Map<string, boolean>} */
+    this.warning = new Map();
+  }
+
+  /**
+   * Record a reading at local time `now` (ms). Returns true when this reading crossed into warning.
+   * @param {string} robot @param {string} sensor @param {number} value @param {boolean} warning @param {number} now
+   */
+  add(robot, sensor, value, warning, now) {
+    const key = `${robot}/${sensor}`;
+    let s = this.series.get(key);
+    if (!s) {
+      s = { t: [], v: [] };
+      this.series.set(key, s);
+    }
+    s.t.push(now);
+    s.v.push(value);
+    let drop = 0;
+    while (drop < s.t.length && now - s.t[drop] > this.window) drop++;
+    if (drop) {
+      s.t.splice(0, drop);
+      s.v.splice(0, drop);
+    }
+    const before = this.warning.get(key) ?? false;
+    this.warning.set(key, warning);
+    return warning && !before;
+  }
+
+  /** @param {string} robot @param {string} sensor */
+  values(robot, sensor) {
+    return this.series.get(`${robot}/${sensor}`) ?? { t: [], v: [] };
+  }
+
+  /**
+   * The sparkline of the last minute as points in a width x height box (y down), with the range shown.
+   * @param {string} robot @param {string} sensor @param {number} now @param {number} width @param {number} height
+   */
+  sparkline(robot, sensor, now, width, height) {
+    const { t, v } = this.values(robot, sensor);
+    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0 };
+    let min = Infinity;
+    let max = -Infinity;
+    for (const x of v) {
+      if (x < min) min = x;
+      if (x > max) max = x;
+    }
+    const span = max - min || 1;
+    /** @type {[number, number][]} */
+    const points = v.map((value, i) => [
+      width * (1 - Math.min(1, Math.max(0, (now - t[i]) / this.window))),
+      height * (1 - (value - min) / span),
+    ]);
+    return { points, min, max };
+  }
+
+  /** Whether any sensor of the robot is in warning now. @param {string} robot */
+  robotWarning(robot) {
+    for (const [key, on] of this.warning) if (on && key.startsWith(`${robot}/`)) return true;
+    return false;
+  }
+
+  clear() {
+    this.series.clear();
+    this.warning.clear();
+  }
+}

@@ -1,0 +1,56 @@
+// @ts-check
+/** Small drawing helpers shared by the canvas-textured panels (menu, wrist panel, labels). */
+
+export const FONT_FAMILY = 'Inter, system-ui, sans-serif';
+
+/** @param {number} px @param {number} [weight] */
+export function font(px, weight = 500) {
+  return `${weight} ${px}px ${FONT_FAMILY}`;
+}
+
+/**
+ * @param {CanvasRenderingContext2D} ctx @param {number} x @param {number} y @param {number} w @param {number} h
+ * @param {number} r
+ */
+export function roundRect(ctx, x, y, w, h, r) {
+  ctx.beginPath();
+  ctx.roundRect(x, y, w, h, r);
+}
+
+/**
+ * Text shrunk to fit a width.
+ * @param {CanvasRenderingContext2D} ctx @param {string} text @param {number} x @param {number} y
+ * @param {number} maxWidth @param {number} px @param {number} [weight]
+ */
+export function fitText(ctx, text, x, y, maxWidth, px, weight = 500) {
+  let size = px;
+  ctx.font = font(size, weight);
+  while (size > 10 && ctx.measureText(text).width > maxWidth) {
+    size -= 1;
+    ctx.font = font(size, weight);
+  }
+  ctx.fillText(text, x, y);
+}
+
+/**
+ * A warning triangle with an exclamation mark, centred at (cx, cy).
+ * @param {CanvasRenderingContext2D} ctx @param {number} cx @param {number} cy @param {number} size
+ */
+export function warningIcon(ctx, cx, cy, size) {
+  const h = size * 0.9;
+  ctx.beginPath();
+  ctx.moveTo(cx, cy - h / 2);
+  ctx.lineTo(cx + size / 2, cy + h / 2);
+  ctx.lineTo(cx - size / 2, cy + h / 2);
+  ctx.closePath();
+  ctx.fillStyle = '#e02424';
+  ctx.fill();
+  ctx.lineWidth = size * 0.06;
+  ctx.strokeStyle = '#fff';
+  ctx.stroke();
+  ctx.fillStyle = '#fff';
+  ctx.font = font(size * 0.55, 800);
+  ctx.textAlign = 'center';
+  ctx.textBaseline = 'middle';
+  ctx.fillText('!', cx, cy + h * 0.12);
+}

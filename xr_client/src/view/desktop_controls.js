@@ -1,0 +1,210 @@
+// @ts-check
+/**
+ * The desktop fallback's hands: orbit with the mouse (left drag rotates, right drag pans, wheel zooms),
+ * fly with WASD/QE or the arrow keys when Teleop is off; click a robot to select it; with Goal on, press on
+ * the floor for the position, drag for the heading, release to send; with Teleop on, WASD/arrows or a
+ * gamepad's left stick drive the selected robot through the same 20 Hz loop, dead-zone and release rules.
+ * In Robot POV, dragging inside the POV panel looks around the hemisphere. Listeners are added in the
+ * constructor and removed in dispose().
+ */
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { keysToStick } from '../teleop.js';
+
+const FLY_SPEED = 4; // m/s
+const PICK_RADIUS = 24; // px: a click this close to a robot selects it
+
+export class DesktopControls {
+  /**
+   * @param {import('../app.js').App} app
+   * @param {HTMLElement} element the canvas' container (listens in the capture phase, before OrbitControls)
+   * @param {HTMLElement} povPanel
+   */
+  constructor(app, element, povPanel) {
+    this.app = app;
+    this.element = element;
+    this.povPanel = povPanel;
+    this.orbit = new OrbitControls(app.camera, app.renderer.domElement);
+    this.orbit.enableDamping = true;
+    this.orbit.maxPolarAngle = Math.PI * 0.49;
+    this.orbit.screenSpacePanning = false;
+    /** @type {Set<string>} */
+    this.keys = new Set();
+    this.raycaster = new THREE.Raycaster();
+    this.pointer = new THREE.Vector2();
+    /** @type {number | null} the pointer whose press is placing a goal */
+    this.goalPointerId = null;
+    /** @type {{x: number, y: number, id: number} | null} */
+    this.down = null;
+    this.povLook = { yaw: 0, pitch: 0, fov: 100 };
+    /** @type {{x: number, y: number, yaw: number, pitch: number} | null} */
+    this.povDrag = null;
+    /** @type {(() => void)[]} */
+    this.unlisten = [];
+    const on = (/** @type {EventTarget} */ target, /** @type {string} */ type, /** @type {(e: any) => void} */ fn, /** @type {AddEventListenerOptions} */ options = {}) => {
+      target.addEventListener(type, fn, options);
+      this.unlisten.push(() => target.removeEventListener(type, fn, options));
+    };
+    on(element, 'pointerdown', (e) => this.#pointerDown(e), { capture: true });
+    on(window, 'pointermove', (e) => this.#pointerMove(e));
+    on(window, 'pointerup', (e) => this.#pointerUp(e));
+    on(window, 'keydown', (e) => this.#key(e, true));
+    on(window, 'keyup', (e) => this.#key(e, false));
+    on(window, 'blur', () => this.keys.clear());
+    on(povPanel, 'pointerdown', (e) => {
+      this.povDrag = { x: e.clientX, y: e.clientY, yaw: this.povLook.yaw, pitch: this.povLook.pitch };
+      povPanel.setPointerCapture(e.pointerId);
+    });
+    on(povPanel, 'pointermove', (e) => {
+      if (!this.povDrag) return;
+      const k = (this.povLook.fov / povPanel.clientHeight) * (Math.PI / 180);
+      this.povLook.yaw = this.povDrag.yaw + (e.clientX - this.povDrag.x) * k;
+      this.povLook.pitch = Math.max(-1.4, Math.min(1.4, this.povDrag.pitch + (e.clientY - this.povDrag.y) * k));
+    });
+    on(povPanel, 'pointerup', () => (this.povDrag = null));
+    on(povPanel, 'wheel', (e) => {
+      e.preventDefault();
+      this.povLook.fov = Math.max(40, Math.min(140, this.povLook.fov + e.deltaY * 0.05));
+    }, { passive: false });
+  }
+
+  /** Frame the fleet's floor from the south-east, above. @param {THREE.Box3} box */
+  frame(box) {
+    const centre = box.getCenter(new THREE.Vector3());
+    const size = box.getSize(new THREE.Vector3());
+    const span = Math.max(size.x, size.z, 6);
+    this.orbit.target.copy(centre);
+    this.app.camera.position.set(centre.x, centre.y + span * 0.85, centre.z + span * 0.5);
+    this.orbit.update();
+  }
+
+  /** @param {PointerEvent} e */
+  #ndc(e) {
+    const rect = this.app.renderer.domElement.getBoundingClientRect();
+    this.pointer.set(((e.clientX - rect.left) / rect.width) * 2 - 1, -((e.clientY - rect.top) / rect.height) * 2 + 1);
+    this.raycaster.setFromCamera(this.pointer, this.app.camera);
+    return this.raycaster;
+  }
+
+  /** @param {PointerEvent} e */
+  #floorHit(e) {
+    const hit = this.app.pickTwin(this.#ndc(e));
+    return hit?.floor ? this.app.sceneToMapPoint(hit.point) : null;
+  }
+
+  /** @param {PointerEvent} e */
+  #pointerDown(e) {
+    if (e.button !== 0 || e.target !== this.app.renderer.domElement || this.app.presenting) return;
+    this.down = { x: e.clientX, y: e.clientY, id: e.pointerId };
+    const menu = this.app.menu;
+    if (menu.tool === 'goal' && menu.mode === 'free_roam') {
+      const hit = this.#floorHit(e);
+      this.app.goalPointer.aim(hit);
+      if (this.app.goalPointer.press()) {
+        // The drag is the goal's heading, not an orbit.
+        this.goalPointerId = e.pointerId;
+        this.orbit.enabled = false;
+      }
+    }
+  }
+
+  /** @param {PointerEvent} e */
+  #pointerMove(e) {
+    if (this.app.presenting) return;
+    const menu = this.app.menu;
+    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.app.renderer.domElement || this.goalPointerId !== null)) {
+      this.app.goalPointer.aim(this.#floorHit(e));
+    }
+  }
+
+  /** @param {PointerEvent} e */
+  #pointerUp(e) {
+    if (this.app.presenting) return;
+    if (this.goalPointerId === e.pointerId) {
+      this.app.goalPointer.aim(this.#floorHit(e));
+      const goal = this.app.goalPointer.release();
+      this.goalPointerId = null;
+      this.orbit.enabled = true;
+      if (goal) this.app.sendGoal(goal);
+      this.down = null;
+      return;
+    }
+    // A click (not a drag) on a robot, or near one (robots are small seen from afar), selects it.
+    if (this.down && this.down.id === e.pointerId && Math.hypot(e.clientX - this.down.x, e.clientY - this.down.y) < 5) {
+      const robot = this.#robotAt(e);
+      if (robot) this.app.selectRobot(robot);
+    }
+    this.down = null;
+  }
+
+  /** The robot under the pointer, else the nearest one within PICK_RADIUS pixels. @param {PointerEvent} e */
+  #robotAt(e) {
+    const hit = this.#ndc(e).intersectObjects(this.app.robotTargets(true), true)[0];
+    for (let o = /** @type {THREE.Object3D | null} */ (hit?.object ?? null); o; o = o.parent) {
+      if (typeof o.userData.robot === 'string') return /** @type {string} */ (o.userData.robot);
+    }
+    const rect = this.app.renderer.domElement.getBoundingClientRect();
+    let best = null;
+    let bestDistance = PICK_RADIUS;
+    const p = new THREE.Vector3();
+    for (const [name, view] of this.app.robotViews) {
+      if (!view.group.visible) continue;
+      p.copy(view.group.position).setY(view.group.position.y + 0.15).project(this.app.camera);
+      const d = Math.hypot(rect.left + ((p.x + 1) / 2) * rect.width - e.clientX, rect.top + ((1 - p.y) / 2) * rect.height - e.clientY);
+      if (d < bestDistance) {
+        bestDistance = d;
+        best = name;
+      }
+    }
+    return best;
+  }
+
+  /** @param {KeyboardEvent} e @param {boolean} down */
+  #key(e, down) {
+    const target = /** @type {HTMLElement} */ (e.target);
+    if (target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')) return;
+    const code = e.code;
+    if (!['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(code)) return;
+    e.preventDefault();
+    if (down) this.keys.add(code);
+    else this.keys.delete(code);
+    if (this.app.menu.tool === 'teleop') this.pollTeleop();
+  }
+
+  /** Keyboard and gamepad into the teleop loop: called on key changes and by the 20 Hz timer. */
+  pollTeleop() {
+    if (this.app.menu.tool !== 'teleop' || this.app.presenting) return;
+    const [kx, ky] = keysToStick(this.keys);
+    this.app.driveStick('keyboard', kx, ky);
+    const pad = [...(navigator.getGamepads?.() ?? [])].find((g) => g && g.mapping === 'standard' && g.connected);
+    if (pad) this.app.driveStick('gamepad', pad.axes[0] ?? 0, pad.axes[1] ?? 0);
+  }
+
+  /** @param {number} dt s */
+  update(dt) {
+    if (this.app.menu.tool !== 'teleop' && this.keys.size > 0) {
+      // Fly: move the camera and its orbit target together, along the ground.
+      const [x, y] = keysToStick(this.keys);
+      const up = (this.keys.has('KeyE') ? 1 : 0) - (this.keys.has('KeyQ') ? 1 : 0);
+      const forward = new THREE.Vector3();
+      this.app.camera.getWorldDirection(forward);
+      forward.y = 0;
+      forward.normalize();
+      const right = new THREE.Vector3(-forward.z, 0, forward.x);
+      const step = new THREE.Vector3()
+        .addScaledVector(forward, -y)
+        .addScaledVector(right, x)
+        .addScaledVector(new THREE.Vector3(0, 1, 0), up)
+        .multiplyScalar(FLY_SPEED * dt);
+      this.app.camera.position.add(step);
+      this.orbit.target.add(step);
+    }
+    this.orbit.update();
+  }
+
+  dispose() {
+    for (const off of this.unlisten) off();
+    this.unlisten = [];
+    this.orbit.dispose();
+  }
+}

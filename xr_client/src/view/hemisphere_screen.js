@@ -1,0 +1,179 @@
+// @ts-check
+/**
+ * The hemisphere screen of Robot POV: a spherical cap seen from its centre, its UVs computed from the lens
+ * model of the frames (lens.js), showing the selected robot's wide-angle image: the image centre straight
+ * ahead, the rim at half the field of view.
+ *
+ * One texture of fixed size, without mipmaps (video does not need them, and generating them doubles the
+ * frame time), is created once and reused for every frame: a decoded ImageBitmap (already flipped, see
+ * FrameDecoder) replaces the texture's image and is uploaded in place (texSubImage2D); the previous bitmap
+ * is closed at once. Never a new texture per frame.
+ *
+ * The cap lives on its own layer (POV_LAYER): the desktop's picture-in-picture camera sees only that
+ * layer, the main desktop camera never does, and in VR the layer is switched on while in Robot POV.
+ */
+import * as THREE from 'three';
+import { hemisphereGeometry } from '../lens.js';
+import { font } from './canvas_text.js';
+
+export const POV_LAYER = 5;
+const RADIUS = 5;
+
+export class HemisphereScreen {
+  /** @param {number} width @param {number} height fixed texture size */
+  constructor(width = 1024, height = 1024) {
+    this.group = new THREE.Group();
+    this.group.name = 'pov';
+    this.group.visible = false;
+    this.uploads = 0;
+    this.width = 0;
+    this.height = 0;
+    this.placeholder = document.createElement('canvas');
+    this.texture = this.#createTexture(width, height);
+    this.material = new THREE.MeshBasicMaterial({ map: this.texture });
+    // Directions outside the image (a pinhole's top and bottom, beyond a fisheye's field) stay black
+    // instead of smearing the edge pixels.
+    this.material.onBeforeCompile = (shader) => {
+      shader.fragmentShader = shader.fragmentShader.replace(
+        '#include <map_fragment>',
+        '#include <map_fragment>\nif (vMapUv.x < 0.0 || vMapUv.x > 1.0 || vMapUv.y < 0.0 || vMapUv.y > 1.0) diffuseColor.rgb = vec3(0.0);',
+      );
+    };
+    this.geometry = new THREE.BufferGeometry();
+    this.mesh = new THREE.Mesh(this.geometry, this.material);
+    this.mesh.frustumCulled = false;
+    this.mesh.layers.set(POV_LAYER);
+    this.group.add(this.mesh);
+    // A dim floor disc for orientation in the otherwise empty space.
+    this.floorGeometry = new THREE.RingGeometry(0.25, 1.2, 48).rotateX(-Math.PI / 2);
+    this.floorMaterial = new THREE.MeshBasicMaterial({ color: '#2a3140', transparent: true, opacity: 0.6 });
+    const floor = new THREE.Mesh(this.floorGeometry, this.floorMaterial);
+    floor.position.y = -1.5;
+    floor.layers.set(POV_LAYER);
+    this.group.add(floor);
+    this.lensKey = '';
+    /** @type {ImageBitmap | null} */
+    this.bitmap = null;
+    this.lastSeq = 0;
+    this.lastIdentifier = '';
+    /** @type {{width: number, height: number} | null} the selected camera's configured size: K's pixels */
+    this.calibration = null;
+    this.setLens({ model: 'equidistant', fov: 180 }, width, height);
+  }
+
+  /**
+   * The texture every frame of a camera is uploaded into: created when a camera of another size is
+   * selected, never per frame. Frames are decoded straight to this size.
+   * @param {number} width @param {number} height
+   */
+  #createTexture(width, height) {
+    this.width = width;
+    this.height = height;
+    this.placeholder.width = width;
+    this.placeholder.height = height;
+    this.#drawPlaceholder(this.placeholder, 'no image yet: Snapshot or Live');
+    /** @type {THREE.Texture<HTMLCanvasElement | ImageBitmap>} */
+    const texture = new THREE.Texture(/** @type {HTMLCanvasElement | ImageBitmap} */ (this.placeholder));
+    texture.colorSpace = THREE.SRGBColorSpace;
+    texture.generateMipmaps = false;
+    texture.minFilter = THREE.LinearFilter;
+    texture.magFilter = THREE.LinearFilter;
+    texture.needsUpdate = true;
+    texture.onUpdate = () => {
+      this.uploads++;
+    };
+    return texture;
+  }
+
+  /**
+   * Match the texture to the selected camera's size (capped at 2048 a side). A no-op when it already does.
+   * @param {number} width @param {number} height
+   */
+  setSize(width, height) {
+    const w = Math.max(16, Math.min(2048, Math.round(width)));
+    const h = Math.max(16, Math.min(2048, Math.round(height)));
+    if (w === this.width && h === this.height) return false;
+    this.bitmap?.close();
+    this.bitmap = null;
+    this.texture.dispose();
+    this.texture = this.#createTexture(w, h);
+    this.material.map = this.texture;
+    this.material.needsUpdate = true;
+    return true;
+  }
+
+  /**
+   * Rebuild the cap when the lens or the image proportions change (not per frame).
+   * @param {import('../lens.js').Lens} lens @param {number} imageWidth @param {number} imageHeight
+   */
+  setLens(lens, imageWidth, imageHeight) {
+    const key = JSON.stringify([lens, imageWidth, imageHeight]);
+    if (key === this.lensKey) return;
+    this.lensKey = key;
+    const { positions, uvs, indices } = hemisphereGeometry(lens, imageWidth, imageHeight, { radius: RADIUS, rings: 48, segments: 96 });
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
+    geometry.setAttribute('uv', new THREE.BufferAttribute(uvs, 2));
+    geometry.setIndex(new THREE.BufferAttribute(indices, 1));
+    this.geometry.dispose();
+    this.geometry = geometry;
+    this.mesh.geometry = geometry;
+  }
+
+  /**
+   * A decoded frame (width x height of this screen's texture, bottom-up).
+   * @param {ImageBitmap} bitmap @param {import('../camera_frame.js').FrameHeader} header
+   */
+  show(bitmap, header) {
+    // K of an OpenCV fisheye is in pixels of the calibration image (the camera's configured size); the
+    // circle models and pinhole scale with the image, whose own size the header gives.
+    const size = header.lens.model === 'opencv_fisheye' && this.calibration ? this.calibration : header;
+    this.setLens(header.lens, size.width, size.height);
+    const previous = this.bitmap;
+    this.bitmap = bitmap;
+    this.texture.image = bitmap;
+    this.texture.needsUpdate = true;
+    this.lastSeq = header.seq;
+    this.lastIdentifier = header.identifier;
+    // Uploaded at the next render or replaced before it: either way nobody needs the old one.
+    previous?.close();
+  }
+
+  /** Back to the placeholder (another robot selected). @param {string} text */
+  clear(text) {
+    this.bitmap?.close();
+    this.bitmap = null;
+    this.#drawPlaceholder(this.placeholder, text);
+    this.texture.image = this.placeholder;
+    this.texture.needsUpdate = true;
+    this.lastIdentifier = '';
+  }
+
+  /** @param {HTMLCanvasElement} canvas @param {string} text */
+  #drawPlaceholder(canvas, text) {
+    const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+    ctx.fillStyle = '#10141c';
+    ctx.fillRect(0, 0, canvas.width, canvas.height);
+    ctx.strokeStyle = '#2c3444';
+    ctx.lineWidth = canvas.width / 200;
+    ctx.beginPath();
+    ctx.arc(canvas.width / 2, canvas.height / 2, Math.min(canvas.width, canvas.height) / 2 - ctx.lineWidth, 0, 2 * Math.PI);
+    ctx.stroke();
+    ctx.fillStyle = '#9aa5b8';
+    ctx.font = font(canvas.width / 26);
+    ctx.textAlign = 'center';
+    ctx.textBaseline = 'middle';
+    // A canvas is flipped on upload (texture.flipY), like the frames that are decoded flipped: upright.
+    ctx.fillText(text, canvas.width / 2, canvas.height / 2);
+  }
+
+  dispose() {
+    this.bitmap?.close();
+    this.texture.dispose();
+    this.material.dispose();
+    this.geometry.dispose();
+    this.floorGeometry.dispose();
+    this.floorMaterial.dispose();
+    this.group.removeFromParent();
+  }
+}

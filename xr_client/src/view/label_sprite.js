@@ -1,0 +1,83 @@
+// @ts-check
+/**
+ * A text label as a sprite on a canvas texture. The canvas is redrawn only when the text changes (never
+ * per frame), and the texture is reused.
+ */
+import * as THREE from 'three';
+import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
+
+export class LabelSprite {
+  /** @param {{width?: number, height?: number, worldHeight?: number, onTop?: boolean}} [options] */
+  constructor(options = {}) {
+    this.canvas = document.createElement('canvas');
+    this.canvas.width = options.width ?? 512;
+    this.canvas.height = options.height ?? 128;
+    this.texture = new THREE.CanvasTexture(this.canvas);
+    this.texture.colorSpace = THREE.SRGBColorSpace;
+    this.texture.generateMipmaps = false;
+    this.texture.minFilter = THREE.LinearFilter;
+    this.material = new THREE.SpriteMaterial({ map: this.texture, transparent: true, depthTest: !options.onTop, depthWrite: false });
+    this.sprite = new THREE.Sprite(this.material);
+    const worldHeight = options.worldHeight ?? 0.22;
+    this.sprite.scale.set((worldHeight * this.canvas.width) / this.canvas.height, worldHeight, 1);
+    if (options.onTop) this.sprite.renderOrder = 10;
+    this.key = '';
+  }
+
+  /**
+   * @param {string[]} lines first line bold
+   * @param {{accent?: string, dim?: boolean, warning?: boolean}} [style]
+   */
+  set(lines, style = {}) {
+    const key = JSON.stringify([lines, style]);
+    if (key === this.key) return;
+    this.key = key;
+    const ctx = /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d'));
+    const { width, height } = this.canvas;
+    ctx.clearRect(0, 0, width, height);
+    roundRect(ctx, 4, 4, width - 8, height - 8, 18);
+    ctx.fillStyle = style.dim ? 'rgba(40,40,40,0.72)' : 'rgba(16,20,28,0.78)';
+    ctx.fill();
+    if (style.accent) {
+      ctx.fillStyle = style.accent;
+      ctx.fillRect(4, 18, 10, height - 36);
+    }
+    ctx.textAlign = 'left';
+    ctx.textBaseline = 'middle';
+    const lineHeight = (height - 16) / lines.length;
+    lines.forEach((line, i) => {
+      ctx.fillStyle = style.dim ? '#aaa' : i === 0 ? '#fff' : '#c8d0dc';
+      const px = i === 0 ? lineHeight * 0.62 : lineHeight * 0.5;
+      fitText(ctx, line, 28, 8 + lineHeight * (i + 0.5), width - 48, px, i === 0 ? 700 : 500);
+    });
+    this.texture.needsUpdate = true;
+  }
+
+  dispose() {
+    this.texture.dispose();
+    this.material.dispose();
+  }
+}
+
+/** The red warning icon over a robot: drawn once, on top of everything, constant size on screen. */
+export class WarningSprite {
+  constructor() {
+    const canvas = document.createElement('canvas');
+    canvas.width = canvas.height = 128;
+    const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+    warningIcon(ctx, 64, 64, 112);
+    ctx.font = font(10);
+    this.texture = new THREE.CanvasTexture(canvas);
+    this.texture.colorSpace = THREE.SRGBColorSpace;
+    // Visible from anywhere: no depth test, and a fixed angular size whatever the distance.
+    this.material = new THREE.SpriteMaterial({ map: this.texture, depthTest: false, depthWrite: false, sizeAttenuation: false, transparent: true });
+    this.sprite = new THREE.Sprite(this.material);
+    this.sprite.scale.set(0.05, 0.05, 1);
+    this.sprite.renderOrder = 20;
+  }
+
+  dispose() {
+    this.texture.dispose();
+    this.material.dispose();
+  }
+}

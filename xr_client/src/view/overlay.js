@@ -1,0 +1,129 @@
+// @ts-check
+/**
+ * The desktop overlay (HTML): the connection status, E-STOP, the Enter VR button or why VR is unavailable,
+ * the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
+ * Robot POV panel and a message line. Reads the app's state; clicks go back through app.pressMenu.
+ */
+import { drawSensorPanel } from './sensor_drawing.js';
+
+/** @param {string} id */
+function el(id) {
+  const element = document.getElementById(id);
+  if (!element) throw new Error(`index.html has no #${id}`);
+  return element;
+}
+
+export class Overlay {
+  /** @param {import('../app.js').App} app */
+  constructor(app) {
+    this.app = app;
+    this.status = el('link-status');
+    this.menu = el('menu');
+    this.message = el('message');
+    this.vrButton = /** @type {HTMLButtonElement} */ (el('enter-vr'));
+    this.vrNotice = el('vr-notice');
+    this.povPanel = el('pov-panel');
+    this.povInfo = el('pov-info');
+    this.sensorCanvas = /** @type {HTMLCanvasElement} */ (el('sensor-canvas'));
+    this.menuKey = '';
+    this.messageTimer = /** @type {ReturnType<typeof setTimeout> | undefined} */ (undefined);
+    this.sensorKey = '';
+    this.lastSensorDraw = 0;
+    /** @type {(() => void)[]} */
+    this.unlisten = [];
+    const onMenuClick = (/** @type {MouseEvent} */ e) => {
+      const button = /** @type {HTMLElement | null} */ (/** @type {HTMLElement} */ (e.target).closest('button[data-button]'));
+      if (button && !(/** @type {HTMLButtonElement} */ (button).disabled)) app.pressMenu(/** @type {string} */ (button.dataset.button));
+    };
+    this.menu.addEventListener('click', onMenuClick);
+    this.unlisten.push(() => this.menu.removeEventListener('click', onMenuClick));
+    const onVr = () => app.enterVR();
+    this.vrButton.addEventListener('click', onVr);
+    this.unlisten.push(() => this.vrButton.removeEventListener('click', onVr));
+  }
+
+  /** @param {string} text @param {boolean} ok */
+  setLink(text, ok) {
+    this.status.textContent = text;
+    this.status.className = `status ${ok ? 'ok' : 'bad'}`;
+  }
+
+  /** @param {{available: boolean, reason: string, fix: string}} availability */
+  setVr(availability) {
+    this.vrButton.hidden = !availability.available;
+    this.vrNotice.hidden = availability.available || !availability.reason;
+    this.vrNotice.innerHTML = '';
+    if (!availability.available && availability.reason) {
+      const reason = document.createElement('strong');
+      reason.textContent = availability.reason;
+      const fix = document.createElement('span');
+      fix.textContent = ` ${availability.fix}`;
+      this.vrNotice.append(reason, fix);
+    }
+  }
+
+  /** @param {string} text @param {'info' | 'error' | 'warning'} [kind] @param {number} [ms] */
+  say(text, kind = 'info', ms = 6000) {
+    this.message.textContent = text;
+    this.message.className = `message ${kind}`;
+    clearTimeout(this.messageTimer);
+    this.messageTimer = setTimeout(() => {
+      this.message.textContent = '';
+      this.message.className = 'message';
+    }, ms);
+  }
+
+  /** Redraw what changed. @param {number} now */
+  update(now) {
+    const menu = this.app.menu;
+    const key = String(menu.version);
+    if (key !== this.menuKey) {
+      this.menuKey = key;
+      this.#drawMenu();
+      this.povPanel.hidden = menu.mode !== 'pov';
+    }
+    const data = this.app.sensorPanelData(now);
+    const sensorKey = `${data.robot}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
+    if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
+      this.sensorKey = sensorKey;
+      this.lastSensorDraw = now;
+      const ctx = /** @type {CanvasRenderingContext2D} */ (this.sensorCanvas.getContext('2d'));
+      drawSensorPanel(ctx, this.sensorCanvas.width, this.sensorCanvas.height, data);
+      this.sensorCanvas.dataset.robot = data.robot ?? '';
+      this.sensorCanvas.dataset.warning = String(data.sensors.some((s) => s.warning));
+    }
+    if (menu.mode === 'pov') this.povInfo.textContent = this.app.povText();
+  }
+
+  #drawMenu() {
+    const groups = new Map();
+    for (const button of this.app.menu.buttons()) {
+      if (button.id === 'menu:close') continue; // the desktop menu is always open
+      let row = groups.get(button.group);
+      if (!row) {
+        row = document.createElement('div');
+        row.className = `row ${button.group}`;
+        groups.set(button.group, row);
+      }
+      const b = document.createElement('button');
+      b.type = 'button';
+      b.dataset.button = button.id;
+      b.textContent = button.label;
+      b.disabled = !button.enabled;
+      b.setAttribute('aria-pressed', String(button.active));
+      if (button.danger) b.className = 'estop';
+      row.append(b);
+    }
+    this.menu.replaceChildren(...groups.values());
+  }
+
+  /** The POV panel's rectangle in CSS pixels, for the scissored render. */
+  povRect() {
+    return this.povPanel.getBoundingClientRect();
+  }
+
+  dispose() {
+    clearTimeout(this.messageTimer);
+    for (const off of this.unlisten) off();
+  }
+}

@@ -1,0 +1,198 @@
+// @ts-check
+/**
+ * The VR panels drawn on canvas textures: the floating menu (buttons from MenuState, hover highlight) and
+ * the wrist sensor panel. Both redraw only when what they show changed, never per frame.
+ */
+import * as THREE from 'three';
+import { buttonAt, layoutMenu, MENU_ROWS } from '../menu_layout.js';
+import { fitText, font, roundRect } from './canvas_text.js';
+import { drawSensorPanel } from './sensor_drawing.js';
+
+const MENU_PX = [1024, 700];
+const MENU_M = [0.64, 0.4375];
+
+export class MenuPanel {
+  constructor() {
+    this.canvas = document.createElement('canvas');
+    [this.canvas.width, this.canvas.height] = MENU_PX;
+    this.texture = new THREE.CanvasTexture(this.canvas);
+    this.texture.colorSpace = THREE.SRGBColorSpace;
+    this.texture.anisotropy = 4;
+    this.geometry = new THREE.PlaneGeometry(MENU_M[0], MENU_M[1]);
+    this.material = new THREE.MeshBasicMaterial({ map: this.texture, transparent: true, depthWrite: false });
+    this.mesh = new THREE.Mesh(this.geometry, this.material);
+    this.mesh.name = 'menu';
+    this.mesh.renderOrder = 30;
+    this.mesh.visible = false;
+    /** @type {import('../menu_layout.js').ButtonRect[]} */
+    this.rects = [];
+    /** @type {import('../menu_state.js').MenuButton[]} */
+    this.buttons = [];
+    this.key = '';
+    // The small tab that opens the menu without a controller button (hands, Vision Pro's pointer).
+    this.tabCanvas = document.createElement('canvas');
+    this.tabCanvas.width = 256;
+    this.tabCanvas.height = 96;
+    this.tabTexture = new THREE.CanvasTexture(this.tabCanvas);
+    this.tabTexture.colorSpace = THREE.SRGBColorSpace;
+    this.tabGeometry = new THREE.PlaneGeometry(0.16, 0.06);
+    this.tabMaterial = new THREE.MeshBasicMaterial({ map: this.tabTexture, transparent: true, depthWrite: false });
+    this.tab = new THREE.Mesh(this.tabGeometry, this.tabMaterial);
+    this.tab.name = 'menu-tab';
+    this.tab.renderOrder = 30;
+    this.tab.visible = false;
+    /** @type {boolean | null} */
+    this.tabHover = null;
+    this.#drawTab(false);
+  }
+
+  /**
+   * Redraw when the state or the hovered button changed.
+   * @param {import('../menu_state.js').MenuState} menu @param {string | null} hover @param {string} status
+   */
+  update(menu, hover, status) {
+    const key = `${menu.version}|${hover}|${status}`;
+    if (key === this.key) return;
+    this.key = key;
+    const [w, h] = MENU_PX;
+    this.buttons = menu.buttons();
+    this.rects = layoutMenu(this.buttons, w, h);
+    const ctx = /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d'));
+    ctx.clearRect(0, 0, w, h);
+    roundRect(ctx, 0, 0, w, h, 36);
+    ctx.fillStyle = 'rgba(14,18,26,0.94)';
+    ctx.fill();
+    ctx.textBaseline = 'middle';
+    ctx.textAlign = 'left';
+    ctx.fillStyle = '#fff';
+    ctx.font = font(30, 700);
+    ctx.fillText('xr-relay', 28, 38);
+    ctx.fillStyle = '#9aa5b8';
+    fitText(ctx, status, 180, 39, w - 210, 22);
+    for (const [group, title] of MENU_ROWS) {
+      const first = this.rects.find((r) => this.buttons.find((b) => b.id === r.id)?.group === group);
+      if (!first || !title) continue;
+      ctx.fillStyle = '#6f7a8e';
+      ctx.textAlign = 'left';
+      fitText(ctx, title, 26, first.y + first.h / 2, 100, 22, 600);
+    }
+    for (const rect of this.rects) {
+      const button = /** @type {import('../menu_state.js').MenuButton} */ (this.buttons.find((b) => b.id === rect.id));
+      const hovered = hover === rect.id && button.enabled;
+      roundRect(ctx, rect.x, rect.y, rect.w, rect.h, 16);
+      ctx.fillStyle = button.danger
+        ? hovered ? '#ff4d4d' : '#d31f1f'
+        : button.active ? hovered ? '#3d8bff' : '#2a6fdb'
+        : hovered ? '#3a4456' : '#252c3a';
+      if (!button.enabled) ctx.globalAlpha = 0.4;
+      ctx.fill();
+      if (hovered) {
+        ctx.lineWidth = 4;
+        ctx.strokeStyle = '#fff';
+        ctx.stroke();
+      }
+      ctx.fillStyle = '#fff';
+      ctx.textAlign = 'center';
+      fitText(ctx, button.label, rect.x + rect.w / 2, rect.y + rect.h / 2 + 1, rect.w - 20, button.danger ? 34 : 26, button.danger || button.active ? 700 : 500);
+      ctx.globalAlpha = 1;
+    }
+    this.texture.needsUpdate = true;
+  }
+
+  /** @param {boolean} hovered */
+  #drawTab(hovered) {
+    if (this.tabHover === hovered) return;
+    this.tabHover = hovered;
+    const ctx = /** @type {CanvasRenderingContext2D} */ (this.tabCanvas.getContext('2d'));
+    ctx.clearRect(0, 0, 256, 96);
+    roundRect(ctx, 2, 2, 252, 92, 40);
+    ctx.fillStyle = hovered ? 'rgba(61,139,255,0.95)' : 'rgba(14,18,26,0.85)';
+    ctx.fill();
+    ctx.fillStyle = '#fff';
+    ctx.textAlign = 'center';
+    ctx.textBaseline = 'middle';
+    ctx.font = font(40, 700);
+    ctx.fillText('☰ Menu', 128, 50);
+    this.tabTexture.needsUpdate = true;
+  }
+
+  /** @param {boolean} hovered */
+  setTabHover(hovered) {
+    this.#drawTab(hovered);
+  }
+
+  /**
+   * The button at a point of the panel's plane (a raycast's uv), or null.
+   * @param {THREE.Vector2} uv
+   */
+  buttonAtUv(uv) {
+    const [w, h] = MENU_PX;
+    const id = buttonAt(this.rects, uv.x * w, (1 - uv.y) * h);
+    const button = this.buttons.find((b) => b.id === id);
+    return button && button.enabled ? button.id : null;
+  }
+
+  /** World positions of the buttons' centres (tests aim the emulated controllers at them). */
+  buttonCentres() {
+    const [w, h] = MENU_PX;
+    /** @type {Record<string, number[]>} */
+    const out = {};
+    const v = new THREE.Vector3();
+    this.mesh.updateWorldMatrix(true, false);
+    for (const r of this.rects) {
+      v.set(((r.x + r.w / 2) / w - 0.5) * MENU_M[0], (0.5 - (r.y + r.h / 2) / h) * MENU_M[1], 0);
+      v.applyMatrix4(this.mesh.matrixWorld);
+      out[r.id] = [v.x, v.y, v.z];
+    }
+    return out;
+  }
+
+  dispose() {
+    this.texture.dispose();
+    this.geometry.dispose();
+    this.material.dispose();
+    this.tabTexture.dispose();
+    this.tabGeometry.dispose();
+    this.tabMaterial.dispose();
+  }
+}
+
+/** The sensor panel on the left wrist: a small canvas-textured plane on the left grip. */
+export class WristPanel {
+  constructor() {
+    this.canvas = document.createElement('canvas');
+    this.canvas.width = 512;
+    this.canvas.height = 400;
+    this.texture = new THREE.CanvasTexture(this.canvas);
+    this.texture.colorSpace = THREE.SRGBColorSpace;
+    this.geometry = new THREE.PlaneGeometry(0.13, 0.1);
+    this.material = new THREE.MeshBasicMaterial({ map: this.texture, transparent: true, depthWrite: false });
+    this.mesh = new THREE.Mesh(this.geometry, this.material);
+    this.mesh.name = 'wrist-panel';
+    // Over the back of the left hand, tilted towards the face like a watch.
+    this.mesh.position.set(0, 0.07, 0.07);
+    this.mesh.rotation.set(-Math.PI / 3.5, 0, 0);
+    this.mesh.raycast = () => {};
+    this.lastDraw = -Infinity;
+    this.key = '';
+  }
+
+  /**
+   * Redraw at most 4 times a second, and at once when the selection or the warnings change.
+   * @param {import('./sensor_drawing.js').SensorPanelData} data
+   */
+  update(data) {
+    const key = `${data.robot}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
+    if (key === this.key && data.now - this.lastDraw < 250) return;
+    this.key = key;
+    this.lastDraw = data.now;
+    drawSensorPanel(/** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d')), this.canvas.width, this.canvas.height, data);
+    this.texture.needsUpdate = true;
+  }
+
+  dispose() {
+    this.texture.dispose();
+    this.geometry.dispose();
+    this.material.dispose();
+  }
+}

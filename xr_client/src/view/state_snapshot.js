@@ -1,0 +1,63 @@
+// @ts-check
+/**
+ * The read-only snapshot of the client behind `window.__xrRelay.state`: what the end-to-end tests wait on
+ * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, frame timing) and what a developer
+ * reads in a console. Building it changes nothing.
+ */
+import * as THREE from 'three';
+
+/** @param {import('../app.js').App} app */
+export function snapshotState(app) {
+  const rigQuaternion = app.rig.getWorldQuaternion(new THREE.Quaternion());
+  const { hemisphere, decoder, menu, interaction } = app;
+  return {
+    connected: app.linkOk,
+    link: app.linkText,
+    clientId: app.fleet.clientId,
+    presenting: app.presenting,
+    vr: app.vr,
+    menu: {
+      open: menu.open,
+      mode: menu.mode,
+      selected: menu.selected,
+      tool: menu.tool,
+      live: menu.live,
+      buttons: menu.buttons(),
+      centres: app.presenting && menu.open ? app.menuPanel.buttonCentres() : {},
+      tab: app.menuPanel.tab.visible ? app.menuPanel.tab.getWorldPosition(new THREE.Vector3()).toArray() : null,
+    },
+    xr: {
+      hover: app.presenting ? interaction.hovered() : {},
+      vignette: app.vignette.strength,
+      teleport: interaction.teleport.aiming ? (interaction.teleportHit?.toArray() ?? 'no floor') : null,
+    },
+    rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
+    world: app.world.visible,
+    robots: Object.fromEntries(
+      [...app.robotViews].map(([name, v]) => [
+        name,
+        { position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, warning: v.warning.sprite.visible },
+      ]),
+    ),
+    goal: { pointer: app.goalPointer.state, hover: app.goalPointer.hover, marker: app.goalPointer.marker, sent: app.commands.goals },
+    teleop: { robot: app.teleop.robot, source: app.teleop.source, driving: app.teleop.driving, sent: app.teleop.sent, last: app.teleop.lastCommand },
+    commands: { ...app.commands },
+    twin: { state: app.twin.state, url: app.twin.url ?? null, floor: app.twin.floorTargets.map((o) => o.name) },
+    pov: {
+      visible: hemisphere.group.visible,
+      uploads: hemisphere.uploads,
+      decoded: decoder.decoded,
+      received: decoder.received,
+      dropped: decoder.queue.dropped,
+      lastSeq: hemisphere.lastSeq,
+      identifier: hemisphere.lastIdentifier,
+      textureUuid: hemisphere.texture.uuid,
+      textureSize: [hemisphere.width, hemisphere.height],
+      mipmaps: hemisphere.texture.generateMipmaps,
+      snapshots: { ...app.snapshots },
+    },
+    timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
+    textures: app.renderer.info.memory.textures,
+    draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles },
+  };
+}

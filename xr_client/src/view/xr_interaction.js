@@ -1,0 +1,235 @@
+// @ts-check
+/**
+ * What the operator's hands do in VR, once per XR frame: the menu button (one press, one toggle), pointer
+ * rays with hover highlight and a haptic tick on the menu, select (trigger, pinch, transient-pointer) on
+ * menu buttons, the menu tab and robots, the goal pointer (arc, press for the position, drag for the
+ * heading, release to send) on the pointing hand, teleop on the right stick, and locomotion on the left:
+ * teleport arc, snap turn, optional smooth motion, all with the comfort vignette.
+ */
+import * as THREE from 'three';
+import { ButtonEdge } from '../menu_state.js';
+import { SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../locomotion.js';
+
+/** xr-standard index of the upper face button (Y on the left controller, B on the right). */
+export const MENU_BUTTON = 5;
+const MENU_DISTANCE = 0.75;
+
+export class XRInteraction {
+  /** @param {import('../app.js').App} app */
+  constructor(app) {
+    this.app = app;
+    this.raycaster = new THREE.Raycaster();
+    /** @type {Map<number, ButtonEdge>} */
+    this.menuEdges = new Map();
+    /** @type {Map<number, string | null>} */
+    this.hover = new Map();
+    /** @type {import('./xr_input.js').InputSlot | null} the slot holding a goal press */
+    this.goalSlot = null;
+    /** @type {import('./xr_input.js').InputSlot | null} */
+    this.lastPointer = null;
+    this.snapLeft = new SnapTurn();
+    this.snapRight = new SnapTurn();
+    this.teleport = new TeleportGesture();
+    /** @type {THREE.Vector3 | null} */
+    this.teleportHit = null;
+    this.vignette = 0;
+    this.lastRig = new THREE.Vector3();
+    this.lastRigYaw = 0;
+    this.head = new THREE.Vector3();
+    this.headYaw = 0;
+  }
+
+  /** @param {number} now ms @param {number} dt s */
+  update(now, dt) {
+    const app = this.app;
+    const input = app.xrInput;
+    // The head: three.js keeps the user camera (a child of the rig) at the viewer's pose.
+    app.camera.getWorldPosition(this.head);
+    const forward = app.camera.getWorldDirection(new THREE.Vector3());
+    this.headYaw = Math.atan2(-forward.x, -forward.z);
+
+    // 1. The menu button: a rising edge toggles, holding it does nothing more.
+    for (const slot of input.active()) {
+      let edge = this.menuEdges.get(slot.index);
+      if (!edge) this.menuEdges.set(slot.index, (edge = new ButtonEdge()));
+      if (edge.update(input.pressed(slot, MENU_BUTTON))) app.toggleMenu();
+    }
+
+    // 2. Pointing: the nearest interactive thing under each ray.
+    const menu = app.menu;
+    const panel = app.menuPanel;
+    /** @type {THREE.Object3D[]} */
+    const targets = menu.open ? [panel.mesh] : [panel.tab];
+    const robotsPickable = !menu.open && menu.mode === 'free_roam' && menu.tool !== 'goal';
+    if (robotsPickable) targets.push(...app.robotTargets());
+    // A transient pointer (Vision Pro's gaze-and-pinch) disconnects right after its selectend: its slot
+    // still has that event to hand over, at its last pose.
+    for (const slot of input.slots.filter((s) => s.source !== null || s.events.length > 0)) {
+      const { origin, direction } = input.ray(slot);
+      this.raycaster.set(origin, direction);
+      this.raycaster.far = 20;
+      const hit = this.raycaster.intersectObjects(targets, true)[0] ?? null;
+      let id = null;
+      if (hit?.object === panel.mesh && hit.uv) id = panel.buttonAtUv(hit.uv);
+      else if (hit?.object === panel.tab) id = 'menu:tab';
+      else if (hit) id = robotOf(hit.object);
+      if (id !== (this.hover.get(slot.index) ?? null)) {
+        this.hover.set(slot.index, id);
+        if (id && !id.startsWith('pick:')) input.pulse(slot, 0.25, 15); // the haptic tick of a hovered button
+      }
+      input.showHit(slot, hit ? hit.point : null, hit ? hit.distance : 0);
+
+      // 3. Select: on what the ray hovers, else the goal pointer.
+      for (const event of input.takeEvents(slot)) {
+        if (event === 'selectstart') {
+          this.lastPointer = slot;
+          if (id === 'menu:tab') app.toggleMenu();
+          else if (id?.startsWith('pick:')) app.selectRobot(id.slice(5));
+          else if (id) {
+            input.pulse(slot, 0.6, 30);
+            app.pressMenu(id);
+          } else if (this.#goalActive()) {
+            this.#aimGoal(slot);
+            if (app.goalPointer.press()) this.goalSlot = slot;
+          }
+        } else if (slot === this.goalSlot) {
+          this.#aimGoal(slot);
+          const goal = app.goalPointer.release();
+          this.goalSlot = null;
+          if (goal) app.sendGoal(goal);
+        }
+      }
+    }
+    const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && h !== 'menu:tab') ?? null;
+    panel.setTabHover([...this.hover.values()].includes('menu:tab'));
+    panel.update(menu, menuHover, app.linkText);
+
+    // 4. The goal pointer follows the pointing hand (the one that last selected, else the right one).
+    const goalActive = this.#goalActive();
+    const pointing = goalActive ? (this.goalSlot ?? (this.lastPointer?.source ? this.lastPointer : null) ?? input.side('right')) : null;
+    // The hand that shows the goal arc shows no straight ray.
+    for (const s of input.active()) s.ray.visible = s.pointer && s !== pointing;
+    if (goalActive) {
+      const slot = pointing;
+      if (slot) this.#aimGoal(slot);
+      else app.goalPointer.aim(null);
+      const arc = slot ? this.lastArc : null;
+      app.goalView.setPointer(app.fleet.scene.mapToScene, app.goalPointer.marker, arc);
+    } else {
+      if (this.goalSlot) this.goalSlot = null;
+      app.goalPointer.cancel();
+      app.goalPointer.aim(null);
+      app.goalView.setPointer(app.fleet.scene.mapToScene, null, null);
+    }
+
+    // 5. Sticks: the right one drives the robot when Teleop is on, else both turn; the left one moves.
+    const left = input.side('left');
+    const right = input.side('right');
+    const [lx, ly] = input.stick(left);
+    const [rx, ry] = input.stick(right);
+    const rig = app.rig;
+    const free = menu.mode === 'free_roam';
+    if (menu.tool === 'teleop' && !menu.open) app.driveStick('xr-right', rx, ry);
+    else this.#turn(this.snapRight.update(rx));
+    let teleportPoints = null;
+    if (!menu.open && left) {
+      if (menu.smooth && free) {
+        const [vx, vz] = smoothVelocity(lx, ly, this.headYaw);
+        rig.position.x += vx * dt;
+        rig.position.z += vz * dt;
+        this.teleport.cancel();
+      } else if (free) {
+        const gesture = this.teleport.update(ly);
+        if (gesture === 'aim') {
+          const { origin, direction } = input.ray(left);
+          const arc = app.arcToFloor(origin, direction);
+          teleportPoints = arc.points;
+          this.teleportHit = arc.hit;
+        } else if (gesture === 'teleport' && this.teleportHit) {
+          app.teleportTo(this.teleportHit, this.head);
+          this.teleportHit = null;
+        }
+      }
+      if (Math.abs(ly) < 0.5 || !free) this.#turn(this.snapLeft.update(lx));
+    } else {
+      this.teleport.cancel();
+    }
+    app.teleportView.set(teleportPoints, teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null);
+
+    // 6. Comfort: the vignette follows the rig's motion (teleports are instantaneous and skip it).
+    const moved = rig.position.distanceTo(this.lastRig);
+    const turned = Math.abs(rig.rotation.y - this.lastRigYaw);
+    const linear = moved < 1 ? moved / Math.max(dt, 1e-3) : 0;
+    const angular = turned < 1 ? turned / Math.max(dt, 1e-3) : 0;
+    this.vignette = vignetteStrength(this.vignette, linear, angular, dt);
+    app.vignette.set(this.vignette);
+    this.lastRig.copy(rig.position);
+    this.lastRigYaw = rig.rotation.y;
+
+    // 7. The menu tab floats low in front of the operator, following the head lazily.
+    const tab = panel.tab;
+    tab.visible = !menu.open;
+    if (tab.visible) {
+      const target = new THREE.Vector3(this.head.x - Math.sin(this.headYaw) * 0.55, this.head.y - 0.5, this.head.z - Math.cos(this.headYaw) * 0.55);
+      tab.position.lerp(target, tab.position.lengthSq() === 0 ? 1 : Math.min(1, dt * 3));
+      tab.lookAt(this.head);
+    }
+  }
+
+  /** @type {[number, number, number][] | null} */
+  lastArc = null;
+
+  /** @param {import('./xr_input.js').InputSlot} slot */
+  #aimGoal(slot) {
+    const { origin, direction } = this.app.xrInput.ray(slot);
+    const { points, hit } = this.app.arcToFloor(origin, direction);
+    this.lastArc = points;
+    this.app.goalPointer.aim(hit ? this.app.sceneToMapPoint(hit) : null);
+  }
+
+  #goalActive() {
+    const menu = this.app.menu;
+    return menu.tool === 'goal' && menu.mode === 'free_roam' && !menu.open;
+  }
+
+  /** Snap turn about the head. @param {number} angle */
+  #turn(angle) {
+    if (angle !== 0) this.app.turnAbout(this.head, angle);
+  }
+
+  /** What each hand points at ('left', 'right', or the slot index of a transient pointer), for tests. */
+  hovered() {
+    /** @type {Record<string, string | null>} */
+    const out = {};
+    for (const slot of this.app.xrInput.active()) {
+      const key = slot.source?.targetRayMode === 'tracked-pointer' ? slot.source.handedness : String(slot.index);
+      out[key] = this.hover.get(slot.index) ?? null;
+    }
+    return out;
+  }
+
+  /** Place the menu in front of the operator, at a comfortable distance, facing them. */
+  placeMenu() {
+    const app = this.app;
+    app.camera.getWorldPosition(this.head);
+    const forward = app.camera.getWorldDirection(new THREE.Vector3());
+    forward.y = 0;
+    if (forward.lengthSq() < 1e-6) forward.set(0, 0, -1);
+    forward.normalize();
+    const mesh = app.menuPanel.mesh;
+    mesh.position.copy(this.head).addScaledVector(forward, MENU_DISTANCE);
+    mesh.position.y = this.head.y - 0.12;
+    mesh.lookAt(this.head.x, mesh.position.y + 0.1, this.head.z);
+  }
+
+  dispose() {
+    this.menuEdges.clear();
+    this.hover.clear();
+  }
+}
+
+/** @param {THREE.Object3D | null} object */
+function robotOf(object) {
+  for (let o = object; o; o = o.parent) if (typeof o.userData.robot === 'string') return `pick:${o.userData.robot}`;
+  return null;
+}

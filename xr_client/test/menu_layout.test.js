@@ -1,0 +1,26 @@
+// @ts-check
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { MenuState } from '../src/menu_state.js';
+import { buttonAt, layoutMenu } from '../src/menu_layout.js';
+
+test('every menu button gets a rectangle inside the panel, rows do not overlap, hits map back', () => {
+  const menu = new MenuState();
+  menu.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: false }, { name: 'robot3', hasCamera: true }], true);
+  const buttons = menu.buttons();
+  const rects = layoutMenu(buttons, 1024, 700);
+  assert.deepEqual(rects.map((r) => r.id).sort(), buttons.map((b) => b.id).sort());
+  for (const r of rects) {
+    assert.ok(r.x >= 0 && r.y >= 0 && r.x + r.w <= 1024 && r.y + r.h <= 700, JSON.stringify(r));
+    assert.equal(buttonAt(rects, r.x + r.w / 2, r.y + r.h / 2), r.id);
+    for (const o of rects) {
+      if (o === r) continue;
+      const overlap = r.x < o.x + o.w && o.x < r.x + r.w && r.y < o.y + o.h && o.y < r.y + r.h;
+      assert.ok(!overlap, `${r.id} overlaps ${o.id}`);
+    }
+  }
+  // E-STOP spans the last row, wider than any other button.
+  const estop = /** @type {import('../src/menu_layout.js').ButtonRect} */ (rects.find((r) => r.id === 'estop'));
+  assert.ok(rects.every((r) => r.id === 'estop' || r.w < estop.w));
+  assert.equal(buttonAt(rects, 2, 2), null);
+});

@@ -1,0 +1,127 @@
+// @ts-check
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { ButtonEdge, MenuState } from '../src/menu_state.js';
+import { MAX_STREAM_FPS } from '../src/protocol_constants.js';
+
+function menu() {
+  const m = new MenuState();
+  m.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: true }, { name: 'robot3', hasCamera: false }], true);
+  return m;
+}
+/** @param {MenuState} m @param {string} id */
+const button = (m, id) => m.buttons().find((b) => b.id === id);
+
+test('one press of the controller button is one toggle, never repeated while held', () => {
+  const edge = new ButtonEdge();
+  const presses = [false, true, true, true, false, true, false].map((p) => edge.update(p));
+  assert.deepEqual(presses, [false, true, false, false, false, true, false]);
+  const m = menu();
+  assert.deepEqual(m.toggle(), [{ type: 'menu', open: true }]);
+  assert.equal(m.open, true);
+  assert.deepEqual(m.toggle(), [{ type: 'menu', open: false }]);
+});
+
+test('robots are a radio group that can be switched off', () => {
+  const m = menu();
+  assert.deepEqual(m.press('robot:robot2'), [{ type: 'select', robot: 'robot2' }]);
+  assert.equal(m.selected, 'robot2');
+  m.press('robot:robot1');
+  assert.equal(m.selected, 'robot1');
+  assert.equal(m.buttons().filter((b) => b.group === 'robots' && b.active).length, 1);
+  m.press('robot:robot1');
+  assert.equal(m.selected, null);
+});
+
+test('Teleop and Goal are exclusive, need a robot, and labels and disabled states follow the mode', () => {
+  const m = menu();
+  assert.equal(button(m, 'tool:teleop')?.enabled, false);
+  assert.deepEqual(m.press('tool:teleop'), []);
+  m.press('robot:robot2');
+  m.press('tool:teleop');
+  assert.equal(m.tool, 'teleop');
+  // Switching to Goal stops driving first.
+  assert.deepEqual(m.press('tool:goal'), [{ type: 'stop_teleop', robot: 'robot2' }, { type: 'tool', tool: 'goal' }]);
+  assert.equal(m.tool, 'goal');
+  assert.equal(button(m, 'camera:snapshot')?.enabled, false);
+  // Robot POV: goal off (no floor there), camera buttons on, a snapshot at once.
+  const effects = m.press('mode:pov');
+  assert.deepEqual(effects, [{ type: 'tool', tool: 'none' }, { type: 'mode', mode: 'pov' }, { type: 'snapshot', robot: 'robot2' }]);
+  assert.equal(button(m, 'tool:goal')?.enabled, false);
+  assert.equal(button(m, 'tool:goal')?.label, 'Goal (free roam only)');
+  assert.equal(button(m, 'camera:snapshot')?.enabled, true);
+  assert.equal(button(m, 'estop')?.enabled, true);
+  assert.equal(button(m, 'estop')?.danger, true);
+});
+
+test('POV needs a camera; switching robot or mode stops driving and the live stream', () => {
+  const m = menu();
+  m.press('robot:robot3');
+  assert.equal(button(m, 'mode:pov')?.enabled, false);
+  assert.equal(button(m, 'mode:pov')?.label, 'Robot POV (no camera)');
+  m.press('robot:robot1');
+  m.press('mode:pov');
+  m.press('tool:teleop');
+  assert.deepEqual(m.press('camera:live'), [{ type: 'stream', robot: 'robot1', fps: MAX_STREAM_FPS }]);
+  assert.equal(button(m, 'camera:live')?.active, true);
+  // Another robot in POV: stop driving robot1, stop its stream, show a snapshot of robot2.
+  assert.deepEqual(m.press('robot:robot2'), [
+    { type: 'stop_teleop', robot: 'robot1' },
+    { type: 'stream', robot: 'robot1', fps: 0 },
+    { type: 'select', robot: 'robot2' },
+    { type: 'snapshot', robot: 'robot2' },
+  ]);
+  assert.equal(m.live, false);
+  // A robot without a camera in POV: back to free roam.
+  const effects = m.press('robot:robot3');
+  assert.deepEqual(effects.at(-1), { type: 'mode', mode: 'free_roam' });
+  assert.equal(m.mode, 'free_roam');
+});
+
+test('opening the menu while driving asks for a stop; E-STOP turns teleop off', () => {
+  const m = menu();
+  m.press('robot:robot1');
+  m.press('tool:teleop');
+  assert.deepEqual(m.toggle(), [{ type: 'stop_teleop', robot: 'robot1' }, { type: 'menu', open: true }]);
+  assert.deepEqual(m.press('estop'), [{ type: 'stop_teleop', robot: 'robot1' }, { type: 'tool', tool: 'none' }, { type: 'estop' }]);
+  assert.equal(m.tool, 'none');
+});
+
+test('a reconnect keeps the selection, asks for the live stream again, and drops vanished robots', () => {
+  const m = menu();
+  m.press('robot:robot2');
+  m.press('mode:pov');
+  m.press('camera:live');
+  m.setConnected(false);
+  assert.equal(button(m, 'camera:live')?.enabled, false);
+  assert.deepEqual(m.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: true }], true), [
+    { type: 'stream', robot: 'robot2', fps: MAX_STREAM_FPS },
+  ]);
+  const effects = m.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  assert.equal(m.selected, null);
+  assert.equal(m.mode, 'free_roam');
+  assert.ok(effects.some((e) => e.type === 'stream' && e.fps === 0));
+});
+
+test('Cancel goal is enabled while the selected robot follows a goal', () => {
+  const m = menu();
+  m.press('robot:robot1');
+  assert.equal(button(m, 'goal:cancel')?.enabled, false);
+  m.setGoalActive(true);
+  assert.deepEqual(m.press('goal:cancel'), [{ type: 'cancel', robot: 'robot1' }]);
+  m.press('robot:robot2'); // another robot: its own status decides
+  assert.equal(button(m, 'goal:cancel')?.enabled, false);
+});
+
+test('a viewer cannot command: tools and E-STOP are disabled, and the version moves on every change', () => {
+  const m = new MenuState();
+  m.setFleet([{ name: 'robot1', hasCamera: false }], false);
+  m.press('robot:robot1');
+  assert.equal(button(m, 'tool:teleop')?.enabled, false);
+  assert.equal(button(m, 'tool:teleop')?.label, 'Teleop (viewer)');
+  assert.equal(button(m, 'estop')?.enabled, false);
+  const v = m.version;
+  m.press('opt:seated');
+  assert.equal(m.seated, true);
+  assert.ok(m.version > v);
+});

@@ -1,0 +1,52 @@
+// @ts-check
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { ReconnectPolicy, PONG_TIMEOUT_MS } from '../src/reconnect.js';
+import { operatorToken, relayUrl } from '../src/connection.js';
+
+test('the relay address comes from the page origin, ws or wss to match', () => {
+  assert.equal(relayUrl(new URL('http://127.0.0.1:8090/index.html')), 'ws://127.0.0.1:8090/ws');
+  assert.equal(relayUrl(new URL('https://relay.example:8443/?emulate=quest3')), 'wss://relay.example:8443/ws');
+  assert.equal(relayUrl(new URL('http://127.0.0.1:8080/'), 'a b+c'), 'ws://127.0.0.1:8080/ws?token=a%20b%2Bc');
+});
+
+test('the operator token comes from the #token= fragment and is kept for the tab', () => {
+  /** @type {Map<string, string>} */
+  const store = new Map();
+  const storage = { getItem: (/** @type {string} */ k) => store.get(k) ?? null, setItem: (/** @type {string} */ k, /** @type {string} */ v) => void store.set(k, v) };
+  assert.equal(operatorToken(new URL('http://h:8080/'), storage), null);
+  assert.equal(operatorToken(new URL('http://h:8080/?emulate=quest3#token=s3cret'), storage), 's3cret');
+  assert.equal(operatorToken(new URL('http://h:8080/'), storage), 's3cret'); // a reload without the fragment
+});
+
+test('backoff doubles up to a cap, with a visible countdown', () => {
+  const p = new ReconnectPolicy({ first: 500, max: 5000 });
+  p.connecting(0);
+  assert.equal(p.describe(0), 'connecting…');
+  assert.equal(p.closed(100), 500);
+  assert.equal(p.describe(100), 'disconnected · reconnecting in 1 s');
+  const delays = [1000, 2000, 4000, 5000, 5000].map((_, i) => (p.connecting(1000 * i), p.closed(1000 * i + 1)));
+  assert.deepEqual(delays, [1000, 2000, 4000, 5000, 5000]);
+  p.retryAt = 10_000;
+  assert.match(p.describe(6_900), /^cannot connect · reconnecting in 4 s · open the address the relay printed/);
+  p.opened(11_000);
+  p.closed(11_500);
+  assert.equal(p.describe(11_600), 'disconnected · reconnecting in 5 s');
+});
+
+test('a connection that lasted resets the backoff; latency from ping/pong', () => {
+  const p = new ReconnectPolicy({ first: 500, max: 5000 });
+  p.connecting(0);
+  p.closed(0);
+  p.closed(0);
+  p.connecting(0);
+  p.opened(1000);
+  p.pong(1000, 1040);
+  assert.equal(p.describe(1050), 'connected · 40 ms');
+  p.pong(2000, 2020);
+  assert.equal(Math.round(/** @type {number} */ (p.latency)), 34);
+  assert.equal(p.stale(2020 + PONG_TIMEOUT_MS - 1), false);
+  assert.equal(p.stale(2020 + PONG_TIMEOUT_MS + 1), true);
+  assert.equal(p.closed(20_000), 500);
+  assert.equal(p.latency, null);
+});
