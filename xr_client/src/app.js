@@ -244,6 +244,26 @@ export class App {
         this.playback = message;
         this.#onLink();
         return;
+      case 'backend':
+        this.#notify(message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`, message.ok ? 'info' : 'error');
+        return;
+    }
+    if (identifier.endsWith('/lease')) {
+      this.#onLease(identifier.slice(0, identifier.indexOf('/')), message);
+      return;
+    }
+    if (identifier.endsWith('/model')) {
+      const robot = identifier.slice(0, identifier.indexOf('/'));
+      const entry = this.fleet.robots.get(robot);
+      if (entry && entry.description.model !== message.url) {
+        // The relay built this robot's model from its robot_description: swap the view for one that loads it.
+        entry.description = { ...entry.description, model: message.url };
+        this.robotViews.get(robot)?.dispose();
+        const view = new RobotView(entry.description, this.loader);
+        this.robotViews.set(robot, view);
+        this.world.add(view.group);
+      }
+      return;
     }
     if (!this.fleet.apply(message)) {
       if (identifier.endsWith('/scan')) this.robotViews.get(identifier.slice(0, identifier.indexOf('/')))?.setScan(message);
@@ -316,8 +336,36 @@ export class App {
     return box;
   }
 
+  /**
+   * Who controls a robot changed. The operator who lost one is told at once (and its teleop stops sending).
+   * @param {string} robot @param {{holder: string | null, previous: string | null, reason: string}} message
+   */
+  #onLease(robot, message) {
+    const me = this.fleet.clientId;
+    if (message.previous === me && message.holder && message.holder !== me) {
+      this.teleop.stop(performance.now());
+      this.#notify(`${robot} was taken over by ${message.holder}`, 'error');
+    } else if (message.previous === me && message.reason === 'expired') {
+      this.#notify(`your control of ${robot} expired (idle)`, 'info');
+    }
+  }
+
+  /**
+   * A command refused because another operator holds the robot: offer to take it over (an explicit,
+   * visible act: the relay stops the robot first and tells the holder). Outside VR only: a browser dialog.
+   * @param {string} text
+   */
+  #offerTakeOver(text) {
+    const robot = text.split(':')[0].split('/')[0];
+    if (!this.fleet.robots.has(robot) || this.renderer.xr.isPresenting) return;
+    if (globalThis.confirm?.(`${text}\n\nTake over ${robot}? It will be stopped first.`)) {
+      this.connection.send({ identifier: `${robot}/lease`, action: 'acquire', force: true });
+    }
+  }
+
   /** @param {any} message @param {number} now */
   #onError(message, now) {
+    if (message.code === 'leased' && message.id !== null) queueMicrotask(() => this.#offerTakeOver(message.message));
     if (this.pendingSnapshots.delete(message.id)) {
       this.snapshots.failed++;
       this.snapshots.lastError = message.code;
