@@ -16,7 +16,7 @@ export function vrAvailability(page) {
       available: false,
       reason: `VR needs a secure context, and http://${page.hostname}${page.port ? `:${page.port}` : ''} is not one (only https or localhost are).`,
       fix:
-        `Either serve the relay over TLS (the relay's \`--tls auto\` option, coming in a later release), ` +
+        `Either start the relay with \`--host 0.0.0.0 --tls auto\` and open the https://…:8443 address it prints, ` +
         `or connect the headset by USB and run \`adb reverse tcp:${port} tcp:${port}\`, then open ` +
         `http://localhost:${port}/ in the headset's browser.`,
     };
