@@ -95,3 +95,34 @@ def test_simulated_laser_sees_the_walls() -> None:
     # Straight ahead is the door at x = 3 and the chemical storage room beyond: a long free beam.
     ahead = ranges[180]
     assert ahead > 5.0
+
+
+def test_odometry_cdr_decode_matches_rclpy() -> None:
+    """relay/cdr.py reads the pose of raw Odometry bytes exactly as rclpy deserialises it, for every
+    alignment of the two frame-id strings."""
+    pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'`")
+    import random
+
+    from nav_msgs.msg import Odometry
+    from rclpy.serialization import serialize_message
+
+    from relay.cdr import odometry_pose
+
+    rng = random.Random(3)
+    for i in range(40):
+        message = Odometry()
+        message.header.stamp.sec = rng.randint(0, 2**31 - 1)
+        message.header.stamp.nanosec = rng.randint(0, 999_999_999)
+        message.header.frame_id = "odom"[: i % 5] + "x" * (i % 7)
+        message.child_frame_id = "base" * (i % 3)
+        p, q = message.pose.pose.position, message.pose.pose.orientation
+        p.x, p.y, p.z = (rng.uniform(-1e3, 1e3) for _ in range(3))
+        q.x, q.y, q.z, q.w = (rng.uniform(-1, 1) for _ in range(4))
+        decoded = odometry_pose(serialize_message(message))
+        assert (decoded.x, decoded.y, decoded.z, decoded.qx, decoded.qy, decoded.qz, decoded.qw) == (
+            p.x, p.y, p.z, q.x, q.y, q.z, q.w,
+        )  # fmt: skip
+        assert decoded.frame_id == message.header.frame_id
+        assert decoded.stamp == pytest.approx(message.header.stamp.sec + message.header.stamp.nanosec * 1e-9, abs=1e-9)
+    with pytest.raises(ValueError):
+        odometry_pose(b"\x00\x09" + bytes(40))
