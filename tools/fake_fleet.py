@@ -142,10 +142,11 @@ class FakeFleet:
 
         m = self.config.scene.map_to_scene
         self.camera = SimCamera.load(self.world.scene_glb, map_to_scene=map_to_scene_matrix(m.x, m.y, m.z, m.yaw))
-        best_effort = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+        # Reliable, depth 1, as image_transport publishes: the relay's camera subscriptions are reliable.
+        images = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
         for robot, spec in cameras:
             cls = CompressedImage if spec.compressed else Image
-            publisher = self.node.create_publisher(cls, spec.topic, best_effort)
+            publisher = self.node.create_publisher(cls, spec.topic, images)
             lens = self.camera.fit_lens(spec.lens, spec.width, spec.height)
             # Ray casting costs ~0.1 s a frame on two cores: 10 fps is the most a demo fleet can afford.
             period = 1.0 / min(spec.rate, 10.0)
