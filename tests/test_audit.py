@@ -18,7 +18,7 @@ async def test_scripted_session_is_in_the_audit_log_after_sigkill(tmp_path: Path
     try:
         client = await TestClient.open(ws_url)
         hello = await client.hello()
-        script = [
+        script: list[tuple[dict[str, Any], str, str | None]] = [
             ({"identifier": "robot2/goal_pose", "x": 3.0, "y": 6.0, "yaw": 1.5}, "accepted", None),
             ({"identifier": "robot2/goal_pose", "x": 99.0, "y": 6.0}, "refused", "out_of_bounds"),
             ({"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.1}, "accepted", None),
