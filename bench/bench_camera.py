@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import statistics
 import tempfile
 import time
@@ -29,6 +30,7 @@ from relay.imaging import JPEG_QUALITY, encode_jpeg, raw_to_bgr
 
 from .common import (
     FISHEYE,
+    ROOT,
     TOKEN,
     Child,
     CpuWindow,
@@ -400,7 +402,7 @@ async def run(settings: Settings, report: Report) -> JsonDict:
             "jpeg_quality": JPEG_QUALITY,
             "window_s": window,
             "warmup_s": warmup,
-            "photos": str(FISHEYE),
+            "photos": os.path.relpath(FISHEYE, ROOT),  # relative: results are committed
             "ros_domain_id": domain,
             "sustained_fps": SUSTAINED,
         },
