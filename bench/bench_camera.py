@@ -45,6 +45,9 @@ from .common import (
 )
 from .wsload import Recorder, close_all, connect
 
+#: The photos' path as results record it: relative to the repository, since results are committed.
+PHOTOS = os.path.relpath(FISHEYE, ROOT)
+
 NAME = "camera"
 TITLE = "Camera path"
 FPS = 30.0
@@ -402,7 +405,7 @@ async def run(settings: Settings, report: Report) -> JsonDict:
             "jpeg_quality": JPEG_QUALITY,
             "window_s": window,
             "warmup_s": warmup,
-            "photos": os.path.relpath(FISHEYE, ROOT),  # relative: results are committed
+            "photos": PHOTOS,
             "ros_domain_id": domain,
             "sustained_fps": SUSTAINED,
         },
