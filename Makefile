@@ -48,7 +48,7 @@ lint: setup
 	cd xr_client && npx --no-install tsc -p jsconfig.json
 
 # The benchmarks (bench/run.py): bench/results/*.json, docs/benchmarks.md and docs/img/bench_*.png, about
-# 15-20 minutes; QUICK=1 runs a subset in under 2 minutes into bench/results/tmp/quick/ (ignored by git).
+# 15-20 minutes; QUICK=1 runs a subset in under 2 minutes into bench/results/scratch/quick/ (ignored by git).
 # Their extra packages (the Foxglove SDK, matplotlib) are installed here when missing.
 bench: setup
 	@$(BIN)/python -c 'import foxglove, matplotlib' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[dev,ros,bench]'

@@ -28,9 +28,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "bench" / "results"
-#: Quick runs and logs go under bench/results/tmp/, which git ignores: a development run never changes
+#: Quick runs and logs go under bench/results/scratch/, which git ignores: a development run never changes
 #: the committed figures.
-TMP = RESULTS / "tmp"
+TMP = RESULTS / "scratch"
 LOGS = TMP / "logs"
 DOCS = ROOT / "docs"
 FISHEYE = ROOT.parent / "shared" / "data" / "fisheye" / "surroundvision_jeyp4"
@@ -237,7 +237,7 @@ def _log_file(name: str) -> Any:
 class Child:
     """A child process that prints JSON lines on stdout and takes one-word commands on stdin.
 
-    Its stderr goes to bench/results/tmp/logs/<name>.log. ``stop`` (always called in a ``finally``)
+    Its stderr goes to bench/results/scratch/logs/<name>.log. ``stop`` (always called in a ``finally``)
     ends it: stdin closed, then SIGTERM, then SIGKILL.
     """
 

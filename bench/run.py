@@ -3,7 +3,7 @@
     python -m bench.run [--quick] [--only NAME ...] [--report-only]
 
 Full runs write bench/results/<name>.json, docs/benchmarks.md and docs/img/bench_*.png (committed). Quick
-runs write the same under bench/results/tmp/quick/ (ignored by git), so a development run never changes the
+runs write the same under bench/results/scratch/quick/ (ignored by git), so a development run never changes the
 committed figures. ``--only`` reruns some benchmarks and regenerates the page from every stored result.
 """
 
