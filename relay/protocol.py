@@ -99,6 +99,34 @@ Mode = Literal["idle", "teleop", "navigating"]
 RequestId = str | int
 
 # --------------------------------------------------------------------------------------------------
+# Identifiers and coalescing keys: built here, never by f-strings elsewhere
+# --------------------------------------------------------------------------------------------------
+
+
+def robot_identifier(robot: str, kind: str) -> str:
+    """``<robot>/<kind>``: the identifier of a robot-scoped message (``robot1/pose``)."""
+    return f"{robot}/{kind}"
+
+
+def camera_identifier(robot: str, camera: str) -> str:
+    """The identifier of a camera's binary frames and of its stream lane (``robot1/camera/front``)."""
+    return f"{robot}/camera/{camera}"
+
+
+def sensor_key(robot: str, name: str) -> str:
+    """The coalescing key of one sensor's readings: each sensor keeps its own newest value."""
+    return f"{robot}/sensor/{name}"
+
+
+def split_camera_identifier(identifier: str) -> tuple[str, str]:
+    """``robot1/camera/front`` -> ``("robot1", "front")``; the inverse of :func:`camera_identifier`."""
+    robot, sep, camera = identifier.partition("/camera/")
+    if not sep or not robot or not camera:
+        raise ValueError(f"not a camera identifier: {identifier!r}")
+    return robot, camera
+
+
+# --------------------------------------------------------------------------------------------------
 # Server -> client messages (one TypedDict per kind, mirroring docs/protocol.md)
 # --------------------------------------------------------------------------------------------------
 
@@ -458,7 +486,7 @@ def command_identifier(command: Command) -> str:
         Stream: "stream",
         Lease: "lease",
     }
-    return f"{command.robot}/{kind[type(command)]}"
+    return robot_identifier(command.robot, kind[type(command)])
 
 
 def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
@@ -567,7 +595,7 @@ def pose_message(
     # Rounding to 0.1 mm and 1e-6 keeps frames short without losing anything a twin can show.
     yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
     return {
-        "identifier": f"{robot}/pose",
+        "identifier": robot_identifier(robot, "pose"),
         "stamp": round(stamp, 6),
         "frame": frame,
         "x": round(x, 4),
@@ -583,7 +611,7 @@ def pose_message(
 
 def sensor_message(robot: str, *, name: str, value: float, unit: str, warning: bool, stamp: float) -> SensorMessage:
     return {
-        "identifier": f"{robot}/sensor",
+        "identifier": robot_identifier(robot, "sensor"),
         "name": name,
         "value": round(value, 4),
         "unit": unit,
@@ -602,7 +630,7 @@ def status_message(
     controller: str | None,
 ) -> StatusMessage:
     return {
-        "identifier": f"{robot}/status",
+        "identifier": robot_identifier(robot, "status"),
         "online": online,
         "age": None if age is None else round(age, 3),
         "mode": mode,
@@ -623,7 +651,7 @@ def scan_message(
 ) -> ScanMessage:
     # Centimetres are plenty for drawing obstacles; null marks a beam with no valid return.
     return {
-        "identifier": f"{robot}/scan",
+        "identifier": robot_identifier(robot, "scan"),
         "stamp": round(stamp, 6),
         "frame": frame,
         "angle_min": round(angle_min, 6),
@@ -652,7 +680,7 @@ def backend_message(name: str, failure: str | None) -> dict[str, Any]:
 
 def model_message(robot: str, url: str) -> dict[str, Any]:
     """A new glTF model for ``robot`` (built from its robot_description); replaces hello's ``model``."""
-    return {"identifier": f"{robot}/model", "url": url}
+    return {"identifier": robot_identifier(robot, "model"), "url": url}
 
 
 def scene_message(url: str | None, map_to_scene: Transform2D) -> dict[str, Any]:
@@ -674,7 +702,7 @@ def playback_message(*, position: float, duration: float, rate: float, paused: b
 
 def lease_message(robot: str, *, holder: str | None, previous: str | None, reason: str) -> dict[str, Any]:
     """Who controls ``robot`` now; sent to every client when that changes."""
-    return {"identifier": f"{robot}/lease", "holder": holder, "previous": previous, "reason": reason}
+    return {"identifier": robot_identifier(robot, "lease"), "holder": holder, "previous": previous, "reason": reason}
 
 
 def estop_message(robots: list[str], client_id: str | None) -> dict[str, Any]:
