@@ -16,13 +16,20 @@ A record (docs/security.md lists the fields):
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import logging
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import orjson
+
+from .errors import ProtocolError
+from .protocol import Command, Ping, RequestId, command_identifier
+
+if TYPE_CHECKING:
+    from .clients import Client
 
 logger = logging.getLogger(__name__)
 
@@ -94,3 +101,43 @@ class AuditLog:
         if self._fd >= 0:
             os.close(self._fd)
             self._fd = -1
+
+
+class CommandAudit:
+    """Records commands as their outcome is known; a relay without an audit log records nothing."""
+
+    def __init__(self, log: AuditLog | None) -> None:
+        self.log = log
+
+    def command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
+        if self.log is None or isinstance(command, Ping):
+            return  # pings are keep-alives, not commands
+        values = {k: v for k, v in dataclasses.asdict(command).items() if k not in ("robot", "id")}
+        self.frame(client, command_identifier(command), getattr(command, "id", None), values, error)
+
+    def frame(
+        self,
+        client: Client,
+        identifier: str | None,
+        request_id: RequestId | None,
+        values: dict[str, object] | None,
+        error: ProtocolError | None,
+    ) -> None:
+        """One client frame, also one that could not be parsed (``identifier`` and ``values`` None then)."""
+        if self.log is None:
+            return
+        self.log.record(
+            client=client.client_id,
+            role=client.role,
+            address=client.address,
+            identifier=identifier,
+            request_id=request_id,
+            values=values,
+            outcome="refused" if error else "accepted",
+            code=error.code if error else None,
+            message=error.message if error else None,
+        )
+
+    def close(self) -> None:
+        if self.log is not None:
+            self.log.close()

@@ -19,8 +19,9 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from . import __version__
 from .access import Access, Refused
+from .clients import Client
 from .config import FleetConfig
-from .core import Client, Relay
+from .core import Relay
 from .options import Options
 from .tls import fingerprint, server_context
 

@@ -1,0 +1,213 @@
+"""Client frames in, through the rules, out to the backend: one ``ack`` or ``error`` for every command.
+
+- every frame is parsed by ``relay.protocol``; a bad one gets exactly one ``error`` and changes nothing;
+- every command with an ``id`` gets exactly one ``ack`` or ``error`` with that id, and is audited;
+- velocities are clamped to the robot's limits, goals are checked against the map, and control changing hands
+  stops the robot first (``relay.control``);
+- ``estop`` is never rate-limited and is announced to every client ahead of anything else they have queued.
+
+Nothing here reads a clock: the caller passes ``now`` (loop time, seconds), so the rules are tested without
+sockets and without sleeping (tests/test_commands.py).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Awaitable, Callable, Mapping
+
+from .audit import CommandAudit
+from .backends.base import Backend
+from .clients import Client
+from .config import Robot
+from .control import Control
+from .errors import CommandRejected, ProtocolError
+from .fleet import FleetState
+from .occupancy import OccupancyGrid
+from .outbox import Outbox
+from .protocol import (
+    Cancel,
+    CmdVel,
+    Command,
+    ErrorCode,
+    EStop,
+    GoalPose,
+    Lease,
+    Ping,
+    Playback,
+    Snapshot,
+    Stream,
+    encode,
+    parse_command,
+    pong_message,
+    robot_identifier,
+)
+from .safety import check_goal, clamp_velocity
+from .streams import CameraStreams
+
+logger = logging.getLogger(__name__)
+
+
+class CommandHandler:
+    def __init__(
+        self,
+        robots: Mapping[str, Robot],
+        backend: Backend,
+        fleet: FleetState,
+        control: Control,
+        streams: CameraStreams,
+        outbox: Outbox,
+        audit: CommandAudit,
+        *,
+        map_grid: Callable[[], OccupancyGrid | None],
+        wall_clock: Callable[[], float] = time.time,
+    ) -> None:
+        self._robots = robots
+        self._backend = backend
+        self._fleet = fleet
+        self._control = control
+        self._streams = streams
+        self._outbox = outbox
+        self._audit = audit
+        self._map_grid = map_grid
+        self._wall_clock = wall_clock
+
+    def handle_binary(self, client: Client) -> None:
+        self._outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
+
+    async def handle_text(self, client: Client, data: str | bytes, now: float) -> None:
+        """Handle one text frame. Only unexpected failures propagate (the server then closes with 1011)."""
+        try:
+            command = parse_command(data, self._robots)
+        except ProtocolError as exc:
+            self._outbox.error(client, exc.request_id, exc.code, exc.message)
+            self._audit.frame(client, exc.identifier, exc.request_id, None, exc)
+            return
+        request_id = getattr(command, "id", None)
+        if not isinstance(command, EStop) and not client.allowance.take(now):
+            # Dropped before it can reach a robot; an estop is never held back.
+            error = ProtocolError(
+                ErrorCode.RATE_LIMITED,
+                f"more than {client.allowance.rate:g} messages a second; this one was dropped",
+                request_id,
+            )
+            self._outbox.error(client, request_id, error.code, error.message)
+            self._audit.command(client, command, error)
+            return
+        if isinstance(command, Snapshot):
+            # Rendering or waiting for the next camera frame takes a while: do not hold up this
+            # client's later frames (an estop among them) behind it.
+            client.spawn(self._run_apart(client, command, self._snapshot(client, command)))
+            return
+        try:
+            await self._dispatch(client, command, now)
+        except ProtocolError as exc:
+            exc.request_id = request_id if exc.request_id is None else exc.request_id
+            self._outbox.error(client, exc.request_id, exc.code, exc.message)
+            self._audit.command(client, command, exc)
+            return
+        self._audit.command(client, command, None)
+
+    async def _run_apart(self, client: Client, command: Snapshot, work: Awaitable[None]) -> None:
+        """A command that runs beside the client's later frames: its reply and audit record come when it ends."""
+        try:
+            await work
+        except ProtocolError as exc:
+            exc.request_id = command.id if exc.request_id is None else exc.request_id
+            self._outbox.error(client, exc.request_id, exc.code, exc.message)
+            self._audit.command(client, command, exc)
+        except Exception:
+            logger.exception("command %r of client %s failed", command.id, client.client_id)
+            self._outbox.error(client, command.id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+        else:
+            self._audit.command(client, command, None)
+
+    async def _dispatch(self, client: Client, command: Command, now: float) -> None:
+        if isinstance(command, Ping):
+            client.channel.put_priority(encode(pong_message(command.t, self._wall_clock())))
+        elif isinstance(command, EStop):
+            await self._estop(client, command, now)
+        elif isinstance(command, CmdVel):
+            await self._cmd_vel(client, command, now)
+        elif isinstance(command, GoalPose):
+            await self._goal(client, command, now)
+        elif isinstance(command, Cancel):
+            self._control.require_commandable(
+                client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
+            )
+            await self._backend.cancel(command.robot)
+            self._outbox.ack(client, command.id)
+        elif isinstance(command, Playback):
+            self._control.require_operator(client, f"playback/{command.action}", command.id)
+            await self._backend.playback(command.action, command.value)
+            self._outbox.ack(client, command.id)
+        elif isinstance(command, Stream):
+            self._streams.set(client.channel, command)
+            self._outbox.ack(client, command.id)
+        elif isinstance(command, Lease):
+            await self._control.lease(client, command, now)
+            self._outbox.ack(client, command.id)
+
+    async def _estop(self, client: Client, command: EStop, now: float) -> None:
+        self._control.require_operator(client, "estop", command.id)
+        failed = await self._control.estop(command.robot, client.client_id, now)
+        if failed:
+            # The robots that could be reached are stopped; the operator must learn at once which were not.
+            reasons = "; ".join(f"{robot}: {exc!r}" for robot, exc in failed.items())
+            raise ProtocolError(
+                ErrorCode.INTERNAL,
+                f"estop: {', '.join(failed)} could not be stopped ({reasons}); every other robot was stopped",
+                command.id,
+            )
+        self._outbox.ack(client, command.id)
+
+    async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
+        robot = self._robots[command.robot]
+        self._control.require_commandable(client, robot.name, robot_identifier(robot.name, "cmd_vel"), command.id, now)
+        clamped = clamp_velocity(command.linear, command.angular, robot.limits)
+        previous = self._control.deadman.feed(robot.name, client.client_id, now)
+        if previous is not None:
+            # Control changed hands: the robot stops before the new operator's command applies.
+            await self._backend.send_velocity(robot.name, 0.0, 0.0)
+        if self._fleet.status(robot.name, now)["mode"] != "teleop" or previous is not None:
+            # Teleoperation overrides navigation.
+            await self._backend.cancel(robot.name)
+            self._fleet.set_teleop(robot.name, True)
+            self._outbox.status(robot.name, now)
+        await self._backend.send_velocity(robot.name, clamped.linear, clamped.angular)
+        if command.id is not None:
+            self._outbox.ack(client, command.id)
+
+    async def _goal(self, client: Client, command: GoalPose, now: float) -> None:
+        self._control.require_commandable(
+            client, command.robot, robot_identifier(command.robot, "goal_pose"), command.id, now
+        )
+        check_goal(command.robot, command.x, command.y, self._map_grid())
+        if self._control.deadman.controller(command.robot) is not None:
+            self._control.deadman.release_robot(command.robot)
+            self._fleet.set_teleop(command.robot, False)
+            await self._backend.send_velocity(command.robot, 0.0, 0.0)
+        try:
+            await self._backend.send_goal(command.robot, command.x, command.y, command.yaw)
+        except CommandRejected as exc:
+            exc.request_id = command.id
+            raise
+        self._outbox.status(command.robot, now)
+        self._outbox.ack(client, command.id)
+
+    async def _snapshot(self, client: Client, command: Snapshot) -> None:
+        robot = self._robots[command.robot]
+        camera = robot.camera(command.camera)
+        identifier = robot_identifier(robot.name, "snapshot")
+        if camera is None:
+            what = f"no camera named {command.camera!r}" if command.camera else "no camera"
+            raise CommandRejected(ErrorCode.NO_CAMERA, f"{identifier}: {robot.name} has {what}", command.id)
+        frame = await self._backend.snapshot(robot.name, camera.name)
+        if frame is None:
+            raise CommandRejected(
+                ErrorCode.NO_CAMERA,
+                f"{identifier}: camera {camera.name!r} has produced no image yet; try again shortly",
+                command.id,
+            )
+        client.channel.put_priority(self._streams.encode(frame, command.id), binary=True)
+        self._outbox.ack(client, command.id)

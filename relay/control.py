@@ -1,0 +1,181 @@
+"""Who may move a robot, and every path that stops one: the rules, with the time passed in.
+
+``Control`` owns the lease table and the deadman and carries out their decisions on the backend: a robot is
+stopped when its operator falls silent or disconnects, before a lease changes hands, and on an emergency stop.
+Commands that move a robot ask :meth:`Control.require_commandable` first.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Sequence
+
+from .backends.base import Backend
+from .clients import Client
+from .errors import CommandRejected, ProtocolError
+from .fleet import FleetState
+from .leases import LeaseTable
+from .outbox import Outbox
+from .protocol import ErrorCode, Lease, RequestId, robot_identifier
+from .safety import Deadman
+
+logger = logging.getLogger(__name__)
+
+
+class Control:
+    def __init__(
+        self,
+        robots: Sequence[str],
+        backend: Backend,
+        fleet: FleetState,
+        outbox: Outbox,
+        *,
+        deadman_timeout: float,
+        lease_timeout: float,
+    ) -> None:
+        self.robots = list(robots)
+        self.backend = backend
+        self.fleet = fleet
+        self.outbox = outbox
+        self.deadman = Deadman(deadman_timeout)
+        self.leases = LeaseTable(lease_timeout)
+
+    # -- permissions ------------------------------------------------------------------------------
+
+    @staticmethod
+    def require_operator(client: Client, identifier: str, request_id: RequestId | None) -> None:
+        if client.role != "operator":
+            raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
+
+    def require_commandable(
+        self, client: Client, robot: str, identifier: str, request_id: RequestId | None, now: float
+    ) -> None:
+        """Operator role, a robot that is not a recording, and the robot's lease (taken when free)."""
+        self.require_operator(client, identifier, request_id)
+        refusal = self.backend.command_refusal(robot)
+        if refusal is not None:
+            raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)
+        allowed, before = self.leases.use(robot, client.client_id, now)
+        if not allowed:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {before}; send {robot}/lease with force: true to take over",
+                request_id,
+            )
+        if before is None:
+            self.lease_changed(robot, client.client_id, None, "acquired", now)
+
+    # -- stops ------------------------------------------------------------------------------------
+
+    async def stop_teleop(self, robot: str, reason: str, now: float) -> None:
+        """Zero velocity for a robot whose teleoperation ended (deadman, disconnect); its goal is not touched."""
+        logger.info("stopping %s: %s", robot, reason)
+        self.fleet.set_teleop(robot, False)
+        try:
+            await self.backend.send_velocity(robot, 0.0, 0.0)
+        finally:
+            self.outbox.status(robot, now)
+
+    async def halt(self, robot: str, reason: str) -> None:
+        """Zero velocity and no goal: before a lease changes hands."""
+        logger.info("stopping %s: %s", robot, reason)
+        self.deadman.release_robot(robot)
+        self.fleet.set_teleop(robot, False)
+        await self.backend.stop_robot(robot)
+
+    async def estop(self, robot: str | None, by: str | None, now: float) -> dict[str, BaseException]:
+        """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why.
+
+        Every robot that can be reached is stopped even when another's stop raises: one broken robot must not
+        keep the rest of the fleet moving. The ``estop`` broadcast names the robots that were stopped.
+        """
+        robots = [robot] if robot is not None else list(self.robots)
+        for name in robots:
+            self.deadman.release_robot(name)
+            self.fleet.set_teleop(name, False)
+        results = await asyncio.gather(*(self.backend.stop_robot(name) for name in robots), return_exceptions=True)
+        failed = {name: r for name, r in zip(robots, results, strict=True) if isinstance(r, BaseException)}
+        stopped = [name for name in robots if name not in failed]
+        logger.warning("EMERGENCY STOP of %s by %s", ", ".join(stopped) or "no robot", by)
+        for name, exc in failed.items():
+            logger.error("EMERGENCY STOP of %s by %s FAILED: %r", name, by, exc)
+        self.outbox.estop(stopped, by)
+        for name in robots:
+            self.outbox.status(name, now)
+        return failed
+
+    async def stop_all(self, reason: str) -> None:
+        """Stop every robot (shutdown); a failure is logged and does not keep the others from stopping."""
+        for robot in self.robots:
+            self.deadman.release_robot(robot)
+            self.fleet.set_teleop(robot, False)
+        results = await asyncio.gather(*(self.backend.stop_robot(r) for r in self.robots), return_exceptions=True)
+        for robot, result in zip(self.robots, results, strict=True):
+            if isinstance(result, BaseException):
+                logger.error("could not stop %s (%s): %r", robot, reason, result)
+        logger.info("all robots stopped (%s)", reason)
+
+    async def client_gone(self, client_id: str, now: float) -> None:
+        """Robots the client was driving stop, then its leases end and the robots it had sent somewhere stop."""
+        for robot in self.deadman.release_client(client_id):
+            await self.stop_teleop(robot, f"operator {client_id} disconnected", now)
+        # Nobody is watching a robot whose lease holder left: it stops too.
+        for robot in self.leases.release_client(client_id):
+            await self.halt(robot, f"lease holder {client_id} disconnected")
+            self.lease_changed(robot, None, client_id, "disconnected", now)
+
+    # -- leases -----------------------------------------------------------------------------------
+
+    def lease_changed(self, robot: str, holder: str | None, previous: str | None, reason: str, now: float) -> None:
+        logger.info("lease of %s: %s -> %s (%s)", robot, previous, holder, reason)
+        self.fleet.set_controller(robot, holder)
+        self.outbox.lease(robot, holder, previous, reason)
+        self.outbox.status(robot, now)
+
+    async def lease(self, client: Client, command: Lease, now: float) -> None:
+        """``<robot>/lease``: acquire, release, or take over with ``force``; raises when refused."""
+        identifier = robot_identifier(command.robot, "lease")
+        self.require_operator(client, identifier, command.id)
+        robot, holder = command.robot, self.leases.holder(command.robot)
+        if command.action == "release":
+            if holder != client.client_id:
+                raise CommandRejected(
+                    ErrorCode.LEASED, f"{identifier}: {robot} is not controlled by you (holder: {holder})", command.id
+                )
+            await self.halt(robot, f"{client.client_id} released it")
+            self.leases.release(robot, client.client_id)
+            self.lease_changed(robot, None, client.client_id, "released", now)
+        elif holder is None or holder == client.client_id:
+            self.leases.take(robot, client.client_id, now)
+            if holder is None:
+                self.lease_changed(robot, client.client_id, None, "acquired", now)
+        elif not command.force:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {holder}; add force: true to take over",
+                command.id,
+            )
+        else:
+            await self.halt(robot, f"{client.client_id} takes over from {holder}")
+            self.leases.take(robot, client.client_id, now)
+            self.lease_changed(robot, client.client_id, holder, "taken_over", now)
+
+    async def expire(self, now: float) -> None:
+        """The deadman's and the leases' timeouts: silent operators' robots stop, idle leases end."""
+        for robot in self.deadman.expired(now):
+            try:
+                await self.stop_teleop(robot, "operator stopped sending cmd_vel (deadman)", now)
+            except Exception:
+                # The ticker must outlive one failed stop, or no deadman would ever fire again.
+                logger.exception("deadman could not stop %s", robot)
+        busy = self.fleet.busy()
+        for robot in busy:
+            self.leases.keep_alive(robot, now)
+        for robot in self.leases.expired(now, busy):
+            holder = self.fleet.status(robot, now)["controller"]
+            try:
+                await self.halt(robot, "lease expired")
+            except Exception:
+                logger.exception("could not stop %s when its lease expired", robot)
+            self.lease_changed(robot, None, holder, "expired", now)

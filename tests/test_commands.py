@@ -1,0 +1,387 @@
+"""The command rules without sockets and without sleeping: a fake backend, a recording transport, a clock we move.
+
+Each test drives ``Relay`` exactly as the server does (``connect``, ``handle_text``, ``disconnect``) and the
+ticker as the loop does (``supervisor.tick(now)``), with ``now`` chosen by the test. What a client is told is
+read from its transport once the hub's writers have drained their lanes; what reaches a robot is read from the
+backend's call log. The behaviour tests over real sockets (test_relay_ws.py, test_access.py) stay.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import orjson
+import pytest
+
+from relay.backends.base import Backend
+from relay.config import FleetConfig
+from relay.core import Relay
+from relay.events import EventSink, FrameEvent, PoseEvent
+from relay.options import Options
+from relay.protocol import decode_frame
+
+Call = tuple[Any, ...]
+
+
+class FakeBackend(Backend):
+    """Records every command; ``broken`` robots raise on stop, as a robot whose driver hangs up would."""
+
+    name: ClassVar[str] = "fake"
+
+    def __init__(self, config: FleetConfig, sink: EventSink) -> None:
+        super().__init__(config, sink)
+        self.calls: list[Call] = []
+        self.broken: set[str] = set()
+        self.frame: FrameEvent | None = None
+
+    async def start(self) -> None:
+        self.calls.append(("start",))
+
+    async def stop(self) -> None:
+        self.calls.append(("stop",))
+
+    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+        self.calls.append(("velocity", robot, linear, angular))
+
+    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+        self.calls.append(("goal", robot, x, y, yaw))
+
+    async def cancel(self, robot: str) -> None:
+        self.calls.append(("cancel", robot))
+
+    async def stop_robot(self, robot: str) -> None:
+        if robot in self.broken:
+            raise ConnectionError(f"{robot}'s motor driver does not answer")
+        await super().stop_robot(robot)
+
+    async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
+        return self.frame
+
+    def moves(self, robot: str) -> list[Call]:
+        """The velocities and goals ``robot`` received, in order."""
+        return [c for c in self.calls if c[0] in ("velocity", "goal") and c[1] == robot]
+
+
+@dataclass
+class RecordingTransport:
+    """What one client received, decoded; ``closed`` is the close code if the relay closed it."""
+
+    texts: list[dict[str, Any]] = field(default_factory=list)
+    frames: list[tuple[dict[str, Any], bytes]] = field(default_factory=list)
+    closed: int | None = None
+
+    async def send_text(self, data: bytes) -> None:
+        self.texts.append(orjson.loads(data))
+
+    async def send_binary(self, data: bytes) -> None:
+        self.frames.append(decode_frame(data))
+
+    async def close(self, code: int, reason: str) -> None:
+        self.closed = code
+
+    def of(self, identifier: str) -> list[dict[str, Any]]:
+        return [m for m in self.texts if m["identifier"] == identifier]
+
+    def replies(self, request_id: object) -> list[dict[str, Any]]:
+        return [m for m in self.texts if m["identifier"] in ("ack", "error") and m.get("id") == request_id]
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@dataclass
+class Station:
+    relay: Relay
+    backend: FakeBackend
+    clock: Clock
+
+    def connect(self, role: str = "operator") -> tuple[Any, RecordingTransport]:
+        transport = RecordingTransport()
+        client = self.relay.connect(transport, role=role)  # type: ignore[arg-type]
+        return client, transport
+
+    async def send(self, client: Any, message: dict[str, Any]) -> None:
+        await self.relay.handle_text(client, orjson.dumps(message))
+        await self.settle()
+
+    async def tick(self, seconds: float) -> None:
+        self.clock.now += seconds
+        await self.relay.supervisor.tick(self.clock.now)
+        await self.settle()
+
+    async def settle(self) -> None:
+        """Let the hub's writers (and commands running apart, such as snapshots) finish: scheduling, no timing."""
+        for _ in range(200):
+            busy = any(c.queued for c in self.relay.hub) or any(
+                t for c in self.relay._clients.values() for t in c.tasks
+            )
+            if not busy:
+                # One more turn: a writer that just took the last item may still be in its send.
+                await asyncio.sleep(0)
+                return
+            await asyncio.sleep(0)
+        raise AssertionError("the relay did not settle in 200 loop turns")
+
+
+@pytest.fixture
+async def station(fleet_config: FleetConfig, tmp_path: Path) -> Any:
+    clock = Clock()
+    holder: dict[str, FakeBackend] = {}
+
+    def factory(config: FleetConfig, sink: EventSink, options: Options) -> Backend:
+        holder["backend"] = FakeBackend(config, sink)
+        return holder["backend"]
+
+    options = Options(audit_log=str(tmp_path / "audit.jsonl"), max_message_rate=10.0, lease_timeout=30.0)
+    relay = Relay(fleet_config, options, backend_factory=factory, clock=clock)
+    await relay.backend.start()
+    yield Station(relay, holder["backend"], clock)
+    await relay.stop()
+
+
+def audit_records(tmp_path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in (tmp_path / "audit.jsonl").read_text().splitlines()]
+
+
+# -- teleop, clamps and the deadman ---------------------------------------------------------------
+
+
+async def test_cmd_vel_is_clamped_to_the_robots_limits_and_acked(station: Station) -> None:
+    client, seen = station.connect()
+    await station.send(client, {"identifier": "robot1/cmd_vel", "id": 1, "linear": 5.0, "angular": -9.0})
+    assert seen.replies(1) == [{"identifier": "ack", "id": 1}]
+    # robots.yaml limits robot1 to 0.6 m/s and 1.8 rad/s; teleop cancels navigation first.
+    assert ("cancel", "robot1") in station.backend.calls
+    assert station.backend.moves("robot1") == [("velocity", "robot1", 0.6, -1.8)]
+    assert station.relay.fleet.status("robot1", station.clock.now)["mode"] == "teleop"
+
+
+async def test_deadman_stops_a_robot_whose_operator_falls_silent(station: Station) -> None:
+    client, _ = station.connect()
+    await station.send(client, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+    timeout = station.relay.config.safety.deadman_timeout
+    await station.tick(timeout - 0.05)
+    assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.3, 0.0)
+    await station.tick(0.1)
+    assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.0, 0.0)
+    assert station.relay.fleet.status("robot1", station.clock.now)["mode"] == "idle"
+
+
+async def test_commands_that_keep_coming_keep_the_deadman_quiet(station: Station) -> None:
+    client, _ = station.connect()
+    for _ in range(10):
+        await station.send(client, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+        await station.tick(0.1)
+    assert ("velocity", "robot1", 0.0, 0.0) not in station.backend.moves("robot1")
+
+
+async def test_a_goal_during_teleop_stops_teleop_before_the_goal(station: Station) -> None:
+    client, seen = station.connect()
+    await station.send(client, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+    await station.send(client, {"identifier": "robot1/goal_pose", "id": "g", "x": 3.0, "y": 6.0})
+    assert seen.replies("g") == [{"identifier": "ack", "id": "g"}]
+    assert station.backend.moves("robot1")[-2:] == [
+        ("velocity", "robot1", 0.0, 0.0),
+        ("goal", "robot1", 3.0, 6.0, None),
+    ]
+    # The deadman no longer watches robot1: a goal is not teleop.
+    await station.tick(5.0)
+    assert station.backend.moves("robot1")[-1] == ("goal", "robot1", 3.0, 6.0, None)
+
+
+async def test_disconnect_stops_the_robot_and_ends_the_lease(station: Station) -> None:
+    driver, _ = station.connect()
+    _, watcher = station.connect("viewer")
+    await station.send(driver, {"identifier": "robot2/cmd_vel", "linear": 0.4, "angular": 0.2})
+    await station.relay.disconnect(driver)
+    await station.settle()
+    assert station.backend.moves("robot2")[-1] == ("velocity", "robot2", 0.0, 0.0)
+    assert station.backend.calls[-2] == ("cancel", "robot2")
+    lease = watcher.of("robot2/lease")[-1]
+    assert lease == {
+        "identifier": "robot2/lease",
+        "holder": None,
+        "previous": driver.client_id,
+        "reason": "disconnected",
+    }
+
+
+# -- leases and take-over -------------------------------------------------------------------------
+
+
+async def test_a_second_operator_is_refused_until_they_take_over(station: Station) -> None:
+    first, first_seen = station.connect()
+    second, second_seen = station.connect()
+    await station.send(first, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+    assert first_seen.of("robot1/lease")[-1]["holder"] == first.client_id
+
+    await station.send(second, {"identifier": "robot1/goal_pose", "id": "g", "x": 3.0, "y": 6.0})
+    (error,) = second_seen.replies("g")
+    assert error["code"] == "leased" and first.client_id in error["message"]
+    assert ("goal", "robot1", 3.0, 6.0, None) not in station.backend.calls
+
+    before = len(station.backend.calls)
+    await station.send(second, {"identifier": "robot1/lease", "id": "t", "force": True})
+    assert second_seen.replies("t") == [{"identifier": "ack", "id": "t"}]
+    # The robot stops (no velocity, no goal) before it changes hands, and both operators are told.
+    assert station.backend.calls[before:] == [("cancel", "robot1"), ("velocity", "robot1", 0.0, 0.0)]
+    change = {"identifier": "robot1/lease", "holder": second.client_id, "previous": first.client_id}
+    assert first_seen.of("robot1/lease")[-1] == {**change, "reason": "taken_over"}
+    assert station.relay.fleet.status("robot1", station.clock.now)["controller"] == second.client_id
+
+    await station.send(first, {"identifier": "robot1/cmd_vel", "id": 5, "linear": 0.3, "angular": 0.0})
+    assert first_seen.replies(5)[0]["code"] == "leased"
+    assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.0, 0.0)
+
+
+async def test_only_the_holder_can_release_and_release_stops_the_robot(station: Station) -> None:
+    holder, _ = station.connect()
+    other, other_seen = station.connect()
+    await station.send(holder, {"identifier": "robot3/goal_pose", "id": "g", "x": 15.0, "y": 6.0})
+    await station.send(other, {"identifier": "robot3/lease", "id": "r", "action": "release"})
+    assert other_seen.replies("r")[0]["code"] == "leased"
+    await station.send(holder, {"identifier": "robot3/lease", "id": "r2", "action": "release"})
+    assert station.backend.calls[-2:] == [("cancel", "robot3"), ("velocity", "robot3", 0.0, 0.0)]
+    assert other_seen.of("robot3/lease")[-1]["reason"] == "released"
+
+
+async def test_an_idle_lease_expires_and_the_robot_stops(station: Station) -> None:
+    holder, seen = station.connect()
+    await station.send(holder, {"identifier": "robot2/lease", "id": "l"})
+    await station.tick(station.relay.options.lease_timeout - 1.0)
+    assert seen.of("robot2/lease")[-1]["reason"] == "acquired"
+    await station.tick(2.0)
+    assert seen.of("robot2/lease")[-1] == {
+        "identifier": "robot2/lease",
+        "holder": None,
+        "previous": holder.client_id,
+        "reason": "expired",
+    }
+    assert station.backend.calls[-2:] == [("cancel", "robot2"), ("velocity", "robot2", 0.0, 0.0)]
+
+
+async def test_viewers_cannot_command_and_nothing_reaches_a_robot(station: Station) -> None:
+    viewer, seen = station.connect("viewer")
+    before = list(station.backend.calls)
+    for i, message in enumerate(
+        [
+            {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0},
+            {"identifier": "robot1/goal_pose", "x": 3.0, "y": 6.0},
+            {"identifier": "robot1/lease", "force": True},
+            {"identifier": "estop"},
+            {"identifier": "robot1/cancel"},
+        ]
+    ):
+        await station.send(viewer, {**message, "id": i})
+        assert seen.replies(i)[0]["code"] == "forbidden"
+    assert station.backend.calls == before
+
+
+# -- estop ----------------------------------------------------------------------------------------
+
+
+async def test_estop_reaches_every_robot_it_can_and_names_the_one_it_could_not(station: Station) -> None:
+    operator, seen = station.connect()
+    _, other = station.connect()
+    await station.send(operator, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+    station.backend.broken.add("robot2")
+    await station.send(operator, {"identifier": "estop", "id": "stop"})
+
+    # Exactly one reply, an error naming robot2; the connection stays open and keeps working.
+    (reply,) = seen.replies("stop")
+    assert reply["identifier"] == "error" and "robot2" in reply["message"] and "motor driver" in reply["message"]
+    assert seen.closed is None
+    assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.0, 0.0)
+    assert station.backend.moves("robot3")[-1] == ("velocity", "robot3", 0.0, 0.0)
+    # Every client learns which robots were stopped, ahead of their state lanes.
+    assert other.of("estop") == [{"identifier": "estop", "robots": ["robot1", "robot3"], "by": operator.client_id}]
+    assert station.relay.fleet.status("robot1", station.clock.now)["mode"] == "idle"
+
+    await station.send(operator, {"identifier": "ping", "t": 1.5})
+    assert seen.of("pong")[-1]["t"] == 1.5
+
+
+async def test_estop_of_one_robot_acks_and_leaves_the_others_alone(station: Station) -> None:
+    operator, seen = station.connect()
+    await station.send(operator, {"identifier": "robot2/goal_pose", "id": "g", "x": 9.0, "y": 6.0})
+    await station.send(operator, {"identifier": "estop", "id": "e", "robot": "robot1"})
+    assert seen.replies("e") == [{"identifier": "ack", "id": "e"}]
+    assert seen.of("estop")[-1]["robots"] == ["robot1"]
+    assert station.backend.moves("robot2") == [("goal", "robot2", 9.0, 6.0, None)]
+
+
+# -- rate limits ----------------------------------------------------------------------------------
+
+
+async def test_rate_limit_drops_commands_but_never_an_estop(station: Station) -> None:
+    operator, seen = station.connect()
+    rate = station.relay.options.max_message_rate
+    burst = int(2 * rate)
+    for i in range(burst + 3):
+        await station.send(operator, {"identifier": "robot1/cmd_vel", "id": i, "linear": 0.1, "angular": 0.0})
+    codes = [seen.replies(i)[0]["identifier"] for i in range(burst)]
+    assert codes == ["ack"] * burst
+    assert [seen.replies(i)[0]["code"] for i in range(burst, burst + 3)] == ["rate_limited"] * 3
+    assert len(station.backend.moves("robot1")) == burst
+
+    await station.send(operator, {"identifier": "estop", "id": "e"})
+    assert seen.replies("e") == [{"identifier": "ack", "id": "e"}]
+
+    # Time refills the bucket: one second later, `rate` more pass.
+    station.clock.now += 1.0
+    await station.send(operator, {"identifier": "robot1/cmd_vel", "id": "later", "linear": 0.1, "angular": 0.0})
+    assert seen.replies("later")[0]["identifier"] == "ack"
+
+
+# -- replies, snapshots, audit --------------------------------------------------------------------
+
+
+async def test_snapshot_runs_apart_and_answers_with_a_frame_then_an_ack(station: Station) -> None:
+    operator, seen = station.connect()
+    await station.send(operator, {"identifier": "robot1/snapshot", "id": "s"})
+    assert seen.replies("s")[0]["code"] == "no_camera"
+    station.backend.frame = FrameEvent(
+        robot="robot1", camera="front", stamp=12.5, width=480, height=480, jpeg=b"\xff\xd8jpeg\xff\xd9"
+    )
+    await station.send(operator, {"identifier": "robot1/snapshot", "id": "s2"})
+    ((header, payload),) = seen.frames
+    assert header["identifier"] == "robot1/camera/front" and header["request_id"] == "s2"
+    assert header["width"] == 480 and header["lens"]["model"] == "equidistant" and payload.startswith(b"\xff\xd8")
+    assert seen.replies("s2") == [{"identifier": "ack", "id": "s2"}]
+
+
+async def test_every_frame_is_audited_with_its_outcome(station: Station, tmp_path: Path) -> None:
+    operator, _ = station.connect()
+    viewer, _ = station.connect("viewer")
+    await station.send(operator, {"identifier": "robot2/goal_pose", "id": "a", "x": 9.0, "y": 6.0, "yaw": 1.0})
+    await station.send(operator, {"identifier": "robot9/cancel", "id": "b"})
+    await station.send(viewer, {"identifier": "robot1/cancel", "id": "c"})
+    await station.relay.handle_text(operator, b"{not json")
+    await station.send(operator, {"identifier": "ping", "t": 1.0})
+    records = audit_records(tmp_path)
+    assert [(r["identifier"], r["id"], r["outcome"], r["code"]) for r in records] == [
+        ("robot2/goal_pose", "a", "accepted", None),
+        ("robot9/cancel", "b", "refused", "unknown_robot"),
+        ("robot1/cancel", "c", "refused", "forbidden"),
+        (None, None, "refused", "bad_request"),
+    ]
+    assert records[0]["values"] == {"x": 9.0, "y": 6.0, "yaw": 1.0}
+    assert records[2]["client"] == viewer.client_id and records[2]["role"] == "viewer"
+
+
+async def test_status_goes_online_with_the_first_pose_and_offline_when_poses_stop(station: Station) -> None:
+    _, seen = station.connect()
+    station.relay.on_event(PoseEvent("robot1", station.clock.now, "map", 3.0, 1.5, 0.0, 0.0, 0.0, 0.0, 1.0))
+    await station.settle()
+    assert seen.of("robot1/status")[-1]["online"] is True
+    await station.tick(station.relay.config.safety.offline_after + 0.1)
+    assert seen.of("robot1/status")[-1]["online"] is False
