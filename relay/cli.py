@@ -64,7 +64,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
         "(default ./xr-relay-audit.jsonl; '' turns it off)",
     )
-    access = parser.add_argument_group("access (docs/security.md)")
+    _add_access_options(parser.add_argument_group("access (docs/security.md)"))
+    _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
+    _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
+    parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
+    return parser
+
+
+def _add_access_options(access: argparse._ArgumentGroup) -> None:
     access.add_argument(
         "--token",
         default=os.environ.get("XR_RELAY_TOKEN"),
@@ -98,7 +105,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SECONDS",
         help="release an idle robot's control lease after this long without commands (default 30)",
     )
-    tls = parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)")
+
+
+def _add_tls_options(tls: argparse._ArgumentGroup) -> None:
     tls.add_argument(
         "--tls",
         choices=("off", "auto"),
@@ -114,7 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=Path.home() / ".local" / "share" / "xr-relay" / "tls",
         help="where --tls auto keeps its certificate (default ~/.local/share/xr-relay/tls)",
     )
-    bag = parser.add_argument_group("recordings (--backend bag)")
+
+
+def _add_bag_options(bag: argparse._ArgumentGroup) -> None:
     bag.add_argument(
         "--bag",
         action="append",
@@ -127,8 +138,6 @@ def build_parser() -> argparse.ArgumentParser:
     bag.add_argument("--rate", type=float, default=1.0, help="replay speed factor (default 1.0)")
     bag.add_argument("--loop", action="store_true", help="start over at the end of the recordings")
     bag.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help="start this far into the recordings")
-    parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
-    return parser
 
 
 def main(argv: list[str] | None = None) -> int:

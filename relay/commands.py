@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Awaitable, Callable, Mapping
+from dataclasses import dataclass
 
 from .audit import CommandAudit
 from .backends.base import Backend
@@ -48,40 +49,30 @@ from .streams import CameraStreams
 logger = logging.getLogger(__name__)
 
 
+@dataclass
 class CommandHandler:
-    def __init__(
-        self,
-        robots: Mapping[str, Robot],
-        backend: Backend,
-        fleet: FleetState,
-        control: Control,
-        streams: CameraStreams,
-        outbox: Outbox,
-        audit: CommandAudit,
-        *,
-        map_grid: Callable[[], OccupancyGrid | None],
-        wall_clock: Callable[[], float] = time.time,
-    ) -> None:
-        self._robots = robots
-        self._backend = backend
-        self._fleet = fleet
-        self._control = control
-        self._streams = streams
-        self._outbox = outbox
-        self._audit = audit
-        self._map_grid = map_grid
-        self._wall_clock = wall_clock
+    """Carries out client commands; its parts are the relay's (``relay.core`` wires them)."""
+
+    robots: Mapping[str, Robot]
+    backend: Backend
+    fleet: FleetState
+    control: Control
+    streams: CameraStreams
+    outbox: Outbox
+    audit: CommandAudit
+    map_grid: Callable[[], OccupancyGrid | None]
+    wall_clock: Callable[[], float] = time.time
 
     def handle_binary(self, client: Client) -> None:
-        self._outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
+        self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
 
     async def handle_text(self, client: Client, data: str | bytes, now: float) -> None:
         """Handle one text frame. Only unexpected failures propagate (the server then closes with 1011)."""
         try:
-            command = parse_command(data, self._robots)
+            command = parse_command(data, self.robots)
         except ProtocolError as exc:
-            self._outbox.error(client, exc.request_id, exc.code, exc.message)
-            self._audit.frame(client, exc.identifier, exc.request_id, None, exc)
+            self.outbox.error(client, exc.request_id, exc.code, exc.message)
+            self.audit.frame(client, exc.identifier, exc.request_id, None, exc)
             return
         request_id = getattr(command, "id", None)
         if not isinstance(command, EStop) and not client.allowance.take(now):
@@ -91,8 +82,8 @@ class CommandHandler:
                 f"more than {client.allowance.rate:g} messages a second; this one was dropped",
                 request_id,
             )
-            self._outbox.error(client, request_id, error.code, error.message)
-            self._audit.command(client, command, error)
+            self.outbox.error(client, request_id, error.code, error.message)
+            self.audit.command(client, command, error)
             return
         if isinstance(command, Snapshot):
             # Rendering or waiting for the next camera frame takes a while: do not hold up this
@@ -103,10 +94,10 @@ class CommandHandler:
             await self._dispatch(client, command, now)
         except ProtocolError as exc:
             exc.request_id = request_id if exc.request_id is None else exc.request_id
-            self._outbox.error(client, exc.request_id, exc.code, exc.message)
-            self._audit.command(client, command, exc)
+            self.outbox.error(client, exc.request_id, exc.code, exc.message)
+            self.audit.command(client, command, exc)
             return
-        self._audit.command(client, command, None)
+        self.audit.command(client, command, None)
 
     async def _run_apart(self, client: Client, command: Snapshot, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""
@@ -114,17 +105,17 @@ class CommandHandler:
             await work
         except ProtocolError as exc:
             exc.request_id = command.id if exc.request_id is None else exc.request_id
-            self._outbox.error(client, exc.request_id, exc.code, exc.message)
-            self._audit.command(client, command, exc)
+            self.outbox.error(client, exc.request_id, exc.code, exc.message)
+            self.audit.command(client, command, exc)
         except Exception:
             logger.exception("command %r of client %s failed", command.id, client.client_id)
-            self._outbox.error(client, command.id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+            self.outbox.error(client, command.id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
         else:
-            self._audit.command(client, command, None)
+            self.audit.command(client, command, None)
 
     async def _dispatch(self, client: Client, command: Command, now: float) -> None:
         if isinstance(command, Ping):
-            client.channel.put_priority(encode(pong_message(command.t, self._wall_clock())))
+            client.channel.put_priority(encode(pong_message(command.t, self.wall_clock())))
         elif isinstance(command, EStop):
             await self._estop(client, command, now)
         elif isinstance(command, CmdVel):
@@ -132,25 +123,25 @@ class CommandHandler:
         elif isinstance(command, GoalPose):
             await self._goal(client, command, now)
         elif isinstance(command, Cancel):
-            self._control.require_commandable(
+            self.control.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
             )
-            await self._backend.cancel(command.robot)
-            self._outbox.ack(client, command.id)
+            await self.backend.cancel(command.robot)
+            self.outbox.ack(client, command.id)
         elif isinstance(command, Playback):
-            self._control.require_operator(client, f"playback/{command.action}", command.id)
-            await self._backend.playback(command.action, command.value)
-            self._outbox.ack(client, command.id)
+            self.control.require_operator(client, f"playback/{command.action}", command.id)
+            await self.backend.playback(command.action, command.value)
+            self.outbox.ack(client, command.id)
         elif isinstance(command, Stream):
-            self._streams.set(client.channel, command)
-            self._outbox.ack(client, command.id)
+            self.streams.set(client.channel, command)
+            self.outbox.ack(client, command.id)
         elif isinstance(command, Lease):
-            await self._control.lease(client, command, now)
-            self._outbox.ack(client, command.id)
+            await self.control.lease(client, command, now)
+            self.outbox.ack(client, command.id)
 
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
-        self._control.require_operator(client, "estop", command.id)
-        failed = await self._control.estop(command.robot, client.client_id, now)
+        self.control.require_operator(client, "estop", command.id)
+        failed = await self.control.estop(command.robot, client.client_id, now)
         if failed:
             # The robots that could be reached are stopped; the operator must learn at once which were not.
             reasons = "; ".join(f"{robot}: {exc!r}" for robot, exc in failed.items())
@@ -159,55 +150,55 @@ class CommandHandler:
                 f"estop: {', '.join(failed)} could not be stopped ({reasons}); every other robot was stopped",
                 command.id,
             )
-        self._outbox.ack(client, command.id)
+        self.outbox.ack(client, command.id)
 
     async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
-        robot = self._robots[command.robot]
-        self._control.require_commandable(client, robot.name, robot_identifier(robot.name, "cmd_vel"), command.id, now)
+        robot = self.robots[command.robot]
+        self.control.require_commandable(client, robot.name, robot_identifier(robot.name, "cmd_vel"), command.id, now)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
-        previous = self._control.deadman.feed(robot.name, client.client_id, now)
+        previous = self.control.deadman.feed(robot.name, client.client_id, now)
         if previous is not None:
             # Control changed hands: the robot stops before the new operator's command applies.
-            await self._backend.send_velocity(robot.name, 0.0, 0.0)
-        if self._fleet.status(robot.name, now)["mode"] != "teleop" or previous is not None:
+            await self.backend.send_velocity(robot.name, 0.0, 0.0)
+        if self.fleet.status(robot.name, now)["mode"] != "teleop" or previous is not None:
             # Teleoperation overrides navigation.
-            await self._backend.cancel(robot.name)
-            self._fleet.set_teleop(robot.name, True)
-            self._outbox.status(robot.name, now)
-        await self._backend.send_velocity(robot.name, clamped.linear, clamped.angular)
+            await self.backend.cancel(robot.name)
+            self.fleet.set_teleop(robot.name, True)
+            self.outbox.status(robot.name, now)
+        await self.backend.send_velocity(robot.name, clamped.linear, clamped.angular)
         if command.id is not None:
-            self._outbox.ack(client, command.id)
+            self.outbox.ack(client, command.id)
 
     async def _goal(self, client: Client, command: GoalPose, now: float) -> None:
-        self._control.require_commandable(
+        self.control.require_commandable(
             client, command.robot, robot_identifier(command.robot, "goal_pose"), command.id, now
         )
-        check_goal(command.robot, command.x, command.y, self._map_grid())
-        if self._control.deadman.controller(command.robot) is not None:
-            self._control.deadman.release_robot(command.robot)
-            self._fleet.set_teleop(command.robot, False)
-            await self._backend.send_velocity(command.robot, 0.0, 0.0)
+        check_goal(command.robot, command.x, command.y, self.map_grid())
+        if self.control.deadman.controller(command.robot) is not None:
+            self.control.deadman.release_robot(command.robot)
+            self.fleet.set_teleop(command.robot, False)
+            await self.backend.send_velocity(command.robot, 0.0, 0.0)
         try:
-            await self._backend.send_goal(command.robot, command.x, command.y, command.yaw)
+            await self.backend.send_goal(command.robot, command.x, command.y, command.yaw)
         except CommandRejected as exc:
             exc.request_id = command.id
             raise
-        self._outbox.status(command.robot, now)
-        self._outbox.ack(client, command.id)
+        self.outbox.status(command.robot, now)
+        self.outbox.ack(client, command.id)
 
     async def _snapshot(self, client: Client, command: Snapshot) -> None:
-        robot = self._robots[command.robot]
+        robot = self.robots[command.robot]
         camera = robot.camera(command.camera)
         identifier = robot_identifier(robot.name, "snapshot")
         if camera is None:
             what = f"no camera named {command.camera!r}" if command.camera else "no camera"
             raise CommandRejected(ErrorCode.NO_CAMERA, f"{identifier}: {robot.name} has {what}", command.id)
-        frame = await self._backend.snapshot(robot.name, camera.name)
+        frame = await self.backend.snapshot(robot.name, camera.name)
         if frame is None:
             raise CommandRejected(
                 ErrorCode.NO_CAMERA,
                 f"{identifier}: camera {camera.name!r} has produced no image yet; try again shortly",
                 command.id,
             )
-        client.channel.put_priority(self._streams.encode(frame, command.id), binary=True)
-        self._outbox.ack(client, command.id)
+        client.channel.put_priority(self.streams.encode(frame, command.id), binary=True)
+        self.outbox.ack(client, command.id)

@@ -17,6 +17,7 @@ Backend events arrive on the loop thread through :meth:`Relay.on_event` and go o
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -106,7 +107,7 @@ class Relay:
             self.streams,
             self.outbox,
             self.audit,
-            map_grid=self.map_grid,
+            self.map_grid,
         )
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
         self.started_at = clock()
@@ -216,13 +217,9 @@ class Relay:
 
     def on_event(self, event: Event) -> None:
         if isinstance(event, PlaybackEvent):
-            self._playback = playback_message(
-                position=event.position,
-                duration=event.duration,
-                rate=event.rate,
-                paused=event.paused,
-                loop=event.loop,
-            )
+            fields = dataclasses.asdict(event)
+            del fields["robot"]  # fleet-wide
+            self._playback = playback_message(**fields)
             self.hub.publish_state("playback", encode(self._playback))
         elif isinstance(event, MapEvent):
             self._live_map = event.grid
@@ -249,15 +246,7 @@ class Relay:
             self.fleet.on_nav(event)
             self.outbox.status(event.robot, now)
         elif isinstance(event, ScanEvent):
-            scan = scan_message(
-                event.robot,
-                stamp=event.stamp,
-                frame=event.frame,
-                angle_min=event.angle_min,
-                angle_increment=event.angle_increment,
-                range_max=event.range_max,
-                ranges=event.ranges,
-            )
+            scan = scan_message(**dataclasses.asdict(event))
             self.hub.publish_state(scan["identifier"], encode(scan))
         elif isinstance(event, FrameEvent):
             self.streams.on_frame(event, now)

@@ -272,15 +272,14 @@ async def test_an_idle_lease_expires_and_the_robot_stops(station: Station) -> No
 async def test_viewers_cannot_command_and_nothing_reaches_a_robot(station: Station) -> None:
     viewer, seen = station.connect("viewer")
     before = list(station.backend.calls)
-    for i, message in enumerate(
-        [
-            {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0},
-            {"identifier": "robot1/goal_pose", "x": 3.0, "y": 6.0},
-            {"identifier": "robot1/lease", "force": True},
-            {"identifier": "estop"},
-            {"identifier": "robot1/cancel"},
-        ]
-    ):
+    commands: list[dict[str, Any]] = [
+        {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0},
+        {"identifier": "robot1/goal_pose", "x": 3.0, "y": 6.0},
+        {"identifier": "robot1/lease", "force": True},
+        {"identifier": "estop"},
+        {"identifier": "robot1/cancel"},
+    ]
+    for i, message in enumerate(commands):
         await station.send(viewer, {**message, "id": i})
         assert seen.replies(i)[0]["code"] == "forbidden"
     assert station.backend.calls == before
