@@ -1,6 +1,6 @@
 """Safety rules that do not depend on I/O: velocity clamps, goal checks and the teleop deadman.
 
-The relay (``relay.core``) applies them to every command before a backend sees it; each rule has tests in
+The command rules (``relay.commands``, ``relay.control``) apply them to every command before a backend sees it; each rule has tests in
 tests/test_safety.py and end to end through /ws in tests/test_relay_ws.py.
 """
 
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from .config import Limits
 from .errors import CommandRejected
 from .occupancy import OccupancyGrid
-from .protocol import ErrorCode
+from .protocol import ErrorCode, robot_identifier
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,15 +31,16 @@ def clamp_velocity(linear: float, angular: float, limits: Limits) -> Clamped:
 
 def check_goal(robot: str, x: float, y: float, grid: OccupancyGrid | None) -> None:
     """Reject a goal outside the known map. Finiteness is already guaranteed by the protocol parser."""
+    identifier = robot_identifier(robot, "goal_pose")
     if not (math.isfinite(x) and math.isfinite(y)):
-        raise CommandRejected(ErrorCode.BAD_REQUEST, f"{robot}/goal_pose: x and y must be finite")
+        raise CommandRejected(ErrorCode.BAD_REQUEST, f"{identifier}: x and y must be finite")
     if grid is None:
         return
     min_x, min_y, max_x, max_y = grid.bounds
     if not (min_x <= x <= max_x and min_y <= y <= max_y):
         raise CommandRejected(
             ErrorCode.OUT_OF_BOUNDS,
-            f"{robot}/goal_pose: ({x:.2f}, {y:.2f}) is outside the map, which spans "
+            f"{identifier}: ({x:.2f}, {y:.2f}) is outside the map, which spans "
             f"x {min_x:.2f}..{max_x:.2f} and y {min_y:.2f}..{max_y:.2f}",
         )
 
