@@ -1,7 +1,7 @@
 """Safety rules that do not depend on I/O: velocity clamps, goal checks and the teleop deadman.
 
-The command rules (``relay.commands``, ``relay.control``) apply them to every command before a backend sees it; each rule has tests in
-tests/test_safety.py and end to end through /ws in tests/test_relay_ws.py.
+The command rules (``relay.commands``, ``relay.control``) apply them to every command before a backend sees it;
+each rule has tests in tests/test_safety.py and end to end through /ws in tests/test_relay_ws.py.
 """
 
 from __future__ import annotations
