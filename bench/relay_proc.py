@@ -48,8 +48,8 @@ from relay.backends.base import Backend
 from relay.config import FleetConfig, load_config, parse_config
 from relay.events import Event, EventSink, FrameEvent, PoseEvent
 from relay.geometry import yaw_to_quaternion
+from relay.messages import encode, pose_message
 from relay.options import Options
-from relay.protocol import encode, pose_message
 
 logger = logging.getLogger("bench.relay_proc")
 

@@ -16,7 +16,7 @@ from typing import Any
 from .config import Robot, Scene
 from .events import MapEvent, RobotModelEvent
 from .hub import Hub
-from .protocol import Transform2D, encode, model_message, scene_message
+from .messages import Transform2D, encode, model_message, scene_message
 from .twin.map_twin import grid_to_glb
 from .twin.urdf import robot_description_glb
 

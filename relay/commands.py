@@ -24,6 +24,7 @@ from .config import Robot
 from .control import Control
 from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
+from .messages import encode, pong_message
 from .occupancy import OccupancyGrid
 from .outbox import Outbox
 from .protocol import (
@@ -38,9 +39,7 @@ from .protocol import (
     Playback,
     Snapshot,
     Stream,
-    encode,
     parse_command,
-    pong_message,
     robot_identifier,
 )
 from .safety import check_goal, clamp_velocity

@@ -16,6 +16,7 @@ from .clients import Client
 from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
 from .leases import LeaseTable
+from .messages import LeaseReason
 from .outbox import Outbox
 from .protocol import ErrorCode, Lease, RequestId, robot_identifier
 from .safety import Deadman
@@ -127,7 +128,9 @@ class Control:
 
     # -- leases -----------------------------------------------------------------------------------
 
-    def lease_changed(self, robot: str, holder: str | None, previous: str | None, reason: str, now: float) -> None:
+    def lease_changed(
+        self, robot: str, holder: str | None, previous: str | None, reason: LeaseReason, now: float
+    ) -> None:
         logger.info("lease of %s: %s -> %s (%s)", robot, previous, holder, reason)
         self.fleet.set_controller(robot, holder)
         self.outbox.lease(robot, holder, previous, reason)

@@ -46,19 +46,11 @@ from .events import (
 )
 from .fleet import FleetState
 from .hub import Hub, Transport
+from .messages import HelloMessage, PlaybackMessage, backend_message, encode, playback_message, scan_message
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .outbox import Outbox
-from .protocol import (
-    PROTOCOL_VERSION,
-    HelloMessage,
-    Role,
-    backend_message,
-    encode,
-    playback_message,
-    scan_message,
-    sensor_key,
-)
+from .protocol import PROTOCOL_VERSION, Role, sensor_key
 from .ratelimit import TokenBucket
 from .streams import CameraStreams
 from .supervision import Supervisor
@@ -114,7 +106,7 @@ class Relay:
         self._clients: dict[str, Client] = {}
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
-        self._playback: dict[str, object] | None = None  # the latest `playback` message (bag backend)
+        self._playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
 
     # -- lifecycle --------------------------------------------------------------------------------
 

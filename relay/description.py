@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from .config import Robot
-from .protocol import Lens, RobotDescription, camera_identifier
+from .messages import Lens, RobotDescription
+from .protocol import camera_identifier
 
 
 def lens_description(robot: Robot, camera_name: str) -> Lens:

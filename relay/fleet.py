@@ -9,9 +9,8 @@ from dataclasses import dataclass, field
 
 from .config import FleetConfig, Robot
 from .events import NavEvent, PoseEvent, SensorEvent
-from .protocol import (
+from .messages import (
     GoalDescription,
-    Mode,
     PoseMessage,
     RobotState,
     SensorMessage,
@@ -20,6 +19,7 @@ from .protocol import (
     sensor_message,
     status_message,
 )
+from .protocol import Mode
 
 
 @dataclass

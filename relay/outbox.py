@@ -13,15 +13,8 @@ import logging
 from .clients import Client
 from .fleet import FleetState
 from .hub import Hub
-from .protocol import (
-    RequestId,
-    ack_message,
-    backend_message,
-    encode,
-    error_message,
-    estop_message,
-    lease_message,
-)
+from .messages import LeaseReason, ack_message, backend_message, encode, error_message, estop_message, lease_message
+from .protocol import RequestId
 
 logger = logging.getLogger(__name__)
 
@@ -53,7 +46,7 @@ class Outbox:
         """Whether ``robot``'s online state differs from what clients were last told."""
         return self._was_online.get(robot, False) != self.fleet.online(robot, now)
 
-    def lease(self, robot: str, holder: str | None, previous: str | None, reason: str) -> None:
+    def lease(self, robot: str, holder: str | None, previous: str | None, reason: LeaseReason) -> None:
         # Priority: the operator who lost a robot must learn it before anything else they have queued.
         self.hub.broadcast_priority(encode(lease_message(robot, holder=holder, previous=previous, reason=reason)))
 

@@ -3,9 +3,9 @@
 Text frames are JSON objects with a mandatory string ``identifier``; robot-scoped identifiers are
 ``<robot>/<kind>``. Binary frames carry camera images: a 4-byte big-endian header length, the header as
 UTF-8 JSON, then the encoded image. This module turns client frames into typed commands (or raises
-:class:`~relay.errors.ProtocolError`) and builds the bytes of every server message. It imports neither
-asyncio nor any ROS module, so it is tested without sockets, and the browser reads its constants from the
-generated ``xr_client/src/protocol_constants.js`` (``tools/gen_protocol_js.py``).
+:class:`~relay.errors.ProtocolError`); ``relay.messages`` types and builds every server message. Both import
+neither asyncio nor any ROS module, so they are tested without sockets, and the browser's constants, types and
+identifier helpers are generated from them into ``xr_client/src/protocol.js`` (``tools/gen_protocol_js.py``).
 
 Coordinates follow REP 103: map frame, metres, radians, quaternion ``qx, qy, qz, qw``.
 """
@@ -127,143 +127,6 @@ def split_camera_identifier(identifier: str) -> tuple[str, str]:
 
 
 # --------------------------------------------------------------------------------------------------
-# Server -> client messages (one TypedDict per kind, mirroring docs/protocol.md)
-# --------------------------------------------------------------------------------------------------
-
-
-class Lens(TypedDict):
-    model: str  # equidistant | equisolid | stereographic | pinhole | opencv_fisheye
-    fov: float  # degrees, full field of view across the image circle / width
-    K: NotRequired[list[float]]  # 3x3 row-major, opencv_fisheye only
-    D: NotRequired[list[float]]  # k1..k4, opencv_fisheye only
-
-
-class CameraDescription(TypedDict):
-    name: str
-    identifier: str  # identifier of its binary frames, e.g. "robot1/camera/front"
-    lens: Lens
-    width: int
-    height: int
-
-
-class SensorDescription(TypedDict):
-    name: str
-    unit: str
-    warn_above: float | None
-    warn_below: float | None
-
-
-class Limits(TypedDict):
-    linear: float
-    angular: float
-
-
-class RobotDescription(TypedDict):
-    name: str
-    colour: str
-    model: str
-    cameras: list[CameraDescription]
-    sensors: list[SensorDescription]
-    limits: Limits
-
-
-class Transform2D(TypedDict):
-    x: float
-    y: float
-    z: float
-    yaw: float
-
-
-class SceneDescription(TypedDict):
-    url: str | None
-    map_to_scene: Transform2D
-
-
-class GoalDescription(TypedDict):
-    x: float
-    y: float
-    yaw: float | None
-
-
-class PoseMessage(TypedDict):
-    identifier: str
-    stamp: float
-    frame: str
-    x: float
-    y: float
-    z: float
-    qx: float
-    qy: float
-    qz: float
-    qw: float
-    yaw: float
-
-
-class SensorMessage(TypedDict):
-    identifier: str
-    name: str
-    value: float
-    unit: str
-    warning: bool
-    stamp: float
-
-
-class StatusMessage(TypedDict):
-    identifier: str
-    online: bool
-    age: float | None
-    mode: Mode
-    goal: GoalDescription | None
-    controller: str | None
-
-
-class ScanMessage(TypedDict):
-    identifier: str
-    stamp: float
-    frame: str
-    angle_min: float
-    angle_increment: float
-    range_max: float
-    ranges: list[float | None]
-
-
-class RobotState(TypedDict):
-    pose: PoseMessage | None
-    sensors: dict[str, SensorMessage]
-    status: StatusMessage
-
-
-class ServerInfo(TypedDict):
-    name: str
-    version: str
-
-
-class HelloMessage(TypedDict):
-    identifier: str
-    protocol: int
-    server: ServerInfo
-    client_id: str
-    role: Role
-    scene: SceneDescription
-    bounds: list[float] | None
-    robots: list[RobotDescription]
-    state: dict[str, RobotState]
-    playback: dict[str, Any] | None
-    backend: dict[str, Any]
-
-
-class FrameHeader(TypedDict):
-    identifier: str
-    seq: int
-    stamp: float
-    encoding: str
-    width: int
-    height: int
-    lens: Lens
-    request_id: RequestId | None
-
-
-# --------------------------------------------------------------------------------------------------
 # Client -> server commands
 # --------------------------------------------------------------------------------------------------
 
@@ -337,6 +200,92 @@ class Lease:
 
 
 Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
+
+# The wire form of each command (what a client sends), typed for the browser's generated ``ClientMessage``;
+# tests/test_protocol.py checks each against ``parse_command``.
+
+
+class GoalPoseCommand(TypedDict):
+    identifier: str  # <robot>/goal_pose
+    id: RequestId
+    x: float
+    y: float
+    yaw: NotRequired[float | None]
+
+
+class CmdVelCommand(TypedDict):
+    identifier: str  # <robot>/cmd_vel
+    linear: float
+    angular: float
+    id: NotRequired[RequestId]
+
+
+class CancelCommand(TypedDict):
+    identifier: str  # <robot>/cancel
+    id: RequestId
+
+
+class SnapshotCommand(TypedDict):
+    identifier: str  # <robot>/snapshot
+    id: RequestId
+    camera: NotRequired[str]
+
+
+class StreamCommand(TypedDict):
+    identifier: str  # <robot>/stream
+    id: RequestId
+    camera: str
+    fps: float
+
+
+class LeaseCommand(TypedDict):
+    identifier: str  # <robot>/lease
+    id: RequestId
+    action: NotRequired[Literal["acquire", "release"]]
+    force: NotRequired[bool]
+
+
+class EstopCommand(TypedDict):
+    identifier: Literal["estop"]
+    id: RequestId
+    robot: NotRequired[str]
+
+
+class PingCommand(TypedDict):
+    identifier: Literal["ping"]
+    t: float
+
+
+class PlaybackCommand(TypedDict):
+    identifier: Literal["playback/pause", "playback/resume"]
+    id: RequestId
+
+
+class PlaybackSeekCommand(TypedDict):
+    identifier: Literal["playback/seek"]
+    id: RequestId
+    t: float
+
+
+class PlaybackRateCommand(TypedDict):
+    identifier: Literal["playback/rate"]
+    id: RequestId
+    rate: float
+
+
+ClientMessage = (
+    GoalPoseCommand
+    | CmdVelCommand
+    | CancelCommand
+    | SnapshotCommand
+    | StreamCommand
+    | LeaseCommand
+    | EstopCommand
+    | PingCommand
+    | PlaybackCommand
+    | PlaybackSeekCommand
+    | PlaybackRateCommand
+)
 
 _MISSING: Final = object()
 
@@ -567,169 +516,3 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
     fps = _number(obj, "fps", identifier, low=0.0, high=MAX_STREAM_FPS)
     assert camera is not None and fps is not None
     return Stream(robot=robot, id=rid, camera=camera, fps=fps)
-
-
-# --------------------------------------------------------------------------------------------------
-# Encoding: each function returns the exact bytes of one text frame
-# --------------------------------------------------------------------------------------------------
-
-
-def encode(message: Mapping[str, Any]) -> bytes:
-    """Encode one message as it goes on the wire (UTF-8 JSON, keys in the documented order)."""
-    return orjson.dumps(message)
-
-
-def pose_message(
-    robot: str,
-    *,
-    stamp: float,
-    frame: str,
-    x: float,
-    y: float,
-    z: float,
-    qx: float,
-    qy: float,
-    qz: float,
-    qw: float,
-) -> PoseMessage:
-    # Rounding to 0.1 mm and 1e-6 keeps frames short without losing anything a twin can show.
-    yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-    return {
-        "identifier": robot_identifier(robot, "pose"),
-        "stamp": round(stamp, 6),
-        "frame": frame,
-        "x": round(x, 4),
-        "y": round(y, 4),
-        "z": round(z, 4),
-        "qx": round(qx, 6),
-        "qy": round(qy, 6),
-        "qz": round(qz, 6),
-        "qw": round(qw, 6),
-        "yaw": round(yaw, 6),
-    }
-
-
-def sensor_message(robot: str, *, name: str, value: float, unit: str, warning: bool, stamp: float) -> SensorMessage:
-    return {
-        "identifier": robot_identifier(robot, "sensor"),
-        "name": name,
-        "value": round(value, 4),
-        "unit": unit,
-        "warning": warning,
-        "stamp": round(stamp, 6),
-    }
-
-
-def status_message(
-    robot: str,
-    *,
-    online: bool,
-    age: float | None,
-    mode: Mode,
-    goal: GoalDescription | None,
-    controller: str | None,
-) -> StatusMessage:
-    return {
-        "identifier": robot_identifier(robot, "status"),
-        "online": online,
-        "age": None if age is None else round(age, 3),
-        "mode": mode,
-        "goal": goal,
-        "controller": controller,
-    }
-
-
-def scan_message(
-    robot: str,
-    *,
-    stamp: float,
-    frame: str,
-    angle_min: float,
-    angle_increment: float,
-    range_max: float,
-    ranges: tuple[float, ...] | list[float],
-) -> ScanMessage:
-    # Centimetres are plenty for drawing obstacles; null marks a beam with no valid return.
-    return {
-        "identifier": robot_identifier(robot, "scan"),
-        "stamp": round(stamp, 6),
-        "frame": frame,
-        "angle_min": round(angle_min, 6),
-        "angle_increment": round(angle_increment, 6),
-        "range_max": round(range_max, 3),
-        "ranges": [round(r, 2) if math.isfinite(r) else None for r in ranges],
-    }
-
-
-def ack_message(request_id: RequestId) -> dict[str, Any]:
-    return {"identifier": "ack", "id": request_id}
-
-
-def error_message(request_id: RequestId | None, code: str, message: str) -> dict[str, Any]:
-    return {"identifier": "error", "id": request_id, "code": code, "message": message}
-
-
-def pong_message(t: float, server_time: float) -> dict[str, Any]:
-    return {"identifier": "pong", "t": t, "server_time": round(server_time, 6)}
-
-
-def backend_message(name: str, failure: str | None) -> dict[str, Any]:
-    """Whether the backend works; sent to every client when that changes (and in ``hello``)."""
-    return {"identifier": "backend", "name": name, "ok": failure is None, "message": failure}
-
-
-def model_message(robot: str, url: str) -> dict[str, Any]:
-    """A new glTF model for ``robot`` (built from its robot_description); replaces hello's ``model``."""
-    return {"identifier": robot_identifier(robot, "model"), "url": url}
-
-
-def scene_message(url: str | None, map_to_scene: Transform2D) -> dict[str, Any]:
-    """A new twin for the clients to load (e.g. built from a live /map); same shape as ``hello.scene``."""
-    return {"identifier": "scene", "url": url, "map_to_scene": map_to_scene}
-
-
-def playback_message(*, position: float, duration: float, rate: float, paused: bool, loop: bool) -> dict[str, Any]:
-    """Where a replayed recording is (bag backend), in seconds from its start."""
-    return {
-        "identifier": "playback",
-        "position": round(position, 3),
-        "duration": round(duration, 3),
-        "rate": rate,
-        "paused": paused,
-        "loop": loop,
-    }
-
-
-def lease_message(robot: str, *, holder: str | None, previous: str | None, reason: str) -> dict[str, Any]:
-    """Who controls ``robot`` now; sent to every client when that changes."""
-    return {"identifier": robot_identifier(robot, "lease"), "holder": holder, "previous": previous, "reason": reason}
-
-
-def estop_message(robots: list[str], client_id: str | None) -> dict[str, Any]:
-    """Broadcast to every client when an emergency stop was carried out."""
-    return {"identifier": "estop", "robots": robots, "by": client_id}
-
-
-# --------------------------------------------------------------------------------------------------
-# Binary camera frames
-# --------------------------------------------------------------------------------------------------
-
-
-def encode_frame(header: FrameHeader, payload: bytes) -> bytes:
-    """``>I`` header length, UTF-8 JSON header, then the encoded image."""
-    head = orjson.dumps(header)
-    return FRAME_PREFIX.pack(len(head)) + head + payload
-
-
-def decode_frame(data: bytes) -> tuple[dict[str, Any], bytes]:
-    """Split a binary frame into its header object and payload (used by tools, tests and clients)."""
-    if len(data) < FRAME_PREFIX.size:
-        raise ProtocolError(ErrorCode.BAD_REQUEST, "binary frame shorter than its 4-byte header length")
-    (length,) = FRAME_PREFIX.unpack_from(data)
-    end = FRAME_PREFIX.size + length
-    if end > len(data):
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"binary frame header length {length} exceeds the frame")
-    header = orjson.loads(data[FRAME_PREFIX.size : end])
-    if not isinstance(header, dict):
-        raise ProtocolError(ErrorCode.BAD_REQUEST, "binary frame header is not a JSON object")
-    return header, data[end:]

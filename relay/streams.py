@@ -14,16 +14,8 @@ from .description import lens_description
 from .errors import CommandRejected
 from .events import FrameEvent
 from .hub import Channel, Hub
-from .protocol import (
-    ErrorCode,
-    FrameHeader,
-    RequestId,
-    Stream,
-    camera_identifier,
-    encode_frame,
-    robot_identifier,
-    split_camera_identifier,
-)
+from .messages import FrameHeader, encode_frame
+from .protocol import ErrorCode, RequestId, Stream, camera_identifier, robot_identifier, split_camera_identifier
 
 
 class CameraStreams:

@@ -21,8 +21,8 @@ from relay.backends.base import Backend
 from relay.config import FleetConfig
 from relay.core import Relay
 from relay.events import EventSink, FrameEvent, PoseEvent
+from relay.messages import decode_frame
 from relay.options import Options
-from relay.protocol import decode_frame
 
 Call = tuple[Any, ...]
 

@@ -7,24 +7,14 @@ import math
 import pytest
 
 from relay.errors import ProtocolError
-from relay.protocol import (
-    MAX_TEXT_BYTES,
-    Cancel,
-    CmdVel,
-    EStop,
+from relay.messages import (
     FrameHeader,
-    GoalPose,
-    Ping,
-    Playback,
-    Snapshot,
-    Stream,
     ack_message,
     decode_frame,
     encode,
     encode_frame,
     error_message,
     estop_message,
-    parse_command,
     playback_message,
     pong_message,
     pose_message,
@@ -32,6 +22,18 @@ from relay.protocol import (
     scene_message,
     sensor_message,
     status_message,
+)
+from relay.protocol import (
+    MAX_TEXT_BYTES,
+    Cancel,
+    CmdVel,
+    EStop,
+    GoalPose,
+    Ping,
+    Playback,
+    Snapshot,
+    Stream,
+    parse_command,
 )
 
 ROBOTS = ("robot1", "robot2")

@@ -4,7 +4,7 @@
  * header, then the encoded image. The client never guesses a size: width and height come from the header.
  * And the decode scheduling rule: one decode in flight, newest wins.
  */
-import { FRAME_PREFIX_BYTES } from './protocol_constants.js';
+import { FRAME_PREFIX_BYTES } from './protocol.js';
 
 /**
  * @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number,

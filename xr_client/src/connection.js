@@ -7,7 +7,7 @@
  * Events: `status` (the link changed: `detail` is the ReconnectPolicy), `message` (a parsed JSON object),
  * `frame` (a binary camera frame: `detail` is its ArrayBuffer).
  */
-import { PROTOCOL_VERSION } from './protocol_constants.js';
+import { PROTOCOL_VERSION } from './protocol.js';
 import { PING_PERIOD_MS, ReconnectPolicy } from './reconnect.js';
 
 /**

@@ -13,7 +13,7 @@
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
  *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
  */
-import { MAX_STREAM_FPS } from './protocol_constants.js';
+import { MAX_STREAM_FPS } from './protocol.js';
 
 /** @typedef {'free_roam' | 'pov'} Mode */
 /** @typedef {'none' | 'teleop' | 'goal'} Tool */

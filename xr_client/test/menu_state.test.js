@@ -2,7 +2,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { ButtonEdge, MenuState } from '../src/menu_state.js';
-import { MAX_STREAM_FPS } from '../src/protocol_constants.js';
+import { MAX_STREAM_FPS } from '../src/protocol.js';
 
 function menu() {
   const m = new MenuState();

@@ -1,0 +1,109 @@
+"""The schema once: every message typed in Python, and the browser's types generated from those types.
+
+The command TypedDicts (the wire form a client sends) must say what ``parse_command`` accepts: a frame with
+every field accepted, one missing a required field refused. Every server message builder must return exactly
+the keys of its TypedDict, so the browser's generated typedefs never drift from what the relay sends.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import typing
+from pathlib import Path
+from typing import Any, Literal, NotRequired, get_args, get_origin, get_type_hints
+
+import pytest
+
+from relay import messages, protocol
+from relay.errors import ProtocolError
+
+ROOT = Path(__file__).resolve().parent.parent
+ROBOTS = ("robot1",)
+
+#: A valid value for each field name (the parser checks ranges; these are inside them).
+SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear": 0.1, "angular": 0.0,
+                           "camera": "front", "fps": 10.0, "action": "acquire", "force": True, "robot": "robot1",
+                           "t": 3.0, "rate": 2.0}  # fmt: skip
+
+
+def _identifier(cls: type) -> str:
+    hint = get_type_hints(cls)["identifier"]
+    if get_origin(hint) is Literal:
+        return str(get_args(hint)[-1])
+    kind = cls.__name__.removesuffix("Command")
+    snake = "".join("_" + c.lower() if c.isupper() else c for c in kind).lstrip("_")
+    return f"robot1/{snake}"
+
+
+def _fields(cls: type) -> tuple[list[str], list[str]]:
+    hints = get_type_hints(cls, include_extras=True)
+    required = [k for k, h in hints.items() if k != "identifier" and get_origin(h) is not NotRequired]
+    optional = [k for k, h in hints.items() if get_origin(h) is NotRequired]
+    return required, optional
+
+
+COMMANDS = typing.get_args(protocol.ClientMessage)
+
+
+@pytest.mark.parametrize("cls", COMMANDS, ids=lambda c: c.__name__)
+def test_each_command_typeddict_is_what_the_parser_accepts(cls: type) -> None:
+    identifier = _identifier(cls)
+    required, optional = _fields(cls)
+    full = {"identifier": identifier, **{k: SAMPLES[k] for k in required + optional}}
+    protocol.parse_command(protocol_bytes(full), ROBOTS)
+    protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: SAMPLES[k] for k in required}}), ROBOTS)
+    for missing in required:
+        frame = {k: v for k, v in full.items() if k != missing}
+        with pytest.raises(ProtocolError, match=missing if missing != "id" else "id"):
+            protocol.parse_command(protocol_bytes(frame), ROBOTS)
+
+
+def test_every_client_kind_has_a_command_typeddict() -> None:
+    kinds = {_identifier(c).removeprefix("robot1/") for c in COMMANDS}
+    assert set(protocol.CLIENT_ROBOT_KINDS) <= kinds
+    assert {"estop", "ping"} <= kinds
+
+
+BUILT: list[tuple[type, Any]] = [
+    (messages.AckMessage, messages.ack_message("a")),
+    (messages.ErrorMessage, messages.error_message(None, "bad_request", "why")),
+    (messages.PongMessage, messages.pong_message(1.0, 2.0)),
+    (messages.BackendMessage, messages.backend_message("sim", None)),
+    (messages.ModelMessage, messages.model_message("robot1", "/m.glb")),
+    (messages.SceneMessage, messages.scene_message(None, {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})),
+    (
+        messages.PlaybackMessage,
+        messages.playback_message(position=1.0, duration=2.0, rate=1.0, paused=False, loop=True),
+    ),
+    (messages.LeaseMessage, messages.lease_message("robot1", holder="c1", previous=None, reason="acquired")),
+    (messages.EstopMessage, messages.estop_message(["robot1"], "c1")),
+    (
+        messages.StatusMessage,
+        messages.status_message("robot1", online=True, age=0.1, mode="idle", goal=None, controller=None),
+    ),
+    (
+        messages.SensorMessage,
+        messages.sensor_message("robot1", name="gas", value=1.0, unit="ppm", warning=False, stamp=1.0),
+    ),
+]
+
+
+@pytest.mark.parametrize(("cls", "message"), BUILT, ids=lambda v: getattr(v, "__name__", ""))
+def test_each_builder_returns_exactly_its_typeddicts_keys(cls: type, message: dict[str, Any]) -> None:
+    assert list(message) == list(get_type_hints(cls))
+
+
+def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> None:
+    union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
+    assert union == {name for name in vars(messages) if name.endswith("Message") and name != "ServerMessage"}
+    assert len(union) == 14
+    sys.path.insert(0, str(ROOT / "tools"))
+    generated = importlib.import_module("gen_protocol_js").render()
+    for name in union | {t.__name__ for t in COMMANDS}:
+        assert f"}} {name} */" in generated, name
+    assert "@typedef {" + " | ".join(t.__name__ for t in typing.get_args(messages.ServerMessage)) in generated
+
+
+def protocol_bytes(message: dict[str, Any]) -> bytes:
+    return messages.encode(message)
