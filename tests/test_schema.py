@@ -8,6 +8,7 @@ the keys of its TypedDict, so the browser's generated typedefs never drift from 
 from __future__ import annotations
 
 import importlib
+import json
 import sys
 import typing
 from pathlib import Path
@@ -107,3 +108,34 @@ def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> Non
 
 def protocol_bytes(message: dict[str, Any]) -> bytes:
     return messages.encode(message)
+
+
+def _shape(value: Any) -> Any:
+    """Keys and value kinds, not values: what a client's code depends on."""
+    if isinstance(value, dict):
+        return {k: _shape(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_shape(value[0])] if value else []
+    return type(value).__name__ if value is not None else None
+
+
+async def test_the_clients_hello_fixture_has_the_shape_the_relay_sends(fleet_config: Any) -> None:
+    """xr_client/test/fixtures/hello.json drives the router's node tests: it must stay what the relay sends."""
+    from relay.core import Relay
+    from relay.events import PoseEvent
+
+    class Quiet:
+        async def send_text(self, data: bytes) -> None: ...
+        async def send_binary(self, data: bytes) -> None: ...
+        async def close(self, code: int, reason: str) -> None: ...
+
+    relay = Relay(fleet_config)
+    pose = PoseEvent(robot="robot1", stamp=1.0, frame="map", x=3.0, y=1.5, z=0.0, qx=0.0, qy=0.0, qz=0.7, qw=0.7)
+    relay.on_event(pose)
+    client = relay.connect(Quiet())
+    try:
+        hello = json.loads(messages.encode(relay.hello(client)))
+    finally:
+        await relay.hub.remove(client.channel)
+    fixture = json.loads((ROOT / "xr_client/test/fixtures/hello.json").read_text())
+    assert _shape(fixture) == _shape(hello)

@@ -1,19 +1,20 @@
 // @ts-check
 /**
- * The fleet as the client knows it: built from `hello`, updated by `<robot>/pose|status|sensor` and by a
- * future `scene` message (the same shape as `hello.scene`). No DOM, no WebGL: rendering code only reads it.
+ * The fleet as the client knows it: built from `hello`, updated by `<robot>/pose|status|sensor` and by
+ * `scene` (the same shape as `hello.scene`). No DOM, no WebGL: rendering code only reads it. The message
+ * shapes are the relay's, generated into protocol.js; this module keeps no copy of them.
  */
 import { parseMapToScene } from './frames.js';
+import { parseIdentifier } from './protocol.js';
 
 /**
- * @typedef {{model: string, fov: number, K?: number[], D?: number[]}} LensDescription
- * @typedef {{name: string, identifier: string, lens: LensDescription, width: number, height: number}} CameraDescription
- * @typedef {{name: string, unit: string, warn_above?: number | null, warn_below?: number | null}} SensorDescription
- * @typedef {{name: string, colour: string, model?: string, limits: {linear: number, angular: number},
- *   sensors: SensorDescription[], cameras: CameraDescription[]}} RobotDescription
- * @typedef {{x: number, y: number, yaw: number, stamp: number}} Pose
- * @typedef {{online: boolean, age: number | null, mode: string, goal: {x: number, y: number, yaw: number | null} | null, controller: string | null}} Status
- * @typedef {{name: string, value: number, unit: string, warning: boolean}} Reading
+ * @typedef {import('./protocol.js').RobotDescription} RobotDescription
+ * @typedef {import('./protocol.js').CameraDescription} CameraDescription
+ * @typedef {import('./protocol.js').SensorDescription} SensorDescription
+ * @typedef {import('./protocol.js').StatusMessage} Status
+ * @typedef {import('./protocol.js').SensorMessage} Reading
+ * @typedef {import('./protocol.js').ServerMessage} ServerMessage
+ * @typedef {{x: number, y: number, yaw: number, stamp: number}} Pose the part of a PoseMessage the client keeps
  * @typedef {{description: RobotDescription, pose: Pose | null, status: Status | null, sensors: Map<string, Reading>}} RobotEntry
  * @typedef {{url: string | null, mapToScene: import('./frames.js').MapToScene}} Scene
  */
@@ -25,7 +26,7 @@ export class FleetModel {
     /** @type {number[] | null} */
     this.bounds = null;
     this.clientId = '';
-    /** @type {'operator' | 'viewer'} */
+    /** @type {import('./protocol.js').Role} */
     this.role = 'operator';
     /** @type {Scene} */
     this.scene = { url: null, mapToScene: parseMapToScene(null) };
@@ -35,45 +36,48 @@ export class FleetModel {
 
   /**
    * Apply one message from the relay; true when it changed the model.
-   * @param {any} message
+   * @param {ServerMessage} message
    */
   apply(message) {
-    const identifier = /** @type {string} */ (message.identifier);
-    if (identifier === 'hello') {
-      this.robots.clear();
-      this.bounds = message.bounds ?? null;
-      this.clientId = message.client_id;
-      this.role = message.role === 'viewer' ? 'viewer' : 'operator';
-      this.#setScene(message.scene);
-      for (const description of message.robots) {
-        const state = message.state?.[description.name];
-        /** @type {RobotEntry} */
-        const entry = { description, pose: null, status: state?.status ?? null, sensors: new Map() };
-        this.robots.set(description.name, entry);
-        if (state?.pose) this.apply(state.pose);
-        for (const reading of Object.values(state?.sensors ?? {})) this.apply(reading);
-      }
+    const { robot, kind } = parseIdentifier(message.identifier);
+    if (robot === null) {
+      if (kind === 'hello') this.#hello(/** @type {import('./protocol.js').HelloMessage} */ (message));
+      else if (kind === 'scene') this.#setScene(/** @type {import('./protocol.js').SceneMessage} */ (message));
+      else return false;
       this.generation++;
       return true;
     }
-    if (identifier === 'scene') {
-      this.#setScene(message);
-      this.generation++;
-      return true;
-    }
-    const slash = identifier.indexOf('/');
-    if (slash < 0) return false;
-    const entry = this.robots.get(identifier.slice(0, slash));
+    const entry = this.robots.get(robot);
     if (!entry) return false;
-    const kind = identifier.slice(slash + 1);
-    if (kind === 'pose') entry.pose = { x: message.x, y: message.y, yaw: message.yaw, stamp: message.stamp };
-    else if (kind === 'status') entry.status = message;
-    else if (kind === 'sensor') entry.sensors.set(message.name, message);
-    else return false;
+    if (kind === 'pose') {
+      const pose = /** @type {import('./protocol.js').PoseMessage} */ (message);
+      entry.pose = { x: pose.x, y: pose.y, yaw: pose.yaw, stamp: pose.stamp };
+    } else if (kind === 'status') entry.status = /** @type {Status} */ (message);
+    else if (kind === 'sensor') {
+      const reading = /** @type {Reading} */ (message);
+      entry.sensors.set(reading.name, reading);
+    } else return false;
     return true;
   }
 
-  /** @param {any} scene */
+  /** @param {import('./protocol.js').HelloMessage} hello */
+  #hello(hello) {
+    this.robots.clear();
+    this.bounds = hello.bounds ?? null;
+    this.clientId = hello.client_id;
+    this.role = hello.role === 'viewer' ? 'viewer' : 'operator';
+    this.#setScene(hello.scene);
+    for (const description of hello.robots) {
+      const state = hello.state?.[description.name];
+      /** @type {RobotEntry} */
+      const entry = { description, pose: null, status: state?.status ?? null, sensors: new Map() };
+      this.robots.set(description.name, entry);
+      if (state?.pose) this.apply(state.pose);
+      for (const reading of Object.values(state?.sensors ?? {})) this.apply(reading);
+    }
+  }
+
+  /** @param {import('./protocol.js').SceneDescription | null | undefined} scene */
   #setScene(scene) {
     this.scene = { url: scene?.url ?? null, mapToScene: parseMapToScene(scene?.map_to_scene) };
   }

@@ -11,7 +11,7 @@
  * Rz(yaw)·p + (x, y, z) in the scene's ROS frame, then converted to glTF as above.
  */
 
-/** @typedef {{x: number, y: number, z: number, yaw: number}} MapToScene */
+/** @typedef {import('./protocol.js').Transform2D} MapToScene where the map frame sits in the twin (hello.scene.map_to_scene) */
 
 /** @type {Readonly<MapToScene>} */
 export const IDENTITY = Object.freeze({ x: 0, y: 0, z: 0, yaw: 0 });

@@ -12,7 +12,7 @@ export const MIN_HEADING_DRAG = 0.3;
 export const ERROR_VISIBLE_MS = 6000;
 
 /** @typedef {{x: number, y: number}} MapPoint */
-/** @typedef {{x: number, y: number, yaw: number | null}} Goal */
+/** @typedef {import('./protocol.js').GoalDescription} Goal the shape the relay reports goals in (status.goal) */
 
 export class GoalPointer {
   constructor() {

@@ -19,7 +19,7 @@
  */
 
 /**
- * @typedef {{model: string, fov: number, K?: number[], D?: number[]}} Lens
+ * @typedef {import('./protocol.js').Lens} Lens the relay's lens description (hello.robots[].cameras[].lens)
  * @typedef {{fx: number, fy: number, cx: number, cy: number}} Intrinsics
  */
 

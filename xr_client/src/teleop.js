@@ -17,7 +17,7 @@ export const TELEOP_PERIOD_MS = 1000 / TELEOP_RATE_HZ;
 export const DEFAULT_DEADZONE = 0.15;
 export const DEFAULT_EXPO = 0.4;
 
-/** @typedef {{linear: number, angular: number}} Limits */
+/** @typedef {import('./protocol.js').Limits} Limits the robot's limits from hello */
 /** @typedef {{robot: string, linear: number, angular: number}} TeleopCommand */
 
 /**

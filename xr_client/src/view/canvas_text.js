@@ -18,6 +18,17 @@ export function roundRect(ctx, x, y, w, h, r) {
 }
 
 /**
+ * A filled rounded rectangle (a panel's background, a button).
+ * @param {CanvasRenderingContext2D} ctx @param {[number, number, number, number]} rect x, y, width, height
+ * @param {number} radius @param {string} colour
+ */
+export function fillRounded(ctx, rect, radius, colour) {
+  roundRect(ctx, rect[0], rect[1], rect[2], rect[3], radius);
+  ctx.fillStyle = colour;
+  ctx.fill();
+}
+
+/**
  * Text shrunk to fit a width.
  * @param {CanvasRenderingContext2D} ctx @param {string} text @param {number} x @param {number} y
  * @param {number} maxWidth @param {number} px @param {number} [weight]

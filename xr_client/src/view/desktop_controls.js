@@ -10,21 +10,27 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { keysToStick } from '../teleop.js';
+import { mapToScene } from '../frames.js';
 
 const FLY_SPEED = 4; // m/s
 const PICK_RADIUS = 24; // px: a click this close to a robot selects it
 
 export class DesktopControls {
   /**
-   * @param {import('../app.js').App} app
+   * @param {{camera: THREE.PerspectiveCamera, canvas: HTMLCanvasElement, menu: import('../menu_state.js').MenuState,
+   *   goalPointer: import('../goal_pointer.js').GoalPointer, picking: import('./picking.js').Picking,
+   *   robotViews: Map<string, import('./robot_view.js').RobotView>, actions: import('../app.js').OperatorActions,
+   *   presenting: () => boolean}} host what the desktop controls read and drive, and nothing more
    * @param {HTMLElement} element the canvas' container (listens in the capture phase, before OrbitControls)
    * @param {HTMLElement} povPanel
    */
-  constructor(app, element, povPanel) {
-    this.app = app;
+  constructor(host, element, povPanel) {
+    this.host = host;
     this.element = element;
     this.povPanel = povPanel;
-    this.orbit = new OrbitControls(app.camera, app.renderer.domElement);
+    /** The desktop view while VR is presenting. @type {{position: THREE.Vector3, quaternion: THREE.Quaternion, target: THREE.Vector3} | null} */
+    this.saved = null;
+    this.orbit = new OrbitControls(host.camera, host.canvas);
     this.orbit.enableDamping = true;
     this.orbit.maxPolarAngle = Math.PI * 0.49;
     this.orbit.screenSpacePanning = false;
@@ -68,39 +74,58 @@ export class DesktopControls {
     }, { passive: false });
   }
 
-  /** Frame the fleet's floor from the south-east, above. @param {THREE.Box3} box */
-  frame(box) {
+  /** Entering VR: the headset drives the camera; the desktop view is kept to come back to. */
+  suspend() {
+    const camera = this.host.camera;
+    this.saved = { position: camera.position.clone(), quaternion: camera.quaternion.clone(), target: this.orbit.target.clone() };
+    this.orbit.enabled = false;
+  }
+
+  /** Leaving VR: the desktop view as it was before. */
+  resume() {
+    if (this.saved) {
+      this.host.camera.position.copy(this.saved.position);
+      this.host.camera.quaternion.copy(this.saved.quaternion);
+      this.orbit.target.copy(this.saved.target);
+      this.saved = null;
+    }
+    this.orbit.enabled = true;
+  }
+
+  /** Frame the fleet's floor (its map bounds, or around the robots) from the south-east, above. @param {import('../fleet_model.js').FleetModel} fleet */
+  frameFleet(fleet) {
+    const box = fleetBox(fleet);
     const centre = box.getCenter(new THREE.Vector3());
     const size = box.getSize(new THREE.Vector3());
     const span = Math.max(size.x, size.z, 6);
     this.orbit.target.copy(centre);
-    this.app.camera.position.set(centre.x, centre.y + span * 0.85, centre.z + span * 0.5);
+    this.host.camera.position.set(centre.x, centre.y + span * 0.85, centre.z + span * 0.5);
     this.orbit.update();
   }
 
   /** @param {PointerEvent} e */
   #ndc(e) {
-    const rect = this.app.renderer.domElement.getBoundingClientRect();
+    const rect = this.host.canvas.getBoundingClientRect();
     this.pointer.set(((e.clientX - rect.left) / rect.width) * 2 - 1, -((e.clientY - rect.top) / rect.height) * 2 + 1);
-    this.raycaster.setFromCamera(this.pointer, this.app.camera);
+    this.raycaster.setFromCamera(this.pointer, this.host.camera);
     return this.raycaster;
   }
 
   /** @param {PointerEvent} e */
   #floorHit(e) {
-    const hit = this.app.pickTwin(this.#ndc(e));
-    return hit?.floor ? this.app.sceneToMapPoint(hit.point) : null;
+    const hit = this.host.picking.pickTwin(this.#ndc(e));
+    return hit?.floor ? this.host.picking.sceneToMapPoint(hit.point) : null;
   }
 
   /** @param {PointerEvent} e */
   #pointerDown(e) {
-    if (e.button !== 0 || e.target !== this.app.renderer.domElement || this.app.presenting) return;
+    if (e.button !== 0 || e.target !== this.host.canvas || this.host.presenting()) return;
     this.down = { x: e.clientX, y: e.clientY, id: e.pointerId };
-    const menu = this.app.menu;
+    const menu = this.host.menu;
     if (menu.tool === 'goal' && menu.mode === 'free_roam') {
       const hit = this.#floorHit(e);
-      this.app.goalPointer.aim(hit);
-      if (this.app.goalPointer.press()) {
+      this.host.goalPointer.aim(hit);
+      if (this.host.goalPointer.press()) {
         // The drag is the goal's heading, not an orbit.
         this.goalPointerId = e.pointerId;
         this.orbit.enabled = false;
@@ -110,46 +135,46 @@ export class DesktopControls {
 
   /** @param {PointerEvent} e */
   #pointerMove(e) {
-    if (this.app.presenting) return;
-    const menu = this.app.menu;
-    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.app.renderer.domElement || this.goalPointerId !== null)) {
-      this.app.goalPointer.aim(this.#floorHit(e));
+    if (this.host.presenting()) return;
+    const menu = this.host.menu;
+    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.host.canvas || this.goalPointerId !== null)) {
+      this.host.goalPointer.aim(this.#floorHit(e));
     }
   }
 
   /** @param {PointerEvent} e */
   #pointerUp(e) {
-    if (this.app.presenting) return;
+    if (this.host.presenting()) return;
     if (this.goalPointerId === e.pointerId) {
-      this.app.goalPointer.aim(this.#floorHit(e));
-      const goal = this.app.goalPointer.release();
+      this.host.goalPointer.aim(this.#floorHit(e));
+      const goal = this.host.goalPointer.release();
       this.goalPointerId = null;
       this.orbit.enabled = true;
-      if (goal) this.app.sendGoal(goal);
+      if (goal) this.host.actions.sendGoal(goal);
       this.down = null;
       return;
     }
     // A click (not a drag) on a robot, or near one (robots are small seen from afar), selects it.
     if (this.down && this.down.id === e.pointerId && Math.hypot(e.clientX - this.down.x, e.clientY - this.down.y) < 5) {
       const robot = this.#robotAt(e);
-      if (robot) this.app.selectRobot(robot);
+      if (robot) this.host.actions.selectRobot(robot);
     }
     this.down = null;
   }
 
   /** The robot under the pointer, else the nearest one within PICK_RADIUS pixels. @param {PointerEvent} e */
   #robotAt(e) {
-    const hit = this.#ndc(e).intersectObjects(this.app.robotTargets(true), true)[0];
+    const hit = this.#ndc(e).intersectObjects(this.host.picking.robotTargets(true), true)[0];
     for (let o = /** @type {THREE.Object3D | null} */ (hit?.object ?? null); o; o = o.parent) {
       if (typeof o.userData.robot === 'string') return /** @type {string} */ (o.userData.robot);
     }
-    const rect = this.app.renderer.domElement.getBoundingClientRect();
+    const rect = this.host.canvas.getBoundingClientRect();
     let best = null;
     let bestDistance = PICK_RADIUS;
     const p = new THREE.Vector3();
-    for (const [name, view] of this.app.robotViews) {
+    for (const [name, view] of this.host.robotViews) {
       if (!view.group.visible) continue;
-      p.copy(view.group.position).setY(view.group.position.y + 0.15).project(this.app.camera);
+      p.copy(view.group.position).setY(view.group.position.y + 0.15).project(this.host.camera);
       const d = Math.hypot(rect.left + ((p.x + 1) / 2) * rect.width - e.clientX, rect.top + ((1 - p.y) / 2) * rect.height - e.clientY);
       if (d < bestDistance) {
         bestDistance = d;
@@ -168,26 +193,26 @@ export class DesktopControls {
     e.preventDefault();
     if (down) this.keys.add(code);
     else this.keys.delete(code);
-    if (this.app.menu.tool === 'teleop') this.pollTeleop();
+    if (this.host.menu.tool === 'teleop') this.pollTeleop();
   }
 
   /** Keyboard and gamepad into the teleop loop: called on key changes and by the 20 Hz timer. */
   pollTeleop() {
-    if (this.app.menu.tool !== 'teleop' || this.app.presenting) return;
+    if (this.host.menu.tool !== 'teleop' || this.host.presenting()) return;
     const [kx, ky] = keysToStick(this.keys);
-    this.app.driveStick('keyboard', kx, ky);
+    this.host.actions.driveStick('keyboard', kx, ky);
     const pad = [...(navigator.getGamepads?.() ?? [])].find((g) => g && g.mapping === 'standard' && g.connected);
-    if (pad) this.app.driveStick('gamepad', pad.axes[0] ?? 0, pad.axes[1] ?? 0);
+    if (pad) this.host.actions.driveStick('gamepad', pad.axes[0] ?? 0, pad.axes[1] ?? 0);
   }
 
   /** @param {number} dt s */
   update(dt) {
-    if (this.app.menu.tool !== 'teleop' && this.keys.size > 0) {
+    if (this.host.menu.tool !== 'teleop' && this.keys.size > 0) {
       // Fly: move the camera and its orbit target together, along the ground.
       const [x, y] = keysToStick(this.keys);
       const up = (this.keys.has('KeyE') ? 1 : 0) - (this.keys.has('KeyQ') ? 1 : 0);
       const forward = new THREE.Vector3();
-      this.app.camera.getWorldDirection(forward);
+      this.host.camera.getWorldDirection(forward);
       forward.y = 0;
       forward.normalize();
       const right = new THREE.Vector3(-forward.z, 0, forward.x);
@@ -196,7 +221,7 @@ export class DesktopControls {
         .addScaledVector(right, x)
         .addScaledVector(new THREE.Vector3(0, 1, 0), up)
         .multiplyScalar(FLY_SPEED * dt);
-      this.app.camera.position.add(step);
+      this.host.camera.position.add(step);
       this.orbit.target.add(step);
     }
     this.orbit.update();
@@ -207,4 +232,20 @@ export class DesktopControls {
     this.unlisten = [];
     this.orbit.dispose();
   }
+}
+
+/**
+ * The floor of the bounds, or around the robots: what the desktop camera frames first.
+ * @param {import('../fleet_model.js').FleetModel} fleet
+ */
+export function fleetBox(fleet) {
+  const box = new THREE.Box3();
+  const t = fleet.scene.mapToScene;
+  if (fleet.bounds) {
+    const [a, b, c, d] = fleet.bounds;
+    box.expandByPoint(new THREE.Vector3(...mapToScene(t, a, b))).expandByPoint(new THREE.Vector3(...mapToScene(t, c, d)));
+  }
+  for (const r of fleet.robots.values()) if (r.pose) box.expandByPoint(new THREE.Vector3(...mapToScene(t, r.pose.x, r.pose.y)));
+  if (box.isEmpty()) box.set(new THREE.Vector3(-5, 0, -5), new THREE.Vector3(5, 0, 5));
+  return box;
 }

@@ -7,6 +7,7 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { disposeModel } from './model_materials.js';
 
 const LIBS = '/node_modules/three/examples/jsm/libs/';
 
@@ -34,7 +35,20 @@ export class ModelLoader {
     return promise;
   }
 
+  /**
+   * Forget a model and free what it holds on the GPU: a twin replaced by another (a newer live map) would
+   * otherwise stay in memory for the life of the page. Clones of it must no longer be shown.
+   * @param {string} url
+   */
+  release(url) {
+    const promise = this.cache.get(url);
+    if (!promise) return;
+    this.cache.delete(url);
+    promise.then((gltf) => disposeModel(gltf.scene), () => {});
+  }
+
   dispose() {
+    for (const url of [...this.cache.keys()]) this.release(url);
     this.draco.dispose();
     this.ktx2.dispose();
     this.cache.clear();

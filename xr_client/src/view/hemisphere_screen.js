@@ -58,6 +58,10 @@ export class HemisphereScreen {
     this.lastIdentifier = '';
     /** @type {{width: number, height: number} | null} the selected camera's configured size: K's pixels */
     this.calibration = null;
+    /** The desktop's picture-in-picture camera: it sees only the screen's layer. */
+    this.povCamera = new THREE.PerspectiveCamera(100, 4 / 3, 0.05, 50);
+    this.povCamera.layers.set(POV_LAYER);
+    this.group.add(this.povCamera);
     this.setLens({ model: 'equidistant', fov: 180 }, width, height);
   }
 
@@ -165,6 +169,32 @@ export class HemisphereScreen {
     ctx.textBaseline = 'middle';
     // A canvas is flipped on upload (texture.flipY), like the frames that are decoded flipped: upright.
     ctx.fillText(text, canvas.width / 2, canvas.height / 2);
+  }
+
+  /**
+   * The desktop's Robot POV panel: the screen seen from its centre, drawn into the panel's rectangle of the page.
+   * @param {THREE.WebGLRenderer} renderer @param {THREE.Scene} scene
+   * @param {DOMRect} rect the panel, in page pixels @param {{yaw: number, pitch: number, fov: number}} look
+   */
+  renderInto(renderer, scene, rect, look) {
+    const canvas = renderer.domElement.getBoundingClientRect();
+    if (rect.width < 2 || rect.height < 2) return;
+    const x = rect.left - canvas.left;
+    const y = canvas.bottom - rect.bottom;
+    this.group.position.set(0, 0, 0);
+    this.group.rotation.set(0, 0, 0);
+    this.povCamera.position.set(0, 0, 0);
+    this.povCamera.rotation.set(-look.pitch, -look.yaw, 0, 'YXZ');
+    this.povCamera.fov = look.fov;
+    this.povCamera.aspect = rect.width / rect.height;
+    this.povCamera.updateProjectionMatrix();
+    renderer.setScissorTest(true);
+    renderer.setScissor(x, y, rect.width, rect.height);
+    renderer.setViewport(x, y, rect.width, rect.height);
+    renderer.render(scene, this.povCamera);
+    renderer.setScissorTest(false);
+    const size = renderer.getSize(new THREE.Vector2());
+    renderer.setViewport(0, 0, size.x, size.y);
   }
 
   dispose() {

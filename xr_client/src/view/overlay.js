@@ -2,7 +2,7 @@
 /**
  * The desktop overlay (HTML): the connection status, E-STOP, the Enter VR button or why VR is unavailable,
  * the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
- * Robot POV panel and a message line. Reads the app's state; clicks go back through app.pressMenu.
+ * Robot POV panel and a message line. Reads what its host gives it; clicks go back through the host's actions.
  */
 import { drawSensorPanel } from './sensor_drawing.js';
 
@@ -14,9 +14,12 @@ function el(id) {
 }
 
 export class Overlay {
-  /** @param {import('../app.js').App} app */
-  constructor(app) {
-    this.app = app;
+  /**
+   * @param {{menu: import('../menu_state.js').MenuState, actions: import('../app.js').OperatorActions,
+   *   sensorPanelData: (now: number) => import('./sensor_drawing.js').SensorPanelData, povText: () => string}} host
+   */
+  constructor(host) {
+    this.host = host;
     this.status = el('link-status');
     this.menu = el('menu');
     this.message = el('message');
@@ -33,11 +36,11 @@ export class Overlay {
     this.unlisten = [];
     const onMenuClick = (/** @type {MouseEvent} */ e) => {
       const button = /** @type {HTMLElement | null} */ (/** @type {HTMLElement} */ (e.target).closest('button[data-button]'));
-      if (button && !(/** @type {HTMLButtonElement} */ (button).disabled)) app.pressMenu(/** @type {string} */ (button.dataset.button));
+      if (button && !(/** @type {HTMLButtonElement} */ (button).disabled)) host.actions.pressMenu(/** @type {string} */ (button.dataset.button));
     };
     this.menu.addEventListener('click', onMenuClick);
     this.unlisten.push(() => this.menu.removeEventListener('click', onMenuClick));
-    const onVr = () => app.enterVR();
+    const onVr = () => host.actions.enterVR();
     this.vrButton.addEventListener('click', onVr);
     this.unlisten.push(() => this.vrButton.removeEventListener('click', onVr));
   }
@@ -75,14 +78,14 @@ export class Overlay {
 
   /** Redraw what changed. @param {number} now */
   update(now) {
-    const menu = this.app.menu;
+    const menu = this.host.menu;
     const key = String(menu.version);
     if (key !== this.menuKey) {
       this.menuKey = key;
       this.#drawMenu();
       this.povPanel.hidden = menu.mode !== 'pov';
     }
-    const data = this.app.sensorPanelData(now);
+    const data = this.host.sensorPanelData(now);
     const sensorKey = `${data.robot}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
     if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
       this.sensorKey = sensorKey;
@@ -92,12 +95,12 @@ export class Overlay {
       this.sensorCanvas.dataset.robot = data.robot ?? '';
       this.sensorCanvas.dataset.warning = String(data.sensors.some((s) => s.warning));
     }
-    if (menu.mode === 'pov') this.povInfo.textContent = this.app.povText();
+    if (menu.mode === 'pov') this.povInfo.textContent = this.host.povText();
   }
 
   #drawMenu() {
     const groups = new Map();
-    for (const button of this.app.menu.buttons()) {
+    for (const button of this.host.menu.buttons()) {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
       let row = groups.get(button.group);
       if (!row) {

@@ -4,24 +4,23 @@
  * the wrist sensor panel. Both redraw only when what they show changed, never per frame.
  */
 import * as THREE from 'three';
+import { CanvasPlane } from './canvas_plane.js';
 import { buttonAt, layoutMenu, MENU_ROWS } from '../menu_layout.js';
-import { fitText, font, roundRect } from './canvas_text.js';
+import { fillRounded, fitText, font, roundRect } from './canvas_text.js';
 import { drawSensorPanel } from './sensor_drawing.js';
 
+/** @type {[number, number]} */
 const MENU_PX = [1024, 700];
+/** @type {[number, number]} */
 const MENU_M = [0.64, 0.4375];
 
 export class MenuPanel {
   constructor() {
-    this.canvas = document.createElement('canvas');
-    [this.canvas.width, this.canvas.height] = MENU_PX;
-    this.texture = new THREE.CanvasTexture(this.canvas);
-    this.texture.colorSpace = THREE.SRGBColorSpace;
+    this.plane = new CanvasPlane(MENU_PX, MENU_M, 'menu');
+    this.canvas = this.plane.canvas;
+    this.texture = this.plane.texture;
     this.texture.anisotropy = 4;
-    this.geometry = new THREE.PlaneGeometry(MENU_M[0], MENU_M[1]);
-    this.material = new THREE.MeshBasicMaterial({ map: this.texture, transparent: true, depthWrite: false });
-    this.mesh = new THREE.Mesh(this.geometry, this.material);
-    this.mesh.name = 'menu';
+    this.mesh = this.plane.mesh;
     this.mesh.renderOrder = 30;
     this.mesh.visible = false;
     /** @type {import('../menu_layout.js').ButtonRect[]} */
@@ -30,15 +29,10 @@ export class MenuPanel {
     this.buttons = [];
     this.key = '';
     // The small tab that opens the menu without a controller button (hands, Vision Pro's pointer).
-    this.tabCanvas = document.createElement('canvas');
-    this.tabCanvas.width = 256;
-    this.tabCanvas.height = 96;
-    this.tabTexture = new THREE.CanvasTexture(this.tabCanvas);
-    this.tabTexture.colorSpace = THREE.SRGBColorSpace;
-    this.tabGeometry = new THREE.PlaneGeometry(0.16, 0.06);
-    this.tabMaterial = new THREE.MeshBasicMaterial({ map: this.tabTexture, transparent: true, depthWrite: false });
-    this.tab = new THREE.Mesh(this.tabGeometry, this.tabMaterial);
-    this.tab.name = 'menu-tab';
+    this.tabPlane = new CanvasPlane([256, 96], [0.16, 0.06], 'menu-tab');
+    this.tabCanvas = this.tabPlane.canvas;
+    this.tabTexture = this.tabPlane.texture;
+    this.tab = this.tabPlane.mesh;
     this.tab.renderOrder = 30;
     this.tab.visible = false;
     /** @type {boolean | null} */
@@ -59,9 +53,7 @@ export class MenuPanel {
     this.rects = layoutMenu(this.buttons, w, h);
     const ctx = /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d'));
     ctx.clearRect(0, 0, w, h);
-    roundRect(ctx, 0, 0, w, h, 36);
-    ctx.fillStyle = 'rgba(14,18,26,0.94)';
-    ctx.fill();
+    fillRounded(ctx, [0, 0, w, h], 36, 'rgba(14,18,26,0.94)');
     ctx.textBaseline = 'middle';
     ctx.textAlign = 'left';
     ctx.fillStyle = '#fff';
@@ -105,9 +97,7 @@ export class MenuPanel {
     this.tabHover = hovered;
     const ctx = /** @type {CanvasRenderingContext2D} */ (this.tabCanvas.getContext('2d'));
     ctx.clearRect(0, 0, 256, 96);
-    roundRect(ctx, 2, 2, 252, 92, 40);
-    ctx.fillStyle = hovered ? 'rgba(61,139,255,0.95)' : 'rgba(14,18,26,0.85)';
-    ctx.fill();
+    fillRounded(ctx, [2, 2, 252, 92], 40, hovered ? 'rgba(61,139,255,0.95)' : 'rgba(14,18,26,0.85)');
     ctx.fillStyle = '#fff';
     ctx.textAlign = 'center';
     ctx.textBaseline = 'middle';
@@ -148,27 +138,18 @@ export class MenuPanel {
   }
 
   dispose() {
-    this.texture.dispose();
-    this.geometry.dispose();
-    this.material.dispose();
-    this.tabTexture.dispose();
-    this.tabGeometry.dispose();
-    this.tabMaterial.dispose();
+    this.plane.dispose();
+    this.tabPlane.dispose();
   }
 }
 
 /** The sensor panel on the left wrist: a small canvas-textured plane on the left grip. */
 export class WristPanel {
   constructor() {
-    this.canvas = document.createElement('canvas');
-    this.canvas.width = 512;
-    this.canvas.height = 400;
-    this.texture = new THREE.CanvasTexture(this.canvas);
-    this.texture.colorSpace = THREE.SRGBColorSpace;
-    this.geometry = new THREE.PlaneGeometry(0.13, 0.1);
-    this.material = new THREE.MeshBasicMaterial({ map: this.texture, transparent: true, depthWrite: false });
-    this.mesh = new THREE.Mesh(this.geometry, this.material);
-    this.mesh.name = 'wrist-panel';
+    this.plane = new CanvasPlane([512, 400], [0.13, 0.1], 'wrist-panel');
+    this.canvas = this.plane.canvas;
+    this.texture = this.plane.texture;
+    this.mesh = this.plane.mesh;
     // Over the back of the left hand, tilted towards the face like a watch.
     this.mesh.position.set(0, 0.07, 0.07);
     this.mesh.rotation.set(-Math.PI / 3.5, 0, 0);
@@ -191,8 +172,6 @@ export class WristPanel {
   }
 
   dispose() {
-    this.texture.dispose();
-    this.geometry.dispose();
-    this.material.dispose();
+    this.plane.dispose();
   }
 }

@@ -6,6 +6,7 @@
  * the robot is greyed and its label shows the age of its data. The view only reads the fleet model.
  */
 import * as THREE from 'three';
+import { adoptMaterials } from './model_materials.js';
 import { LabelSprite, WarningSprite } from './label_sprite.js';
 import { MAX_SCAN_POINTS, scanToPoints } from '../scan.js';
 
@@ -104,18 +105,8 @@ export class RobotView {
       const model = gltf.scene.clone(true);
       model.traverse((object) => {
         object.userData.robot = this.name;
-        const mesh = /** @type {THREE.Mesh} */ (object);
-        if (!mesh.isMesh) return;
-        const list = Array.isArray(mesh.material) ? mesh.material : [mesh.material];
-        const tinted = list.map((m) => {
-          if (m.name !== 'body') return m;
-          const copy = /** @type {THREE.MeshStandardMaterial} */ (m.clone());
-          copy.color.copy(this.colour);
-          this.materials.push(copy);
-          return copy;
-        });
-        mesh.material = Array.isArray(mesh.material) ? tinted : tinted[0];
       });
+      this.materials.push(...adoptMaterials(model, this.colour));
       this.body.clear();
       this.body.add(model);
       this.#applyTint();

@@ -8,7 +8,7 @@ import * as THREE from 'three';
 import { mapToScene } from '../frames.js';
 
 export class TwinView {
-  /** @param {import('./gltf_loading.js').ModelLoader} loader */
+  /** @param {{load: import('./gltf_loading.js').ModelLoader['load'], release: (url: string) => void}} loader */
   constructor(loader) {
     this.loader = loader;
     this.group = new THREE.Group();
@@ -39,6 +39,8 @@ export class TwinView {
   setScene(scene, bounds) {
     const boundsKey = JSON.stringify([bounds, scene.mapToScene]);
     if (scene.url === this.url && (scene.url !== null || boundsKey === this.boundsKey)) return;
+    // The replaced twin is gone for good (a twin URL names one version of one map): free it.
+    if (this.url && this.url !== scene.url) this.loader.release(this.url);
     this.url = scene.url;
     this.boundsKey = boundsKey;
     const generation = ++this.generation;

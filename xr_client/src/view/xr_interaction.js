@@ -15,9 +15,17 @@ export const MENU_BUTTON = 5;
 const MENU_DISTANCE = 0.75;
 
 export class XRInteraction {
-  /** @param {import('../app.js').App} app */
-  constructor(app) {
-    this.app = app;
+  /**
+   * @param {{xrInput: import('./xr_input.js').XRInput, camera: THREE.PerspectiveCamera, rig: THREE.Group,
+   *   menu: import('../menu_state.js').MenuState, menuPanel: import('./panels.js').MenuPanel,
+   *   goalPointer: import('../goal_pointer.js').GoalPointer, goalView: import('./goal_view.js').GoalView,
+   *   teleportView: import('./comfort_view.js').TeleportView, vignette: import('./comfort_view.js').Vignette,
+   *   fleet: import('../fleet_model.js').FleetModel, picking: import('./picking.js').Picking,
+   *   locomotion: import('./xr_session.js').XRSessionController, actions: import('../app.js').OperatorActions,
+   *   link: () => string}} host what the headset's interaction reads and drives, and nothing more
+   */
+  constructor(host) {
+    this.host = host;
     this.raycaster = new THREE.Raycaster();
     /** @type {Map<number, ButtonEdge>} */
     this.menuEdges = new Map();
@@ -41,27 +49,40 @@ export class XRInteraction {
 
   /** @param {number} now ms @param {number} dt s */
   update(now, dt) {
-    const app = this.app;
-    const input = app.xrInput;
+    const host = this.host;
     // The head: three.js keeps the user camera (a child of the rig) at the viewer's pose.
-    app.camera.getWorldPosition(this.head);
-    const forward = app.camera.getWorldDirection(new THREE.Vector3());
+    host.camera.getWorldPosition(this.head);
+    const forward = host.camera.getWorldDirection(new THREE.Vector3());
     this.headYaw = Math.atan2(-forward.x, -forward.z);
+    this.#menuButtons();
+    this.#point();
+    this.#goalPointer();
+    this.#sticks(dt);
+    this.#comfort(dt);
+    this.#placeTab(dt);
+  }
 
+  #menuButtons() {
+    const host = this.host;
+    const input = host.xrInput;
     // 1. The menu button: a rising edge toggles, holding it does nothing more.
     for (const slot of input.active()) {
       let edge = this.menuEdges.get(slot.index);
       if (!edge) this.menuEdges.set(slot.index, (edge = new ButtonEdge()));
-      if (edge.update(input.pressed(slot, MENU_BUTTON))) app.toggleMenu();
+      if (edge.update(input.pressed(slot, MENU_BUTTON))) host.actions.toggleMenu();
     }
+  }
 
+  #point() {
+    const host = this.host;
+    const input = host.xrInput;
     // 2. Pointing: the nearest interactive thing under each ray.
-    const menu = app.menu;
-    const panel = app.menuPanel;
+    const menu = host.menu;
+    const panel = host.menuPanel;
     /** @type {THREE.Object3D[]} */
     const targets = menu.open ? [panel.mesh] : [panel.tab];
     const robotsPickable = !menu.open && menu.mode === 'free_roam' && menu.tool !== 'goal';
-    if (robotsPickable) targets.push(...app.robotTargets());
+    if (robotsPickable) targets.push(...host.picking.robotTargets());
     // A transient pointer (Vision Pro's gaze-and-pinch) disconnects right after its selectend: its slot
     // still has that event to hand over, at its last pose.
     for (const slot of input.slots.filter((s) => s.source !== null || s.events.length > 0)) {
@@ -79,31 +100,42 @@ export class XRInteraction {
       }
       input.showHit(slot, hit ? hit.point : null, hit ? hit.distance : 0);
 
-      // 3. Select: on what the ray hovers, else the goal pointer.
-      for (const event of input.takeEvents(slot)) {
-        if (event === 'selectstart') {
-          this.lastPointer = slot;
-          if (id === 'menu:tab') app.toggleMenu();
-          else if (id?.startsWith('pick:')) app.selectRobot(id.slice(5));
-          else if (id) {
-            input.pulse(slot, 0.6, 30);
-            app.pressMenu(id);
-          } else if (this.#goalActive()) {
-            this.#aimGoal(slot);
-            if (app.goalPointer.press()) this.goalSlot = slot;
-          }
-        } else if (slot === this.goalSlot) {
-          this.#aimGoal(slot);
-          const goal = app.goalPointer.release();
-          this.goalSlot = null;
-          if (goal) app.sendGoal(goal);
-        }
-      }
+      this.#select(slot, id);
     }
     const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && h !== 'menu:tab') ?? null;
     panel.setTabHover([...this.hover.values()].includes('menu:tab'));
-    panel.update(menu, menuHover, app.linkText);
+    panel.update(menu, menuHover, host.link());
+  }
 
+  /** @param {import('./xr_input.js').InputSlot} slot @param {string | null} id what the slot's ray hovers */
+  #select(slot, id) {
+    const host = this.host;
+    const input = host.xrInput;
+    // 3. Select: on what the ray hovers, else the goal pointer.
+    for (const event of input.takeEvents(slot)) {
+      if (event === 'selectstart') {
+        this.lastPointer = slot;
+        if (id === 'menu:tab') host.actions.toggleMenu();
+        else if (id?.startsWith('pick:')) host.actions.selectRobot(id.slice(5));
+        else if (id) {
+          input.pulse(slot, 0.6, 30);
+          host.actions.pressMenu(id);
+        } else if (this.#goalActive()) {
+          this.#aimGoal(slot);
+          if (host.goalPointer.press()) this.goalSlot = slot;
+        }
+      } else if (slot === this.goalSlot) {
+        this.#aimGoal(slot);
+        const goal = host.goalPointer.release();
+        this.goalSlot = null;
+        if (goal) host.actions.sendGoal(goal);
+      }
+    }
+  }
+
+  #goalPointer() {
+    const host = this.host;
+    const input = host.xrInput;
     // 4. The goal pointer follows the pointing hand (the one that last selected, else the right one).
     const goalActive = this.#goalActive();
     const pointing = goalActive ? (this.goalSlot ?? (this.lastPointer?.source ? this.lastPointer : null) ?? input.side('right')) : null;
@@ -112,24 +144,30 @@ export class XRInteraction {
     if (goalActive) {
       const slot = pointing;
       if (slot) this.#aimGoal(slot);
-      else app.goalPointer.aim(null);
+      else host.goalPointer.aim(null);
       const arc = slot ? this.lastArc : null;
-      app.goalView.setPointer(app.fleet.scene.mapToScene, app.goalPointer.marker, arc);
+      host.goalView.setPointer(host.fleet.scene.mapToScene, host.goalPointer.marker, arc);
     } else {
       if (this.goalSlot) this.goalSlot = null;
-      app.goalPointer.cancel();
-      app.goalPointer.aim(null);
-      app.goalView.setPointer(app.fleet.scene.mapToScene, null, null);
+      host.goalPointer.cancel();
+      host.goalPointer.aim(null);
+      host.goalView.setPointer(host.fleet.scene.mapToScene, null, null);
     }
+  }
 
+  /** @param {number} dt s */
+  #sticks(dt) {
+    const host = this.host;
+    const input = host.xrInput;
+    const menu = host.menu;
     // 5. Sticks: the right one drives the robot when Teleop is on, else both turn; the left one moves.
     const left = input.side('left');
     const right = input.side('right');
     const [lx, ly] = input.stick(left);
     const [rx, ry] = input.stick(right);
-    const rig = app.rig;
+    const rig = host.rig;
     const free = menu.mode === 'free_roam';
-    if (menu.tool === 'teleop' && !menu.open) app.driveStick('xr-right', rx, ry);
+    if (menu.tool === 'teleop' && !menu.open) host.actions.driveStick('xr-right', rx, ry);
     else this.#turn(this.snapRight.update(rx));
     let teleportPoints = null;
     if (!menu.open && left) {
@@ -142,11 +180,11 @@ export class XRInteraction {
         const gesture = this.teleport.update(ly);
         if (gesture === 'aim') {
           const { origin, direction } = input.ray(left);
-          const arc = app.arcToFloor(origin, direction);
+          const arc = host.picking.arcToFloor(origin, direction);
           teleportPoints = arc.points;
           this.teleportHit = arc.hit;
         } else if (gesture === 'teleport' && this.teleportHit) {
-          app.teleportTo(this.teleportHit, this.head);
+          host.locomotion.teleportTo(this.teleportHit, this.head);
           this.teleportHit = null;
         }
       }
@@ -154,18 +192,28 @@ export class XRInteraction {
     } else {
       this.teleport.cancel();
     }
-    app.teleportView.set(teleportPoints, teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null);
+    host.teleportView.set(teleportPoints, teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null);
+  }
 
+  /** @param {number} dt s */
+  #comfort(dt) {
+    const host = this.host;
+    const rig = host.rig;
     // 6. Comfort: the vignette follows the rig's motion (teleports are instantaneous and skip it).
     const moved = rig.position.distanceTo(this.lastRig);
     const turned = Math.abs(rig.rotation.y - this.lastRigYaw);
     const linear = moved < 1 ? moved / Math.max(dt, 1e-3) : 0;
     const angular = turned < 1 ? turned / Math.max(dt, 1e-3) : 0;
     this.vignette = vignetteStrength(this.vignette, linear, angular, dt);
-    app.vignette.set(this.vignette);
+    host.vignette.set(this.vignette);
     this.lastRig.copy(rig.position);
     this.lastRigYaw = rig.rotation.y;
+  }
 
+  /** @param {number} dt s */
+  #placeTab(dt) {
+    const menu = this.host.menu;
+    const panel = this.host.menuPanel;
     // 7. The menu tab floats low in front of the operator, following the head lazily.
     const tab = panel.tab;
     tab.visible = !menu.open;
@@ -181,27 +229,27 @@ export class XRInteraction {
 
   /** @param {import('./xr_input.js').InputSlot} slot */
   #aimGoal(slot) {
-    const { origin, direction } = this.app.xrInput.ray(slot);
-    const { points, hit } = this.app.arcToFloor(origin, direction);
+    const { origin, direction } = this.host.xrInput.ray(slot);
+    const { points, hit } = this.host.picking.arcToFloor(origin, direction);
     this.lastArc = points;
-    this.app.goalPointer.aim(hit ? this.app.sceneToMapPoint(hit) : null);
+    this.host.goalPointer.aim(hit ? this.host.picking.sceneToMapPoint(hit) : null);
   }
 
   #goalActive() {
-    const menu = this.app.menu;
+    const menu = this.host.menu;
     return menu.tool === 'goal' && menu.mode === 'free_roam' && !menu.open;
   }
 
   /** Snap turn about the head. @param {number} angle */
   #turn(angle) {
-    if (angle !== 0) this.app.turnAbout(this.head, angle);
+    if (angle !== 0) this.host.locomotion.turnAbout(this.head, angle);
   }
 
   /** What each hand points at ('left', 'right', or the slot index of a transient pointer), for tests. */
   hovered() {
     /** @type {Record<string, string | null>} */
     const out = {};
-    for (const slot of this.app.xrInput.active()) {
+    for (const slot of this.host.xrInput.active()) {
       const key = slot.source?.targetRayMode === 'tracked-pointer' ? slot.source.handedness : String(slot.index);
       out[key] = this.hover.get(slot.index) ?? null;
     }
@@ -210,13 +258,13 @@ export class XRInteraction {
 
   /** Place the menu in front of the operator, at a comfortable distance, facing them. */
   placeMenu() {
-    const app = this.app;
-    app.camera.getWorldPosition(this.head);
-    const forward = app.camera.getWorldDirection(new THREE.Vector3());
+    const host = this.host;
+    host.camera.getWorldPosition(this.head);
+    const forward = host.camera.getWorldDirection(new THREE.Vector3());
     forward.y = 0;
     if (forward.lengthSq() < 1e-6) forward.set(0, 0, -1);
     forward.normalize();
-    const mesh = app.menuPanel.mesh;
+    const mesh = host.menuPanel.mesh;
     mesh.position.copy(this.head).addScaledVector(forward, MENU_DISTANCE);
     mesh.position.y = this.head.y - 0.12;
     mesh.lookAt(this.head.x, mesh.position.y + 0.1, this.head.z);

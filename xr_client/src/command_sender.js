@@ -1,0 +1,133 @@
+// @ts-check
+/**
+ * Every command the client sends, built in one place from the generated command shapes (protocol.js), with
+ * the requests that await an answer. Nothing queues while disconnected: a command that cannot go out returns
+ * null and the caller is told through `onNotSent` (the operator must know that a stop did not leave).
+ */
+import { ERROR_CODES, robotIdentifier } from './protocol.js';
+
+/**
+ * @typedef {import('./protocol.js').ClientMessage} ClientMessage
+ * @typedef {{send(message: Record<string, unknown>, withId?: boolean): string | null}} Link what the sender needs of
+ *   the connection: `send` returns the id it gave the message ('' without one), or null when disconnected
+ * @typedef {import('./protocol.js').GoalDescription} Goal
+ */
+/**
+ * A command before the connection gives it its id (Omit over each member of the union).
+ * @template M
+ * @typedef {M extends unknown ? Omit<M, 'id'> : never} WithoutId
+ */
+
+/** Wire numbers: millimetres and milliradians are plenty, and the frames stay short. @param {number} v */
+export function round(v) {
+  return Math.round(v * 1e4) / 1e4 + 0;
+}
+
+export class CommandSender {
+  /** How many commands went out, by kind (tests and the developer console read them). */
+  counts = { goals: 0, cmdVel: 0, zeros: 0, estops: 0 };
+  /** Snapshots asked for and how they ended; `lastError` is the code of the last refusal. */
+  snapshots = { requested: 0, acked: 0, failed: 0, lastError: '' };
+  /** Ids of snapshot requests awaiting their ack or error. @type {Set<string>} */
+  pendingSnapshots = new Set();
+
+  /**
+   * @param {Link} link
+   * @param {(text: string) => void} onNotSent
+   */
+  constructor(link, onNotSent) {
+    this.link = link;
+    this.onNotSent = onNotSent;
+  }
+
+  /**
+   * @param {WithoutId<ClientMessage>} message
+   * @param {boolean} [withId]
+   * @returns {string | null}
+   */
+  #send(message, withId = true) {
+    const id = this.link.send(/** @type {Record<string, unknown>} */ (message), withId);
+    if (id === null) this.onNotSent(`not connected: ${message.identifier} not sent`);
+    return id;
+  }
+
+  /** @param {string} robot @param {Goal} goal */
+  goal(robot, goal) {
+    /** @type {Omit<import('./protocol.js').GoalPoseCommand, 'id'>} */
+    const message = { identifier: robotIdentifier(robot, 'goal_pose'), x: round(goal.x), y: round(goal.y) };
+    if (goal.yaw !== null) message.yaw = round(goal.yaw);
+    const id = this.#send(message);
+    if (id) this.counts.goals++;
+    return id;
+  }
+
+  /**
+   * One teleop command; cmd_vel carries no id: the 20 Hz stream is not acknowledged (docs/protocol.md).
+   * @param {import('./teleop.js').TeleopCommand} command
+   */
+  twist(command) {
+    /** @type {import('./protocol.js').CmdVelCommand} */
+    const message = { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular) };
+    // Silently dropped while disconnected: the relay's deadman stops the robot on its side.
+    if (this.link.send(/** @type {Record<string, unknown>} */ (message), false) === null) return;
+    this.counts.cmdVel++;
+    if (command.linear === 0 && command.angular === 0) this.counts.zeros++;
+  }
+
+  /** @param {string} robot @param {string} camera @param {number} fps 0 stops */
+  stream(robot, camera, fps) {
+    return this.#send({ identifier: robotIdentifier(robot, 'stream'), camera, fps });
+  }
+
+  /** @param {string} robot @param {string | null} camera null: the robot's first camera */
+  snapshot(robot, camera) {
+    const identifier = robotIdentifier(robot, 'snapshot');
+    const id = this.#send(camera ? { identifier, camera } : { identifier });
+    if (id) {
+      this.snapshots.requested++;
+      this.pendingSnapshots.add(id);
+    }
+    return id;
+  }
+
+  /** @param {string} robot */
+  cancel(robot) {
+    return this.#send({ identifier: robotIdentifier(robot, 'cancel') });
+  }
+
+  /** Take a robot over from the operator who holds it (the relay stops it first). @param {string} robot */
+  takeOver(robot) {
+    return this.#send({ identifier: robotIdentifier(robot, 'lease'), action: 'acquire', force: true });
+  }
+
+  /** Stop every robot, or one. @param {string} [robot] */
+  estop(robot) {
+    const id = this.#send(robot ? { identifier: 'estop', robot } : { identifier: 'estop' });
+    if (id) this.counts.estops++;
+    else this.onNotSent('not connected: E-STOP NOT DELIVERED');
+    return id;
+  }
+
+  /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
+  acked(id) {
+    if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;
+  }
+
+  /** An `error` arrived. @param {import('./protocol.js').ErrorMessage} error */
+  failed(error) {
+    if (error.id !== null && this.pendingSnapshots.delete(String(error.id))) {
+      this.snapshots.failed++;
+      this.snapshots.lastError = error.code;
+    }
+  }
+
+  /** Whether the last refused snapshot had no image to give. */
+  get noImageYet() {
+    return this.snapshots.lastError === ERROR_CODES.NO_CAMERA;
+  }
+
+  /** A new `hello`: nothing sent before it will be answered. */
+  reset() {
+    this.pendingSnapshots.clear();
+  }
+}

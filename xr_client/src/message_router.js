@@ -1,0 +1,175 @@
+// @ts-check
+/**
+ * Every message from the relay, routed to the models it updates, returning the effects the app and its views
+ * carry out (the way MenuState returns its effects). No DOM, no WebGL: test/message_router.test.js drives it
+ * with the relay's message shapes.
+ */
+import { ERROR_CODES, parseIdentifier } from './protocol.js';
+import { PoseSmoother } from './pose_smoother.js';
+
+/**
+ * @typedef {import('./protocol.js').ServerMessage} ServerMessage
+ * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
+ *   | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage | import('./protocol.js').PlaybackMessage
+ *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage} GlobalMessage the messages whose
+ *   identifier is a literal, so that a switch on it narrows the type
+ * @typedef {'info' | 'error' | 'warning'} NoticeKind
+ * @typedef {{type: 'fleet', rebuild: boolean}
+ *   | {type: 'scene'}
+ *   | {type: 'notify', text: string, kind: NoticeKind, toast: boolean}
+ *   | {type: 'stop_teleop'}
+ *   | {type: 'link'}
+ *   | {type: 'model', robot: string}
+ *   | {type: 'scan', robot: string, scan: import('./protocol.js').ScanMessage}
+ *   | {type: 'goal_state', robot: string, active: boolean}
+ *   | {type: 'sensor_warning', robot: string}
+ *   | {type: 'offer_takeover', robot: string, text: string}} RouterEffect
+ * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
+ *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender}} RouterModels
+ */
+
+export class MessageRouter {
+  /** The replayed recording (`playback`, bag backend), if any. @type {import('./protocol.js').PlaybackMessage | null} */
+  playback = null;
+  /** Pose smoothing per robot, fed here and sampled by the frame loop. @type {Map<string, PoseSmoother>} */
+  smoothers = new Map();
+  /** The fleet description of the last `hello`, to rebuild robot views only when it changed. */
+  #robotsKey = '';
+
+  /** @param {RouterModels} models */
+  constructor(models) {
+    this.fleet = models.fleet;
+    this.goals = models.goals;
+    this.history = models.history;
+    this.commands = models.commands;
+  }
+
+  /**
+   * @param {ServerMessage} message
+   * @param {number} now page time, ms
+   * @returns {RouterEffect[]}
+   */
+  route(message, now) {
+    const { robot, kind } = parseIdentifier(message.identifier);
+    if (robot === null) return this.#global(/** @type {GlobalMessage} */ (message), now);
+    switch (kind) {
+      case 'lease':
+        return this.#lease(robot, /** @type {import('./protocol.js').LeaseMessage} */ (message));
+      case 'model':
+        return this.#model(robot, /** @type {import('./protocol.js').ModelMessage} */ (message));
+      case 'scan':
+        return this.fleet.robots.has(robot) ? [{ type: 'scan', robot, scan: /** @type {import('./protocol.js').ScanMessage} */ (message) }] : [];
+    }
+    if (!this.fleet.apply(message)) return [];
+    if (kind === 'pose') {
+      const pose = /** @type {import('./protocol.js').PoseMessage} */ (message);
+      this.smoother(robot).push(pose.x, pose.y, pose.yaw, now);
+    } else if (kind === 'status') {
+      const status = /** @type {import('./protocol.js').StatusMessage} */ (message);
+      this.goals.status(robot, status.goal, now);
+      return [{ type: 'goal_state', robot, active: status.goal !== null && status.goal !== undefined }];
+    } else if (kind === 'sensor') {
+      const reading = /** @type {import('./protocol.js').SensorMessage} */ (message);
+      if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
+        const text = `WARNING ${robot}: ${reading.name} ${reading.value.toFixed(1)} ${reading.unit}`;
+        return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
+      }
+    }
+    return [];
+  }
+
+  /** @param {GlobalMessage} message @param {number} now @returns {RouterEffect[]} */
+  #global(message, now) {
+    switch (message.identifier) {
+      case 'hello':
+        return this.#hello(message, now);
+      case 'scene':
+        this.fleet.apply(message);
+        return [{ type: 'scene' }];
+      case 'ack':
+        this.goals.acked(String(message.id));
+        this.commands.acked(message.id);
+        return [];
+      case 'error':
+        return this.#error(message, now);
+      case 'estop': {
+        const by = message.by ? ` (by ${message.by === this.fleet.clientId ? 'you' : message.by})` : '';
+        return [{ type: 'stop_teleop' }, notice(`EMERGENCY STOP: ${message.robots.join(', ')}${by}`, 'error')];
+      }
+      case 'playback':
+        this.playback = message;
+        return [{ type: 'link' }];
+      case 'backend':
+        return [notice(message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`, message.ok ? 'info' : 'error')];
+      default:
+        return []; // pong: the connection measures it
+    }
+  }
+
+  /** @param {import('./protocol.js').HelloMessage} hello @param {number} now @returns {RouterEffect[]} */
+  #hello(hello, now) {
+    this.fleet.apply(hello);
+    this.playback = hello.playback ?? null;
+    this.goals.reset();
+    this.commands.reset();
+    // Robot views are rebuilt only when the fleet description changed (a reconnect to the same relay
+    // keeps them, and with them their loaded models).
+    const key = JSON.stringify(hello.robots);
+    const rebuild = key !== this.#robotsKey;
+    this.#robotsKey = key;
+    if (rebuild) this.smoothers.clear();
+    for (const [name, entry] of this.fleet.robots) {
+      if (entry.pose) this.smoother(name).push(entry.pose.x, entry.pose.y, entry.pose.yaw, now);
+      if (entry.status) this.goals.status(name, entry.status.goal, now);
+    }
+    return [{ type: 'fleet', rebuild }];
+  }
+
+  /** @param {import('./protocol.js').ErrorMessage} error @param {number} now @returns {RouterEffect[]} */
+  #error(error, now) {
+    /** @type {RouterEffect[]} */
+    const effects = [];
+    if (error.code === ERROR_CODES.LEASED && error.id !== null) {
+      // The message names the refused command first (`robot1/goal_pose: robot1 is controlled by ...`).
+      const { robot } = parseIdentifier(error.message.split(':')[0]);
+      if (robot !== null && this.fleet.robots.has(robot)) effects.push({ type: 'offer_takeover', robot, text: error.message });
+    }
+    this.commands.failed(error);
+    const shownAtMarker = this.goals.failed(error.id === null ? null : String(error.id), error.code, error.message, now);
+    effects.push({ type: 'notify', text: `${error.code}: ${error.message}`, kind: 'error', toast: !shownAtMarker });
+    return effects;
+  }
+
+  /**
+   * Who controls a robot changed. The operator who lost one is told at once (and its teleop stops sending).
+   * @param {string} robot @param {import('./protocol.js').LeaseMessage} lease @returns {RouterEffect[]}
+   */
+  #lease(robot, lease) {
+    const me = this.fleet.clientId;
+    if (lease.previous === me && lease.holder && lease.holder !== me) {
+      return [{ type: 'stop_teleop' }, notice(`${robot} was taken over by ${lease.holder}`, 'error')];
+    }
+    if (lease.previous === me && lease.reason === 'expired') return [notice(`your control of ${robot} expired (idle)`, 'info')];
+    return [];
+  }
+
+  /** The relay built this robot's model from its robot_description. @param {string} robot @param {import('./protocol.js').ModelMessage} model */
+  #model(robot, model) {
+    const entry = this.fleet.robots.get(robot);
+    if (!entry || entry.description.model === model.url) return [];
+    entry.description = { ...entry.description, model: model.url };
+    return [/** @type {RouterEffect} */ ({ type: 'model', robot })];
+  }
+
+  /** @param {string} name */
+  smoother(name) {
+    let s = this.smoothers.get(name);
+    if (!s) this.smoothers.set(name, (s = new PoseSmoother()));
+    return s;
+  }
+}
+
+/** @param {string} text @param {NoticeKind} kind @returns {RouterEffect} */
+function notice(text, kind) {
+  return { type: 'notify', text, kind, toast: true };
+}

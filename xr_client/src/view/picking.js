@@ -1,0 +1,81 @@
+// @ts-check
+/**
+ * What a ray meets: the twin's floor (for goals and teleports), a wall in the way, or a robot. Shared by the
+ * desktop's mouse and the headset's pointers; it reads the twin and the robot views, and changes nothing.
+ */
+import * as THREE from 'three';
+import { arcPoints } from '../arc.js';
+import { sceneToMap } from '../frames.js';
+
+export class Picking {
+  /**
+   * @param {import('./twin_view.js').TwinView} twin
+   * @param {Map<string, import('./robot_view.js').RobotView>} robotViews
+   * @param {import('../fleet_model.js').FleetModel} fleet for the map-to-scene transform
+   */
+  constructor(twin, robotViews, fleet) {
+    this.twin = twin;
+    this.robotViews = robotViews;
+    this.fleet = fleet;
+    this.raycaster = new THREE.Raycaster();
+  }
+
+  /**
+   * What a pointer or a click may select a robot by: its model, and on the desktop its label too (sprites
+   * need the raycaster's camera, which only the desktop's mouse ray has).
+   * @param {boolean} [labels]
+   */
+  robotTargets(labels = false) {
+    const views = [...this.robotViews.values()].filter((v) => v.group.visible);
+    return labels ? views.flatMap((v) => [v.body, v.label.sprite]) : views.map((v) => v.body);
+  }
+
+  /**
+   * The first thing of the twin a ray meets, and whether it counts as floor: the `floor` node, or anything
+   * flat lying on it (a spill, a puddle). A goal or a teleport needs visible floor: a wall in the way blocks it.
+   * @param {THREE.Raycaster} raycaster
+   * @returns {{point: THREE.Vector3, floor: boolean} | null}
+   */
+  pickTwin(raycaster) {
+    const content = this.twin.content;
+    const hit = raycaster.intersectObjects(content ? [content, ...this.twin.floorTargets] : this.twin.floorTargets, true)[0];
+    if (!hit) return null;
+    const floors = this.twin.floorTargets;
+    let floor = false;
+    for (let o = /** @type {THREE.Object3D | null} */ (hit.object); o && !floor; o = o.parent) floor = floors.includes(o);
+    if (!floor && hit.face) {
+      const up = hit.face.normal.clone().transformDirection(hit.object.matrixWorld).y;
+      floor = up > 0.7 && hit.point.y <= this.twin.box.min.y + 0.1;
+    }
+    return { point: hit.point, floor };
+  }
+
+  /**
+   * The pointer arc from a hand to the floor (the twin's `floor` node, or the drawn floor); the arc ends at
+   * whatever it meets first, and has no hit when that is not floor.
+   * @param {THREE.Vector3} origin @param {THREE.Vector3} direction
+   * @returns {{points: [number, number, number][], hit: THREE.Vector3 | null}}
+   */
+  arcToFloor(origin, direction) {
+    const floorY = this.twin.box.isEmpty() ? 0 : this.twin.box.min.y;
+    const { points } = arcPoints([origin.x, origin.y, origin.z], [direction.x, direction.y, direction.z], { floorY: floorY - 1, maxPoints: 64 });
+    const a = new THREE.Vector3();
+    const b = new THREE.Vector3();
+    for (let i = 1; i < points.length; i++) {
+      a.fromArray(points[i - 1]);
+      b.fromArray(points[i]);
+      const length = a.distanceTo(b);
+      this.raycaster.set(a, b.sub(a).normalize());
+      this.raycaster.far = length;
+      const hit = this.pickTwin(this.raycaster);
+      if (hit) return { points: [...points.slice(0, i), /** @type {[number, number, number]} */ (hit.point.toArray())], hit: hit.floor ? hit.point : null };
+    }
+    return { points, hit: null };
+  }
+
+  /** @param {THREE.Vector3} p a scene point @returns {{x: number, y: number}} */
+  sceneToMapPoint(p) {
+    const [x, y] = sceneToMap(this.fleet.scene.mapToScene, p.x, p.y, p.z);
+    return { x, y };
+  }
+}
