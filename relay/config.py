@@ -25,22 +25,11 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from .errors import ConfigError
 from .protocol import ROBOT_NAME_PATTERN
+from .rosmsg import SENSOR_TYPES
 
 PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
 POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
 LENS_MODELS = ("equidistant", "equisolid", "stereographic", "pinhole", "opencv_fisheye")
-
-#: Sensor message types the relay can read, with the unit used when robots.yaml gives none.
-SENSOR_TYPES: dict[str, str] = {
-    "std_msgs/msg/Float32": "",
-    "std_msgs/msg/Float64": "",
-    "std_msgs/msg/Int32": "",
-    "sensor_msgs/msg/Temperature": "°C",
-    "sensor_msgs/msg/RelativeHumidity": "%",
-    "sensor_msgs/msg/FluidPressure": "Pa",
-    "sensor_msgs/msg/Illuminance": "lx",
-    "sensor_msgs/msg/BatteryState": "%",
-}
 
 _TOPIC = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 _FRAME = re.compile(r"^[A-Za-z0-9_./-]{1,128}$")
@@ -719,7 +708,7 @@ def _sensor(reader: _Reader, node: Node, path: str, namespace: str) -> Sensor:
     topic = resolve_topic(namespace, name)
     if "topic" in f:
         topic = _topic(reader, f["topic"], f"{path}.topic", namespace)
-    unit = SENSOR_TYPES[msg_type]
+    unit = SENSOR_TYPES[msg_type].unit
     if "unit" in f:
         unit_value = reader.value(f["unit"])
         if not isinstance(unit_value, str):

@@ -24,6 +24,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
+from .protocol import frame_due
+
 logger = logging.getLogger(__name__)
 
 #: Close code for a client that does not read its own replies (RFC 6455: policy violation).
@@ -219,8 +221,7 @@ class Hub:
             if stream is None:
                 continue
             fps, last = stream
-            # 10 % slack so that a 30 fps source is not halved by jitter against a 30 fps request.
-            if now - last >= 0.9 / fps:
+            if frame_due(now, last, fps):
                 channel.streams[identifier] = (fps, now)
                 channel.put_frame(data)
                 taken += 1

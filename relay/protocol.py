@@ -31,6 +31,9 @@ MAX_TEXT_BYTES: Final = 64 * 1024
 MAX_ID_LENGTH: Final = 128
 #: Highest camera stream rate a client may ask for.
 MAX_STREAM_FPS: Final = 60.0
+#: A stream at ``fps`` takes a frame when ``FRAME_SLACK / fps`` seconds passed since the last one: 10 % slack, so
+#: that a 30 fps source is not halved by jitter against a 30 fps request (backends and the hub use this rule).
+FRAME_SLACK: Final = 0.9
 #: Binary frame header length prefix: 4 bytes, big-endian unsigned.
 FRAME_PREFIX: Final = struct.Struct(">I")
 
@@ -116,6 +119,11 @@ def camera_identifier(robot: str, camera: str) -> str:
 def sensor_key(robot: str, name: str) -> str:
     """The coalescing key of one sensor's readings: each sensor keeps its own newest value."""
     return f"{robot}/sensor/{name}"
+
+
+def frame_due(now: float, last: float, fps: float) -> bool:
+    """Whether a stream at ``fps`` is due another frame ``now``, the last one having gone at ``last`` (seconds)."""
+    return fps > 0 and now - last >= FRAME_SLACK / fps
 
 
 def split_camera_identifier(identifier: str) -> tuple[str, str]:

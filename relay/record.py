@@ -32,15 +32,15 @@ from pathlib import Path
 from types import FrameType
 from typing import Any, Literal
 
-from .backends.bag import (
+from .config import FleetConfig, load_config
+from .errors import BackendUnavailable, ConfigError
+from .rosmsg import (
     COMPRESSED_IMAGE_TYPE,
     IMAGE_TYPE,
     MAP_TYPE,
     POSE_TYPES,
     SCAN_TYPE,
 )
-from .config import FleetConfig, load_config
-from .errors import BackendUnavailable, ConfigError
 
 logger = logging.getLogger(__name__)
 

@@ -5,8 +5,9 @@ backends; without it, this backend refuses to start with one line saying how to 
 
 **The thread boundary.** One executor thread spins the node. Callbacks run there, turn a message into an
 immutable event (``relay.events``) and cross to the asyncio loop in exactly one place, :meth:`RosBackend._post`
-(``loop.call_soon_threadsafe``). Nothing else is shared between the threads, except the camera bookkeeping
-guarded by ``_camera_lock``. Image conversion and JPEG encoding run in a small worker pool, never on the
+(``loop.call_soon_threadsafe``; :meth:`RosBackend._hop` is the same crossing for a finished camera frame).
+Nothing else is shared between the threads, except each camera's ``relay.frame_encoder.LatestFrameEncoder``,
+which guards its own state. Image conversion and JPEG encoding run in a small worker pool, never on the
 loop and never on the executor thread (which must keep draining DDS).
 
 Executor and decoding (``bench/bench_ros_ingest.py``, 2 cores, Kilted PyPI wheels, nav_msgs/Odometry published
@@ -36,7 +37,7 @@ import struct
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
@@ -44,13 +45,14 @@ from ..cdr import odometry_pose
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
 from ..events import Event, EventSink, FrameEvent, NavEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..frame_encoder import LatestFrameEncoder
 from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
-from ..imaging import ImageError, compressed_to_jpeg, encode_jpeg, raw_to_bgr
 from ..maps import map_event
 from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
+from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, header_stamp, image_to_frame, message_stamp, pose_event, transform_of
 from ..scan import scan_event
-from ..tf import TfPose, Transform
+from ..tf import TfPose
 from .base import Backend
 
 logger = logging.getLogger(__name__)
@@ -59,30 +61,6 @@ INSTALL_HINT = (
     "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
     "or source a ROS 2 installation first (`source /opt/ros/<distro>/setup.bash`)"
 )
-
-#: Pose sources, the message each needs (python module, class) and its package name.
-POSE_MESSAGES: dict[str, tuple[str, str]] = {
-    "odom": ("nav_msgs.msg", "Odometry"),
-    "amcl_pose": ("geometry_msgs.msg", "PoseWithCovarianceStamped"),
-    "pose": ("geometry_msgs.msg", "PoseStamped"),
-    "tf": ("tf2_msgs.msg", "TFMessage"),
-}
-
-#: Sensor message types: (python module, class, value extractor). Ratios are reported in percent.
-SENSOR_MESSAGES: dict[str, tuple[str, str, Callable[[Any], float]]] = {
-    "std_msgs/msg/Float32": ("std_msgs.msg", "Float32", lambda m: float(m.data)),
-    "std_msgs/msg/Float64": ("std_msgs.msg", "Float64", lambda m: float(m.data)),
-    "std_msgs/msg/Int32": ("std_msgs.msg", "Int32", lambda m: float(m.data)),
-    "sensor_msgs/msg/Temperature": ("sensor_msgs.msg", "Temperature", lambda m: float(m.temperature)),
-    "sensor_msgs/msg/RelativeHumidity": (
-        "sensor_msgs.msg",
-        "RelativeHumidity",
-        lambda m: 100.0 * float(m.relative_humidity),
-    ),
-    "sensor_msgs/msg/FluidPressure": ("sensor_msgs.msg", "FluidPressure", lambda m: float(m.fluid_pressure)),
-    "sensor_msgs/msg/Illuminance": ("sensor_msgs.msg", "Illuminance", lambda m: float(m.illuminance)),
-    "sensor_msgs/msg/BatteryState": ("sensor_msgs.msg", "BatteryState", lambda m: 100.0 * float(m.percentage)),
-}
 
 #: A snapshot may be answered with the last frame when it is younger than this (seconds).
 SNAPSHOT_MAX_AGE = 1.0
@@ -104,23 +82,13 @@ def load_rclpy() -> ModuleType:
         raise BackendUnavailable(f"{INSTALL_HINT} ({exc})") from None
 
 
-def stamp_of(header: Any) -> float:
-    """A header's stamp in seconds; publishers that leave it zero get the receive time."""
-    value = float(header.stamp.sec) + float(header.stamp.nanosec) * 1e-9
-    return value if value > 0 else time.time()
-
-
 @dataclass
-class _CameraState:
+class _Camera:
+    """A live camera: subscribed only while someone streams it or waits for a snapshot."""
+
     spec: Camera
+    frames: LatestFrameEncoder[tuple[Any, float]]
     subscription: Any = None
-    fps: float = 0.0
-    last_accepted: float = 0.0  # monotonic time of the last frame sent to encoding
-    encoding: bool = False  # a frame is in the worker pool
-    pending: Any = None  # newest frame that arrived while encoding (newest wins)
-    last: FrameEvent | None = None
-    last_time: float = 0.0
-    waiters: list[asyncio.Future[FrameEvent]] = field(default_factory=list)
 
 
 class RosBackend(Backend):
@@ -142,10 +110,9 @@ class RosBackend(Backend):
         self._goal_pubs: dict[str, Any] = {}
         self._tf: dict[str, TfPose] = {}
         self._last_scan: dict[str, float] = {}
-        self._cameras: dict[tuple[str, str], _CameraState] = {
-            (r.name, c.name): _CameraState(c) for r in config.robots for c in r.cameras
+        self._cameras: dict[tuple[str, str], _Camera] = {
+            (r.name, c.name): _Camera(c, self._frame_encoder(r.name, c)) for r in config.robots for c in r.cameras
         }
-        self._camera_lock = threading.Lock()
         self._goals: dict[str, tuple[float, float, float | None]] = {}
         self._grid: OccupancyGrid | None = None
 
@@ -159,7 +126,7 @@ class RosBackend(Backend):
             module, cls = POSE_MESSAGES[robot.pose.source]
             needed[f"{module}.{cls}"] = (module, cls, f"{robot.name}: pose source '{robot.pose.source}'")
             for sensor in robot.sensors:
-                module, cls, _ = SENSOR_MESSAGES[sensor.type]
+                module, cls = SENSOR_TYPES[sensor.type].module, SENSOR_TYPES[sensor.type].cls
                 needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
         if any(robot.model_source is not None for robot in config.robots):
             needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
@@ -251,13 +218,13 @@ class RosBackend(Backend):
                 old_node.destroy_node()
                 if old_context.ok():
                     self._rclpy.shutdown(context=old_context)
-            for state in self._cameras.values():
-                state.subscription = None
+            for camera in self._cameras.values():
+                camera.subscription = None
             self._start_node()
 
         await asyncio.to_thread(rebuild)
         for (robot, camera), state in self._cameras.items():
-            if state.fps > 0:
+            if state.frames.fps > 0:
                 self._subscribe_camera(robot, camera)
         self.failure = None
         logger.warning("ros backend recovered: node and subscriptions re-created")
@@ -312,11 +279,11 @@ class RosBackend(Backend):
                 pose_cls, robot.pose.topic, lambda m, r=name: self._on_pose(r, m), self._qos("pose")
             )
         for sensor in robot.sensors:
-            module, cls, extract = SENSOR_MESSAGES[sensor.type]
+            kind = SENSOR_TYPES[sensor.type]
             node.create_subscription(
-                self._msg(module, cls),
+                self._msg(kind.module, kind.cls),
                 sensor.topic,
-                lambda m, r=name, s=sensor.name, f=extract: self._post(SensorEvent(r, s, f(m), self._stamp(m))),
+                lambda m, r=name, s=sensor.name, f=kind.value: self._post(SensorEvent(r, s, f(m), message_stamp(m))),
                 self._qos("sensors"),
             )
         if robot.scan_topic is not None:
@@ -351,10 +318,15 @@ class RosBackend(Backend):
         with contextlib.suppress(RuntimeError):
             loop.call_soon_threadsafe(self._deliver, event)
 
+    def _hop(self, call: Callable[[], None]) -> None:
+        """The same crossing for the camera encoders' results (a worker thread's finished frame)."""
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(call)
+
     def _deliver(self, event: Event) -> None:
-        """On the loop: camera and goal bookkeeping, then the relay's sink."""
-        if isinstance(event, FrameEvent):
-            self._on_frame(event)
+        """On the loop: goal bookkeeping, then the relay's sink."""
         if isinstance(event, PoseEvent) and event.robot in self._goals:
             x, y, yaw = self._goals[event.robot]
             close = math.hypot(event.x - x, event.y - y) <= GOAL_TOLERANCE
@@ -365,11 +337,6 @@ class RosBackend(Backend):
                 self.sink(NavEvent(event.robot, False, (x, y, yaw), "reached", "goal reached"))
                 return
         self.sink(event)
-
-    @staticmethod
-    def _stamp(message: Any) -> float:
-        header = getattr(message, "header", None)
-        return stamp_of(header) if header is not None else time.time()
 
     # -- callbacks (executor thread) --------------------------------------------------------------
 
@@ -385,23 +352,14 @@ class RosBackend(Backend):
         )
 
     def _on_pose(self, robot: str, message: Any) -> None:
-        pose = message.pose.pose if hasattr(message.pose, "pose") else message.pose
-        p, q = pose.position, pose.orientation
-        self._post(
-            PoseEvent(
-                robot, stamp_of(message.header), message.header.frame_id or "map", p.x, p.y, p.z, q.x, q.y, q.z, q.w
-            )
-        )
+        self._post(pose_event(robot, message, header_stamp(message.header)))
 
     def _on_tf(self, robot: str, message: Any) -> None:
         tracker = self._tf[robot]
         latest = None
         for t in message.transforms:
-            tr, rot = t.transform.translation, t.transform.rotation
-            if tracker.feed(
-                t.header.frame_id, t.child_frame_id, Transform((tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w))
-            ):
-                latest = stamp_of(t.header)
+            if tracker.feed(t.header.frame_id, t.child_frame_id, transform_of(t)):
+                latest = header_stamp(t.header)
         if latest is None:
             return
         result = tracker.pose()
@@ -415,54 +373,23 @@ class RosBackend(Backend):
         if now - self._last_scan.get(robot, 0.0) < 1.0 / MAX_SCAN_RATE:
             return
         self._last_scan[robot] = now
-        self._post(scan_event(robot, stamp_of(message.header), message))
+        self._post(scan_event(robot, header_stamp(message.header), message))
 
     def _on_map(self, message: Any) -> None:
         try:
-            self._post(map_event(message, stamp_of(message.header), self.config.ros.map_topic))
+            self._post(map_event(message, header_stamp(message.header), self.config.ros.map_topic))
         except ValueError as exc:
             logger.warning("%s: %s", self.config.ros.map_topic, exc)
 
-    def _on_image(self, robot: str, camera: str, message: Any, compressed: bool) -> None:
-        state = self._cameras[(robot, camera)]
-        with self._camera_lock:
-            now = time.monotonic()
-            wanted = bool(state.waiters)  # a snapshot is waiting (read across threads: a length, atomic)
-            if state.fps > 0 and now - state.last_accepted < 0.9 / state.fps and not wanted:
-                return  # faster than anyone asked for: do not spend a JPEG encode on it
-            if state.encoding:
-                state.pending = (message, compressed)
-                return
-            state.encoding = True
-            state.last_accepted = now
-        self._pool.submit(self._encode, robot, camera, message, compressed)
+    def _frame_encoder(self, robot: str, camera: Camera) -> LatestFrameEncoder[tuple[Any, float]]:
+        def convert(image: tuple[Any, float]) -> FrameEvent:
+            return image_to_frame(robot, camera.name, image[1], image[0], camera.compressed)
 
-    def _encode(self, robot: str, camera: str, message: Any, compressed: bool) -> None:
-        """Worker thread: convert one frame, hand it to the loop, then take the newest pending one."""
-        state = self._cameras[(robot, camera)]
-        while True:
-            try:
-                if compressed:
-                    jpeg, width, height = compressed_to_jpeg(bytes(message.data), message.format)
-                else:
-                    bgr = raw_to_bgr(
-                        memoryview(message.data).cast("B") if not isinstance(message.data, bytes) else message.data,
-                        int(message.width),
-                        int(message.height),
-                        message.encoding,
-                        int(message.step),
-                        bool(message.is_bigendian),
-                    )
-                    jpeg, width, height = encode_jpeg(bgr), int(message.width), int(message.height)
-                self._post(FrameEvent(robot, camera, stamp_of(message.header), width, height, jpeg))
-            except (ImageError, ValueError) as exc:
-                logger.warning("%s camera %s: %s", robot, camera, exc)
-            with self._camera_lock:
-                if state.pending is None:
-                    state.encoding = False
-                    return
-                message, compressed = state.pending
-                state.pending = None
+        return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, self._pool, self._hop, self.sink)
+
+    def _on_image(self, robot: str, camera: str, message: Any) -> None:
+        """Executor thread: the image with its stamp, to encode if a stream or a snapshot wants it."""
+        self._cameras[(robot, camera)].frames.offer((message, header_stamp(message.header)))
 
     # -- commands (loop thread) -------------------------------------------------------------------
 
@@ -521,47 +448,28 @@ class RosBackend(Backend):
         spec = state.spec
         cls = self._msg("sensor_msgs.msg", "CompressedImage" if spec.compressed else "Image")
         state.subscription = self._node.create_subscription(
-            cls,
-            spec.topic,
-            lambda m, r=robot, c=camera, z=spec.compressed: self._on_image(r, c, m, z),
-            self._qos("images"),
+            cls, spec.topic, lambda m, r=robot, c=camera: self._on_image(r, c, m), self._qos("images")
         )
 
     def _unsubscribe_camera(self, robot: str, camera: str) -> None:
         state = self._cameras[(robot, camera)]
-        if state.subscription is not None and state.fps <= 0 and not state.waiters and self._node is not None:
+        idle = state.frames.fps <= 0 and not state.frames.waiting
+        if state.subscription is not None and idle and self._node is not None:
             self._node.destroy_subscription(state.subscription)
             state.subscription = None
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
-        state = self._cameras[(robot, camera)]
-        with self._camera_lock:
-            state.fps = fps
+        self._cameras[(robot, camera)].frames.fps = fps
         if fps > 0:
             self._subscribe_camera(robot, camera)
         else:
             self._unsubscribe_camera(robot, camera)
 
-    def _on_frame(self, event: FrameEvent) -> None:
-        state = self._cameras[(event.robot, event.camera)]
-        state.last, state.last_time = event, time.monotonic()
-        for waiter in state.waiters:
-            if not waiter.done():
-                waiter.set_result(event)
-        state.waiters.clear()
-
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
-        state = self._cameras[(robot, camera)]
-        if state.last is not None and time.monotonic() - state.last_time < SNAPSHOT_MAX_AGE:
-            return state.last
-        waiter: asyncio.Future[FrameEvent] = asyncio.get_running_loop().create_future()
-        state.waiters.append(waiter)
-        self._subscribe_camera(robot, camera)
+        frames = self._cameras[(robot, camera)].frames
         try:
-            return await asyncio.wait_for(waiter, SNAPSHOT_TIMEOUT)
-        except TimeoutError:
-            return None
+            return await frames.snapshot(
+                SNAPSHOT_TIMEOUT, max_age=SNAPSHOT_MAX_AGE, on_wait=lambda: self._subscribe_camera(robot, camera)
+            )
         finally:
-            if waiter in state.waiters:
-                state.waiters.remove(waiter)
             self._unsubscribe_camera(robot, camera)

@@ -1,0 +1,162 @@
+"""Recorded messages to events, per topic: the handlers each bag's reader thread applies."""
+
+from __future__ import annotations
+
+import collections
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ...config import Camera, Sensor
+from ...events import (
+    Event,
+    MapEvent,
+    SensorEvent,
+)
+from ...maps import map_event
+from ...rosmsg import (
+    SENSOR_TYPES,
+    message_stamp,
+    pose_event,
+)
+from ...scan import scan_event
+from .binding import BagPlan
+from .tf_chain import _TfChain
+
+logger = logging.getLogger(__name__)
+
+#: Type definitions for bags that store none (rosbag2 sqlite3 before Iron): ROS 2 Humble's.
+DEFAULT_TYPESTORE = "ros2_humble"
+
+
+@dataclass(frozen=True, slots=True)
+class _Image:
+    """A decoded camera image waiting for a JPEG encode (only if someone looks)."""
+
+    robot: str
+    camera: str
+    compressed: bool
+    stamp: float
+    message: Any  # a rosbags sensor_msgs Image or CompressedImage; never mutated
+
+
+Payload = Event | _Image
+Key = tuple[str, ...]
+Handler = Callable[[Any, float], "Payload | None"]
+
+
+@dataclass(frozen=True, slots=True)
+class _Item:
+    position: float  # seconds from the bag's first message
+    payload: Payload | None  # None marks the end of the bag
+    size: int = 0  # bytes of image data it holds
+
+
+def _pose_handler(robot: str) -> Handler:
+    def handle(message: Any, log_time: float) -> Payload:
+        return pose_event(robot, message, message_stamp(message, log_time))
+
+    return handle
+
+
+def _sensor_handler(robot: str, sensor: Sensor) -> Handler:
+    extract = SENSOR_TYPES[sensor.type].value
+
+    def handle(message: Any, log_time: float) -> Payload:
+        return SensorEvent(robot, sensor.name, extract(message), message_stamp(message, log_time))
+
+    return handle
+
+
+def _scan_handler(robot: str) -> Handler:
+    def handle(message: Any, log_time: float) -> Payload:
+        return scan_event(robot, message_stamp(message, log_time), message)
+
+    return handle
+
+
+def _camera_handler(robot: str, camera: Camera) -> Handler:
+    def handle(message: Any, log_time: float) -> Payload:
+        return _Image(robot, camera.name, camera.compressed, message_stamp(message, log_time), message)
+
+    return handle
+
+
+def _map_handler(topic: str) -> Handler:
+    def handle(message: Any, log_time: float) -> Payload:
+        return map_event(message, message_stamp(message, log_time), topic)
+
+    return handle
+
+
+class _Decoder:
+    """Reader thread: routes each message of a plan's topics to the handlers that turn it into payloads."""
+
+    def __init__(self, plan: BagPlan, name: str) -> None:
+        self.name = name
+        self.routes: dict[str, list[tuple[Key, Handler]]] = collections.defaultdict(list)
+        self.statics: dict[str, list[_TfChain]] = collections.defaultdict(list)
+        self.chains: list[_TfChain] = []
+        self._warned: set[str] = set()
+        for topics in plan.robots:
+            robot = topics.robot.name
+            if topics.robot.pose.source == "tf":
+                chain = _TfChain(topics.robot)
+                self.chains.append(chain)
+                self.routes[topics.pose].append((("pose", robot), chain.feed))
+                if topics.tf_static is not None:
+                    self.statics[topics.tf_static].append(chain)
+            else:
+                self.routes[topics.pose].append((("pose", robot), _pose_handler(robot)))
+            if topics.scan is not None:
+                self.routes[topics.scan].append((("scan", robot), _scan_handler(robot)))
+            for sensor, topic in topics.sensors:
+                self.routes[topic].append((("sensor", robot, sensor.name), _sensor_handler(robot, sensor)))
+            for camera, topic in topics.cameras:
+                self.routes[topic].append((("image", robot, camera.name), _camera_handler(robot, camera)))
+        if plan.map_topic is not None:
+            self.routes[plan.map_topic].append((("map",), _map_handler(plan.map_topic)))
+
+    def reset(self) -> None:
+        for chain in self.chains:
+            chain.reset()
+
+    def warn_once(self, topic: str, what: str, exc: BaseException) -> None:
+        if topic not in self._warned:
+            self._warned.add(topic)
+            logger.warning("%s: %s %s: %s; such messages are skipped", self.name, what, topic, exc)
+
+    def decode(self, topic: str, message: Any, log_time: float) -> list[tuple[Key, Payload]]:
+        out: list[tuple[Key, Payload]] = []
+        for key, handler in self.routes.get(topic, ()):
+            try:
+                payload = handler(message, log_time)
+            except Exception as exc:  # a malformed message must not end the replay
+                self.warn_once(topic, "cannot use a message of", exc)
+                continue
+            if payload is not None:
+                out.append((key, payload))
+        return out
+
+
+def _size(payload: Payload) -> int:
+    if isinstance(payload, _Image):
+        return len(payload.message.data)
+    if isinstance(payload, MapEvent):
+        return int(payload.grid.occupied.size)
+    return 0
+
+
+def _first_string(path: Path, topic: str) -> str | None:
+    """The first std_msgs/String recorded on ``topic`` (worker thread)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    with AnyReader([path], default_typestore=get_typestore(Stores(DEFAULT_TYPESTORE))) as reader:
+        connections = [c for c in reader.connections if c.topic == topic]
+        for connection, _, raw in reader.messages(connections=connections):
+            message: Any = reader.deserialize(raw, connection.msgtype)
+            return str(message.data)
+    return None

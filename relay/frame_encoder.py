@@ -1,0 +1,157 @@
+"""One camera's images to JPEG frames, for every backend: one encode in flight, newest wins, throttled, snapshots.
+
+A camera delivers images faster than anyone may look at them, and a JPEG encode of a 720p image costs
+milliseconds of a worker thread. So per camera:
+
+- an image is encoded only when a client streams the camera (at most at the stream's rate) or a snapshot waits;
+- one encode runs at a time; an image that arrives meanwhile replaces any other waiting one (newest wins), so a
+  slow encoder never builds a backlog;
+- a snapshot takes the last frame when it is recent enough (or made from the newest image), else waits for the
+  next one.
+
+``offer`` may be called from any thread (the ros backend's executor thread, the bag backend's loop); the encode
+runs in the backend's worker pool; its result reaches the loop through ``hop`` (the backend's one thread
+crossing), where :meth:`LatestFrameEncoder.done` hands the frame on and wakes snapshot waiters.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Executor
+from typing import Generic, TypeVar
+
+from .events import FrameEvent
+from .imaging import ImageError
+from .protocol import frame_due
+
+logger = logging.getLogger(__name__)
+
+Image = TypeVar("Image")
+
+
+class LatestFrameEncoder(Generic[Image]):
+    """The frames of one camera. ``convert`` turns an image into a frame (worker thread)."""
+
+    def __init__(
+        self,
+        name: str,
+        convert: Callable[[Image], FrameEvent],
+        pool: Executor,
+        hop: Callable[[Callable[[], None]], object],
+        deliver: Callable[[FrameEvent], None],
+        clock: Callable[[], float] = time.monotonic,
+        *,
+        keep_latest: bool = False,
+    ) -> None:
+        self.name = name
+        self._convert = convert
+        self._pool = pool
+        self._hop = hop
+        self._deliver = deliver
+        self._clock = clock
+        self._keep_latest = keep_latest
+        self._lock = threading.Lock()
+        #: The stream rate clients ask for (0: nobody streams this camera).
+        self.fps = 0.0
+        self._last_accepted = -float("inf")
+        self._encoding = False
+        self._pending: Image | None = None
+        #: The newest image offered, with ``keep_latest`` (a recording: a snapshot of a paused replay encodes it;
+        #: a live camera keeps none, its next image is at most a frame away).
+        self.latest: Image | None = None
+        self.last: FrameEvent | None = None
+        self._last_of: Image | None = None
+        self._last_time = -float("inf")
+        self._waiters: list[asyncio.Future[FrameEvent | None]] = []
+
+    @property
+    def waiting(self) -> bool:
+        """A snapshot waits for the next frame (read across threads: a length, atomic)."""
+        return bool(self._waiters)
+
+    def offer(self, image: Image) -> None:
+        """A new image: encode it if a stream is due one or a snapshot waits; else only remember it."""
+        with self._lock:
+            if self._keep_latest:
+                self.latest = image
+            now = self._clock()
+            if not self._waiters and not frame_due(now, self._last_accepted, self.fps):
+                return  # faster than anyone asked for: do not spend a JPEG encode on it
+            self._start(image, now)
+
+    def encode_latest(self) -> None:
+        """Encode the newest image now (a snapshot of a camera that is not streaming)."""
+        with self._lock:
+            if self.latest is not None:
+                self._start(self.latest, self._clock())
+
+    def forget_latest(self) -> None:
+        """The newest image is no longer current (a replay jumped): it must not answer a snapshot."""
+        with self._lock:
+            self.latest = None
+            self._pending = None
+
+    def _start(self, image: Image, now: float) -> None:
+        """Under the lock: encode ``image``, or keep it for when the encode in flight is done."""
+        if self._encoding:
+            self._pending = image
+            return
+        self._encoding = True
+        self._last_accepted = now
+        self._pool.submit(self._work, image)
+
+    def _work(self, image: Image) -> None:
+        """Worker thread: convert, hand the result to the loop, then take the newest pending image."""
+        while True:
+            frame: FrameEvent | None = None
+            try:
+                frame = self._convert(image)
+            except (ImageError, ValueError) as exc:
+                logger.warning("%s: %s", self.name, exc)
+            self._hop(lambda f=frame, i=image: self.done(f, i))  # type: ignore[misc]
+            with self._lock:
+                if self._pending is None:
+                    self._encoding = False
+                    return
+                image, self._pending = self._pending, None
+                self._last_accepted = self._clock()
+
+    def done(self, frame: FrameEvent | None, image: Image) -> None:
+        """On the loop: a frame (or None: the image could not be read) is ready."""
+        if frame is not None:
+            self.last, self._last_of, self._last_time = frame, image, self._clock()
+            self._deliver(frame)
+        for waiter in self._waiters:
+            if not waiter.done():
+                waiter.set_result(frame)
+        self._waiters.clear()
+
+    async def snapshot(
+        self, wait: float, *, max_age: float | None, on_wait: Callable[[], None] | None = None
+    ) -> FrameEvent | None:
+        """The last frame when it is younger than ``max_age`` or (``keep_latest``) made from the newest image;
+        else the next one, waited for at most ``wait`` seconds (None when none comes in time).
+
+        ``on_wait`` runs once the snapshot waits, so that nothing offered after it is dropped: it subscribes a
+        live camera, or encodes a recording's newest image at once (:meth:`encode_latest`).
+        """
+        last = self.last
+        if last is not None:
+            fresh = max_age is not None and self._clock() - self._last_time < max_age
+            if fresh or (self._keep_latest and self._last_of is self.latest):
+                return last
+        waiter: asyncio.Future[FrameEvent | None] = asyncio.get_running_loop().create_future()
+        self._waiters.append(waiter)
+        if on_wait is not None:
+            on_wait()
+        try:
+            return await asyncio.wait_for(waiter, wait)
+        except TimeoutError:
+            return None
+        finally:
+            if waiter in self._waiters:
+                self._waiters.remove(waiter)
