@@ -1,0 +1,212 @@
+"""robots.yaml: the fleet, its topics, limits and the simulator's world, validated with line numbers.
+
+``load_config(path)`` returns a frozen :class:`FleetConfig` or raises :class:`~relay.errors.ConfigError`
+whose text names the file, the line, the field and what was expected::
+
+    robots.yaml:14: robots[1].limits.linear: expected a positive number, got "fast"
+
+Every field and default is documented in docs/configuration.md. Topic defaults follow the namespace
+convention (``/<ns>/odom``, ``/<ns>/cmd_vel``, ``/<ns>/goal_pose``, ``/<ns>/camera/image_raw``); a relative
+topic is resolved inside the robot's namespace and an absolute one is used as written.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+from yaml.nodes import MappingNode, Node
+
+from ..errors import ConfigError
+from .model import (
+    LENS_MODELS,
+    POSE_SOURCES,
+    QOS_NAMES,
+    Camera,
+    Field,
+    FleetConfig,
+    Hazard,
+    Lens,
+    Limits,
+    MapToScene,
+    ModelSource,
+    Pose2D,
+    PoseSource,
+    PoseSourceKind,
+    Reliability,
+    Robot,
+    Ros,
+    Safety,
+    Scene,
+    Sensor,
+    Sim,
+)
+from .reader import _Reader, _topic, resolve_topic
+from .robots import _robot
+
+__all__ = [
+    "LENS_MODELS",
+    "POSE_SOURCES",
+    "QOS_NAMES",
+    "Camera",
+    "Field",
+    "FleetConfig",
+    "Hazard",
+    "Lens",
+    "Limits",
+    "MapToScene",
+    "ModelSource",
+    "Pose2D",
+    "PoseSource",
+    "PoseSourceKind",
+    "Reliability",
+    "Robot",
+    "Ros",
+    "Safety",
+    "Scene",
+    "Sensor",
+    "Sim",
+    "load_config",
+    "parse_config",
+    "resolve_topic",
+]
+
+
+def load_config(path: str | Path) -> FleetConfig:
+    """Read and validate a robots.yaml file."""
+    path = Path(path)
+    display = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(display, None, "", f"cannot read the file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(display, None, "", "the file is not UTF-8 text") from None
+    return parse_config(text, display, base_dir=path.parent)
+
+
+def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = None) -> FleetConfig:
+    """Validate robots.yaml text; ``file`` names it in errors, ``base_dir`` resolves relative paths."""
+    reader = _Reader(file)
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.MarkedYAMLError as exc:
+        line = exc.problem_mark.line + 1 if exc.problem_mark is not None else None
+        raise ConfigError(file, line, "", f"not valid YAML: {exc.problem}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(file, None, "", f"not valid YAML: {exc}") from None
+    if root is None:
+        raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
+
+    top = reader.mapping(root, "", ("robots", "scene", "map", "sim", "safety", "ros"), required=("robots",))
+    scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
+    map_path: Path | None = None
+    if "map" in top and reader.value(top["map"]) is not None:
+        map_path = Path(reader.string(top["map"], "map", expected="a path to a map.yaml"))
+        if base_dir is not None and not map_path.is_absolute():
+            map_path = base_dir / map_path
+    sim = _sim(reader, top["sim"], base_dir) if "sim" in top else Sim()
+    safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
+    ros = _ros(reader, top["ros"]) if "ros" in top else Ros()
+
+    robots: list[Robot] = []
+    for index, node in reader.sequence(top["robots"], "robots"):
+        robot = _robot(reader, node, f"robots[{index}]", base_dir)
+        if any(r.name == robot.name for r in robots):
+            raise reader.fail(node, f"robots[{index}].name", f'duplicate robot name "{robot.name}"')
+        robots.append(robot)
+    if not robots:
+        raise reader.fail(top["robots"], "robots", "expected at least one robot")
+    return FleetConfig(source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros)
+
+
+def _scene(reader: _Reader, node: Node) -> Scene:
+    fields = reader.mapping(node, "scene", ("url", "map_to_scene"))
+    url = None
+    if "url" in fields and reader.value(fields["url"]) is not None:
+        url = reader.string(fields["url"], "scene.url", expected="a URL such as /scenes/facility.glb")
+    transform = MapToScene()
+    if "map_to_scene" in fields:
+        path = "scene.map_to_scene"
+        t = reader.mapping(fields["map_to_scene"], path, ("x", "y", "z", "yaw"))
+        transform = MapToScene(*(reader.get(t, k, path, reader.number, 0.0) for k in ("x", "y", "z", "yaw")))
+    return Scene(url, transform)
+
+
+def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
+    path = "sim"
+    f = reader.mapping(node, path, ("world", "physics_rate", "pose_rate", "sensor_rate", "hazards", "fields"))
+    world: Path | None = None
+    if "world" in f and reader.value(f["world"]) is not None:
+        world = Path(reader.string(f["world"], "sim.world", expected="a path to a facility.yaml"))
+        if base_dir is not None and not world.is_absolute():
+            world = base_dir / world
+        if not world.is_file():
+            raise reader.fail(f["world"], "sim.world", f"no such file: {world}")
+
+    def rate(n: Node, p: str) -> float:
+        return reader.number(n, p, positive=True)
+
+    hazards: list[Hazard] = []
+    if "hazards" in f:
+        for i, hnode in reader.sequence(f["hazards"], "sim.hazards"):
+            hp = f"sim.hazards[{i}]"
+            h = reader.mapping(hnode, hp, ("kind", "x", "y", "peak", "sigma"), required=("kind", "x", "y"))
+            hazards.append(
+                Hazard(
+                    kind=reader.string(h["kind"], f"{hp}.kind"),
+                    x=reader.number(h["x"], f"{hp}.x"),
+                    y=reader.number(h["y"], f"{hp}.y"),
+                    peak=reader.get(h, "peak", hp, reader.number, 1.0),
+                    sigma=reader.get(h, "sigma", hp, rate, 1.0),
+                )
+            )
+    fields: list[Field] = []
+    if "fields" in f:
+        path_f = "sim.fields"
+        if not isinstance(f["fields"], MappingNode):
+            raise reader.fail(f["fields"], path_f, f"expected a mapping, got {reader.show(f['fields'])}")
+        for key_node, value_node in f["fields"].value:
+            kind = reader.string(key_node, path_f, expected="a sensor field name")
+            fp = f"{path_f}.{kind}"
+            v = reader.mapping(value_node, fp, ("baseline", "noise"))
+            fields.append(
+                Field(
+                    kind=kind,
+                    baseline=reader.get(v, "baseline", fp, reader.number, 0.0),
+                    noise=reader.get(v, "noise", fp, lambda n, p: reader.number(n, p, non_negative=True), 0.0),
+                )
+            )
+    return Sim(
+        world=world,
+        physics_rate=reader.get(f, "physics_rate", path, rate, 50.0),
+        pose_rate=reader.get(f, "pose_rate", path, rate, 30.0),
+        sensor_rate=reader.get(f, "sensor_rate", path, rate, 5.0),
+        hazards=tuple(hazards),
+        fields=tuple(fields),
+    )
+
+
+def _safety(reader: _Reader, node: Node) -> Safety:
+    f = reader.mapping(node, "safety", ("deadman_timeout", "offline_after"))
+
+    def positive(n: Node, p: str) -> float:
+        return reader.number(n, p, positive=True)
+
+    return Safety(
+        deadman_timeout=reader.get(f, "deadman_timeout", "safety", positive, 0.5),
+        offline_after=reader.get(f, "offline_after", "safety", positive, 2.0),
+    )
+
+
+def _ros(reader: _Reader, node: Node) -> Ros:
+    f = reader.mapping(node, "ros", ("map_topic", "qos"))
+    map_topic = Ros.map_topic
+    if "map_topic" in f:
+        map_topic = _topic(reader, f["map_topic"], "ros.map_topic", "")
+    qos = dict(Ros.qos)
+    if "qos" in f:
+        q = reader.mapping(f["qos"], "ros.qos", QOS_NAMES)
+        for key, value in q.items():
+            qos[key] = reader.choice(value, f"ros.qos.{key}", ("reliable", "best_effort"))  # type: ignore[assignment]
+    return Ros(map_topic=map_topic, qos=tuple(qos.items()))

@@ -1,0 +1,192 @@
+"""The fleet configuration as the relay uses it: frozen dataclasses read from robots.yaml (relay.config)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
+POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
+LENS_MODELS = ("equidistant", "equisolid", "stereographic", "pinhole", "opencv_fisheye")
+
+
+@dataclass(frozen=True)
+class Lens:
+    model: str
+    fov: float  # degrees
+    k: tuple[float, ...] | None = None  # 3x3 row-major intrinsics (opencv_fisheye)
+    d: tuple[float, ...] | None = None  # k1..k4 (opencv_fisheye)
+
+
+@dataclass(frozen=True)
+class Camera:
+    name: str
+    topic: str
+    compressed: bool
+    lens: Lens
+    width: int
+    height: int
+    rate: float  # highest rate the relay streams this camera at, frames per second
+
+
+@dataclass(frozen=True)
+class Sensor:
+    name: str
+    topic: str
+    type: str
+    unit: str
+    warn_above: float | None
+    warn_below: float | None
+    hazard: str  # the simulator's sensor field that drives it
+
+    def is_warning(self, value: float) -> bool:
+        return (self.warn_above is not None and value > self.warn_above) or (
+            self.warn_below is not None and value < self.warn_below
+        )
+
+
+@dataclass(frozen=True)
+class PoseSource:
+    source: PoseSourceKind
+    topic: str
+    map_frame: str
+    odom_frame: str
+    base_frame: str
+
+
+@dataclass(frozen=True)
+class Limits:
+    linear: float  # m/s
+    angular: float  # rad/s
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    x: float
+    y: float
+    yaw: float
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """Build the robot's model from its URDF, published on ``topic`` (std_msgs/String, as robot_state_publisher
+    does); ``packages`` are the directories where ``package://`` meshes are looked up."""
+
+    topic: str
+    packages: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
+class Robot:
+    name: str
+    namespace: str
+    colour: str
+    model: str | None
+    pose: PoseSource
+    cmd_vel_topic: str
+    cmd_vel_stamped: bool
+    goal_topic: str
+    cameras: tuple[Camera, ...]
+    sensors: tuple[Sensor, ...]
+    limits: Limits
+    initial_pose: Pose2D
+    scan_topic: str | None = None  # sensor_msgs/LaserScan; None: no scan
+    model_source: ModelSource | None = None
+
+    def camera(self, name: str | None) -> Camera | None:
+        """The named camera, or the first one when ``name`` is None."""
+        if name is None:
+            return self.cameras[0] if self.cameras else None
+        return next((c for c in self.cameras if c.name == name), None)
+
+
+@dataclass(frozen=True)
+class MapToScene:
+    """Where the map frame sits in the scene, both in ROS conventions (z up); see docs/configuration.md."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
+class Scene:
+    url: str | None
+    map_to_scene: MapToScene
+
+
+@dataclass(frozen=True)
+class Hazard:
+    kind: str
+    x: float
+    y: float
+    peak: float
+    sigma: float
+
+
+@dataclass(frozen=True)
+class Field:
+    kind: str
+    baseline: float
+    noise: float
+
+
+@dataclass(frozen=True)
+class Sim:
+    world: Path | None = None  # a facility.yaml (scene tool output): occupancy grid and hazard sources
+    physics_rate: float = 50.0
+    pose_rate: float = 30.0
+    sensor_rate: float = 5.0
+    hazards: tuple[Hazard, ...] = ()
+    fields: tuple[Field, ...] = ()
+
+
+@dataclass(frozen=True)
+class Safety:
+    deadman_timeout: float = 0.5
+    offline_after: float = 2.0
+
+
+QOS_NAMES = ("pose", "sensors", "scan", "images", "commands", "map")
+Reliability = Literal["reliable", "best_effort"]
+
+
+@dataclass(frozen=True)
+class Ros:
+    """Settings of the ``ros`` backend."""
+
+    map_topic: str = "/map"
+    #: Reliability per kind of topic; depth and durability are fixed (images depth 1, map transient local).
+    qos: tuple[tuple[str, Reliability], ...] = (
+        ("pose", "best_effort"),
+        ("sensors", "best_effort"),
+        ("scan", "best_effort"),
+        # Reliable, depth 1: best effort loses most large images whose fragments drop (0.6 of 30 fps for
+        # 640x480 rgb8 vs 25 fps reliable, bench/bench_camera.py); depth 1 still bounds the queue.
+        ("images", "reliable"),
+        ("commands", "reliable"),
+        ("map", "reliable"),
+    )
+
+    def reliability(self, kind: str) -> Reliability:
+        return dict(self.qos)[kind]
+
+
+@dataclass(frozen=True)
+class FleetConfig:
+    source: str
+    robots: tuple[Robot, ...]
+    scene: Scene = field(default_factory=lambda: Scene(None, MapToScene()))
+    map: Path | None = None
+    sim: Sim = field(default_factory=Sim)
+    safety: Safety = field(default_factory=Safety)
+    ros: Ros = field(default_factory=Ros)
+
+    def robot(self, name: str) -> Robot | None:
+        return next((r for r in self.robots if r.name == name), None)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(r.name for r in self.robots)
