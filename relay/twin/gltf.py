@@ -75,7 +75,7 @@ class Material:
 
     Contract: colour components (linear, not sRGB, as glTF specifies) and the factors lie in ``[0, 1]``.
     Two equal materials are written once. ``double_sided`` disables back-face culling (use it for thin
-    sheets seen from both sides).
+    sheets seen from both sides); ``blend`` makes an alpha below 1 see-through (``alphaMode: BLEND``).
     """
 
     name: str
@@ -84,6 +84,7 @@ class Material:
     roughness: float = 0.8
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
     double_sided: bool = False
+    blend: bool = False
 
     def __post_init__(self) -> None:
         values = (*self.base_color, *self.emissive, self.metallic, self.roughness)
@@ -101,26 +102,30 @@ class Material:
             out["emissiveFactor"] = [_round(c) for c in self.emissive]
         if self.double_sided:
             out["doubleSided"] = True
+        if self.blend:
+            out["alphaMode"] = "BLEND"
         return out
 
 
 @dataclass(frozen=True, eq=False)
 class Geometry:
-    """An indexed triangle mesh in ROS coordinates (z up), with one normal per vertex.
+    """An indexed triangle mesh in ROS coordinates (z up), with one normal per vertex, or none.
 
     Contract (checked on construction): ``positions`` and ``normals`` are finite ``(n, 3)`` arrays with
-    ``n >= 3``; normals have non-zero length (they are normalised here); ``triangles`` is ``(m, 3)``,
+    ``n >= 3``; normals have non-zero length (they are normalised here). ``normals`` may be None: the mesh then
+    has no ``NORMAL`` attribute and clients shade it flat (mesh files of robot models: half the bytes, and the
+    faceted look RViz gives STL files). ``triangles`` is ``(m, 3)``,
     ``m >= 1``, with indices in ``[0, n)``, wound counter-clockwise seen from the side the normals face.
     Arrays are copied and made read-only. Equality is identity: the same object used twice is stored once.
     """
 
     positions: NDArray[np.float64]
-    normals: NDArray[np.float64]
+    normals: NDArray[np.float64] | None
     triangles: NDArray[np.int64]
 
     def __post_init__(self) -> None:
         pos = np.array(self.positions, dtype=np.float64, copy=True)
-        nrm = np.array(self.normals, dtype=np.float64, copy=True)
+        nrm = np.array(self.normals if self.normals is not None else pos, dtype=np.float64, copy=True)
         tri = np.array(self.triangles, dtype=np.int64, copy=True)
         if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 3 or nrm.shape != pos.shape:
             raise ValueError(f"positions/normals must be matching (n>=3, 3) arrays, got {pos.shape}, {nrm.shape}")
@@ -130,14 +135,16 @@ class Geometry:
             raise ValueError("positions and normals must be finite")
         if tri.min() < 0 or tri.max() >= pos.shape[0]:
             raise ValueError(f"triangle index out of range [0, {pos.shape[0]})")
-        length = np.linalg.norm(nrm, axis=1)
-        if not (length > 1e-12).all():
-            raise ValueError("normals must have non-zero length")
-        nrm /= length[:, None]
-        for array in (pos, nrm, tri):
+        for array in (pos, tri):
             array.flags.writeable = False
         object.__setattr__(self, "positions", pos)
-        object.__setattr__(self, "normals", nrm)
+        if self.normals is not None:
+            length = np.linalg.norm(nrm, axis=1)
+            if not (length > 1e-12).all():
+                raise ValueError("normals must have non-zero length")
+            nrm /= length[:, None]
+            nrm.flags.writeable = False
+            object.__setattr__(self, "normals", nrm)
         object.__setattr__(self, "triangles", tri)
 
     @classmethod
@@ -161,18 +168,23 @@ class Geometry:
         """A copy rotated by ``yaw`` (rad, CCW) about the z axis through the origin."""
         c, s = math.cos(yaw), math.sin(yaw)
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return Geometry(self.positions @ rot.T, self.normals @ rot.T, self.triangles)
+        normals = None if self.normals is None else self.normals @ rot.T
+        return Geometry(self.positions @ rot.T, normals, self.triangles)
 
 
 def merge(parts: Iterable[Geometry]) -> Geometry:
-    """Concatenate geometries into one (one draw call); ``ValueError`` if ``parts`` is empty."""
+    """Concatenate geometries into one (one draw call); ``ValueError`` if ``parts`` is empty or mixes
+    geometries with and without normals."""
     items = list(parts)
     if not items:
         raise ValueError("merge needs at least one geometry")
+    with_normals = {g.normals is not None for g in items}
+    if len(with_normals) > 1:
+        raise ValueError("merge cannot mix geometries with and without normals")
     offsets = np.cumsum([0] + [g.positions.shape[0] for g in items[:-1]])
     return Geometry(
         np.concatenate([g.positions for g in items]),
-        np.concatenate([g.normals for g in items]),
+        np.concatenate([g.normals for g in items]) if with_normals == {True} else None,
         np.concatenate([g.triangles + off for g, off in zip(items, offsets, strict=True)]),
     )
 
@@ -235,7 +247,7 @@ class _Writer:
         self._material_index: dict[Material, int] = {}
         # Keyed by id() of objects kept alive in the lists beside them, so ids cannot be reused.
         self._mesh_index: dict[int, int] = {}
-        self._geometry_index: dict[int, tuple[int, int, int]] = {}
+        self._geometry_index: dict[int, tuple[int, int | None, int]] = {}
         self._keep: list[object] = []
 
     def _view(self, data: bytes, target: int) -> int:
@@ -251,15 +263,13 @@ class _Writer:
         self.accessors.append(entry)
         return len(self.accessors) - 1
 
-    def geometry(self, geom: Geometry) -> tuple[int, int, int]:
+    def geometry(self, geom: Geometry) -> tuple[int, int | None, int]:
         key = id(geom)
         if key in self._geometry_index:
             return self._geometry_index[key]
         self._keep.append(geom)
         # The single ROS -> glTF conversion; "+ 0.0" turns -0.0 into 0.0 so bytes do not depend on signs of zero.
         pos = (geom.positions @ _R3.T + 0.0).astype("<f4")
-        nrm = geom.normals @ _R3.T
-        nrm = (nrm / np.linalg.norm(nrm, axis=1)[:, None] + 0.0).astype("<f4")
         count = int(pos.shape[0])
         # uint16 cannot hold index 65535 (primitive restart value), hence the strict bound.
         idx = geom.triangles.astype("<u2" if count < 65535 else "<u4")
@@ -271,7 +281,11 @@ class _Writer:
             min=[float(v) for v in pos.min(axis=0)],
             max=[float(v) for v in pos.max(axis=0)],
         )
-        n_acc = self._accessor(self._view(nrm.tobytes(), _ARRAY_BUFFER), _FLOAT, count, "VEC3")
+        n_acc = None
+        if geom.normals is not None:
+            nrm = geom.normals @ _R3.T
+            nrm = (nrm / np.linalg.norm(nrm, axis=1)[:, None] + 0.0).astype("<f4")
+            n_acc = self._accessor(self._view(nrm.tobytes(), _ARRAY_BUFFER), _FLOAT, count, "VEC3")
         component = _UNSIGNED_SHORT if idx.dtype.itemsize == 2 else _UNSIGNED_INT
         i_acc = self._accessor(self._view(idx.tobytes(), _ELEMENT_ARRAY_BUFFER), component, int(idx.size), "SCALAR")
         self._geometry_index[key] = (p_acc, n_acc, i_acc)
@@ -291,9 +305,10 @@ class _Writer:
         prims = []
         for prim in mesh.primitives:
             p_acc, n_acc, i_acc = self.geometry(prim.geometry)
+            attributes = {"POSITION": p_acc} if n_acc is None else {"POSITION": p_acc, "NORMAL": n_acc}
             prims.append(
                 {
-                    "attributes": {"POSITION": p_acc, "NORMAL": n_acc},
+                    "attributes": attributes,
                     "indices": i_acc,
                     "material": self.material(prim.material),
                     "mode": _TRIANGLES,

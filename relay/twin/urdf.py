@@ -45,25 +45,36 @@ Untrusted descriptions: :func:`robot_description_glb` (what the relay calls with
 from __future__ import annotations
 
 import io
-import json
 import logging
 import math
 import re
-import struct
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
 from typing import Any, Final
-from urllib.parse import unquote, urlsplit
 
 import numpy as np
-import trimesh
 import yourdfpy  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import NDArray
 
-from relay.errors import RelayError
-from relay.twin.frames import ROS_TO_GLTF
+from relay.twin.gltf import Geometry, Material, Mesh, Node, Primitive, build_glb
+from relay.twin.urdf_meshes import (
+    CREASE_ANGLE_DEG,
+    PackagePaths,
+    _box,
+    _concatenate,
+    _crease_normals,
+    _drop_degenerate,
+    _Geometry,
+    _load_mesh,
+    _MeshResolver,
+    _MeshUnavailable,
+    _primitive,
+    _simplify,
+)
+from relay.twin.urdf_meshes import (
+    RobotModelError as RobotModelError,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -78,61 +89,17 @@ ROOT_NODE: Final = "robot"
 
 #: Most triangles the mesh files of one robot may keep; over it, each is simplified to its share.
 MODEL_TRIANGLE_BUDGET: Final = 150_000
-#: Adjacent faces meeting at a sharper angle than this (degrees) get separate normals.
-CREASE_ANGLE_DEG: Final = 35.0
 #: Edge of the cube drawn for a missing mesh when the link has no usable collision geometry (metres).
 FALLBACK_BOX_SIZE: Final = 0.05
-#: Mesh files larger than this are not read (a robot's description must not make the relay load gigabytes).
-MAX_MESH_FILE_BYTES: Final = 64 * 1024 * 1024
 
-# Facets of generated cylinders: enough to look round at arm's length in a headset.
-_CYLINDER_SECTIONS: Final = 32
-_SPHERE_SUBDIVISIONS: Final = 2
 _WHEEL_NAME = re.compile(r"wheel|tyre|tire|caster|track", re.IGNORECASE)
 _NAMESPACE_PLACEHOLDER = re.compile(r"\$\{\s*namespace\s*\}")
 _RESERVED_MATERIALS: Final = frozenset({BODY_MATERIAL, TYRE_MATERIAL, PART_MATERIAL})
 
-# The 3x3 rotation part of ROS_TO_GLTF, for directions and vertices.
-_R: Final[NDArray[np.float64]] = ROS_TO_GLTF[:3, :3]
 
-PackagePaths = Mapping[str, Path] | Sequence[Path]
-
-
-class RobotModelError(RelayError):
-    """A URDF cannot be turned into a model: unparsable XML, no links, a broken tree, or (with
-    ``fallback=False``) a mesh file that is missing or unreadable. The message says which."""
-
-
-@dataclass(frozen=True)
-class _Material:
-    """A glTF metallic-roughness material; ``rgba`` is linear, as glTF's ``baseColorFactor``."""
-
-    name: str
-    rgba: tuple[float, float, float, float]
-    roughness: float
-
-
-BODY: Final = _Material(BODY_MATERIAL, (0.7, 0.7, 0.7, 1.0), 0.6)
-TYRE: Final = _Material(TYRE_MATERIAL, (0.02, 0.02, 0.02, 1.0), 0.9)
-PART: Final = _Material(PART_MATERIAL, (0.214, 0.214, 0.214, 1.0), 0.7)
-
-
-@dataclass
-class _Geometry:
-    """Triangles in some frame (ROS axes, metres). ``smooth``: emit crease-aware normals (primitives);
-    otherwise none, and the client shades the triangles flat (mesh files)."""
-
-    vertices: NDArray[np.float64]
-    faces: NDArray[np.int64]
-    smooth: bool = True
-
-    def transformed(self, matrix: NDArray[np.float64]) -> _Geometry:
-        vertices = self.vertices @ matrix[:3, :3].T + matrix[:3, 3]
-        faces = self.faces
-        if np.linalg.det(matrix[:3, :3]) < 0:
-            # A mirroring scale turns triangles inside out; reverse their winding to keep them front-facing.
-            faces = faces[:, ::-1].copy()
-        return _Geometry(vertices, faces, self.smooth)
+BODY: Final = Material(BODY_MATERIAL, (0.7, 0.7, 0.7, 1.0), roughness=0.6)
+TYRE: Final = Material(TYRE_MATERIAL, (0.02, 0.02, 0.02, 1.0), roughness=0.9)
+PART: Final = Material(PART_MATERIAL, (0.214, 0.214, 0.214, 1.0), roughness=0.7)
 
 
 @dataclass
@@ -141,7 +108,7 @@ class _Node:
 
     name: str
     matrix: NDArray[np.float64]
-    parts: list[tuple[_Material, _Geometry]] = field(default_factory=list)
+    parts: list[tuple[Material, _Geometry]] = field(default_factory=list)
     children: list[_Node] = field(default_factory=list)
     extras: dict[str, str] = field(default_factory=dict)
 
@@ -362,7 +329,7 @@ def _srgb_to_linear(value: float) -> float:
     return round(linear, 4)
 
 
-def _visual_material(link_name: str, visual: Any, is_body: bool, urdf_colours: Mapping[str, Any]) -> _Material:
+def _visual_material(link_name: str, visual: Any, is_body: bool, urdf_colours: Mapping[str, Any]) -> Material:
     if is_body:
         return BODY
     if _WHEEL_NAME.search(_leaf_name(link_name)):
@@ -379,7 +346,7 @@ def _visual_material(link_name: str, visual: Any, is_body: bool, urdf_colours: M
         name = f"urdf_{name}"
     # Alpha is linear already in glTF; only the colour channels carry the sRGB curve.
     rgba = (_srgb_to_linear(r), _srgb_to_linear(g), _srgb_to_linear(b), round(min(max(a, 0.0), 1.0), 4))
-    return _Material(name, rgba, 0.7)
+    return Material(name, rgba, roughness=0.7, blend=rgba[3] < 1.0)
 
 
 def _add_link_geometry(
@@ -420,10 +387,6 @@ def _add_link_geometry(
         node.parts.append((material, mesh.transformed(origin)))
 
 
-class _MeshUnavailable(Exception):
-    """A mesh URI that cannot be turned into triangles; the message names the file and why."""
-
-
 def _fallback_geometry(
     link: Any, visual_origin: NDArray[np.float64], resolver: _MeshResolver
 ) -> tuple[list[_Geometry], str, bool]:
@@ -451,81 +414,6 @@ def _fallback_geometry(
     return [box], f"a {FALLBACK_BOX_SIZE * 100:g} cm box", False
 
 
-# ------------------------------------------------------------------------------------------------ meshes
-
-
-def _as_geometry(mesh: Any) -> _Geometry:
-    return _Geometry(np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64))
-
-
-def _box(size: Sequence[float] | NDArray[np.float64]) -> _Geometry:
-    return _as_geometry(trimesh.creation.box(extents=[float(s) for s in size]))
-
-
-def _primitive(geometry: Any) -> _Geometry:
-    """A URDF box, cylinder (along z, centred) or sphere as triangles in its own frame."""
-    if geometry.box is not None:
-        return _box(np.asarray(geometry.box.size, dtype=np.float64).reshape(3))
-    if geometry.cylinder is not None:
-        return _as_geometry(
-            trimesh.creation.cylinder(
-                radius=float(geometry.cylinder.radius),
-                height=float(geometry.cylinder.length),
-                sections=_CYLINDER_SECTIONS,
-            )
-        )
-    if geometry.sphere is not None:
-        return _as_geometry(
-            trimesh.creation.icosphere(subdivisions=_SPHERE_SUBDIVISIONS, radius=float(geometry.sphere.radius))
-        )
-    raise RobotModelError("a <geometry> without box, cylinder, sphere or mesh")
-
-
-def _load_mesh(uri: str, scale: Any, resolver: _MeshResolver) -> _Geometry:
-    """The mesh file behind ``uri`` as flat-shaded triangles in metres (COLLADA unit and ``<mesh scale>``
-    applied). Raises :class:`_MeshUnavailable` naming the file when it is missing, too big or unreadable."""
-    path = resolver.resolve(uri)
-    if path is None:
-        raise _MeshUnavailable(f"mesh {uri} not found{resolver.where()}")
-    try:
-        size = path.stat().st_size
-        if size > MAX_MESH_FILE_BYTES:
-            raise _MeshUnavailable(f"mesh {uri} is {size} bytes, over the {MAX_MESH_FILE_BYTES} byte limit")
-        # force="mesh" flattens multi-part files (COLLADA scenes) with their node transforms applied.
-        loaded = trimesh.load(str(path), force="mesh")
-        unit = _collada_unit(path) if path.suffix.lower() == ".dae" else 1.0
-    except _MeshUnavailable:
-        raise
-    except Exception as err:  # trimesh and its format plug-ins raise anything from KeyError to XML errors
-        raise _MeshUnavailable(f"mesh {uri} ({path}) cannot be read: {type(err).__name__}: {err}") from err
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise _MeshUnavailable(f"mesh {uri} ({path}) has no triangles")
-    # process=True merges duplicate vertices (STL stores three per triangle): a third of the size, and the
-    # simplifier needs shared vertices to see which triangles touch.
-    mesh = _as_geometry(trimesh.Trimesh(vertices=loaded.vertices, faces=loaded.faces, process=True))
-    mesh.smooth = False
-    factors = np.full(3, unit)
-    if scale is not None:
-        factors *= np.broadcast_to(np.asarray(scale, dtype=np.float64).reshape(-1), (3,))
-    if not np.all(np.isfinite(factors)) or np.any(factors == 0):
-        raise _MeshUnavailable(f"mesh {uri} has an unusable scale {factors.tolist()}")
-    return mesh.transformed(np.diag([*factors, 1.0]))
-
-
-def _collada_unit(path: Path) -> float:
-    """The ``<asset><unit meter="...">`` of a COLLADA file, 1.0 when absent."""
-    for _, element in ET.iterparse(path, events=("start",)):
-        tag = element.tag.rsplit("}", 1)[-1]
-        if tag == "unit":
-            try:
-                return float(element.get("meter", "1"))
-            except ValueError:
-                return 1.0
-        if tag.startswith("library_"):
-            break  # <asset> comes first; no unit there means metres
-    return 1.0
-
-
 def _walk(node: _Node) -> Iterator[_Node]:
     yield node
     for child in node.children:
@@ -546,418 +434,51 @@ def _apply_triangle_budget(root: _Node, budget: int) -> None:
     logger.debug("simplified %d mesh triangles to a budget of %d", total, budget)
 
 
-def _simplify(mesh: _Geometry, max_triangles: int) -> _Geometry:
-    """Vertex clustering: snap vertices to a grid, merge each cell's vertices (see :func:`_cluster`) and
-    drop the triangles that collapse. Coarsens the grid until at most ``max_triangles`` remain.
-    Deterministic, and good at what CAD exports overdo (dense fillets, threads, tiny holes) at sizes seen
-    from a metre away."""
-    if len(mesh.faces) <= max_triangles:
-        return mesh
-    corners = mesh.vertices[mesh.faces]
-    area = 0.5 * float(
-        np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
-    )
-    extent = float(np.max(np.ptp(mesh.vertices, axis=0)))
-    # A clustered surface keeps roughly two triangles per occupied cell of its area: start a little finer
-    # than that estimate and coarsen in small steps, so the result lands just under the budget.
-    cell = max(0.5 * math.sqrt(2.0 * area / max_triangles), extent * 1e-4, 1e-9)
-    vertices, faces = mesh.vertices, mesh.faces
-    for _ in range(60):
-        vertices, faces = _cluster(mesh.vertices, mesh.faces, cell)
-        if len(faces) <= max_triangles:
-            break
-        cell *= 1.15
-    return _Geometry(vertices, faces, mesh.smooth)
+def _encode_glb(root: _Node) -> bytes:
+    """The model through the one glTF writer (relay.twin.gltf), ROS frame in, glTF's Y-up frame out."""
+    return build_glb([_gltf_node(root, {})], scene_name=ROOT_NODE)
 
 
-def _cluster(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], cell: float
-) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    grid = np.floor((vertices - vertices.min(axis=0)) / cell).astype(np.int64)
-    dims = grid.max(axis=0) + 1
-    keys = (grid[:, 0] * dims[1] + grid[:, 1]) * dims[2] + grid[:, 2]
-    # Vertices facing opposite ways never merge: the top and bottom of a plate thinner than a cell would
-    # otherwise collapse into one crumpled sheet. The facing is the dominant axis of the vertex normal.
-    keys = keys * 6 + _facing(vertices, faces)
-    _, cluster = np.unique(keys, return_inverse=True)
-    cluster = cluster.reshape(-1)
-    merged = _cluster_positions(vertices, faces, cluster, cell)
-    new_faces = cluster[faces]
-    keep = (
-        (new_faces[:, 0] != new_faces[:, 1])
-        & (new_faces[:, 1] != new_faces[:, 2])
-        & (new_faces[:, 0] != new_faces[:, 2])
-    )
-    new_faces = new_faces[keep]
-    # Clustering folds distinct triangles onto the same three vertices; keep the first of each.
-    _, first = np.unique(np.sort(new_faces, axis=1), axis=0, return_index=True)
-    new_faces = new_faces[np.sort(first)]
-    used, remap = np.unique(new_faces.reshape(-1), return_inverse=True)
-    return merged[used], remap.reshape(-1, 3).astype(np.int64)
+def _gltf_node(node: _Node, names: dict[str, Material]) -> Node:
+    """A link as a glTF node: one mesh of a primitive per (material, smooth or flat), in first-use order.
 
-
-def _facing(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.int64]:
-    """0..5 per vertex: which of +x, -x, +y, -y, +z, -z its area-weighted normal is closest to."""
-    corners = vertices[faces]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    summed = np.stack(
-        [np.bincount(faces.reshape(-1), weights=np.repeat(normal[:, k], 3), minlength=len(vertices)) for k in range(3)],
-        1,
-    )
-    axis = np.argmax(np.abs(summed), axis=1)
-    negative = summed[np.arange(len(vertices)), axis] < 0
-    facing: NDArray[np.int64] = (axis * 2 + negative).astype(np.int64)
-    return facing
-
-
-def _cluster_positions(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], cluster: NDArray[np.int64], cell: float
-) -> NDArray[np.float64]:
-    """Where each cluster's merged vertex goes: the point closest (in the least-squares sense) to the
-    planes of the triangles around it, as in Lindstrom's out-of-core simplification. A plain mean would
-    pull vertices off flat plates and round every edge; the quadric keeps plates flat and edges sharp."""
-    n_clusters = int(cluster.max()) + 1
-    counts = np.bincount(cluster, minlength=n_clusters).astype(np.float64)
-    sums = np.stack([np.bincount(cluster, weights=vertices[:, i], minlength=n_clusters) for i in range(3)], 1)
-    mean: NDArray[np.float64] = sums / counts[:, None]
-
-    corners = vertices[faces]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # length = 2 x area
-    area2 = np.linalg.norm(normal, axis=1)
-    valid = area2 > 0
-    unit = np.zeros_like(normal)
-    unit[valid] = normal[valid] / area2[valid, None]
-    offset = np.einsum("ij,ij->i", unit, corners[:, 0])
-    # Area-weighted plane quadrics: A = sum(w n n^T), b = sum(w n d); each triangle counts for its corners.
-    outer = (area2[:, None, None] * unit[:, :, None] * unit[:, None, :]).reshape(-1, 9)
-    rhs = area2[:, None] * unit * offset[:, None]
-    owner = cluster[faces].reshape(-1)
-    quad_a = np.stack(
-        [np.bincount(owner, weights=np.repeat(outer[:, k], 3), minlength=n_clusters) for k in range(9)], 1
-    ).reshape(-1, 3, 3)
-    quad_b = np.stack([np.bincount(owner, weights=np.repeat(rhs[:, k], 3), minlength=n_clusters) for k in range(3)], 1)
-    # A small pull towards the mean fixes the directions the planes leave free (along a plate, an edge).
-    regulariser = 1e-3 * np.trace(quad_a, axis1=1, axis2=2) + 1e-30
-    eye = np.eye(3)[None, :, :]
-    solved = np.linalg.solve(
-        quad_a + regulariser[:, None, None] * eye, (quad_b + regulariser[:, None] * mean)[:, :, None]
-    )[:, :, 0]
-    # Nearly parallel planes can put the optimum far away; such clusters keep their mean.
-    stray = np.linalg.norm(solved - mean, axis=1) > cell
-    solved[stray] = mean[stray]
-    return solved
-
-
-def _crease_normals(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64], crease_angle_deg: float
-) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.int64]]:
-    """Per-vertex normals that are smooth across gentle edges and split at sharp ones.
-
-    Each triangle corner gets the area-weighted mean normal of the triangles around its vertex that face
-    within ``crease_angle_deg`` of its own triangle; corners of one vertex with the same normal share an
-    output vertex. Degenerate (zero-area) triangles are dropped: they have no normal. Returns float32
-    positions, unit float32 normals and the triangle indices into them.
+    ``names`` keeps material names unique: two URDF materials of one name but different colours get
+    ``name_2``, ``name_3``.
     """
-    corners = vertices[faces]
-    raw = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # length = 2 x area
-    length = np.linalg.norm(raw, axis=1)
-    keep = length > 1e-14
-    faces, raw, length = faces[keep], raw[keep], length[keep]
-    unit = raw / length[:, None]
-    n_faces = len(faces)
-
-    corner_vertex = faces.reshape(-1)
-    corner_face = np.repeat(np.arange(n_faces), 3)
-    by_vertex = np.argsort(corner_vertex, kind="stable")
-    faces_by_vertex = corner_face[by_vertex]
-    degree = np.bincount(corner_vertex, minlength=len(vertices))
-    start = np.concatenate(([0], np.cumsum(degree)[:-1]))
-    # Every (corner, triangle sharing the corner's vertex) pair.
-    pair_degree = degree[corner_vertex]
-    pair_corner = np.repeat(np.arange(3 * n_faces), pair_degree)
-    offset = np.arange(len(pair_corner)) - np.repeat(np.cumsum(pair_degree) - pair_degree, pair_degree)
-    pair_face = faces_by_vertex[start[corner_vertex][pair_corner] + offset]
-    cos_limit = math.cos(math.radians(crease_angle_deg))
-    smooth = np.einsum("ij,ij->i", unit[corner_face[pair_corner]], unit[pair_face]) >= cos_limit
-    summed = np.stack(
-        [
-            np.bincount(pair_corner[smooth], weights=raw[pair_face[smooth], axis], minlength=3 * n_faces)
-            for axis in range(3)
-        ],
-        axis=1,
-    )
-    normals = summed / np.linalg.norm(summed, axis=1)[:, None]  # each corner counts its own face: never zero
-
-    # Corners of one vertex whose normals agree to ~0.06 degrees become one output vertex.
-    quantised = np.round(normals * 1000.0).astype(np.int64)
-    key = np.concatenate([corner_vertex[:, None], quantised], axis=1)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    out_positions = vertices[corner_vertex[first]].astype(np.float32)
-    out_normals = normals[first]
-    out_normals = (out_normals / np.linalg.norm(out_normals, axis=1)[:, None]).astype(np.float32)
-    return out_positions, out_normals, inverse.reshape(-1, 3).astype(np.int64)
-
-
-# -------------------------------------------------------------------------------------------- URI lookup
-
-
-class _MeshResolver:
-    """Maps URDF mesh URIs to files under the package paths (see :func:`urdf_to_glb`)."""
-
-    def __init__(self, package_paths: PackagePaths, *, confine: bool) -> None:
-        self._named: dict[str, Path] = {}
-        self._dirs: list[Path] = []
-        if isinstance(package_paths, Mapping):
-            self._named = {name: Path(path) for name, path in package_paths.items()}
+    groups: dict[tuple[Material, bool], list[_Geometry]] = {}
+    for material, geometry in node.parts:
+        groups.setdefault((material, geometry.smooth), []).append(geometry)
+    primitives: list[Primitive] = []
+    for (material, smooth), geometries in groups.items():
+        vertices, faces = _concatenate(geometries)
+        if smooth:
+            positions, normals, indices = _crease_normals(vertices, faces, CREASE_ANGLE_DEG)
         else:
-            self._dirs = [Path(path) for path in package_paths]
-        self._confine = confine
-        self._roots = [p.resolve() for p in [*self._named.values(), *self._dirs]]
-        self._package_names: dict[Path, str | None] = {}
-        self._children: dict[Path, list[Path]] = {}
-
-    def where(self) -> str:
-        count = len(self._named) + len(self._dirs)
-        return f" (searched {count} package path{'s' if count != 1 else ''})" if count else " (no package paths)"
-
-    def resolve(self, uri: str) -> Path | None:
-        """The first existing regular file ``uri`` can mean, or None."""
-        for candidate, root in self._candidates(uri):
-            try:
-                real = candidate.resolve()
-            except (OSError, RuntimeError):
-                continue
-            if root is not None and not real.is_relative_to(root.resolve()):
-                continue  # `package://pkg/../../etc/x` must not leave the package
-            if self._confine and not any(real.is_relative_to(r) for r in self._roots):
-                continue
-            if real.is_file():
-                return real
-        return None
-
-    def _candidates(self, uri: str) -> Iterator[tuple[Path, Path | None]]:
-        parts = urlsplit(uri)
-        scheme = parts.scheme.lower()
-        if scheme == "package":
-            package, relative = parts.netloc, unquote(parts.path).lstrip("/")
-            for directory in self._package_dirs(package):
-                yield directory / relative, directory
-        elif scheme == "file":
-            yield Path(unquote(parts.path)), None
-        elif scheme == "":
-            path = Path(uri)
-            if path.is_absolute():
-                yield path, None
-            else:
-                for directory in [*self._named.values(), *self._dirs]:
-                    yield directory / path, directory
-        # Other schemes (http, model, ...) name nothing we can read.
-
-    def _package_dirs(self, package: str) -> Iterator[Path]:
-        if package in self._named:
-            yield self._named[package]
-        for directory in self._dirs:
-            if directory.name == package or self._package_name(directory) == package:
-                yield directory
-            yield directory / package
-            # A folder of packages whose directory names differ from their manifest names (src/ layouts).
-            for sub in self._subpackages(directory):
-                if sub.name != package and self._package_name(sub) == package:
-                    yield sub
-
-    def _subpackages(self, directory: Path) -> list[Path]:
-        if directory not in self._children:
-            try:
-                found = sorted(d for d in directory.iterdir() if (d / "package.xml").is_file())
-            except OSError:
-                found = []
-            self._children[directory] = found
-        return self._children[directory]
-
-    def _package_name(self, directory: Path) -> str | None:
-        if directory not in self._package_names:
-            name: str | None = None
-            manifest = directory / "package.xml"
-            try:
-                name = ET.parse(manifest).getroot().findtext("name")
-            except (OSError, ET.ParseError):
-                name = None
-            self._package_names[directory] = name.strip() if name else None
-        return self._package_names[directory]
+            positions, indices = _drop_degenerate(vertices, faces)
+            normals = None
+        if len(indices) == 0:
+            continue
+        normals64 = None if normals is None else normals.astype(np.float64)
+        triangles = Geometry(positions.astype(np.float64), normals64, indices)
+        primitives.append(Primitive(triangles, _unique(material, names)))
+    matrix = node.matrix
+    return Node(
+        node.name,
+        mesh=Mesh(node.name, tuple(primitives)) if primitives else None,
+        translation=(float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3])),
+        rotation=_quaternion(matrix),
+        children=tuple(_gltf_node(child, names) for child in node.children),
+        extras=dict(node.extras) if node.extras else None,
+    )
 
 
-# ------------------------------------------------------------------------------------------------- GLB
-
-
-_ARRAY_BUFFER: Final = 34962
-_ELEMENT_ARRAY_BUFFER: Final = 34963
-_FLOAT: Final = 5126
-_UNSIGNED_SHORT: Final = 5123
-_UNSIGNED_INT: Final = 5125
-
-
-class _GlbBuilder:
-    """Accumulates glTF JSON and one binary buffer; :meth:`finish` packs them as GLB."""
-
-    def __init__(self) -> None:
-        self.binary = bytearray()
-        self.buffer_views: list[dict[str, Any]] = []
-        self.accessors: list[dict[str, Any]] = []
-        self.meshes: list[dict[str, Any]] = []
-        self.materials: list[dict[str, Any]] = []
-        self.nodes: list[dict[str, Any]] = []
-        self._material_index: dict[_Material, int] = {}
-
-    def _view(self, data: bytes, target: int) -> int:
-        self.binary.extend(b"\0" * (-len(self.binary) % 4))  # accessors need 4-byte aligned offsets
-        self.buffer_views.append(
-            {"buffer": 0, "byteOffset": len(self.binary), "byteLength": len(data), "target": target}
-        )
-        self.binary.extend(data)
-        return len(self.buffer_views) - 1
-
-    def _accessor(self, array: NDArray[Any], component: int, kind: str, target: int, bounds: bool) -> int:
-        accessor: dict[str, Any] = {
-            "bufferView": self._view(array.tobytes(), target),
-            "componentType": component,
-            "count": int(array.shape[0]),
-            "type": kind,
-        }
-        if bounds:
-            # Exact float32 values: the validator compares min/max with the data bit for bit.
-            accessor["min"] = [float(v) for v in array.min(axis=0)]
-            accessor["max"] = [float(v) for v in array.max(axis=0)]
-        self.accessors.append(accessor)
-        return len(self.accessors) - 1
-
-    def material(self, material: _Material) -> int:
-        if material not in self._material_index:
-            names = {m["name"] for m in self.materials}
-            name, suffix = material.name, 2
-            while name in names:  # two URDF materials of one name but different colours
-                name, suffix = f"{material.name}_{suffix}", suffix + 1
-            self.materials.append(
-                {
-                    "name": name,
-                    "pbrMetallicRoughness": {
-                        "baseColorFactor": list(material.rgba),
-                        "metallicFactor": 0.0,
-                        "roughnessFactor": material.roughness,
-                    },
-                    **({"alphaMode": "BLEND"} if material.rgba[3] < 1.0 else {}),
-                }
-            )
-            self._material_index[material] = len(self.materials) - 1
-        return self._material_index[material]
-
-    def mesh(self, name: str, parts: Sequence[tuple[_Material, _Geometry]]) -> int | None:
-        """One glTF mesh for a link: a primitive per (material, smooth or flat), in first-use order."""
-        groups: dict[tuple[_Material, bool], list[_Geometry]] = {}
-        for material, geometry in parts:
-            groups.setdefault((material, geometry.smooth), []).append(geometry)
-        primitives: list[dict[str, Any]] = []
-        for (material, smooth), geometries in groups.items():
-            vertices, faces = _concatenate(geometries)
-            attributes: dict[str, int] = {}
-            if smooth:
-                positions, normals, indices = _crease_normals(vertices @ _R.T, faces, CREASE_ANGLE_DEG)
-            else:
-                positions, indices = _drop_degenerate(vertices @ _R.T, faces)
-            if len(indices) == 0:
-                continue
-            attributes["POSITION"] = self._accessor(positions, _FLOAT, "VEC3", _ARRAY_BUFFER, True)
-            if smooth:
-                attributes["NORMAL"] = self._accessor(normals, _FLOAT, "VEC3", _ARRAY_BUFFER, False)
-            # 16-bit indices halve the index data; 65535 is reserved (primitive restart) so stay below it.
-            small = len(positions) < 65535
-            index_array = indices.astype(np.uint16 if small else np.uint32).reshape(-1)
-            primitives.append(
-                {
-                    "attributes": attributes,
-                    "indices": self._accessor(
-                        index_array,
-                        _UNSIGNED_SHORT if small else _UNSIGNED_INT,
-                        "SCALAR",
-                        _ELEMENT_ARRAY_BUFFER,
-                        False,
-                    ),
-                    "material": self.material(material),
-                    "mode": 4,
-                }
-            )
-        if not primitives:
-            return None
-        self.meshes.append({"name": name, "primitives": primitives})
-        return len(self.meshes) - 1
-
-    def node(self, node: _Node) -> int:
-        index = len(self.nodes)
-        entry: dict[str, Any] = {"name": node.name}
-        self.nodes.append(entry)
-        entry.update(_trs(ROS_TO_GLTF @ node.matrix @ ROS_TO_GLTF.T))
-        mesh = self.mesh(node.name, node.parts)
-        if mesh is not None:
-            entry["mesh"] = mesh
-        if node.children:
-            entry["children"] = [self.node(child) for child in node.children]
-        if node.extras:
-            entry["extras"] = dict(node.extras)
-        return index
-
-    def finish(self, scene_name: str) -> bytes:
-        self.binary.extend(b"\0" * (-len(self.binary) % 4))
-        document: dict[str, Any] = {
-            "asset": {"version": "2.0", "generator": "xr-relay relay.twin.urdf"},
-            "scene": 0,
-            "scenes": [{"name": scene_name, "nodes": [0]}],
-            "nodes": self.nodes,
-        }
-        if self.meshes:
-            document.update(meshes=self.meshes, materials=self.materials, accessors=self.accessors)
-            document.update(bufferViews=self.buffer_views, buffers=[{"byteLength": len(self.binary)}])
-        text = json.dumps(document, separators=(",", ":"), allow_nan=False).encode("utf-8")
-        text += b" " * (-len(text) % 4)
-        chunks = struct.pack("<II", len(text), 0x4E4F534A) + text
-        if self.meshes:
-            chunks += struct.pack("<II", len(self.binary), 0x004E4942) + bytes(self.binary)
-        return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
-
-
-def _drop_degenerate(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
-    """float32 positions and the triangles that still have an area in float32 (a flat-shaded triangle
-    without area has no normal; the validator flags it), with unused vertices removed."""
-    positions = vertices.astype(np.float32)
-    corners = positions.astype(np.float64)[faces]
-    area2 = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    faces = faces[area2 > 1e-14]
-    used, remap = np.unique(faces.reshape(-1), return_inverse=True)
-    return positions[used], remap.reshape(-1, 3).astype(np.int64)
-
-
-def _concatenate(geometries: Sequence[_Geometry]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    offsets = np.cumsum([0] + [len(g.vertices) for g in geometries[:-1]])
-    vertices = np.concatenate([g.vertices for g in geometries], axis=0)
-    faces = np.concatenate([g.faces + offset for g, offset in zip(geometries, offsets, strict=True)], axis=0)
-    return vertices, faces
-
-
-def _clean(value: float) -> float:
-    # Rounding keeps 1.57-radian URDF angles from printing 17 digits of noise; +0.0 turns -0.0 into 0.0.
-    return round(float(value), 9) + 0.0
-
-
-def _trs(matrix: NDArray[np.float64]) -> dict[str, list[float]]:
-    """glTF ``translation``/``rotation`` of a rigid transform, omitting identity parts."""
-    result: dict[str, list[float]] = {}
-    translation = [_clean(v) for v in matrix[:3, 3]]
-    if any(translation):
-        result["translation"] = translation
-    quaternion = _quaternion(matrix)
-    if abs(quaternion[3] - 1.0) > 1e-12:
-        result["rotation"] = [_clean(v) for v in quaternion]
-    return result
+def _unique(material: Material, names: dict[str, Material]) -> Material:
+    name, suffix = material.name, 2
+    while name in names and names[name] != replace(material, name=name):
+        name, suffix = f"{material.name}_{suffix}", suffix + 1
+    unique = replace(material, name=name)
+    names[name] = unique
+    return unique
 
 
 def _quaternion(matrix: NDArray[np.float64]) -> tuple[float, float, float, float]:
@@ -980,12 +501,6 @@ def _quaternion(matrix: NDArray[np.float64]) -> tuple[float, float, float, float
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     sign = -1.0 if w < 0.0 else 1.0  # q and -q are one rotation: w >= 0 keeps the output canonical
     return (sign * x / norm, sign * y / norm, sign * z / norm, sign * w / norm)
-
-
-def _encode_glb(root: _Node) -> bytes:
-    builder = _GlbBuilder()
-    builder.node(root)
-    return builder.finish(ROOT_NODE)
 
 
 # ------------------------------------------------------------------------------------- procedural model
