@@ -105,8 +105,9 @@ def check(data: bytes, pose: Any, tally: Tally) -> None:
     p, q = message.pose.pose.position, message.pose.pose.orientation
     expected = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
     stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
-    if tuple(pose[2:]) != expected or not math.isclose(pose.stamp, stamp, abs_tol=1e-9):
-        tally.mismatch = f"decoded {tuple(pose)} but rclpy says {expected} at {stamp}"
+    got = (pose.x, pose.y, pose.z, pose.qx, pose.qy, pose.qz, pose.qw)
+    if got != expected or not math.isclose(pose.stamp, stamp, abs_tol=1e-9):
+        tally.mismatch = f"decoded {pose} but rclpy says {expected} at {stamp}"
     tally.verified += 1
 
 

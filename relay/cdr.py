@@ -14,7 +14,8 @@ that follow are not read.
 from __future__ import annotations
 
 import struct
-from typing import NamedTuple
+
+from .events import PoseEvent
 
 _KINDS = {0x0000: (">", 8), 0x0001: ("<", 8), 0x0006: (">", 4), 0x0007: ("<", 4)}
 _STAMP = {order: struct.Struct(order + "iI") for order in "<>"}
@@ -22,25 +23,14 @@ _UINT = {order: struct.Struct(order + "I") for order in "<>"}
 _POSE = {order: struct.Struct(order + "7d") for order in "<>"}
 
 
-class OdometryPose(NamedTuple):
-    stamp: float
-    frame_id: str
-    x: float
-    y: float
-    z: float
-    qx: float
-    qy: float
-    qz: float
-    qw: float
-
-
 def _align(offset: int, size: int) -> int:
     # Offsets below are relative to the first byte after the 4-byte encapsulation header.
     return (offset + size - 1) & ~(size - 1)
 
 
-def odometry_pose(data: bytes | memoryview) -> OdometryPose:
-    """The stamp, frame and pose of a serialized nav_msgs/Odometry; ValueError when it is not one."""
+def odometry_pose(data: bytes | memoryview, robot: str = "") -> PoseEvent:
+    """The stamp, frame and pose of a serialized nav_msgs/Odometry, as ``robot``'s pose event (the frame is
+    the header's, possibly empty; a zero stamp stays zero); ValueError when it is not an Odometry."""
     if len(data) < 16:
         raise ValueError(f"{len(data)} bytes cannot hold an Odometry")
     kind = (data[0] << 8) | data[1]
@@ -55,7 +45,7 @@ def odometry_pose(data: bytes | memoryview) -> OdometryPose:
     (length,) = _UINT[order].unpack_from(data, 4 + offset)
     offset = _align(offset + 4 + length, min(8, max_align))
     x, y, z, qx, qy, qz, qw = _POSE[order].unpack_from(data, 4 + offset)
-    return OdometryPose(sec + nanosec * 1e-9, frame_id, x, y, z, qx, qy, qz, qw)
+    return PoseEvent(robot, sec + nanosec * 1e-9, frame_id, x, y, z, qx, qy, qz, qw)
 
 
 def odometry_stamp(data: bytes | memoryview) -> float:
@@ -88,8 +78,9 @@ def verify(samples: int = 64) -> int:
         message.pose.covariance = [float(k) for k in range(36)]
         decoded = odometry_pose(serialize_message(message))
         expected = (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
-        assert decoded[2:] == expected, (decoded, expected)
-        assert decoded.frame_id == message.header.frame_id
+        got = (decoded.x, decoded.y, decoded.z, decoded.qx, decoded.qy, decoded.qz, decoded.qw)
+        assert got == expected, (decoded, expected)
+        assert decoded.frame == message.header.frame_id
         stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
         assert math.isclose(decoded.stamp, stamp, rel_tol=0, abs_tol=1e-9), (decoded.stamp, stamp)
         checked += 1

@@ -48,12 +48,8 @@ class LatestFrameEncoder(Generic[Image]):
         keep_latest: bool = False,
     ) -> None:
         self.name = name
-        self._convert = convert
-        self._pool = pool
-        self._hop = hop
-        self._deliver = deliver
-        self._clock = clock
-        self._keep_latest = keep_latest
+        self._convert, self._pool, self._hop, self._deliver = convert, pool, hop, deliver
+        self._clock, self._keep_latest = clock, keep_latest
         self._lock = threading.Lock()
         #: The stream rate clients ask for (0: nobody streams this camera).
         self.fps = 0.0

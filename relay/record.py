@@ -32,15 +32,9 @@ from pathlib import Path
 from types import FrameType
 from typing import Any, Literal
 
+from . import rosmsg
 from .config import FleetConfig, load_config
 from .errors import BackendUnavailable, ConfigError
-from .rosmsg import (
-    COMPRESSED_IMAGE_TYPE,
-    IMAGE_TYPE,
-    MAP_TYPE,
-    POSE_TYPES,
-    SCAN_TYPE,
-)
 
 logger = logging.getLogger(__name__)
 
@@ -69,20 +63,17 @@ def topics_to_record(config: FleetConfig) -> list[RecordedTopic]:
     """
     wanted: list[RecordedTopic] = []
     for robot in config.robots:
-        wanted.append(RecordedTopic(robot.pose.topic, POSE_TYPES[robot.pose.source]))
+        wanted.append(RecordedTopic(robot.pose.topic, rosmsg.POSE_TYPES[robot.pose.source]))
         if robot.pose.source == "tf":
-            wanted.append(RecordedTopic(robot.pose.topic + "_static", POSE_TYPES["tf"], latched=True))
+            wanted.append(RecordedTopic(robot.pose.topic + "_static", rosmsg.POSE_TYPES["tf"], latched=True))
         twist = "geometry_msgs/msg/TwistStamped" if robot.cmd_vel_stamped else "geometry_msgs/msg/Twist"
         wanted.append(RecordedTopic(robot.cmd_vel_topic, twist))
         wanted.append(RecordedTopic(robot.goal_topic, "geometry_msgs/msg/PoseStamped"))
         wanted += [RecordedTopic(s.topic, s.type) for s in robot.sensors]
         if robot.scan_topic is not None:
-            wanted.append(RecordedTopic(robot.scan_topic, SCAN_TYPE))
-        wanted += [
-            RecordedTopic(c.topic, COMPRESSED_IMAGE_TYPE if c.compressed else IMAGE_TYPE, image=True)
-            for c in robot.cameras
-        ]
-    wanted.append(RecordedTopic(config.ros.map_topic, MAP_TYPE, latched=True))
+            wanted.append(RecordedTopic(robot.scan_topic, rosmsg.SCAN_TYPE))
+        wanted += [RecordedTopic(c.topic, rosmsg.image_type(c.compressed), image=True) for c in robot.cameras]
+    wanted.append(RecordedTopic(config.ros.map_topic, rosmsg.MAP_TYPE, latched=True))
     result: dict[str, RecordedTopic] = {}
     for item in wanted:
         known = result.setdefault(item.topic, item)

@@ -62,6 +62,11 @@ COMPRESSED_IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
 MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
 
 
+def image_type(compressed: bool) -> str:
+    """The message type of a camera topic: sensor_msgs/CompressedImage or sensor_msgs/Image."""
+    return COMPRESSED_IMAGE_TYPE if compressed else IMAGE_TYPE
+
+
 def header_stamp(header: Any, fallback: float | None = None) -> float:
     """A header's stamp in seconds. Publishers that leave it zero get ``fallback``: the recording time for
     a bag, the receive time (now) for a live graph."""

@@ -122,7 +122,7 @@ def test_odometry_cdr_decode_matches_rclpy() -> None:
         assert (decoded.x, decoded.y, decoded.z, decoded.qx, decoded.qy, decoded.qz, decoded.qw) == (
             p.x, p.y, p.z, q.x, q.y, q.z, q.w,
         )  # fmt: skip
-        assert decoded.frame_id == message.header.frame_id
+        assert decoded.frame == message.header.frame_id
         assert decoded.stamp == pytest.approx(message.header.stamp.sec + message.header.stamp.nanosec * 1e-9, abs=1e-9)
     with pytest.raises(ValueError):
         odometry_pose(b"\x00\x09" + bytes(40))

@@ -37,7 +37,7 @@ import struct
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any
 
@@ -342,14 +342,12 @@ class RosBackend(Backend):
 
     def _on_odometry_bytes(self, robot: str, data: bytes) -> None:
         try:
-            pose = odometry_pose(data)
+            pose = odometry_pose(data, robot)
         except (ValueError, struct.error, UnicodeDecodeError) as exc:
             logger.warning("%s: undecodable Odometry (%d bytes): %s", robot, len(data), exc)
             return
-        stamp = pose.stamp if pose.stamp > 0 else time.time()
-        self._post(
-            PoseEvent(robot, stamp, pose.frame_id or "map", pose.x, pose.y, pose.z, pose.qx, pose.qy, pose.qz, pose.qw)
-        )
+        # A publisher that leaves the stamp or the frame unset gets the receive time and the map frame.
+        self._post(replace(pose, stamp=pose.stamp if pose.stamp > 0 else time.time(), frame=pose.frame or "map"))
 
     def _on_pose(self, robot: str, message: Any) -> None:
         self._post(pose_event(robot, message, header_stamp(message.header)))

@@ -1,7 +1,7 @@
 """The demo facility as plain data: the single source of truth for its geometry.
 
-The simulator rasterises it for planning and bumping; a scene tool will
-extrude the same boxes into glTF, so every solid thing is an axis-aligned
+The simulator rasterises it for planning and bumping; tools/build_scene.py
+extrudes the same boxes into glTF (relay/twin/facility.py), so every solid thing is an axis-aligned
 :class:`Box` with a height, in the map frame (REP 103: x east, y north,
 z up, metres; floor at z = 0).
 
@@ -44,8 +44,26 @@ _DOOR_WIDTH = 1.4
 _DOOR_HEIGHT = 2.1
 
 
+class _Footprint:
+    """The map-frame rectangle ``min_x..max_x`` x ``min_y..max_y`` of a box or a room."""
+
+    min_x: float
+    min_y: float
+    max_x: float
+    max_y: float
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        """Centre of the rectangle ``(x, y)``."""
+        return (0.5 * (self.min_x + self.max_x), 0.5 * (self.min_y + self.max_y))
+
+    def contains(self, x: float, y: float) -> bool:
+        """True when ``(x, y)`` lies in the closed rectangle."""
+        return self.min_x <= x <= self.max_x and self.min_y <= y <= self.max_y
+
+
 @dataclass(frozen=True)
-class Box:
+class Box(_Footprint):
     """A solid axis-aligned box standing on the floor.
 
     Contract: ``min_x < max_x``, ``min_y < max_y``, ``height > 0`` (metres).
@@ -65,22 +83,13 @@ class Box:
         if not (self.min_x < self.max_x and self.min_y < self.max_y and self.height > 0.0):
             raise ValueError(f"box {self.name!r} has non-positive extent")
 
-    @property
-    def centre(self) -> tuple[float, float]:
-        """Centre of the footprint ``(x, y)``."""
-        return (0.5 * (self.min_x + self.max_x), 0.5 * (self.min_y + self.max_y))
-
-    def contains(self, x: float, y: float) -> bool:
-        """True when ``(x, y)`` lies in the closed footprint."""
-        return self.min_x <= x <= self.max_x and self.min_y <= y <= self.max_y
-
 
 @dataclass(frozen=True)
-class Room:
+class Room(_Footprint):
     """A named area; ``title`` is the human-readable label shown to operators.
 
     Bounds are the nominal (wall-centre-ish) extents, so they include the
-    walls around the room; use :attr:`centre` for a safe goal.
+    walls around the room; use :attr:`centre` for a safe goal (kept clear of obstacles by design).
     """
 
     name: str
@@ -89,15 +98,6 @@ class Room:
     min_y: float
     max_x: float
     max_y: float
-
-    @property
-    def centre(self) -> tuple[float, float]:
-        """Centre of the room ``(x, y)``; kept clear of obstacles by design."""
-        return (0.5 * (self.min_x + self.max_x), 0.5 * (self.min_y + self.max_y))
-
-    def contains(self, x: float, y: float) -> bool:
-        """True when ``(x, y)`` lies in the closed room rectangle."""
-        return self.min_x <= x <= self.max_x and self.min_y <= y <= self.max_y
 
 
 @dataclass(frozen=True)

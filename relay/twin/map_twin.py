@@ -35,6 +35,7 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml  # type: ignore[import-untyped, unused-ignore]
@@ -110,6 +111,30 @@ def _top_quads(rects: NDArray[np.intp], grid: OccupancyGrid, z: float) -> NDArra
     )
 
 
+def _add_faces(
+    out: list[Geometry],
+    fixed: NDArray[Any],
+    start: NDArray[Any],
+    stop: NDArray[Any],
+    height: float,
+    *,
+    along_x: bool,
+    flip: bool,
+    normal: tuple[float, float, float],
+) -> None:
+    """Vertical quads on boundary lines at ``fixed`` (x, or y when ``along_x``), each spanning ``start`` to
+    ``stop`` along the line and 0 to ``height`` up; ``flip`` walks them the other way so they face ``normal``."""
+    if flip:
+        start, stop = stop, start
+    z0, z1 = np.zeros_like(fixed), np.full_like(fixed, height)
+    ends = ((start, z0), (stop, z0), (stop, z1), (start, z1))
+    points = [(along, fixed, z) if along_x else (fixed, along, z) for along, z in ends]
+    corners = np.stack([np.stack(c, axis=1) for c in points], axis=1)
+    geom = _quads(corners, normal)
+    if geom is not None:
+        out.append(geom)
+
+
 def _side_quads(walls: NDArray[np.bool_], grid: OccupancyGrid, height: float) -> list[Geometry]:
     """The exposed vertical faces of the wall cells, merged along each boundary line."""
     res, ox, oy = grid.resolution, grid.origin_x, grid.origin_y
@@ -119,39 +144,19 @@ def _side_quads(walls: NDArray[np.bool_], grid: OccupancyGrid, height: float) ->
     inner = padded[1:-1, 1:-1]
     out: list[Geometry] = []
 
-    # East/west faces: boundary lines x = const; runs go along y (so work on the transpose).
-    for dc, normal in ((1, (1.0, 0.0, 0.0)), (-1, (-1.0, 0.0, 0.0))):
+    # East/west faces: boundary lines x = const; runs go along y (so work on the transpose). Seen from -x,
+    # +y is on the left: the quad is walked from high y to low y (``flip``).
+    for dc in (1, -1):
         exposed = inner & ~padded[1:-1, 1 + dc : cols + 1 + dc]
-        col, r0, r1 = _runs(np.ascontiguousarray(exposed.T))
-        x = ox + (col + (1 if dc > 0 else 0)) * res
-        ya, yb = oy + r0 * res, oy + r1 * res
-        if dc < 0:  # seen from -x, +y is on the left: walk the quad from high y to low y
-            ya, yb = yb, ya
-        z0, z1 = np.zeros_like(x), np.full_like(x, height)
-        corners = np.stack(
-            [np.stack(c, axis=1) for c in ((x, ya, z0), (x, yb, z0), (x, yb, z1), (x, ya, z1))],
-            axis=1,
-        )
-        geom = _quads(corners, normal)
-        if geom is not None:
-            out.append(geom)
-
-    # North/south faces: boundary lines y = const; runs go along x.
-    for dr, normal in ((1, (0.0, 1.0, 0.0)), (-1, (0.0, -1.0, 0.0))):
+        line, a, b = _runs(np.ascontiguousarray(exposed.T))
+        x = ox + (line + (1 if dc > 0 else 0)) * res
+        _add_faces(out, x, oy + a * res, oy + b * res, height, along_x=False, flip=dc < 0, normal=(float(dc), 0.0, 0.0))
+    # North/south faces: boundary lines y = const; runs go along x. Seen from +y, +x is on the left.
+    for dr in (1, -1):
         exposed = inner & ~padded[1 + dr : rows + 1 + dr, 1:-1]
-        row, c0, c1 = _runs(exposed)
-        y = oy + (row + (1 if dr > 0 else 0)) * res
-        xa, xb = ox + c0 * res, ox + c1 * res
-        if dr > 0:  # seen from +y, +x is on the left
-            xa, xb = xb, xa
-        z0, z1 = np.zeros_like(y), np.full_like(y, height)
-        corners = np.stack(
-            [np.stack(c, axis=1) for c in ((xa, y, z0), (xb, y, z0), (xb, y, z1), (xa, y, z1))],
-            axis=1,
-        )
-        geom = _quads(corners, normal)
-        if geom is not None:
-            out.append(geom)
+        line, a, b = _runs(exposed)
+        y = oy + (line + (1 if dr > 0 else 0)) * res
+        _add_faces(out, y, ox + a * res, ox + b * res, height, along_x=True, flip=dr > 0, normal=(0.0, float(dr), 0.0))
     return out
 
 

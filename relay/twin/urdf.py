@@ -484,20 +484,19 @@ def _unique(material: Material, names: dict[str, Material]) -> Material:
 def _quaternion(matrix: NDArray[np.float64]) -> tuple[float, float, float, float]:
     """Unit quaternion ``(x, y, z, w)`` with ``w >= 0`` of the rotation part of ``matrix`` (Shepperd's
     method, on plain floats: no eigen-solver whose last bits could vary between machines)."""
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = (tuple(float(v) for v in row) for row in matrix[:3, :3])
-    trace = r00 + r11 + r22
+    r = [[float(v) for v in row] for row in matrix[:3, :3]]
+    trace = r[0][0] + r[1][1] + r[2][2]
     if trace > 0.0:
         s = 2.0 * math.sqrt(trace + 1.0)
-        x, y, z, w = (r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s, 0.25 * s
-    elif r00 > r11 and r00 > r22:
-        s = 2.0 * math.sqrt(1.0 + r00 - r11 - r22)
-        x, y, z, w = 0.25 * s, (r01 + r10) / s, (r02 + r20) / s, (r21 - r12) / s
-    elif r11 > r22:
-        s = 2.0 * math.sqrt(1.0 + r11 - r00 - r22)
-        x, y, z, w = (r01 + r10) / s, 0.25 * s, (r12 + r21) / s, (r02 - r20) / s
+        x, y, z, w = (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s, 0.25 * s
     else:
-        s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
-        x, y, z, w = (r02 + r20) / s, (r12 + r21) / s, 0.25 * s, (r10 - r01) / s
+        # The largest diagonal element picks the axis i (j, k follow it cyclically): no division by ~0.
+        i = 0 if r[0][0] > r[1][1] and r[0][0] > r[2][2] else 1 if r[1][1] > r[2][2] else 2
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + r[i][i] - r[j][j] - r[k][k])
+        q = [0.0, 0.0, 0.0]
+        q[i], q[j], q[k] = 0.25 * s, (r[i][j] + r[j][i]) / s, (r[i][k] + r[k][i]) / s
+        x, y, z, w = q[0], q[1], q[2], (r[k][j] - r[j][k]) / s
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     sign = -1.0 if w < 0.0 else 1.0  # q and -q are one rotation: w >= 0 keeps the output canonical
     return (sign * x / norm, sign * y / norm, sign * z / norm, sign * w / norm)
@@ -508,7 +507,7 @@ def _quaternion(matrix: NDArray[np.float64]) -> tuple[float, float, float, float
 # The stand-in robot, as a URDF so it goes through exactly the pipeline (and conventions) of real ones.
 # Base: a 0.30 m disc 0.08 m tall on 0.033 m wheels (TurtleBot scale); the nose is a flat square turned 45
 # degrees, its top just above the base's, whose corner sticks out 0.05 m ahead: an arrowhead from above.
-_PROCEDURAL_URDF: Final = """<?xml version="1.0"?>
+_PROCEDURAL_URDF_TEMPLATE: Final = """<?xml version="1.0"?>
 <robot name="procedural_robot">
   <material name="camera_dark"><color rgba="0.15 0.15 0.17 1"/></material>
   <material name="mast_grey"><color rgba="0.55 0.55 0.55 1"/></material>
@@ -520,21 +519,7 @@ _PROCEDURAL_URDF: Final = """<?xml version="1.0"?>
   <link name="base_link">
     <visual><origin xyz="0 0 0.045"/><geometry><cylinder radius="0.15" length="0.08"/></geometry></visual>
   </link>
-  <joint name="wheel_left_joint" type="continuous">
-    <parent link="base_link"/><child link="wheel_left_link"/>
-    <origin xyz="0 0.16 0.023" rpy="-1.5707963267948966 0 0"/><axis xyz="0 0 1"/>
-  </joint>
-  <link name="wheel_left_link">
-    <visual><geometry><cylinder radius="0.033" length="0.02"/></geometry></visual>
-  </link>
-  <joint name="wheel_right_joint" type="continuous">
-    <parent link="base_link"/><child link="wheel_right_link"/>
-    <origin xyz="0 -0.16 0.023" rpy="-1.5707963267948966 0 0"/><axis xyz="0 0 1"/>
-  </joint>
-  <link name="wheel_right_link">
-    <visual><geometry><cylinder radius="0.033" length="0.02"/></geometry></visual>
-  </link>
-  <joint name="nose_joint" type="fixed">
+{wheels}  <joint name="nose_joint" type="fixed">
     <parent link="base_link"/><child link="nose_link"/><origin xyz="0.14 0 0.075"/>
   </joint>
   <link name="nose_link">
@@ -564,3 +549,15 @@ _PROCEDURAL_URDF: Final = """<?xml version="1.0"?>
   </link>
 </robot>
 """
+# The two drive wheels differ only in their side (joint axes along the wheel's own z, turned to ROS +y).
+_WHEEL: Final = """  <joint name="wheel_{side}_joint" type="continuous">
+    <parent link="base_link"/><child link="wheel_{side}_link"/>
+    <origin xyz="0 {y} 0.023" rpy="-1.5707963267948966 0 0"/><axis xyz="0 0 1"/>
+  </joint>
+  <link name="wheel_{side}_link">
+    <visual><geometry><cylinder radius="0.033" length="0.02"/></geometry></visual>
+  </link>
+"""
+_PROCEDURAL_URDF: Final = _PROCEDURAL_URDF_TEMPLATE.replace(
+    "{wheels}", "".join(_WHEEL.format(side=side, y=y) for side, y in (("left", "0.16"), ("right", "-0.16")))
+)

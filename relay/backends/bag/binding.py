@@ -10,13 +10,7 @@ from pathlib import Path
 from ...config import Camera, FleetConfig, Robot, Sensor
 from ...errors import BackendUnavailable
 from ...protocol import ROBOT_NAME_PATTERN
-from ...rosmsg import (
-    COMPRESSED_IMAGE_TYPE,
-    IMAGE_TYPE,
-    MAP_TYPE,
-    POSE_TYPES,
-    SCAN_TYPE,
-)
+from ...rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
 
 logger = logging.getLogger(__name__)
 
@@ -167,23 +161,20 @@ def _robot_topics(config: FleetConfig, robot: Robot, spec: BagSpec, contents: Ba
             missing.append(f"scan {robot.scan_topic}")
         else:
             _check_type(spec, scan, topics[scan], SCAN_TYPE, f"{robot.name}'s scan")
-    sensors: list[tuple[Sensor, str]] = []
-    for sensor in robot.sensors:
-        topic = _lookup(sensor.topic, robot, topics, strip)
-        if topic is None:
-            missing.append(f"{sensor.name} {sensor.topic}")
-            continue
-        _check_type(spec, topic, topics[topic], sensor.type, f"{robot.name}'s sensor {sensor.name}")
-        sensors.append((sensor, topic))
-    cameras: list[tuple[Camera, str]] = []
-    for camera in robot.cameras:
-        topic = _lookup(camera.topic, robot, topics, strip)
-        if topic is None:
-            missing.append(f"camera {camera.name} {camera.topic}")
-            continue
-        expected = COMPRESSED_IMAGE_TYPE if camera.compressed else IMAGE_TYPE
-        _check_type(spec, topic, topics[topic], expected, f"{robot.name}'s camera {camera.name}")
-        cameras.append((camera, topic))
+
+    def found(topic: str, label: str, expected: str) -> str | None:
+        """The bag's topic for a configured one, type-checked; None (and noted as missing) when absent."""
+        name = _lookup(topic, robot, topics, strip)
+        if name is None:
+            missing.append(f"{label} {topic}")
+            return None
+        _check_type(spec, name, topics[name], expected, f"{robot.name}'s {label}")
+        return name
+
+    sensors = [(s, t) for s in robot.sensors if (t := found(s.topic, f"sensor {s.name}", s.type)) is not None]
+    cameras = [
+        (c, t) for c in robot.cameras if (t := found(c.topic, f"camera {c.name}", image_type(c.compressed))) is not None
+    ]
     return RobotTopics(robot, pose, tf_static, scan, tuple(sensors), tuple(cameras), tuple(missing))
 
 
