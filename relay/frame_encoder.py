@@ -55,6 +55,7 @@ class LatestFrameEncoder(Generic[Image]):
         self.fps = 0.0
         self._last_accepted = -float("inf")
         self._encoding = False
+        self._in_transit = 0  # results handed to ``hop`` that ``done`` has not received yet
         self._pending: Image | None = None
         #: The newest image offered, with ``keep_latest`` (a recording: a snapshot of a paused replay encodes it;
         #: a live camera keeps none, its next image is at most a frame away).
@@ -63,6 +64,11 @@ class LatestFrameEncoder(Generic[Image]):
         self._last_of: Image | None = None
         self._last_time = -float("inf")
         self._waiters: list[asyncio.Future[FrameEvent | None]] = []
+
+    @property
+    def encoding(self) -> bool:
+        """An encode is in flight (or its result is still on its way to the loop)."""
+        return self._encoding or self._in_transit > 0
 
     @property
     def waiting(self) -> bool:
@@ -108,6 +114,8 @@ class LatestFrameEncoder(Generic[Image]):
                 frame = self._convert(image)
             except (ImageError, ValueError) as exc:
                 logger.warning("%s: %s", self.name, exc)
+            with self._lock:
+                self._in_transit += 1
             self._hop(lambda f=frame, i=image: self.done(f, i))  # type: ignore[misc]
             with self._lock:
                 if self._pending is None:
@@ -118,6 +126,8 @@ class LatestFrameEncoder(Generic[Image]):
 
     def done(self, frame: FrameEvent | None, image: Image) -> None:
         """On the loop: a frame (or None: the image could not be read) is ready."""
+        with self._lock:
+            self._in_transit = max(0, self._in_transit - 1)
         if frame is not None:
             self.last, self._last_of, self._last_time = frame, image, self._clock()
             self._deliver(frame)

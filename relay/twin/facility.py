@@ -441,6 +441,58 @@ class _Fields:
         return node
 
 
+def _hazards(f: _Fields, node: Any) -> list[HazardSource]:
+    hazards = []
+    for i, item in enumerate(f.sequence(node, "hazards")):
+        where = f"hazards[{i}]"
+        h = f.mapping(item, where, ("kind", "x", "y", "peak", "sigma"))
+        hazards.append(
+            HazardSource(
+                kind=f.string(h["kind"], f"{where}.kind"),
+                x=f.number(h["x"], f"{where}.x"),
+                y=f.number(h["y"], f"{where}.y"),
+                peak=f.number(h["peak"], f"{where}.peak"),
+                sigma=f.number(h["sigma"], f"{where}.sigma", positive=True),
+            )
+        )
+    return hazards
+
+
+def _spawns(f: _Fields, node: Any, source: Path) -> list[Spawn]:
+    spawns = []
+    for i, item in enumerate(f.sequence(node, "spawns")):
+        where = f"spawns[{i}]"
+        s = f.mapping(item, where, ("robot", "x", "y", "yaw"))
+        spawns.append(
+            Spawn(
+                f.string(s["robot"], f"{where}.robot"),
+                f.number(s["x"], f"{where}.x"),
+                f.number(s["y"], f"{where}.y"),
+                f.number(s["yaw"], f"{where}.yaw"),
+            )
+        )
+    if len({s.robot for s in spawns}) != len(spawns):
+        raise ValueError(f"{source}: field 'spawns' names a robot twice")
+    return spawns
+
+
+def _rooms(f: _Fields, node: Any, source: Path) -> list[Room]:
+    rooms = []
+    for i, item in enumerate(f.sequence(node, "rooms")):
+        where = f"rooms[{i}]"
+        r = f.mapping(item, where, ("name", "title", "bounds"))
+        b = f.mapping(r["bounds"], f"{where}.bounds", ("min_x", "min_y", "max_x", "max_y"))
+        lo_x, lo_y, hi_x, hi_y = (f.number(b[k], f"{where}.bounds.{k}") for k in ("min_x", "min_y", "max_x", "max_y"))
+        if not (lo_x < hi_x and lo_y < hi_y):
+            raise f.fail(f"{where}.bounds", "non-empty (min < max)", b)
+        rooms.append(
+            Room(f.string(r["name"], f"{where}.name"), f.string(r["title"], f"{where}.title"), lo_x, lo_y, hi_x, hi_y)
+        )
+    if len({r.name for r in rooms}) != len(rooms):
+        raise ValueError(f"{source}: field 'rooms' names a room twice")
+    return rooms
+
+
 def load_facility(path: str | os.PathLike[str]) -> Facility:
     """Read and validate a facility scene file written by :func:`facility_yaml`.
 
@@ -466,48 +518,9 @@ def load_facility(path: str | os.PathLike[str]) -> Facility:
         f.number(size_node["depth"], "size.depth", positive=True),
     )
 
-    hazards = []
-    for i, node in enumerate(f.sequence(top["hazards"], "hazards")):
-        where = f"hazards[{i}]"
-        h = f.mapping(node, where, ("kind", "x", "y", "peak", "sigma"))
-        hazards.append(
-            HazardSource(
-                kind=f.string(h["kind"], f"{where}.kind"),
-                x=f.number(h["x"], f"{where}.x"),
-                y=f.number(h["y"], f"{where}.y"),
-                peak=f.number(h["peak"], f"{where}.peak"),
-                sigma=f.number(h["sigma"], f"{where}.sigma", positive=True),
-            )
-        )
-
-    spawns = []
-    for i, node in enumerate(f.sequence(top["spawns"], "spawns")):
-        where = f"spawns[{i}]"
-        s = f.mapping(node, where, ("robot", "x", "y", "yaw"))
-        spawns.append(
-            Spawn(
-                f.string(s["robot"], f"{where}.robot"),
-                f.number(s["x"], f"{where}.x"),
-                f.number(s["y"], f"{where}.y"),
-                f.number(s["yaw"], f"{where}.yaw"),
-            )
-        )
-    if len({s.robot for s in spawns}) != len(spawns):
-        raise ValueError(f"{source}: field 'spawns' names a robot twice")
-
-    rooms = []
-    for i, node in enumerate(f.sequence(top["rooms"], "rooms")):
-        where = f"rooms[{i}]"
-        r = f.mapping(node, where, ("name", "title", "bounds"))
-        b = f.mapping(r["bounds"], f"{where}.bounds", ("min_x", "min_y", "max_x", "max_y"))
-        lo_x, lo_y, hi_x, hi_y = (f.number(b[k], f"{where}.bounds.{k}") for k in ("min_x", "min_y", "max_x", "max_y"))
-        if not (lo_x < hi_x and lo_y < hi_y):
-            raise f.fail(f"{where}.bounds", "non-empty (min < max)", b)
-        rooms.append(
-            Room(f.string(r["name"], f"{where}.name"), f.string(r["title"], f"{where}.title"), lo_x, lo_y, hi_x, hi_y)
-        )
-    if len({r.name for r in rooms}) != len(rooms):
-        raise ValueError(f"{source}: field 'rooms' names a room twice")
+    hazards = _hazards(f, top["hazards"])
+    spawns = _spawns(f, top["spawns"], source)
+    rooms = _rooms(f, top["rooms"], source)
 
     g = f.mapping(top["grid"], "grid", ("origin", "resolution", "width", "height", "encoding", "rows"))
     origin = f.mapping(g["origin"], "grid.origin", ("x", "y"))
