@@ -324,9 +324,10 @@ def test_missing_message_package_is_a_startup_error(ros_domain: int, tmp_path: P
 
 
 def test_demo_config_passes_the_ros_startup_checks() -> None:
-    from relay.backends.ros import RosBackend
+    from relay.backends.ros import check_messages
 
-    RosBackend._check_messages(load_config(ROOT / "robots.yaml"))
+    classes = check_messages(load_config(ROOT / "robots.yaml"))
+    assert "nav_msgs.msg.Odometry" in classes and "sensor_msgs.msg.Image" in classes
 
 
 async def test_relay_terminated_during_teleop_stops_the_robot_before_exiting(ros_domain: int, tmp_path: Path) -> None:

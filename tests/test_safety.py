@@ -58,3 +58,25 @@ def test_deadman_release_on_disconnect_and_handover() -> None:
     assert deadman.feed("robot3", "a", now=0.1) == "b"  # control changed hands
     assert sorted(deadman.release_client("a")) == ["robot1", "robot2", "robot3"]
     assert deadman.release_client("b") == []
+
+
+def test_a_live_goal_ends_when_reached_facing_its_yaw_or_given_up() -> None:
+    from relay.backends.goal_watch import GOAL_TOLERANCE, GoalWatch
+    from relay.events import PoseEvent
+    from relay.geometry import yaw_to_quaternion
+
+    def pose(x: float, y: float, yaw: float) -> PoseEvent:
+        qx, qy, qz, qw = yaw_to_quaternion(yaw)
+        return PoseEvent("robot1", 1.0, "map", x, y, 0.0, qx, qy, qz, qw)
+
+    watch = GoalWatch()
+    assert watch.started("robot1", (3.0, 6.0, 1.57)).outcome == "started"
+    assert watch.pose(pose(3.0, 6.0 - 2 * GOAL_TOLERANCE, 1.57)) is None, "not there yet"
+    assert watch.pose(pose(3.0, 6.0, 0.0)) is None, "there, but facing the wrong way"
+    reached = watch.pose(pose(3.0 + GOAL_TOLERANCE / 2, 6.0, 1.5))
+    assert reached is not None and reached.outcome == "reached" and reached.goal == (3.0, 6.0, 1.57)
+    assert watch.pose(pose(3.0, 6.0, 1.57)) is None, "a goal ends once"
+    watch.started("robot1", (9.0, 6.0, None))
+    ended = watch.ended("robot1", "teleoperation took over")
+    assert ended is not None and ended.outcome == "cancelled" and ended.message == "teleoperation took over"
+    assert watch.ended("robot1", "cancelled") is None

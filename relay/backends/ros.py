@@ -31,29 +31,29 @@ import concurrent.futures
 import contextlib
 import importlib
 import logging
-import math
 import os
 import struct
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from types import ModuleType
 from typing import Any
 
 from ..cdr import odometry_pose
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, NavEvent, PoseEvent, RobotModelEvent, SensorEvent
-from ..frame_encoder import LatestFrameEncoder
-from ..geometry import quaternion_to_yaw, wrap_angle, yaw_to_quaternion
+from ..events import Event, EventSink, FrameEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..geometry import yaw_to_quaternion
 from ..maps import map_event
 from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
-from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, header_stamp, image_to_frame, message_stamp, pose_event, transform_of
+from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, header_stamp, message_stamp, pose_event, transform_of
 from ..scan import scan_event
 from ..tf import TfPose
 from .base import Backend
+from .goal_watch import GoalWatch
+from .ros_cameras import RosCameras
 
 logger = logging.getLogger(__name__)
 
@@ -61,14 +61,6 @@ INSTALL_HINT = (
     "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
     "or source a ROS 2 installation first (`source /opt/ros/<distro>/setup.bash`)"
 )
-
-#: A snapshot may be answered with the last frame when it is younger than this (seconds).
-SNAPSHOT_MAX_AGE = 1.0
-#: How long a snapshot waits for the next frame (the on-demand subscription must first be discovered).
-SNAPSHOT_TIMEOUT = 5.0
-#: A goal counts as reached within this distance (m) and, when a yaw was given, this angle (rad).
-GOAL_TOLERANCE = 0.25
-GOAL_YAW_TOLERANCE = 0.2
 
 
 def _import(module: str, name: str) -> Any:
@@ -82,13 +74,44 @@ def load_rclpy() -> ModuleType:
         raise BackendUnavailable(f"{INSTALL_HINT} ({exc})") from None
 
 
-@dataclass
-class _Camera:
-    """A live camera: subscribed only while someone streams it or waits for a snapshot."""
-
-    spec: Camera
-    frames: LatestFrameEncoder[tuple[Any, float]]
-    subscription: Any = None
+def check_messages(config: FleetConfig) -> dict[str, Any]:
+    """Import every message class the config needs, now: a missing package is a start-up error."""
+    needed: dict[str, tuple[str, str, str]] = {}  # key -> (module, class, who needs it)
+    for robot in config.robots:
+        module, cls = POSE_MESSAGES[robot.pose.source]
+        needed[f"{module}.{cls}"] = (module, cls, f"{robot.name}: pose source '{robot.pose.source}'")
+        for sensor in robot.sensors:
+            module, cls = SENSOR_TYPES[sensor.type].module, SENSOR_TYPES[sensor.type].cls
+            needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
+    if any(robot.model_source is not None for robot in config.robots):
+        needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
+    for module, cls in (
+        ("geometry_msgs.msg", "Twist"),
+        ("geometry_msgs.msg", "TwistStamped"),
+        ("geometry_msgs.msg", "PoseStamped"),
+        ("sensor_msgs.msg", "Image"),
+        ("sensor_msgs.msg", "CompressedImage"),
+        ("sensor_msgs.msg", "LaserScan"),
+        ("nav_msgs.msg", "OccupancyGrid"),
+    ):
+        needed.setdefault(f"{module}.{cls}", (module, cls, "the relay"))
+    classes: dict[str, Any] = {}
+    problems: list[str] = []
+    for key, (module, cls, who) in needed.items():
+        try:
+            classes[key] = _import(module, cls)
+        except (ImportError, AttributeError):
+            package = module.split(".")[0]
+            hint = ""
+            if package == "tf2_msgs":
+                hint = (
+                    " (the PyPI ROS wheels do not include it): use pose source odom, amcl_pose or pose "
+                    "in robots.yaml, or source a ROS 2 installation that has tf2_msgs"
+                )
+            problems.append(f"{who} needs the message package {package}, which is not installed{hint}")
+    if problems:
+        raise BackendUnavailable("; ".join(problems))
+    return classes
 
 
 class RosBackend(Backend):
@@ -110,53 +133,9 @@ class RosBackend(Backend):
         self._goal_pubs: dict[str, Any] = {}
         self._tf: dict[str, TfPose] = {}
         self._last_scan: dict[str, float] = {}
-        self._cameras: dict[tuple[str, str], _Camera] = {
-            (r.name, c.name): _Camera(c, self._frame_encoder(r.name, c)) for r in config.robots for c in r.cameras
-        }
-        self._goals: dict[str, tuple[float, float, float | None]] = {}
+        self._cameras = RosCameras(config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy)
+        self._goals = GoalWatch()
         self._grid: OccupancyGrid | None = None
-
-    # -- start-up checks --------------------------------------------------------------------------
-
-    @staticmethod
-    def _check_messages(config: FleetConfig) -> dict[str, Any]:
-        """Import every message class the config needs, now: a missing package is a start-up error."""
-        needed: dict[str, tuple[str, str, str]] = {}  # key -> (module, class, who needs it)
-        for robot in config.robots:
-            module, cls = POSE_MESSAGES[robot.pose.source]
-            needed[f"{module}.{cls}"] = (module, cls, f"{robot.name}: pose source '{robot.pose.source}'")
-            for sensor in robot.sensors:
-                module, cls = SENSOR_TYPES[sensor.type].module, SENSOR_TYPES[sensor.type].cls
-                needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
-        if any(robot.model_source is not None for robot in config.robots):
-            needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
-        for module, cls in (
-            ("geometry_msgs.msg", "Twist"),
-            ("geometry_msgs.msg", "TwistStamped"),
-            ("geometry_msgs.msg", "PoseStamped"),
-            ("sensor_msgs.msg", "Image"),
-            ("sensor_msgs.msg", "CompressedImage"),
-            ("sensor_msgs.msg", "LaserScan"),
-            ("nav_msgs.msg", "OccupancyGrid"),
-        ):
-            needed.setdefault(f"{module}.{cls}", (module, cls, "the relay"))
-        classes: dict[str, Any] = {}
-        problems: list[str] = []
-        for key, (module, cls, who) in needed.items():
-            try:
-                classes[key] = _import(module, cls)
-            except (ImportError, AttributeError):
-                package = module.split(".")[0]
-                hint = ""
-                if package == "tf2_msgs":
-                    hint = (
-                        " (the PyPI ROS wheels do not include it): use pose source odom, amcl_pose or pose "
-                        "in robots.yaml, or source a ROS 2 installation that has tf2_msgs"
-                    )
-                problems.append(f"{who} needs the message package {package}, which is not installed{hint}")
-        if problems:
-            raise BackendUnavailable("; ".join(problems))
-        return classes
 
     def _msg(self, module: str, cls: str) -> Any:
         return self._messages[f"{module}.{cls}"]
@@ -175,7 +154,7 @@ class RosBackend(Backend):
     def _start_node(self) -> None:
         """Worker thread: import ROS, check every message package, create the node and start spinning."""
         self._rclpy = rclpy = load_rclpy()
-        self._messages = self._check_messages(self.config)
+        self._messages = check_messages(self.config)
         context_mod = importlib.import_module("rclpy.context")
         executors = importlib.import_module("rclpy.executors")
         self._context = context_mod.Context()
@@ -218,14 +197,11 @@ class RosBackend(Backend):
                 old_node.destroy_node()
                 if old_context.ok():
                     self._rclpy.shutdown(context=old_context)
-            for camera in self._cameras.values():
-                camera.subscription = None
+            self._cameras.forget_subscriptions()
             self._start_node()
 
         await asyncio.to_thread(rebuild)
-        for (robot, camera), state in self._cameras.items():
-            if state.frames.fps > 0:
-                self._subscribe_camera(robot, camera)
+        self._cameras.resubscribe()
         self.failure = None
         logger.warning("ros backend recovered: node and subscriptions re-created")
 
@@ -326,17 +302,10 @@ class RosBackend(Backend):
                 loop.call_soon_threadsafe(call)
 
     def _deliver(self, event: Event) -> None:
-        """On the loop: goal bookkeeping, then the relay's sink."""
-        if isinstance(event, PoseEvent) and event.robot in self._goals:
-            x, y, yaw = self._goals[event.robot]
-            close = math.hypot(event.x - x, event.y - y) <= GOAL_TOLERANCE
-            heading = quaternion_to_yaw(event.qx, event.qy, event.qz, event.qw)
-            if close and (yaw is None or abs(wrap_angle(heading - yaw)) <= GOAL_YAW_TOLERANCE):
-                del self._goals[event.robot]
-                self.sink(event)
-                self.sink(NavEvent(event.robot, False, (x, y, yaw), "reached", "goal reached"))
-                return
+        """On the loop: the relay's sink, then whether the pose reached the robot's goal."""
         self.sink(event)
+        if isinstance(event, PoseEvent) and (reached := self._goals.pose(event)) is not None:
+            self.sink(reached)
 
     # -- callbacks (executor thread) --------------------------------------------------------------
 
@@ -379,16 +348,6 @@ class RosBackend(Backend):
         except ValueError as exc:
             logger.warning("%s: %s", self.config.ros.map_topic, exc)
 
-    def _frame_encoder(self, robot: str, camera: Camera) -> LatestFrameEncoder[tuple[Any, float]]:
-        def convert(image: tuple[Any, float]) -> FrameEvent:
-            return image_to_frame(robot, camera.name, image[1], image[0], camera.compressed)
-
-        return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, self._pool, self._hop, self.sink)
-
-    def _on_image(self, robot: str, camera: str, message: Any) -> None:
-        """Executor thread: the image with its stamp, to encode if a stream or a snapshot wants it."""
-        self._cameras[(robot, camera)].frames.offer((message, header_stamp(message.header)))
-
     # -- commands (loop thread) -------------------------------------------------------------------
 
     def _robot(self, name: str) -> Robot:
@@ -407,9 +366,8 @@ class RosBackend(Backend):
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)
         self._cmd_pubs[robot].publish(message)
-        if (linear != 0.0 or angular != 0.0) and robot in self._goals:
-            goal = self._goals.pop(robot)
-            self.sink(NavEvent(robot, False, goal, "cancelled", "teleoperation took over"))
+        if (linear != 0.0 or angular != 0.0) and (ended := self._goals.ended(robot, "teleoperation took over")):
+            self.sink(ended)
 
     async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
         spec = self._robot(robot)
@@ -423,51 +381,32 @@ class RosBackend(Backend):
         message.pose.orientation.x, message.pose.orientation.y = qx, qy
         message.pose.orientation.z, message.pose.orientation.w = qz, qw
         self._goal_pubs[robot].publish(message)
-        self._goals[robot] = (x, y, yaw)
-        self.sink(NavEvent(robot, True, (x, y, yaw), "started"))
+        self.sink(self._goals.started(robot, (x, y, yaw)))
 
     async def cancel(self, robot: str) -> None:
         # Publishing a zero Twist stops a base; with no action client the Nav2 goal itself is not
         # cancelled (documented in README), but the relay stops reporting it.
         await self.send_velocity(robot, 0.0, 0.0)
-        goal = self._goals.pop(robot, None)
-        if goal is not None:
-            self.sink(NavEvent(robot, False, goal, "cancelled", "cancelled"))
+        if (ended := self._goals.ended(robot, "cancelled")) is not None:
+            self.sink(ended)
 
     def map_grid(self) -> OccupancyGrid | None:
         return None  # the live /map reaches the relay as a MapEvent
 
-    # -- cameras ----------------------------------------------------------------------------------
+    # -- cameras (relay.backends.ros_cameras) -----------------------------------------------------
 
-    def _subscribe_camera(self, robot: str, camera: str) -> None:
-        state = self._cameras[(robot, camera)]
-        if state.subscription is not None or self._node is None:
-            return
-        spec = state.spec
-        cls = self._msg("sensor_msgs.msg", "CompressedImage" if spec.compressed else "Image")
-        state.subscription = self._node.create_subscription(
-            cls, spec.topic, lambda m, r=robot, c=camera: self._on_image(r, c, m), self._qos("images")
-        )
+    def _subscribe_image(self, camera: Camera, callback: Callable[[Any], None]) -> Any:
+        if self._node is None:
+            return None
+        cls = self._msg("sensor_msgs.msg", "CompressedImage" if camera.compressed else "Image")
+        return self._node.create_subscription(cls, camera.topic, callback, self._qos("images"))
 
-    def _unsubscribe_camera(self, robot: str, camera: str) -> None:
-        state = self._cameras[(robot, camera)]
-        idle = state.frames.fps <= 0 and not state.frames.waiting
-        if state.subscription is not None and idle and self._node is not None:
-            self._node.destroy_subscription(state.subscription)
-            state.subscription = None
+    def _destroy(self, subscription: Any) -> None:
+        if self._node is not None:
+            self._node.destroy_subscription(subscription)
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
-        self._cameras[(robot, camera)].frames.fps = fps
-        if fps > 0:
-            self._subscribe_camera(robot, camera)
-        else:
-            self._unsubscribe_camera(robot, camera)
+        self._cameras.set_stream(robot, camera, fps)
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
-        frames = self._cameras[(robot, camera)].frames
-        try:
-            return await frames.snapshot(
-                SNAPSHOT_TIMEOUT, max_age=SNAPSHOT_MAX_AGE, on_wait=lambda: self._subscribe_camera(robot, camera)
-            )
-        finally:
-            self._unsubscribe_camera(robot, camera)
+        return await self._cameras.snapshot(robot, camera)

@@ -1,0 +1,112 @@
+"""The live graph's cameras (``ros`` backend): subscribed only while a client streams one or waits for a snapshot.
+
+An image topic costs DDS bandwidth and a JPEG encode per frame, so a camera nobody watches is not subscribed.
+Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the executor thread;
+the encoded frames reach the loop through the backend's thread crossing. rclpy is not imported here: the
+backend passes in how to subscribe.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from concurrent.futures import Executor
+from dataclasses import dataclass
+from typing import Any
+
+from ..config import Camera, FleetConfig
+from ..events import FrameEvent
+from ..frame_encoder import LatestFrameEncoder
+from ..rosmsg import header_stamp, image_to_frame
+
+#: A snapshot may be answered with the last frame when it is younger than this (seconds).
+SNAPSHOT_MAX_AGE = 1.0
+#: How long a snapshot waits for the next frame (the on-demand subscription must first be discovered).
+SNAPSHOT_TIMEOUT = 5.0
+
+#: ``subscribe(camera, callback)`` returns a subscription handle (None when there is no node);
+#: ``unsubscribe(handle)`` destroys it.
+Subscribe = Callable[[Camera, Callable[[Any], None]], Any]
+Unsubscribe = Callable[[Any], None]
+
+
+@dataclass
+class _Camera:
+    spec: Camera
+    frames: LatestFrameEncoder[tuple[Any, float]]
+    subscription: Any = None
+
+
+class RosCameras:
+    def __init__(
+        self,
+        config: FleetConfig,
+        pool: Executor,
+        hop: Callable[[Callable[[], None]], object],
+        deliver: Callable[[FrameEvent], None],
+        subscribe: Subscribe,
+        unsubscribe: Unsubscribe,
+    ) -> None:
+        self._subscribe, self._unsubscribe = subscribe, unsubscribe
+        self._cameras = {
+            (robot.name, camera.name): _Camera(camera, _encoder(robot.name, camera, pool, hop, deliver))
+            for robot in config.robots
+            for camera in robot.cameras
+        }
+
+    def set_stream(self, robot: str, camera: str, fps: float) -> None:
+        self._cameras[(robot, camera)].frames.fps = fps
+        if fps > 0:
+            self._start(robot, camera)
+        else:
+            self._stop_if_idle(robot, camera)
+
+    async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
+        frames = self._cameras[(robot, camera)].frames
+        try:
+            # The subscription is made once the snapshot waits, so that no image arriving first is dropped.
+            return await frames.snapshot(
+                SNAPSHOT_TIMEOUT, max_age=SNAPSHOT_MAX_AGE, on_wait=lambda: self._start(robot, camera)
+            )
+        finally:
+            self._stop_if_idle(robot, camera)
+
+    def forget_subscriptions(self) -> None:
+        """The node they belonged to is gone (the backend is rebuilding it)."""
+        for state in self._cameras.values():
+            state.subscription = None
+
+    def resubscribe(self) -> None:
+        """After a rebuilt node: the cameras that clients stream are subscribed again."""
+        for (robot, camera), state in self._cameras.items():
+            if state.frames.fps > 0:
+                self._start(robot, camera)
+
+    def _start(self, robot: str, camera: str) -> None:
+        state = self._cameras[(robot, camera)]
+        if state.subscription is None:
+            # Executor thread: the image with its stamp, encoded only if a stream or a snapshot wants it.
+            frames = state.frames
+
+            def on_image(message: Any) -> None:
+                frames.offer((message, header_stamp(message.header)))
+
+            state.subscription = self._subscribe(state.spec, on_image)
+
+    def _stop_if_idle(self, robot: str, camera: str) -> None:
+        state = self._cameras[(robot, camera)]
+        if state.subscription is not None and state.frames.fps <= 0 and not state.frames.waiting:
+            self._unsubscribe(state.subscription)
+            state.subscription = None
+
+
+def _encoder(
+    robot: str,
+    camera: Camera,
+    pool: Executor,
+    hop: Callable[[Callable[[], None]], object],
+    deliver: Callable[[FrameEvent], None],
+) -> LatestFrameEncoder[tuple[Any, float]]:
+    def convert(image: tuple[Any, float]) -> FrameEvent:
+        return image_to_frame(robot, camera.name, image[1], image[0], camera.compressed)
+
+    return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, pool, hop, deliver)
