@@ -140,6 +140,10 @@ class CommandHandler:
 
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
         self.control.require_operator(client, "estop", command.id)
+        if command.action == "reset":
+            self.control.reset_estop(command.robot, client.client_id, now)
+            self.outbox.ack(client, command.id)
+            return
         failed = await self.control.estop(command.robot, client.client_id, now)
         if failed:
             # The robots that could be reached are stopped; the operator must learn at once which were not.
@@ -153,7 +157,8 @@ class CommandHandler:
 
     async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
         robot = self.robots[command.robot]
-        self.control.require_commandable(client, robot.name, robot_identifier(robot.name, "cmd_vel"), command.id, now)
+        identifier = robot_identifier(robot.name, "cmd_vel")
+        self.control.require_commandable(client, robot.name, identifier, command.id, now, moves=True)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
         previous = self.control.deadman.feed(robot.name, client.client_id, now)
         if previous is not None:
@@ -169,9 +174,8 @@ class CommandHandler:
             self.outbox.ack(client, command.id)
 
     async def _goal(self, client: Client, command: GoalPose, now: float) -> None:
-        self.control.require_commandable(
-            client, command.robot, robot_identifier(command.robot, "goal_pose"), command.id, now
-        )
+        identifier = robot_identifier(command.robot, "goal_pose")
+        self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
         check_goal(command.robot, command.x, command.y, self.map_grid())
         if self.control.deadman.controller(command.robot) is not None:
             self.control.deadman.release_robot(command.robot)

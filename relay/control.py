@@ -2,7 +2,8 @@
 
 ``Control`` owns the lease table and the deadman and carries out their decisions on the backend: a robot is
 stopped when its operator falls silent or disconnects, before a lease changes hands, and on an emergency stop.
-Commands that move a robot ask :meth:`Control.require_commandable` first.
+Commands that move a robot ask :meth:`Control.require_commandable` first. An emergency stop latches: the
+robots it stopped refuse every motion command (``estopped``) until an operator resets it.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ class Control:
         self.outbox = outbox
         self.deadman = Deadman(deadman_timeout)
         self.leases = LeaseTable(lease_timeout)
+        #: Robots whose emergency stop is latched, and who latched it.
+        self.latched: dict[str, str | None] = {}
 
     # -- permissions ------------------------------------------------------------------------------
 
@@ -50,13 +53,29 @@ class Control:
             raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
 
     def require_commandable(
-        self, client: Client, robot: str, identifier: str, request_id: RequestId | None, now: float
+        self,
+        client: Client,
+        robot: str,
+        identifier: str,
+        request_id: RequestId | None,
+        now: float,
+        *,
+        moves: bool = False,
     ) -> None:
-        """Operator role, a robot that is not a recording, and the robot's lease (taken when free)."""
+        """Operator role, a robot that is not a recording, no latched estop when the command ``moves`` the robot,
+        and the robot's lease (taken when free)."""
         self.require_operator(client, identifier, request_id)
         refusal = self.backend.command_refusal(robot)
         if refusal is not None:
             raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)
+        if moves and robot in self.latched:
+            by = self.latched[robot]
+            raise CommandRejected(
+                ErrorCode.ESTOPPED,
+                f"{identifier}: {robot} is emergency-stopped{f' by {by}' if by else ''}; "
+                "an operator must reset it first (estop with action: reset)",
+                request_id,
+            )
         allowed, before = self.leases.use(robot, client.client_id, now)
         if not allowed:
             raise CommandRejected(
@@ -93,6 +112,9 @@ class Control:
         """
         robots = [robot] if robot is not None else list(self.robots)
         for name in robots:
+            # Latched first: a command handled while the stops are under way is already refused.
+            self.latched[name] = by
+            self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)
         results = await asyncio.gather(*(self.backend.stop_robot(name) for name in robots), return_exceptions=True)
@@ -105,6 +127,18 @@ class Control:
         for name in robots:
             self.outbox.status(name, now)
         return failed
+
+    def reset_estop(self, robot: str | None, by: str | None, now: float) -> list[str]:
+        """Lift the latch of ``robot`` (or of every robot); they stay stopped until commanded. Returns them."""
+        released = [robot] if robot is not None else list(self.latched)
+        for name in released:
+            self.latched.pop(name, None)
+            self.fleet.set_estopped(name, False)
+        logger.warning("emergency stop of %s reset by %s", ", ".join(released) or "no robot", by)
+        self.outbox.estop(released, by, latched=False)
+        for name in released:
+            self.outbox.status(name, now)
+        return released
 
     async def stop_all(self, reason: str) -> None:
         """Stop every robot (shutdown); a failure is logged and does not keep the others from stopping."""

@@ -32,6 +32,7 @@ class _RobotRecord:
     goal: GoalDescription | None = None
     teleop: bool = False
     controller: str | None = None
+    estopped: bool = False
 
 
 class FleetState:
@@ -90,6 +91,10 @@ class FleetState:
             record.navigating = False
             record.goal = None
 
+    def set_estopped(self, robot: str, latched: bool) -> None:
+        """Whether the robot's emergency stop is latched, reported as the status' ``estopped``."""
+        self._robots[robot].estopped = latched
+
     def set_controller(self, robot: str, controller: str | None) -> None:
         """The lease holder, reported as the status' ``controller``."""
         self._robots[robot].controller = controller
@@ -113,6 +118,7 @@ class FleetState:
             mode=mode,
             goal=record.goal,
             controller=record.controller,
+            estopped=record.estopped,
         )
 
     def snapshot(self, now: float) -> dict[str, RobotState]:

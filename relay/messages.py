@@ -102,6 +102,7 @@ class StatusMessage(TypedDict):
     mode: Mode
     goal: GoalDescription | None
     controller: str | None
+    estopped: bool
 
 
 class ScanMessage(TypedDict):
@@ -184,6 +185,7 @@ class EstopMessage(TypedDict):
     identifier: Literal["estop"]
     robots: list[str]
     by: str | None
+    latched: bool
 
 
 class HelloMessage(TypedDict):
@@ -289,7 +291,9 @@ def status_message(
     mode: Mode,
     goal: GoalDescription | None,
     controller: str | None,
+    estopped: bool = False,
 ) -> StatusMessage:
+    """``estopped``: the robot's emergency stop is latched; motion commands are refused until it is reset."""
     return {
         "identifier": robot_identifier(robot, "status"),
         "online": online,
@@ -297,6 +301,7 @@ def status_message(
         "mode": mode,
         "goal": goal,
         "controller": controller,
+        "estopped": estopped,
     }
 
 
@@ -366,9 +371,9 @@ def lease_message(robot: str, *, holder: str | None, previous: str | None, reaso
     return {"identifier": robot_identifier(robot, "lease"), "holder": holder, "previous": previous, "reason": reason}
 
 
-def estop_message(robots: list[str], client_id: str | None) -> EstopMessage:
-    """Broadcast to every client when an emergency stop was carried out."""
-    return {"identifier": "estop", "robots": robots, "by": client_id}
+def estop_message(robots: list[str], client_id: str | None, *, latched: bool = True) -> EstopMessage:
+    """Broadcast to every client when an emergency stop was carried out (``latched``) or reset (not)."""
+    return {"identifier": "estop", "robots": robots, "by": client_id, "latched": latched}
 
 
 # --------------------------------------------------------------------------------------------------

@@ -50,8 +50,8 @@ class Outbox:
         # Priority: the operator who lost a robot must learn it before anything else they have queued.
         self.hub.broadcast_priority(encode(lease_message(robot, holder=holder, previous=previous, reason=reason)))
 
-    def estop(self, robots: list[str], by: str | None) -> None:
-        self.hub.broadcast_priority(encode(estop_message(robots, by)))
+    def estop(self, robots: list[str], by: str | None, *, latched: bool = True) -> None:
+        self.hub.broadcast_priority(encode(estop_message(robots, by, latched=latched)))
 
     def backend(self, name: str, failure: str | None) -> None:
         self.hub.broadcast_priority(encode(backend_message(name, failure)))

@@ -56,6 +56,7 @@ class ErrorCode:
     RECORDING: Final = "recording"  # the robot is a recording (bag backend): it cannot be commanded
     LEASED: Final = "leased"  # another operator controls the robot
     RATE_LIMITED: Final = "rate_limited"  # the client sends faster than the relay accepts
+    ESTOPPED: Final = "estopped"  # the robot's emergency stop is latched: reset it before moving it
 
     ALL: Final = (
         BAD_REQUEST,
@@ -71,6 +72,7 @@ class ErrorCode:
         RECORDING,
         LEASED,
         RATE_LIMITED,
+        ESTOPPED,
     )
 
 
@@ -179,8 +181,11 @@ class Stream:
 
 @dataclass(frozen=True, slots=True)
 class EStop:
+    """Stop (and latch) every robot or one; ``reset`` lifts the latch (the robots stay stopped)."""
+
     id: RequestId
     robot: str | None
+    action: Literal["stop", "reset"] = "stop"
 
 
 @dataclass(frozen=True, slots=True)
@@ -257,6 +262,7 @@ class EstopCommand(TypedDict):
     identifier: Literal["estop"]
     id: RequestId
     robot: NotRequired[str]
+    action: NotRequired[Literal["stop", "reset"]]
 
 
 class PingCommand(TypedDict):
@@ -463,7 +469,12 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         robot = _string(obj, "robot", identifier, required=False)
         if robot is not None and robot not in robots:
             raise ProtocolError(ErrorCode.UNKNOWN_ROBOT, f"estop: unknown robot {robot!r}", rid)
-        return EStop(id=rid, robot=robot)
+        action = obj.get("action", "stop")
+        if action not in ("stop", "reset"):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST, f"estop: field 'action' must be 'stop' or 'reset', got {_show(action)}", rid
+            )
+        return EStop(id=rid, robot=robot, action=action)
 
     if identifier in ("playback/pause", "playback/resume", "playback/seek", "playback/rate"):
         rid = _request_id(obj, required=True)

@@ -302,7 +302,8 @@ async def test_estop_reaches_every_robot_it_can_and_names_the_one_it_could_not(s
     assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.0, 0.0)
     assert station.backend.moves("robot3")[-1] == ("velocity", "robot3", 0.0, 0.0)
     # Every client learns which robots were stopped, ahead of their state lanes.
-    assert other.of("estop") == [{"identifier": "estop", "robots": ["robot1", "robot3"], "by": operator.client_id}]
+    stopped = {"identifier": "estop", "robots": ["robot1", "robot3"], "by": operator.client_id, "latched": True}
+    assert other.of("estop") == [stopped]
     assert station.relay.fleet.status("robot1", station.clock.now)["mode"] == "idle"
 
     await station.send(operator, {"identifier": "ping", "t": 1.5})
@@ -316,6 +317,50 @@ async def test_estop_of_one_robot_acks_and_leaves_the_others_alone(station: Stat
     assert seen.replies("e") == [{"identifier": "ack", "id": "e"}]
     assert seen.of("estop")[-1]["robots"] == ["robot1"]
     assert station.backend.moves("robot2") == [("goal", "robot2", 9.0, 6.0, None)]
+
+
+async def test_estop_latches_until_an_operator_resets_it(station: Station) -> None:
+    holder, seen = station.connect()
+    other, other_seen = station.connect()
+    viewer, viewer_seen = station.connect("viewer")
+    await station.send(holder, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
+    await station.send(other, {"identifier": "estop", "id": "e"})
+    assert station.backend.moves("robot1")[-1] == ("velocity", "robot1", 0.0, 0.0)
+    before = list(station.backend.calls)
+
+    # The holder's 20 Hz stream goes on: nothing of it reaches the robot, each command is told why.
+    for i in range(5):
+        await station.send(holder, {"identifier": "robot1/cmd_vel", "id": i, "linear": 0.3, "angular": 0.0})
+        (error,) = seen.replies(i)
+        assert error["code"] == "estopped" and other.client_id in error["message"]
+        station.clock.now += 0.05
+    await station.send(holder, {"identifier": "robot2/goal_pose", "id": "g", "x": 9.0, "y": 6.0})
+    assert seen.replies("g")[0]["code"] == "estopped"
+    assert station.backend.calls == before
+    status = seen.of("robot1/status")[-1]
+    assert status["estopped"] is True and status["mode"] == "idle"
+    # A client that connects now sees the latch in hello.
+    _, late = station.connect()
+    await station.settle()
+    assert late.of("hello")[0]["state"]["robot2"]["status"]["estopped"] is True
+
+    # A viewer cannot lift it; an operator can, for one robot or all.
+    await station.send(viewer, {"identifier": "estop", "id": "v", "action": "reset"})
+    assert viewer_seen.replies("v")[0]["code"] == "forbidden"
+    await station.send(holder, {"identifier": "estop", "id": "r1", "robot": "robot1", "action": "reset"})
+    assert other_seen.of("estop")[-1] == {
+        "identifier": "estop",
+        "robots": ["robot1"],
+        "by": holder.client_id,
+        "latched": False,
+    }
+    assert station.backend.calls == before, "a reset moves nothing: the robots stay stopped"
+    await station.send(holder, {"identifier": "robot1/cmd_vel", "id": "go", "linear": 0.3, "angular": 0.0})
+    assert seen.replies("go") == [{"identifier": "ack", "id": "go"}]
+    await station.send(holder, {"identifier": "robot2/cmd_vel", "id": "no", "linear": 0.3, "angular": 0.0})
+    assert seen.replies("no")[0]["code"] == "estopped", "robot2 is still latched"
+    await station.send(holder, {"identifier": "estop", "id": "r", "action": "reset"})
+    assert seen.of("robot2/status")[-1]["estopped"] is False
 
 
 # -- rate limits ----------------------------------------------------------------------------------
@@ -335,10 +380,13 @@ async def test_rate_limit_drops_commands_but_never_an_estop(station: Station) ->
     await station.send(operator, {"identifier": "estop", "id": "e"})
     assert seen.replies("e") == [{"identifier": "ack", "id": "e"}]
 
-    # Time refills the bucket: one second later, `rate` more pass.
+    # Time refills the bucket: one second later, `rate` more pass (the estop latched robot1: another robot).
     station.clock.now += 1.0
-    await station.send(operator, {"identifier": "robot1/cmd_vel", "id": "later", "linear": 0.1, "angular": 0.0})
-    assert seen.replies("later")[0]["identifier"] == "ack"
+    await station.send(operator, {"identifier": "robot2/cmd_vel", "id": "later", "linear": 0.1, "angular": 0.0})
+    assert seen.replies("later")[0]["identifier"] == "error" and seen.replies("later")[0]["code"] == "estopped"
+    await station.send(operator, {"identifier": "estop", "id": "r", "action": "reset"})
+    await station.send(operator, {"identifier": "robot2/cmd_vel", "id": "later2", "linear": 0.1, "angular": 0.0})
+    assert seen.replies("later2")[0]["identifier"] == "ack"
 
 
 # -- replies, snapshots, audit --------------------------------------------------------------------

@@ -79,11 +79,13 @@ def test_status_bytes() -> None:
     )
     assert encode(msg) == (
         b'{"identifier":"robot2/status","online":true,"age":0.012,"mode":"navigating",'
-        b'"goal":{"x":3.0,"y":6.0,"yaw":null},"controller":"c1-abc"}'
+        b'"goal":{"x":3.0,"y":6.0,"yaw":null},"controller":"c1-abc","estopped":false}'
     )
+    latched = status_message("robot2", online=True, age=None, mode="idle", goal=None, controller=None, estopped=True)
+    assert encode(latched).endswith(b'"controller":null,"estopped":true}')
     idle = status_message("robot3", online=False, age=None, mode="idle", goal=None, controller=None)
     assert encode(idle) == (
-        b'{"identifier":"robot3/status","online":false,"age":null,"mode":"idle","goal":null,"controller":null}'
+        b'{"identifier":"robot3/status","online":false,"age":null,"mode":"idle","goal":null,"controller":null,"estopped":false}'
     )
 
 
@@ -96,7 +98,12 @@ def test_ack_error_pong_estop_bytes() -> None:
         b'{"identifier":"error","id":null,"code":"bad_request","message":"x"}'
     )
     assert encode(pong_message(12.5, 1000.0000004)) == b'{"identifier":"pong","t":12.5,"server_time":1000.0}'
-    assert encode(estop_message(["robot1"], "c1")) == b'{"identifier":"estop","robots":["robot1"],"by":"c1"}'
+    assert encode(estop_message(["robot1"], "c1")) == (
+        b'{"identifier":"estop","robots":["robot1"],"by":"c1","latched":true}'
+    )
+    assert encode(estop_message(["robot1", "robot2"], "c2", latched=False)) == (
+        b'{"identifier":"estop","robots":["robot1","robot2"],"by":"c2","latched":false}'
+    )
 
 
 def test_scan_scene_playback_bytes() -> None:
@@ -162,6 +169,7 @@ def test_bad_binary_frames(data: bytes) -> None:
         ('{"identifier":"robot1/stream","id":"s","camera":"front","fps":15}', Stream("robot1", "s", "front", 15.0)),
         ('{"identifier":"estop","id":"e"}', EStop("e", None)),
         ('{"identifier":"estop","id":"e","robot":"robot2"}', EStop("e", "robot2")),
+        ('{"identifier":"estop","id":"e","action":"reset"}', EStop("e", None, "reset")),
         ('{"identifier":"ping","t":123.25}', Ping(123.25)),
         ('{"identifier":"playback/pause","id":"p"}', Playback("p", "pause", None)),
         ('{"identifier":"playback/seek","id":"p","t":12.5}', Playback("p", "seek", 12.5)),
@@ -203,6 +211,7 @@ def test_parse_commands(text: str, expected: object) -> None:
         ('{"identifier": "robot1/snapshot", "id": "a", "camera": 7}', "bad_request", "a", "'camera'"),
         ('{"identifier": "estop", "id": "a", "robot": "robot7"}', "unknown_robot", "a", "robot7"),
         ('{"identifier": "estop"}', "bad_request", None, "'id'"),
+        ('{"identifier": "estop", "id": "r", "action": "release"}', "bad_request", "r", "'stop' or 'reset'"),
         ('{"identifier": "ping"}', "bad_request", None, "'t'"),
         ('{"identifier": "playback/seek", "id": "a", "t": -1}', "bad_request", "a", "between"),
         ('{"identifier": "playback/rate", "id": "a", "rate": 100}', "bad_request", "a", "between"),

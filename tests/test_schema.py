@@ -51,9 +51,10 @@ COMMANDS = typing.get_args(protocol.ClientMessage)
 def test_each_command_typeddict_is_what_the_parser_accepts(cls: type) -> None:
     identifier = _identifier(cls)
     required, optional = _fields(cls)
-    full = {"identifier": identifier, **{k: SAMPLES[k] for k in required + optional}}
+    samples = {**SAMPLES, "action": "reset"} if cls is protocol.EstopCommand else SAMPLES
+    full = {"identifier": identifier, **{k: samples[k] for k in required + optional}}
     protocol.parse_command(protocol_bytes(full), ROBOTS)
-    protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: SAMPLES[k] for k in required}}), ROBOTS)
+    protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: samples[k] for k in required}}), ROBOTS)
     for missing in required:
         frame = {k: v for k, v in full.items() if k != missing}
         with pytest.raises(ProtocolError, match=missing if missing != "id" else "id"):

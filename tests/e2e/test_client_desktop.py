@@ -93,6 +93,18 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     await client.wait("s.menu.tool === 'none'")
     assert (await client.state())["commands"]["zeros"] == zeros
 
+    # E-STOP latches: the panel says so, Teleop is off for the stopped robot, and Reset E-STOP releases it.
+    await page.click('#menu button[data-button="estop"]')
+    await wait_until(lambda: station.status("robot2")["estopped"] is True, 5, "robot2 latched")
+    await client.wait("s.menu.buttons.some((b) => b.id === 'estop:reset' && b.enabled)")
+    await client.wait("s.menu.buttons.find((b) => b.id === 'tool:teleop').enabled === false")
+    await client.drawn(2)
+    await client.shot("03b-estop-latched")
+    await page.click('#menu button[data-button="estop:reset"]')
+    await wait_until(lambda: station.status("robot2")["estopped"] is False, 5, "robot2 released")
+    await client.wait("!s.menu.buttons.some((b) => b.id === 'estop:reset')")
+    await client.wait("s.menu.buttons.find((b) => b.id === 'tool:teleop').enabled === true")
+
     # Frame timing with three robots in the twin, then in Robot POV with a still image and with a live
     # stream: streaming must add little JS per frame (decoding is off the render path, one texture reused).
     free_roam = window_stats(await client.drawn(10), (await client.state())["timing"])

@@ -285,16 +285,17 @@ export class App {
       case 'link':
         this.#onLink();
         break;
-      case 'model': {
-        const entry = this.fleet.robots.get(effect.robot);
-        if (entry) this.fleetView.add(entry.description);
+      case 'model':
+        this.fleetView.rebuildOne(this.fleet, effect.robot);
         break;
-      }
       case 'scan':
         this.robotViews.get(effect.robot)?.setScan(effect.scan);
         break;
       case 'goal_state':
         if (effect.robot === this.menu.selected) this.menu.setGoalActive(effect.active);
+        break;
+      case 'estop_state':
+        this.menu.setLatched(effect.latched);
         break;
       case 'sensor_warning':
         // A strong pulse on the wrist that carries the panel.
@@ -412,6 +413,9 @@ export class App {
         case 'estop':
           this.teleop.stop(performance.now());
           this.sender.estop();
+          break;
+        case 'estop_reset':
+          this.sender.estopReset();
           break;
       }
     }

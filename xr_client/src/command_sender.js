@@ -108,6 +108,11 @@ export class CommandSender {
     return id;
   }
 
+  /** Lift a latched emergency stop (the robots stay stopped until commanded again). @param {string} [robot] */
+  estopReset(robot) {
+    return this.#send(robot ? { identifier: 'estop', robot, action: 'reset' } : { identifier: 'estop', action: 'reset' });
+  }
+
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;

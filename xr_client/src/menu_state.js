@@ -9,7 +9,7 @@
  * - tools `teleop` and `goal` are exclusive; both need a selected robot and an operator connection;
  *   `goal` only in free roam (there is no floor in the POV space);
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
- * - E-STOP is always there;
+ * - E-STOP is always there; while an emergency stop is latched, `Reset E-STOP` sits beside it;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
  *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
  */
@@ -28,6 +28,7 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'stream', robot: string, fps: number}
  *   | {type: 'snapshot', robot: string}
  *   | {type: 'estop'}
+ *   | {type: 'estop_reset'}
  *   | {type: 'select', robot: string | null}
  *   | {type: 'cancel', robot: string}
  *   | {type: 'tool', tool: Tool}} MenuEffect
@@ -54,6 +55,9 @@ export class MenuState {
     this.connected = false;
     /** The selected robot follows a goal (from its status): `Cancel goal` is enabled. */
     this.goalActive = false;
+    /** Robots whose emergency stop is latched (from their statuses): they cannot be driven or sent
+     * anywhere, and `Reset E-STOP` is offered. @type {string[]} */
+    this.latched = [];
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -94,6 +98,19 @@ export class MenuState {
     return this.robots.find((r) => r.name === name) ?? null;
   }
 
+  /** The robots whose emergency stop is latched (their statuses). @param {string[]} robots */
+  setLatched(robots) {
+    if (robots.join() === this.latched.join()) return;
+    this.latched = [...robots];
+    // A tool of a latched robot would only earn refusals: it goes off (the estop already stopped teleop).
+    if (this.selected !== null && this.latched.includes(this.selected)) this.tool = 'none';
+    this.#changed();
+  }
+
+  get estopped() {
+    return this.latched.length > 0;
+  }
+
   /** Whether the selected robot follows a goal now (its status). @param {boolean} active */
   setGoalActive(active) {
     if (active !== this.goalActive) {
@@ -127,8 +144,9 @@ export class MenuState {
   buttons() {
     const selected = this.robot(this.selected);
     const pov = this.mode === 'pov';
-    const command = this.canCommand && selected !== null;
-    const why = !this.operator ? ' (viewer)' : !this.connected ? ' (offline)' : '';
+    const latched = selected !== null && this.latched.includes(selected.name);
+    const command = this.canCommand && selected !== null && !latched;
+    const why = !this.operator ? ' (viewer)' : !this.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '';
     /** @type {MenuButton[]} */
     const list = [
       { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
@@ -158,8 +176,11 @@ export class MenuState {
       { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
       { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
-      { id: 'estop', label: 'E-STOP', group: 'estop', active: false, enabled: this.operator, danger: true },
+      { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
+    if (this.estopped) {
+      list.push({ id: 'estop:reset', label: 'Reset E-STOP', group: 'estop', active: false, enabled: this.operator && this.connected });
+    }
     return list;
   }
 
@@ -186,6 +207,7 @@ export class MenuState {
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...this.#setTool('none'), { type: 'estop' }];
+    else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     this.#changed();
     return effects;
   }

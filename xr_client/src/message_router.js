@@ -22,6 +22,7 @@ import { PoseSmoother } from './pose_smoother.js';
  *   | {type: 'model', robot: string}
  *   | {type: 'scan', robot: string, scan: import('./protocol.js').ScanMessage}
  *   | {type: 'goal_state', robot: string, active: boolean}
+ *   | {type: 'estop_state', latched: string[]}
  *   | {type: 'sensor_warning', robot: string}
  *   | {type: 'offer_takeover', robot: string, text: string}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
@@ -67,7 +68,10 @@ export class MessageRouter {
     } else if (kind === 'status') {
       const status = /** @type {import('./protocol.js').StatusMessage} */ (message);
       this.goals.status(robot, status.goal, now);
-      return [{ type: 'goal_state', robot, active: status.goal !== null && status.goal !== undefined }];
+      return [
+        { type: 'goal_state', robot, active: status.goal !== null && status.goal !== undefined },
+        { type: 'estop_state', latched: this.latched() },
+      ];
     } else if (kind === 'sensor') {
       const reading = /** @type {import('./protocol.js').SensorMessage} */ (message);
       if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
@@ -94,6 +98,8 @@ export class MessageRouter {
         return this.#error(message, now);
       case 'estop': {
         const by = message.by ? ` (by ${message.by === this.fleet.clientId ? 'you' : message.by})` : '';
+        // A relay from before the latch sends no `latched`: its estop was a stop.
+        if (message.latched === false) return [notice(`E-STOP reset: ${message.robots.join(', ')}${by}`, 'info')];
         return [{ type: 'stop_teleop' }, notice(`EMERGENCY STOP: ${message.robots.join(', ')}${by}`, 'error')];
       }
       case 'playback':
@@ -122,7 +128,12 @@ export class MessageRouter {
       if (entry.pose) this.smoother(name).push(entry.pose.x, entry.pose.y, entry.pose.yaw, now);
       if (entry.status) this.goals.status(name, entry.status.goal, now);
     }
-    return [{ type: 'fleet', rebuild }];
+    return [{ type: 'fleet', rebuild }, { type: 'estop_state', latched: this.latched() }];
+  }
+
+  /** The robots whose emergency stop is latched (their status says so until an operator resets it). */
+  latched() {
+    return [...this.fleet.robots.values()].filter((r) => r.status?.estopped === true).map((r) => r.description.name);
   }
 
   /** @param {import('./protocol.js').ErrorMessage} error @param {number} now @returns {RouterEffect[]} */

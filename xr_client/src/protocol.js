@@ -6,13 +6,13 @@ export const PROTOCOL_VERSION = 1;
 export const MAX_TEXT_BYTES = 65536;
 export const MAX_STREAM_FPS = 60.0;
 export const FRAME_PREFIX_BYTES = 4;
-export const ERROR_CODES = Object.freeze({"BAD_REQUEST": "bad_request", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
+export const ERROR_CODES = Object.freeze({"BAD_REQUEST": "bad_request", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "lease", "model"]);
 export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend"]);
 
-/** @typedef {'bad_request' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
+/** @typedef {'bad_request' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
 /** @typedef {'operator' | 'viewer'} Role */
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
@@ -29,7 +29,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{x: number, y: number, yaw: number | null}} GoalDescription */
 /** @typedef {{identifier: string, stamp: number, frame: string, x: number, y: number, z: number, qx: number, qy: number, qz: number, qw: number, yaw: number}} PoseMessage */
 /** @typedef {{identifier: string, name: string, value: number, unit: string, warning: boolean, stamp: number}} SensorMessage */
-/** @typedef {{identifier: string, online: boolean, age: number | null, mode: Mode, goal: GoalDescription | null, controller: string | null}} StatusMessage */
+/** @typedef {{identifier: string, online: boolean, age: number | null, mode: Mode, goal: GoalDescription | null, controller: string | null, estopped: boolean}} StatusMessage */
 /** @typedef {{identifier: string, stamp: number, frame: string, angle_min: number, angle_increment: number, range_max: number, ranges: (number | null)[]}} ScanMessage */
 /** @typedef {{pose: PoseMessage | null, sensors: Object<string, SensorMessage>, status: StatusMessage}} RobotState */
 /** @typedef {{name: string, version: string}} ServerInfo */
@@ -41,7 +41,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'scene', url: string | null, map_to_scene: Transform2D}} SceneMessage */
 /** @typedef {{identifier: 'playback', position: number, duration: number, rate: number, paused: boolean, loop: boolean}} PlaybackMessage */
 /** @typedef {{identifier: string, holder: string | null, previous: string | null, reason: LeaseReason}} LeaseMessage */
-/** @typedef {{identifier: 'estop', robots: string[], by: string | null}} EstopMessage */
+/** @typedef {{identifier: 'estop', robots: string[], by: string | null, latched: boolean}} EstopMessage */
 /** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
 /** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null}} FrameHeader */
 /**
@@ -56,7 +56,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, id: RequestId, camera?: string}} SnapshotCommand */
 /** @typedef {{identifier: string, id: RequestId, camera: string, fps: number}} StreamCommand */
 /** @typedef {{identifier: string, id: RequestId, action?: 'acquire' | 'release', force?: boolean}} LeaseCommand */
-/** @typedef {{identifier: 'estop', id: RequestId, robot?: string}} EstopCommand */
+/** @typedef {{identifier: 'estop', id: RequestId, robot?: string, action?: 'stop' | 'reset'}} EstopCommand */
 /** @typedef {{identifier: 'ping', t: number}} PingCommand */
 /** @typedef {{identifier: 'playback/pause' | 'playback/resume', id: RequestId}} PlaybackCommand */
 /** @typedef {{identifier: 'playback/seek', id: RequestId, t: number}} PlaybackSeekCommand */

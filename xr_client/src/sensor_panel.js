@@ -20,7 +20,7 @@ export function sensorPanel(fleet, selected, history, link, now) {
   return {
     robot: entry?.description.name ?? null,
     colour: entry?.description.colour ?? '#888',
-    status: entry ? `${status?.online === false ? 'offline' : (status?.mode ?? '')}${status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : ''}` : '',
+    status: entry ? `${status?.estopped ? 'E-STOPPED · ' : ''}${status?.online === false ? 'offline' : (status?.mode ?? '')}${status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : ''}` : '',
     link: link.text,
     linkOk: link.ok,
     sensors: (entry?.description.sensors ?? []).map((s) => {

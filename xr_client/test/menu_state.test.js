@@ -87,6 +87,31 @@ test('opening the menu while driving asks for a stop; E-STOP turns teleop off', 
   assert.equal(m.tool, 'none');
 });
 
+test('Reset E-STOP is offered beside E-STOP while a stop is latched, to operators only', () => {
+  const m = menu();
+  m.setConnected(true);
+  assert.equal(button(m, 'estop:reset'), undefined);
+  m.press('robot:robot1');
+  m.press('tool:teleop');
+  m.setLatched(['robot1']);
+  assert.equal(m.tool, 'none', 'the latched robot cannot be driven');
+  assert.equal(button(m, 'tool:teleop')?.enabled, false);
+  assert.equal(button(m, 'tool:teleop')?.label, 'Teleop (E-STOPPED)');
+  m.press('robot:robot2');
+  assert.equal(button(m, 'tool:teleop')?.enabled, true, 'another robot still can');
+  assert.equal(button(m, 'estop')?.active, true);
+  assert.equal(button(m, 'estop:reset')?.enabled, true);
+  assert.deepEqual(m.press('estop:reset'), [{ type: 'estop_reset' }]);
+  const viewer = new MenuState();
+  viewer.setFleet([{ name: 'robot1', hasCamera: true }], false);
+  viewer.setConnected(true);
+  viewer.setLatched(['robot1']);
+  assert.equal(button(viewer, 'estop:reset')?.enabled, false);
+  assert.deepEqual(viewer.press('estop:reset'), []);
+  m.setLatched([]);
+  assert.equal(button(m, 'estop:reset'), undefined);
+});
+
 test('a reconnect keeps the selection, asks for the live stream again, and drops vanished robots', () => {
   const m = menu();
   m.press('robot:robot2');

@@ -28,7 +28,7 @@ function setUp() {
 
 test('hello builds the fleet and asks for robot views once per distinct fleet', () => {
   const { router, fleet } = setUp();
-  assert.deepEqual(router.route(HELLO, 0), [{ type: 'fleet', rebuild: true }]);
+  assert.deepEqual(router.route(HELLO, 0), [{ type: 'fleet', rebuild: true }, { type: 'estop_state', latched: [] }]);
   assert.deepEqual([...fleet.robots.keys()], ['robot1', 'robot2', 'robot3']);
   assert.equal(fleet.clientId, 'c1-abc123');
   const yaw = HELLO.state.robot1.pose.yaw; // a quarter turn, as the relay rounds it
@@ -38,7 +38,7 @@ test('hello builds the fleet and asks for robot views once per distinct fleet', 
   // The pose in hello seeds the smoother, so the robot is drawn where it is at once.
   assert.deepEqual(router.smoothers.get('robot1')?.sample(0), { x: 3, y: 1.5, yaw });
   // A reconnect to the same relay keeps the views (and their loaded models).
-  assert.deepEqual(router.route({ ...HELLO, client_id: 'c2-def456' }, 10), [{ type: 'fleet', rebuild: false }]);
+  assert.deepEqual(router.route({ ...HELLO, client_id: 'c2-def456' }, 10)[0], { type: 'fleet', rebuild: false });
   assert.equal(fleet.clientId, 'c2-def456');
 });
 
@@ -48,8 +48,8 @@ test('poses, statuses and sensors update the models; a warning notifies once', (
   const pose = { identifier: 'robot2/pose', stamp: 2, frame: 'map', x: 9, y: 4, z: 0, qx: 0, qy: 0, qz: 0, qw: 1, yaw: 0 };
   assert.deepEqual(router.route(pose, 100), []);
   assert.deepEqual(fleet.robot('robot2')?.pose, { x: 9, y: 4, yaw: 0, stamp: 2 });
-  const status = { identifier: 'robot2/status', online: true, age: 0.01, mode: /** @type {const} */ ('navigating'), goal: { x: 3, y: 6, yaw: null }, controller: 'c1-abc123' };
-  assert.deepEqual(router.route(status, 100), [{ type: 'goal_state', robot: 'robot2', active: true }]);
+  const status = { identifier: 'robot2/status', online: true, age: 0.01, mode: /** @type {const} */ ('navigating'), goal: { x: 3, y: 6, yaw: null }, controller: 'c1-abc123', estopped: false };
+  assert.deepEqual(router.route(status, 100), [{ type: 'goal_state', robot: 'robot2', active: true }, { type: 'estop_state', latched: [] }]);
   const gas = { identifier: 'robot1/sensor', name: 'gas', value: 512.3, unit: 'ppm', warning: true, stamp: 3 };
   const effects = router.route(gas, 200);
   assert.deepEqual(effects[1], { type: 'sensor_warning', robot: 'robot1' });
@@ -67,6 +67,21 @@ test('an estop stops local teleop and says who pressed it', () => {
     { type: 'stop_teleop' },
     { type: 'notify', text: 'EMERGENCY STOP: robot1, robot3 (by you)', kind: 'error', toast: true },
   ]);
+});
+
+test('a latched estop is shown until an operator resets it; a reset stops nothing locally', () => {
+  const { router, commands, sent } = setUp();
+  router.route(HELLO, 0);
+  const latched = router.route({ identifier: 'estop', robots: ['robot1', 'robot2', 'robot3'], by: 'c9-ffffff', latched: true }, 1);
+  assert.equal(latched[0].type, 'stop_teleop');
+  const status = { identifier: 'robot1/status', online: true, age: 0.01, mode: /** @type {const} */ ('idle'), goal: null, controller: null, estopped: true };
+  assert.deepEqual(router.route(status, 2).at(-1), { type: 'estop_state', latched: ['robot1'] });
+  assert.deepEqual(router.route({ identifier: 'estop', robots: ['robot1'], by: 'c1-abc123', latched: false }, 3), [
+    { type: 'notify', text: 'E-STOP reset: robot1 (by you)', kind: 'info', toast: true },
+  ]);
+  assert.deepEqual(router.route({ ...status, estopped: false }, 4).at(-1), { type: 'estop_state', latched: [] });
+  commands.estopReset();
+  assert.deepEqual(sent.at(-1), { identifier: 'estop', action: 'reset' });
 });
 
 test('losing a robot to another operator stops teleop; an expiry only informs', () => {

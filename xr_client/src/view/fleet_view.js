@@ -24,6 +24,12 @@ export class FleetView {
     for (const entry of fleet.robots.values()) this.add(entry.description);
   }
 
+  /** One robot's model changed (the relay built it from its robot_description). @param {import('../fleet_model.js').FleetModel} fleet @param {string} name */
+  rebuildOne(fleet, name) {
+    const entry = fleet.robots.get(name);
+    if (entry) this.add(entry.description);
+  }
+
   /** A robot's view, (re)built from its description (a new model replaces the old view). @param {import('../protocol.js').RobotDescription} description */
   add(description) {
     this.views.get(description.name)?.dispose();

@@ -86,7 +86,7 @@ export class Overlay {
       this.povPanel.hidden = menu.mode !== 'pov';
     }
     const data = this.host.sensorPanelData(now);
-    const sensorKey = `${data.robot}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
+    const sensorKey = `${data.robot}|${data.status}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
     if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
       this.sensorKey = sensorKey;
       this.lastSensorDraw = now;
