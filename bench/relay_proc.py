@@ -194,7 +194,9 @@ class SyntheticBackend(Backend):
     async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
         return None
 
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
         return None
 
     async def cancel(self, robot: str) -> None:

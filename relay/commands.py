@@ -125,6 +125,7 @@ class CommandHandler:
             self.control.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
             )
+            self.control.supersede(command.robot)
             await self.backend.cancel(command.robot)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Playback):
@@ -181,11 +182,25 @@ class CommandHandler:
             self.control.deadman.release_robot(command.robot)
             self.fleet.set_teleop(command.robot, False)
             await self.backend.send_velocity(command.robot, 0.0, 0.0)
+        generation = self.control.supersede(command.robot)
         try:
-            await self.backend.send_goal(command.robot, command.x, command.y, command.yaw)
+            await self.backend.send_goal(
+                command.robot,
+                command.x,
+                command.y,
+                command.yaw,
+                current=lambda: self.control.generation(command.robot) == generation,
+            )
         except CommandRejected as exc:
             exc.request_id = command.id
             raise
+        if self.control.generation(command.robot) != generation:
+            raise CommandRejected(
+                ErrorCode.SUPERSEDED,
+                f"{identifier}: dropped: an emergency stop, a take-over, a cancel or a newer goal for "
+                f"{command.robot} came while it was being planned",
+                command.id,
+            )
         self.outbox.status(command.robot, now)
         self.outbox.ack(client, command.id)
 

@@ -44,6 +44,17 @@ class Control:
         self.leases = LeaseTable(lease_timeout)
         #: Robots whose emergency stop is latched, and who latched it.
         self.latched: dict[str, str | None] = {}
+        #: Per robot, a number that every stop and every new goal bumps: work that finishes for an older
+        #: number (a goal still being planned when the estop came) is dropped.
+        self._generation: dict[str, int] = {}
+
+    def generation(self, robot: str) -> int:
+        return self._generation.get(robot, 0)
+
+    def supersede(self, robot: str) -> int:
+        """Whatever the robot was asked to do before is void; returns the new generation."""
+        self._generation[robot] = self.generation(robot) + 1
+        return self._generation[robot]
 
     # -- permissions ------------------------------------------------------------------------------
 
@@ -100,6 +111,7 @@ class Control:
     async def halt(self, robot: str, reason: str) -> None:
         """Zero velocity and no goal: before a lease changes hands."""
         logger.info("stopping %s: %s", robot, reason)
+        self.supersede(robot)
         self.deadman.release_robot(robot)
         self.fleet.set_teleop(robot, False)
         await self.backend.stop_robot(robot)
@@ -114,6 +126,7 @@ class Control:
         for name in robots:
             # Latched first: a command handled while the stops are under way is already refused.
             self.latched[name] = by
+            self.supersede(name)
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)

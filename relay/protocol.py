@@ -57,6 +57,7 @@ class ErrorCode:
     LEASED: Final = "leased"  # another operator controls the robot
     RATE_LIMITED: Final = "rate_limited"  # the client sends faster than the relay accepts
     ESTOPPED: Final = "estopped"  # the robot's emergency stop is latched: reset it before moving it
+    SUPERSEDED: Final = "superseded"  # an estop, take-over, cancel or newer goal overtook this command
 
     ALL: Final = (
         BAD_REQUEST,
@@ -73,6 +74,7 @@ class ErrorCode:
         LEASED,
         RATE_LIMITED,
         ESTOPPED,
+        SUPERSEDED,
     )
 
 

@@ -34,9 +34,9 @@ class CommandSpy:
         for name in ("send_velocity", "send_goal", "cancel"):
             original = getattr(backend, name)
 
-            async def spy(*args: Any, _name: str = name, _original: Any = original) -> None:
+            async def spy(*args: Any, _name: str = name, _original: Any = original, **kwargs: Any) -> None:
                 self.calls.append((time.monotonic(), _name, args))
-                await _original(*args)
+                await _original(*args, **kwargs)
 
             setattr(backend, name, spy)
 

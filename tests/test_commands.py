@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -37,6 +38,8 @@ class FakeBackend(Backend):
         self.calls: list[Call] = []
         self.broken: set[str] = set()
         self.frame: FrameEvent | None = None
+        #: When set, goals are "planned" until the test sets it (a slow A* in a worker, as the sim does).
+        self.planning: asyncio.Event | None = None
 
     async def start(self) -> None:
         self.calls.append(("start",))
@@ -47,8 +50,13 @@ class FakeBackend(Backend):
     async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
         self.calls.append(("velocity", robot, linear, angular))
 
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
-        self.calls.append(("goal", robot, x, y, yaw))
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
+        if self.planning is not None:
+            await self.planning.wait()
+        if current():  # what the sim does: a superseded plan is never followed
+            self.calls.append(("goal", robot, x, y, yaw))
 
     async def cancel(self, robot: str) -> None:
         self.calls.append(("cancel", robot))
@@ -361,6 +369,38 @@ async def test_estop_latches_until_an_operator_resets_it(station: Station) -> No
     assert seen.replies("no")[0]["code"] == "estopped", "robot2 is still latched"
     await station.send(holder, {"identifier": "estop", "id": "r", "action": "reset"})
     assert seen.of("robot2/status")[-1]["estopped"] is False
+
+
+@pytest.mark.parametrize("overtaker", ["estop", "take_over", "cancel", "newer_goal"])
+async def test_a_goal_still_being_planned_is_dropped_when_something_overtakes_it(
+    station: Station, overtaker: str
+) -> None:
+    holder, seen = station.connect()
+    other, _ = station.connect()
+    station.backend.planning = asyncio.Event()
+    goal = {"identifier": "robot1/goal_pose", "id": "old", "x": 3.0, "y": 6.0}
+    planning = asyncio.ensure_future(station.relay.handle_text(holder, orjson.dumps(goal)))
+    await station.settle()
+    assert not planning.done(), "the goal is being planned"
+    newer = asyncio.ensure_future(asyncio.sleep(0))
+    if overtaker == "estop":
+        await station.send(other, {"identifier": "estop", "id": "e", "robot": "robot1"})
+    elif overtaker == "take_over":
+        await station.send(other, {"identifier": "robot1/lease", "id": "t", "force": True})
+    elif overtaker == "cancel":
+        await station.send(holder, {"identifier": "robot1/cancel", "id": "c"})
+    else:
+        newer = asyncio.ensure_future(station.relay.handle_text(holder, orjson.dumps({**goal, "id": "new", "x": 9.0})))
+        await station.settle()
+    station.backend.planning.set()
+    await asyncio.gather(planning, newer)
+    await station.settle()
+    (reply,) = seen.replies("old")
+    assert reply["identifier"] == "error" and reply["code"] == "superseded"
+    assert ("goal", "robot1", 3.0, 6.0, None) not in station.backend.calls, "the robot never follows the old plan"
+    if overtaker == "newer_goal":
+        assert seen.replies("new") == [{"identifier": "ack", "id": "new"}]
+        assert station.backend.moves("robot1")[-1] == ("goal", "robot1", 9.0, 6.0, None)
 
 
 # -- rate limits ----------------------------------------------------------------------------------

@@ -397,3 +397,12 @@ async def test_goal_is_abandoned_when_its_operator_disconnects(relay_server: Run
     status = observer.latest["robot3/status"]
     assert status["goal"] is None and status["controller"] is None
     await observer.close()
+
+
+async def test_the_sim_never_follows_a_plan_superseded_while_planning(relay_server: RunningRelay) -> None:
+    sim: Any = relay_server.relay.backend
+    await sim.send_goal("robot1", 3.0, 6.0, None, current=lambda: False)
+    assert sim.world.robots["robot1"].follower is None, "an estop came while planning: no plan is followed"
+    await sim.send_goal("robot1", 3.0, 6.0, None)
+    assert sim.world.robots["robot1"].follower is not None
+    await sim.cancel("robot1")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import abc
+from collections.abc import Callable
 from typing import ClassVar
 
 from ..config import FleetConfig
@@ -38,7 +39,12 @@ class Backend(abc.ABC):
     async def send_velocity(self, robot: str, linear: float, angular: float) -> None: ...
 
     @abc.abstractmethod
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None: ...
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
+        """Navigate to the goal. ``current()`` turns False when the goal was superseded while the backend was
+        still working on it (an estop, a take-over, a cancel or a newer goal came meanwhile): a backend that
+        plans before it moves checks it before the robot follows anything."""
 
     @abc.abstractmethod
     async def cancel(self, robot: str) -> None:

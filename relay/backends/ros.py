@@ -369,7 +369,9 @@ class RosBackend(Backend):
         if (linear != 0.0 or angular != 0.0) and (ended := self._goals.ended(robot, "teleoperation took over")):
             self.sink(ended)
 
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
         spec = self._robot(robot)
         message = self._msg("geometry_msgs.msg", "PoseStamped")()
         message.header.stamp = self._node.get_clock().now().to_msg()

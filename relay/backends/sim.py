@@ -15,6 +15,7 @@ import asyncio
 import contextlib
 import logging
 import time
+from collections.abc import Callable
 
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
@@ -92,13 +93,16 @@ class SimBackend(Backend):
     async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
         self.world.set_velocity(robot, linear, angular)
 
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
         try:
             # A* takes milliseconds to tens of them: keep it off the event loop.
             path = await asyncio.to_thread(self.world.plan, robot, x, y)
         except NoPathError as exc:
             raise CommandRejected(ErrorCode.NO_PATH, f"{robot}/goal_pose: {exc}") from None
-        self.world.follow(robot, path, yaw)
+        if current():  # an estop or a take-over while planning: the robot must not follow the old plan
+            self.world.follow(robot, path, yaw)
 
     async def cancel(self, robot: str) -> None:
         self.world.cancel(robot)

@@ -6,7 +6,7 @@ import asyncio
 import concurrent.futures
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from ...config import FleetConfig
 from ...errors import BackendUnavailable, CommandRejected
@@ -185,7 +185,9 @@ class BagBackend(Backend):
     async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
         """Nothing to drive: only stop paths (deadman, estop, shutdown) get here, and a recording is stopped."""
 
-    async def send_goal(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+    async def send_goal(
+        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
+    ) -> None:
         """Never reached for goals (command_refusal refuses them all); a no-op."""
 
     async def cancel(self, robot: str) -> None:
