@@ -31,6 +31,10 @@ class Client:
     address: str | None = None
     #: Commands that outlive their frame (snapshots), cancelled when the client goes.
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
+    #: Rate-limited frames are audited once per period (relay.commands): until when the next is not, and how
+    #: many were dropped unrecorded since.
+    audit_quiet_until: float = -float("inf")
+    unaudited_drops: int = 0
 
     def spawn(self, coro: Awaitable[None]) -> None:
         """Run ``coro`` beside the client's later frames, and cancel it if the client disconnects first."""

@@ -37,8 +37,10 @@ from .protocol import (
     Lease,
     Ping,
     Playback,
+    RequestId,
     Snapshot,
     Stream,
+    command_identifier,
     parse_command,
     robot_identifier,
 )
@@ -46,6 +48,9 @@ from .safety import check_goal, clamp_velocity
 from .streams import CameraStreams
 
 logger = logging.getLogger(__name__)
+
+#: A client over its rate gets an audit record of that at most this often (s); the rest are counted in it.
+RATE_LIMIT_AUDIT_PERIOD = 1.0
 
 
 @dataclass
@@ -70,19 +75,18 @@ class CommandHandler:
         try:
             command = parse_command(data, self.robots)
         except ProtocolError as exc:
+            # A frame that cannot be parsed spends the rate like any other: a flood of them must not fill the
+            # audit log (the attack that rotated it away in seconds) nor the relay's time.
+            if not client.allowance.take(now):
+                self._rate_limited(client, exc.request_id, exc.identifier, None, now)
+                return
             self.outbox.error(client, exc.request_id, exc.code, exc.message)
             self.audit.frame(client, exc.identifier, exc.request_id, None, exc)
             return
         request_id = getattr(command, "id", None)
         if not isinstance(command, EStop) and not client.allowance.take(now):
             # Dropped before it can reach a robot; an estop is never held back.
-            error = ProtocolError(
-                ErrorCode.RATE_LIMITED,
-                f"more than {client.allowance.rate:g} messages a second; this one was dropped",
-                request_id,
-            )
-            self.outbox.error(client, request_id, error.code, error.message)
-            self.audit.command(client, command, error)
+            self._rate_limited(client, request_id, command_identifier(command), command, now)
             return
         if isinstance(command, Snapshot):
             # Rendering or waiting for the next camera frame takes a while: do not hold up this
@@ -97,6 +101,28 @@ class CommandHandler:
             self.audit.command(client, command, exc)
             return
         self.audit.command(client, command, None)
+
+    def _rate_limited(
+        self, client: Client, request_id: RequestId | None, identifier: str | None, command: Command | None, now: float
+    ) -> None:
+        """Refuse a frame over the client's rate. The audit log records at most one such refusal per client and
+        second, saying how many it did not record since, so that a flood cannot rotate the real records away."""
+        error = ProtocolError(
+            ErrorCode.RATE_LIMITED,
+            f"more than {client.allowance.rate:g} messages a second; this one was dropped",
+            request_id,
+        )
+        self.outbox.error(client, request_id, error.code, error.message)
+        if now < client.audit_quiet_until:
+            client.unaudited_drops += 1
+            return
+        if client.unaudited_drops:
+            error.message += f" ({client.unaudited_drops} more dropped and not recorded since the last record)"
+        client.audit_quiet_until, client.unaudited_drops = now + RATE_LIMIT_AUDIT_PERIOD, 0
+        if command is not None:
+            self.audit.command(client, command, error)
+        else:
+            self.audit.frame(client, identifier, request_id, None, error)
 
     async def _run_apart(self, client: Client, command: Snapshot, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""

@@ -499,7 +499,8 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
     if robot not in robots:
         raise ProtocolError(
             ErrorCode.UNKNOWN_ROBOT,
-            f"{identifier}: unknown robot {robot!r}; the fleet is " + ", ".join(sorted(robots)),
+            # Both are the client's own text: shown clipped, so an error (and its audit record) stays short.
+            f"{_show(identifier)}: unknown robot {_show(robot)}; the fleet is " + ", ".join(sorted(robots)),
         )
 
     if kind == "cmd_vel":

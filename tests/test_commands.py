@@ -429,6 +429,36 @@ async def test_rate_limit_drops_commands_but_never_an_estop(station: Station) ->
     assert seen.replies("later2")[0]["identifier"] == "ack"
 
 
+async def test_a_flood_of_bad_frames_is_rate_limited_and_cannot_wipe_the_audit_log(
+    station: Station, tmp_path: Path
+) -> None:
+    attacker, seen = station.connect("viewer")
+    operator, _ = station.connect()
+    long_name = "r" * 1000
+    for i in range(300):
+        frame = b"{not json" if i % 2 else orjson.dumps({"identifier": f"{long_name}/cancel", "id": i})
+        await station.relay.handle_text(attacker, frame)
+        station.clock.now += 0.001  # 300 frames in 0.3 s
+    await station.settle()
+    records = audit_records(tmp_path)
+    rate = station.relay.options.max_message_rate
+    # The burst the bucket allows, what it earns back in 0.3 s, and one record of the drops: not 300 lines.
+    assert len(records) <= 2 * rate + 0.3 * rate + 1, len(records)
+    assert sum(r["code"] == "rate_limited" for r in records) == 1, "one record for every drop of the second"
+    assert max(len(json.dumps(r)) for r in records) < 600, "no record echoes the 1000-character name"
+    assert all(len(m.get("message") or "") < 300 for m in seen.texts if m["identifier"] == "error")
+    # The operator's own commands are recorded as ever; a second later the attacker's next drop is recorded
+    # with the count of those that were not.
+    await station.send(operator, {"identifier": "robot1/cancel", "id": "mine"})
+    station.clock.now += 1.0
+    for _ in range(int(2 * rate)):  # more than the bucket earned back in that second
+        await station.relay.handle_text(attacker, b"{not json")
+    records = audit_records(tmp_path)
+    assert ("robot1/cancel", "mine", "accepted") in [(r["identifier"], r["id"], r["outcome"]) for r in records]
+    summary = [r for r in records if r["code"] == "rate_limited"][-1]
+    assert "not recorded" in summary["message"]
+
+
 # -- replies, snapshots, audit --------------------------------------------------------------------
 
 
