@@ -12,6 +12,9 @@ A record (docs/security.md lists the fields):
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
 ``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told).
+The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
+``outcome`` ``started``): it tells at once whether the log can be written. While it cannot, ``failure`` says why and
+the relay refuses to move robots (``audit_unavailable``).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import orjson
 
-from .errors import ProtocolError
+from .errors import AuditLogUnavailable, ProtocolError
 from .protocol import Command, Ping, RequestId, command_identifier
 
 if TYPE_CHECKING:
@@ -39,9 +42,16 @@ class AuditLog:
         self.path = Path(path)
         self.max_bytes = max_bytes
         self.backups = backups
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fd = self._open()
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fd = self._open()
+        except OSError as exc:
+            raise AuditLogUnavailable(
+                f"--audit-log {self.path}: cannot open it for appending: {exc.strerror or exc}"
+            ) from None
         self.records = 0
+        #: Why the last record could not be written (None: it was). The relay then refuses motion commands.
+        self.failure: str | None = None
 
     def _open(self) -> int:
         return os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o640)
@@ -79,11 +89,15 @@ class AuditLog:
         try:
             os.write(self._fd, line)
             self.records += 1
+            self.failure = None
             if os.fstat(self._fd).st_size >= self.max_bytes:
                 self._rotate()
         except OSError as exc:
-            # The audit trail must not take the relay (and the robots' safety paths) down with it.
-            logger.error("audit log %s: %s", self.path, exc)
+            # The audit trail must not take the relay (and the robots' safety paths) down with it: the relay
+            # keeps stopping robots, and refuses to move them while it cannot record (relay.commands).
+            if self.failure is None:
+                logger.error("audit log %s: %s; motion commands are refused until it works", self.path, exc)
+            self.failure = f"the audit log {self.path} cannot be written: {exc.strerror or exc}"
 
     def _rotate(self) -> None:
         os.close(self._fd)
@@ -137,6 +151,24 @@ class CommandAudit:
             code=error.code if error else None,
             message=error.message if error else None,
         )
+
+    @property
+    def failure(self) -> str | None:
+        """Why commands cannot be recorded now (None: they can, or there is no audit log)."""
+        return None if self.log is None else self.log.failure
+
+    def started(self, address: str) -> None:
+        """The first record: the relay started. It also tells at once whether the log can be written."""
+        if self.log is not None:
+            self.log.record(
+                client="relay",
+                role="relay",
+                address=address,
+                identifier="relay/start",
+                request_id=None,
+                values=None,
+                outcome="started",
+            )
 
     def close(self) -> None:
         if self.log is not None:

@@ -13,7 +13,7 @@ from pathlib import Path
 from . import __version__
 from .backends import BACKENDS
 from .config import load_config
-from .errors import BackendUnavailable, ConfigError
+from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
 from .options import BagOptions, Options
 
 EXIT_USAGE = 2
@@ -187,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
             audit_log=args.audit_log or None,
         )
         asyncio.run(serve(config, options))
-    except BackendUnavailable as exc:
+    except (BackendUnavailable, AuditLogUnavailable) as exc:
         log.error("%s", exc)
         return EXIT_USAGE
     except OSError as exc:

@@ -165,6 +165,12 @@ class CommandHandler:
             await self.control.lease(client, command, now)
             self.outbox.ack(client, command.id)
 
+    def _require_record(self, identifier: str, request_id: RequestId | None) -> None:
+        """A relay that cannot keep its record moves no robot (stops, estop included, still go through)."""
+        failure = self.audit.failure
+        if failure is not None:
+            raise CommandRejected(ErrorCode.AUDIT_UNAVAILABLE, f"{identifier}: refused: {failure}", request_id)
+
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
         self.control.require_operator(client, "estop", command.id)
         if command.action == "reset":
@@ -185,6 +191,7 @@ class CommandHandler:
     async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
         robot = self.robots[command.robot]
         identifier = robot_identifier(robot.name, "cmd_vel")
+        self._require_record(identifier, command.id)
         self.control.require_commandable(client, robot.name, identifier, command.id, now, moves=True)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
         previous = self.control.deadman.feed(robot.name, client.client_id, now)
@@ -202,6 +209,7 @@ class CommandHandler:
 
     async def _goal(self, client: Client, command: GoalPose, now: float) -> None:
         identifier = robot_identifier(command.robot, "goal_pose")
+        self._require_record(identifier, command.id)
         self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
         check_goal(command.robot, command.x, command.y, self.map_grid())
         if self.control.deadman.controller(command.robot) is not None:

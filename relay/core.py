@@ -115,6 +115,7 @@ class Relay:
             # Reading and thresholding a large PGM is milliseconds of numpy work: off the loop.
             self._map = await asyncio.to_thread(from_map_yaml, self.config.map)
         await self.backend.start()
+        self.audit.started(f"{self.options.host}:{self.options.port}")
         self.supervisor.start()
         logger.info("backend %s started with %d robots", self.backend.name, len(self.robots))
 

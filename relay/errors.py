@@ -4,7 +4,8 @@
     ├── ConfigError          robots.yaml (or another config file) is invalid: file, line, field, expectation
     ├── ProtocolError        a client frame is malformed or names something unknown; becomes an `error` reply
     │   └── CommandRejected  a well-formed command that the relay or the backend refuses (bounds, no path, ...)
-    └── BackendUnavailable   the chosen backend cannot start here (e.g. rclpy is not installed)
+    ├── BackendUnavailable   the chosen backend cannot start here (e.g. rclpy is not installed)
+    └── AuditLogUnavailable  the audit log cannot be opened at start-up (the path is a file's parent, ...)
 
 A `ProtocolError` never closes a connection: the server turns it into an `error` message carrying the
 command's `id` (when one could be read) and keeps reading.
@@ -45,6 +46,10 @@ class ProtocolError(RelayError):
 
 class CommandRejected(ProtocolError):
     """A valid command that cannot be carried out (goal out of bounds, no path, no such camera...)."""
+
+
+class AuditLogUnavailable(RelayError):
+    """``--audit-log`` names a file the relay cannot open; the message names it and why."""
 
 
 class BackendUnavailable(RelayError):

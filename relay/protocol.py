@@ -58,6 +58,7 @@ class ErrorCode:
     RATE_LIMITED: Final = "rate_limited"  # the client sends faster than the relay accepts
     ESTOPPED: Final = "estopped"  # the robot's emergency stop is latched: reset it before moving it
     SUPERSEDED: Final = "superseded"  # an estop, take-over, cancel or newer goal overtook this command
+    AUDIT_UNAVAILABLE: Final = "audit_unavailable"  # the relay cannot record commands: it moves no robot
 
     ALL: Final = (
         BAD_REQUEST,
@@ -75,6 +76,7 @@ class ErrorCode:
         RATE_LIMITED,
         ESTOPPED,
         SUPERSEDED,
+        AUDIT_UNAVAILABLE,
     )
 
 

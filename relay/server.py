@@ -151,12 +151,14 @@ async def healthz(request: web.Request) -> web.Response:
     relay = request.app[RELAY_KEY]
     now = time.monotonic()
     failure = relay.backend.failure
+    audit_failure = relay.audit.failure
     return web.json_response(
         {
-            "status": "degraded" if failure else "ok",
+            "status": "degraded" if failure or audit_failure else "ok",
             "version": __version__,
             "backend": relay.backend.name,
             "backend_error": failure,
+            "audit_error": audit_failure,
             "robots": {r: relay.fleet.online(r, now) for r in relay.config.names},
             "robots_online": relay.fleet.robots_online(now),
             "clients": relay.clients,

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import signal
+import sys
 from pathlib import Path
 from typing import Any
 
+import aiohttp
+
 from relay.audit import AuditLog
+from tests.conftest import ROOT
 from tests.test_cli import start_process
 from tests.wsclient import TestClient
 
@@ -31,6 +36,8 @@ async def test_scripted_session_is_in_the_audit_log_after_sigkill(tmp_path: Path
         process.send_signal(signal.SIGKILL)
         await process.wait()
         records: list[dict[str, Any]] = [json.loads(line) for line in log.read_text().splitlines()]
+        start, *records = records
+        assert (start["client"], start["identifier"], start["outcome"]) == ("relay", "relay/start", "started")
         assert [(r["identifier"], r["outcome"], r["code"]) for r in records] == [
             (m["identifier"], outcome, code) for m, outcome, code in script
         ]
@@ -65,3 +72,40 @@ def test_rotation_keeps_a_bounded_number_of_files(tmp_path: Path) -> None:
     ]
     assert ids == sorted(ids) and ids[-1] == 99  # the newest records, in order, across the rotated files
     assert all((tmp_path / f).stat().st_size <= 2000 + 200 for f in files)
+
+
+async def test_a_relay_that_cannot_keep_its_record_moves_no_robot(tmp_path: Path) -> None:
+    """/dev/full accepts the open and refuses every write: the relay still stops robots, moves none, says so."""
+    process, http_url, ws_url = await start_process("--audit-log", "/dev/full")
+    try:
+        client = await TestClient.open(ws_url)
+        await client.hello()
+        moving = [
+            {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0},
+            {"identifier": "robot2/goal_pose", "x": 3.0, "y": 6.0},
+        ]
+        for message in moving:
+            reply = await client.request(message)
+            assert reply["identifier"] == "error" and reply["code"] == "audit_unavailable", reply
+            assert "/dev/full" in reply["message"]
+        assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        assert (await client.request({"identifier": "robot1/cancel"}))["identifier"] == "ack"
+        async with aiohttp.ClientSession() as session, session.get(f"{http_url}/healthz") as response:
+            health = await response.json()
+        assert health["status"] == "degraded" and "/dev/full" in health["audit_error"]
+    finally:
+        process.kill()
+        await process.wait()
+
+
+async def test_an_audit_log_path_that_cannot_be_opened_is_a_clear_start_up_error(tmp_path: Path) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    result = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "relay", "--port", "0", "--audit-log", str(blocker / "audit.jsonl"),
+        stderr=asyncio.subprocess.PIPE, cwd=ROOT,
+    )  # fmt: skip
+    _, stderr = await asyncio.wait_for(result.communicate(), 60)
+    assert result.returncode == 2
+    text = stderr.decode()
+    assert "--audit-log" in text and "a-file" in text and "cannot listen" not in text
