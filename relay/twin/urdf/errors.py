@@ -1,9 +1,9 @@
 """The two exceptions of the URDF → GLB conversion.
 
-    RelayError (relay.errors)
-    └── RobotModelError   the URDF cannot become a model at all; callers see it
-    MeshUnavailable       one mesh file cannot be used; the conversion turns it into a fallback and a warning
-                          (or, with ``fallback=False``, into a RobotModelError), so it never leaves the package
+RelayError (relay.errors)
+└── RobotModelError   the URDF cannot become a model at all; callers see it
+MeshUnavailable       one mesh file cannot be used; the conversion turns it into a fallback and a warning
+                      (or, with ``fallback=False``, into a RobotModelError), so it never leaves the package
 """
 
 from __future__ import annotations
