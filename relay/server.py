@@ -86,14 +86,38 @@ CONTENT_TYPES = {
 }
 
 
-def static_handler(root: Path) -> Callable[[web.Request], Awaitable[web.StreamResponse]]:
-    """Serve files below ``root`` with the content types above; nothing outside it, no listings."""
+#: What the page needs from xr_client/: the page, its modules, and the vendored runtime files its import map,
+#: stylesheet and loaders name. Development files (package.json, jsconfig.json, tests, the rest of
+#: node_modules) are not served.
+CLIENT_FILES: tuple[str, ...] = (
+    "index.html",
+    "src/",
+    "node_modules/three/build/",
+    "node_modules/three/examples/jsm/",
+    "node_modules/iwer/build/",
+    "node_modules/@webxr-input-profiles/assets/dist/profiles/",
+    "node_modules/@fontsource/inter/files/",
+)
+
+
+def static_handler(
+    root: Path, allowed: tuple[str, ...] | None = None
+) -> Callable[[web.Request], Awaitable[web.StreamResponse]]:
+    """Serve files below ``root`` (only those under the ``allowed`` prefixes, when given) with the content types
+    above; nothing outside it, no listings. A path that cannot name a file (a NUL byte, a name too long for
+    the file system) is a 404 like any missing file, never a 500."""
     base = root.resolve()
 
     async def handler(request: web.Request) -> web.StreamResponse:
         relative = request.match_info.get("path", "") or "index.html"
-        target = (base / relative).resolve()
-        if not target.is_relative_to(base) or not target.is_file():
+        if allowed is not None and not relative.startswith(allowed):
+            raise web.HTTPNotFound()
+        try:
+            target = (base / relative).resolve()
+            found = target.is_relative_to(base) and target.is_file()
+        except (ValueError, OSError):
+            found = False
+        if not found:
             raise web.HTTPNotFound()
         content_type = CONTENT_TYPES.get(target.suffix.lower(), "application/octet-stream")
         return web.FileResponse(target, headers={"Content-Type": content_type})
@@ -222,7 +246,7 @@ def create_app(config: FleetConfig, options: Options | None = None) -> web.Appli
     app.router.add_get("/metrics", metrics)
     app.router.add_get("/scenes/generated/{name}", generated_scene)
     app.router.add_get("/scenes/{path:.*}", static_handler(SCENES_DIR))
-    app.router.add_get("/{path:.*}", static_handler(CLIENT_DIR))
+    app.router.add_get("/{path:.*}", static_handler(CLIENT_DIR, CLIENT_FILES))
     return app
 
 

@@ -298,6 +298,8 @@ async def test_rate_pause_and_seek_control_the_replay(fleet_config: FleetConfig,
         assert client.latest["robot1/status"]["online"] is True
         health = running.relay.backend.health()
         assert health["playback"]["paused"] is True  # type: ignore[index]
+        # /healthz answers anyone: bag names, never the paths where the relay keeps them.
+        assert all("/" not in bag["name"] and "path" not in bag for bag in health["bags"])  # type: ignore[attr-defined]
 
         # Seek while paused shows the recording at t at once.
         mark = len(client.messages)

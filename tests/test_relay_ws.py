@@ -286,6 +286,32 @@ async def test_health_metrics_and_static_files(relay_server: RunningRelay) -> No
     await client.close()
 
 
+async def test_only_what_the_page_needs_is_served_and_odd_paths_are_404(relay_server: RunningRelay) -> None:
+    async with aiohttp.ClientSession() as http:
+        for path in (
+            "/node_modules/three/build/three.module.js",
+            "/node_modules/iwer/build/iwer.module.js",
+            "/node_modules/@fontsource/inter/files/inter-latin-500-normal.woff2",
+            "/src/style.css",
+        ):
+            async with http.get(f"{relay_server.url}{path}") as response:
+                assert response.status == 200, path
+        # Development files, and paths no file can have (a NUL byte, a name longer than the file system takes):
+        # a 404, never a 500 with a traceback.
+        for path in (
+            "/package.json",
+            "/jsconfig.json",
+            "/package-lock.json",
+            "/test/menu_state.test.js",
+            "/node_modules/typescript/package.json",
+            "/node_modules/three/package.json",
+            "/src/a%00b.js",
+            "/src/" + "a" * 4000,
+        ):
+            async with http.get(f"{relay_server.url}{path}") as response:
+                assert response.status == 404, (path[:40], response.status)
+
+
 async def test_shutdown_stops_robots_first_then_closes_with_going_away(fleet_config: FleetConfig) -> None:
     running = await start_relay(fleet_config)
     client = await client_of(running)

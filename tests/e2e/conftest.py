@@ -193,9 +193,9 @@ async def station() -> AsyncIterator[Station]:
     goals: list[tuple[str, float, float, float | None]] = []
     original_goal = backend.send_goal
 
-    async def goal_spy(robot: str, x: float, y: float, yaw: float | None) -> None:
+    async def goal_spy(robot: str, x: float, y: float, yaw: float | None, **options: Any) -> None:
         goals.append((robot, x, y, yaw))
-        await original_goal(robot, x, y, yaw)
+        await original_goal(robot, x, y, yaw, **options)
 
     backend.send_goal = goal_spy
     try:

@@ -252,8 +252,9 @@ class BagBackend(Backend):
                 "paused": clock.paused,
                 "loop": self.options.loop,
             },
+            # Names, not paths: /healthz answers anyone, and a path says where the relay keeps its files.
             "bags": [
-                {"path": spec.shown, "robots": [t.robot.name for t in plan.robots]}
+                {"name": spec.path.name, "robots": [t.robot.name for t in plan.robots]}
                 for spec, plan in zip(self._specs, self._plans, strict=True)
             ],
         }
