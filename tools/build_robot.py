@@ -8,7 +8,7 @@ Without ``--urdf`` it converts the TurtleBot3 Waffle Pi from ``../shared/data/ro
 package holding the URDF (its nearest folder with a ``package.xml``), the folder holding that package,
 and any ``--package-path``. Prints the size and every conversion warning; exit status 0 unless the URDF
 cannot be read or converted (2). The output is deterministic: a test compares the committed file with a
-fresh build, so rerun this after changing relay/twin/urdf.py.
+fresh build, so rerun this after changing relay/twin/urdf/.
 """
 
 from __future__ import annotations

@@ -29,7 +29,18 @@ import numpy as np
 from relay.occupancy import OccupancyGrid
 from relay.sim.hazards import HazardSource
 
-__all__ = ["Box", "Decal", "FloorPlan", "Pipe", "Room", "Spawn", "demo_facility", "rasterise"]
+__all__ = [
+    "Box",
+    "Decal",
+    "FloorPlan",
+    "Pipe",
+    "Room",
+    "Spawn",
+    "demo_facility",
+    "rasterise",
+    "room_named",
+    "spawn_of",
+]
 
 # Shared geometry constants of the demo facility. Module-level constants are
 # immutable values (floats), not state.
@@ -196,17 +207,28 @@ class FloorPlan:
 
     def room(self, name: str) -> Room:
         """Return the room called ``name``; ``KeyError`` if there is none."""
-        for room in self.rooms:
-            if room.name == name:
-                return room
-        raise KeyError(f"no room named {name!r}")
+        return room_named(self.rooms, name)
 
     def spawn(self, robot: str) -> Spawn:
         """Return the spawn of ``robot``; ``KeyError`` if there is none."""
-        for spawn in self.spawns:
-            if spawn.robot == robot:
-                return spawn
-        raise KeyError(f"no spawn for robot {robot!r}")
+        return spawn_of(self.spawns, robot)
+
+
+def room_named(rooms: tuple[Room, ...], name: str, where: str = "") -> Room:
+    """The room of ``rooms`` called ``name``; ``KeyError`` naming it (and ``where``, e.g. `` in <file>``)
+    if there is none. Shared by the floor plan and the scene file the simulator loads."""
+    for room in rooms:
+        if room.name == name:
+            return room
+    raise KeyError(f"no room named {name!r}{where}")
+
+
+def spawn_of(spawns: tuple[Spawn, ...], robot: str, where: str = "") -> Spawn:
+    """The spawn of ``robot`` among ``spawns``; ``KeyError`` naming it (and ``where``) if there is none."""
+    for spawn in spawns:
+        if spawn.robot == robot:
+            return spawn
+    raise KeyError(f"no spawn for robot {robot!r}{where}")
 
 
 def _square(name: str, kind: str, cx: float, cy: float, size: float, height: float) -> Box:

@@ -4,7 +4,7 @@ Each field is a baseline plus Gaussian blobs around point sources plus white
 sensor noise, evaluated at a map position (REP 103 map frame, metres). The
 dataclasses are deliberately plain (floats, strings, tuples) so a config
 loader builds them from the ``sim`` section of ``robots.yaml``
-(``relay.backends.sim.build_fields``).
+(:func:`relay.sim.world.build_fields`).
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from relay.geometry import yaw_to_quaternion
 from relay.occupancy import OccupancyGrid, read_yaml
-from relay.sim.floorplan import Box, Decal, FloorPlan, Pipe, Room, Spawn, rasterise
+from relay.sim.floorplan import Box, Decal, FloorPlan, Pipe, Room, Spawn, rasterise, room_named, spawn_of
 from relay.sim.hazards import HazardSource
 
 from .gltf import Geometry, Material, Mesh, Node, Primitive, box, build_glb, cylinder, merge, polygon, sphere
@@ -384,17 +384,11 @@ class Facility:
 
     def spawn(self, robot: str) -> Spawn:
         """The spawn of ``robot``; ``KeyError`` if there is none."""
-        for spawn in self.spawns:
-            if spawn.robot == robot:
-                return spawn
-        raise KeyError(f"no spawn for robot {robot!r} in {self.source}")
+        return spawn_of(self.spawns, robot, f" in {self.source}")
 
     def room(self, name: str) -> Room:
         """The room called ``name``; ``KeyError`` if there is none."""
-        for room in self.rooms:
-            if room.name == name:
-                return room
-        raise KeyError(f"no room named {name!r} in {self.source}")
+        return room_named(self.rooms, name, f" in {self.source}")
 
 
 class _Fields:
