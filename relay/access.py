@@ -5,8 +5,12 @@ fragment (never sent to the server by the browser) and from there in the WebSock
 Without a valid token a client connects as a ``viewer`` when viewers are allowed, and is refused otherwise.
 A handshake whose ``Origin`` is neither the relay's own nor allow-listed is refused even with a valid token
 (a page on another site must not drive robots through the operator's browser); a handshake without
-``Origin`` (command-line tools) needs the token like any other. Tokens compare in constant time, and an
-address that keeps presenting wrong tokens is refused for a while.
+``Origin`` (command-line tools) needs the token like any other. Tokens compare in constant time.
+
+Guessing is slowed, never answered with a lock-out: the right token always gets in at once (a stale tab or a
+hostile page spraying wrong tokens from the same address must not lock the real operator out, as a per-address
+ban did). Each wrong token from an address, past the first few in a window, waits longer for its answer,
+doubling up to :data:`MAX_DELAY`: a guesser gets a handful of tries a minute instead of thousands.
 """
 
 from __future__ import annotations
@@ -17,14 +21,21 @@ from dataclasses import dataclass, field
 
 from .protocol import Role
 
+#: Wrong tokens an address may present within the window before its answers are slowed.
+FREE_FAILURES = 3
+#: The first slowed answer waits this long (s); each further one twice as long, up to MAX_DELAY.
+FIRST_DELAY = 0.1
+MAX_DELAY = 2.0
+
 
 class Refused(Exception):
-    """The handshake is refused with HTTP ``status`` and a reason a person can act on."""
+    """The handshake is refused with HTTP ``status`` and a reason a person can act on, after ``delay`` seconds."""
 
-    def __init__(self, status: int, reason: str) -> None:
+    def __init__(self, status: int, reason: str, delay: float = 0.0) -> None:
         super().__init__(reason)
         self.status = status
         self.reason = reason
+        self.delay = delay
 
 
 @dataclass
@@ -32,8 +43,7 @@ class Access:
     token: str | None  # None: no token needed (library use and tests); the command line always sets one
     allow_viewers: bool = False
     allowed_origins: tuple[str, ...] = ()
-    max_failures: int = 10  # wrong tokens per address within `window` before it is refused for a while
-    window: float = 60.0
+    window: float = 60.0  # wrong tokens older than this (s) no longer slow an address
     _failures: dict[str, deque[float]] = field(default_factory=dict)
 
     def check_origin(self, origin: str | None, own_origin: str) -> None:
@@ -47,26 +57,31 @@ class Access:
             f"--allow-origin {origin}",
         )
 
-    def role(self, presented: str | None, address: str, now: float) -> Role:
-        """The role of a handshake presenting ``presented`` from ``address``, or Refused."""
+    def admit(self, presented: str | None, address: str, now: float) -> tuple[Role, float]:
+        """The role of a handshake presenting ``presented`` from ``address`` and how long (s) to wait before
+        answering it; or Refused (with its own delay)."""
         if self.token is None:
-            return "operator"
-        failures = self._failures.get(address)
-        if failures:
-            while failures and now - failures[0] > self.window:
-                failures.popleft()
-            if len(failures) >= self.max_failures:
-                raise Refused(429, "too many wrong tokens from this address; wait a minute")
+            return "operator", 0.0
         if presented is not None and hmac.compare_digest(presented.encode(), self.token.encode()):
-            return "operator"
+            return "operator", 0.0  # whatever wrong tokens came from this address before
+        delay = 0.0
         if presented is not None:
-            self._failures.setdefault(address, deque()).append(now)
-            if len(self._failures) > 10_000:
-                # Bounded memory under a spray of addresses: forget the oldest entries.
-                for key in list(self._failures)[:5_000]:
-                    del self._failures[key]
+            delay = self._failed(address, now)
         if self.allow_viewers:
-            return "viewer"
+            return "viewer", delay
         if presented is None:
             raise Refused(401, "an operator token is required: open the URL the relay printed (it ends in #token=...)")
-        raise Refused(401, "wrong operator token")
+        raise Refused(401, "wrong operator token", delay)
+
+    def _failed(self, address: str, now: float) -> float:
+        """Count a wrong token; the delay its answer waits."""
+        failures = self._failures.setdefault(address, deque())
+        while failures and now - failures[0] > self.window:
+            failures.popleft()
+        failures.append(now)
+        if len(self._failures) > 10_000:
+            # Bounded memory under a spray of addresses: forget the oldest entries.
+            for key in list(self._failures)[:5_000]:
+                del self._failures[key]
+        extra = len(failures) - FREE_FAILURES
+        return 0.0 if extra <= 0 else min(MAX_DELAY, FIRST_DELAY * 2.0 ** (extra - 1))

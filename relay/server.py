@@ -129,13 +129,22 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     relay = request.app[RELAY_KEY]
     access = request.app[ACCESS_KEY]
     address = request.remote or "unknown"
+    if request.headers.get("Upgrade", "").lower() != "websocket":
+        # An <img src=".../ws?token=guess"> or a plain GET is not a handshake: its token is never looked at.
+        return web.Response(status=400, text="not a WebSocket handshake\n")
     try:
+        if "Origin" not in request.headers and "Sec-Fetch-Mode" in request.headers:
+            # Browsers always send Origin with a WebSocket handshake; a browser request without one is forged.
+            raise Refused(403, "a browser handshake without an Origin header")
         access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
-        role = access.role(request.query.get("token"), address, time.monotonic())
+        role, delay = access.admit(request.query.get("token"), address, time.monotonic())
     except Refused as exc:
         # Never log the query string: it carries the token.
         logger.warning("refused a connection from %s: %s", address, exc.reason)
+        await asyncio.sleep(exc.delay)  # a guesser waits; nobody else does
         return web.Response(status=exc.status, text=exc.reason + "\n")
+    if delay > 0:
+        await asyncio.sleep(delay)
     # compress=False: per-message deflate would compress per client and defeat "encode once".
     ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
     sock = request.transport.get_extra_info("socket") if request.transport is not None else None

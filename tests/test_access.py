@@ -120,11 +120,44 @@ async def test_viewers_see_everything_and_command_nothing(fleet_config: FleetCon
         await running.runner.cleanup()
 
 
-async def test_wrong_tokens_are_rate_limited_per_address(guarded: RunningRelay) -> None:
-    for _ in range(10):
+def test_wrong_tokens_are_slowed_and_the_right_token_always_gets_in() -> None:
+    from relay.access import FIRST_DELAY, FREE_FAILURES, MAX_DELAY, Access, Refused
+
+    access = Access(TOKEN)
+    delays = []
+    for i in range(12):
+        with pytest.raises(Refused) as refused:
+            access.admit("guess", "127.0.0.1", 100.0 + i)
+        delays.append(refused.value.delay)
+    assert delays[:FREE_FAILURES] == [0.0] * FREE_FAILURES
+    assert delays[FREE_FAILURES : FREE_FAILURES + 3] == [FIRST_DELAY, 2 * FIRST_DELAY, 4 * FIRST_DELAY]
+    assert max(delays) == MAX_DELAY and delays == sorted(delays)
+    # The right token, from the same address, right after: in at once (was: 429 for a minute).
+    assert access.admit(TOKEN, "127.0.0.1", 112.0) == ("operator", 0.0)
+    # Another address is not slowed by this one, and a minute later this one is not either.
+    with pytest.raises(Refused) as other:
+        access.admit("guess", "10.0.0.2", 112.0)
+    assert other.value.delay == 0.0
+    with pytest.raises(Refused) as later:
+        access.admit("guess", "127.0.0.1", 112.0 + access.window + 15)
+    assert later.value.delay == 0.0
+
+
+async def test_a_page_spraying_tokens_cannot_lock_the_operator_out(guarded: RunningRelay) -> None:
+    async with aiohttp.ClientSession() as http:
+        # What <img src=".../ws?token=guess"> sends: no handshake, so the token is never even looked at.
+        for _ in range(20):
+            async with http.get(guarded.ws_url.replace("ws://", "http://") + "?token=guess") as response:
+                assert response.status == 400
+    # A browser's handshake always carries Origin: one without it (but with the browser's fetch headers) is forged.
+    assert (
+        await refused_status(guarded.ws_url + "?token=guess", additional_headers={"Sec-Fetch-Mode": "websocket"}) == 403
+    )
+    for _ in range(5):
         assert await refused_status(guarded.ws_url + "?token=guess") == 401
-    # Now even the right token waits: the address is throttled for a while.
-    assert await refused_status(guarded.ws_url + "?token=" + TOKEN) == 429
+    client = await TestClient.open(guarded.ws_url + "?token=" + TOKEN)
+    assert (await client.hello())["role"] == "operator"
+    await client.close()
 
 
 async def test_flood_is_rate_limited_but_estop_always_passes(fleet_config: FleetConfig) -> None:
