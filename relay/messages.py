@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, Literal, NotRequired, TypedDict
+from typing import Any, Literal, NotRequired, TypedDict, cast
 
 import orjson
 
 from .errors import ProtocolError
-from .protocol import FRAME_PREFIX, ErrorCode, Mode, RequestId, Role, robot_identifier
+from .protocol import FRAME_PREFIX, ErrorCode, Mode, RequestId, Role, robot_identifier, sensor_key
 
 
 class Lens(TypedDict):
@@ -230,6 +230,19 @@ ServerMessage = (
     | LeaseMessage
     | ModelMessage
 )
+
+#: The messages of a client's state lane (relay/hub.py): a slow client gets only the newest of each coalescing key.
+StateMessage = PoseMessage | SensorMessage | StatusMessage | ScanMessage | SceneMessage | PlaybackMessage
+
+
+def state_key(message: StateMessage) -> str:
+    """The coalescing key of a state message, for ``Hub.publish_state``: its identifier, except that each sensor
+    of a robot keeps its own newest reading (``relay.protocol.sensor_key``), as docs/protocol.md promises."""
+    identifier = message["identifier"]
+    robot, _, kind = identifier.partition("/")
+    if kind == "sensor":
+        return sensor_key(robot, cast(SensorMessage, message)["name"])
+    return identifier
 
 
 # --------------------------------------------------------------------------------------------------

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import importlib
 import os
 import re
 import signal
@@ -108,12 +107,3 @@ async def test_the_loop_blocking_check_catches_a_blocking_call(
     canary.running = False
     blocking = loop_block_collector.blocking(canary)
     assert blocking and "took" in blocking[0]
-
-
-def test_generated_browser_protocol_is_current() -> None:
-    sys.path.insert(0, str(ROOT / "tools"))
-    gen_protocol_js = importlib.import_module("gen_protocol_js")
-    committed = (ROOT / "xr_client/src/protocol.js").read_text()
-    assert committed == gen_protocol_js.render(), (
-        "xr_client/src/protocol.js is stale: run python tools/gen_protocol_js.py"
-    )

@@ -10,11 +10,14 @@ from relay.errors import ProtocolError
 from relay.messages import (
     FrameHeader,
     ack_message,
+    backend_message,
     decode_frame,
     encode,
     encode_frame,
     error_message,
     estop_message,
+    lease_message,
+    model_message,
     playback_message,
     pong_message,
     pose_message,
@@ -123,6 +126,22 @@ def test_scan_scene_playback_bytes() -> None:
     assert encode(playback) == (
         b'{"identifier":"playback","position":12.346,"duration":27.6,"rate":1.0,"paused":false,"loop":true}'
     )
+
+
+def test_lease_model_backend_bytes() -> None:
+    lease = lease_message("robot1", holder="c2-ab12cd", previous="c1-9f3e21", reason="taken_over")
+    assert encode(lease) == (
+        b'{"identifier":"robot1/lease","holder":"c2-ab12cd","previous":"c1-9f3e21","reason":"taken_over"}'
+    )
+    released = lease_message("robot1", holder=None, previous="c1-9f3e21", reason="released")
+    assert encode(released) == (
+        b'{"identifier":"robot1/lease","holder":null,"previous":"c1-9f3e21","reason":"released"}'
+    )
+    model = model_message("robot1", "/scenes/generated/robot-robot1-3f2a9c.glb")
+    assert encode(model) == b'{"identifier":"robot1/model","url":"/scenes/generated/robot-robot1-3f2a9c.glb"}'
+    failed = backend_message("ros", "the ROS executor stopped")
+    assert encode(failed) == (b'{"identifier":"backend","name":"ros","ok":false,"message":"the ROS executor stopped"}')
+    assert encode(backend_message("ros", None)) == b'{"identifier":"backend","name":"ros","ok":true,"message":null}'
 
 
 def test_binary_frame_layout() -> None:

@@ -2,17 +2,20 @@
 
 The command TypedDicts (the wire form a client sends) must say what ``parse_command`` accepts: a frame with
 every field accepted, one missing a required field refused. Every server message builder must return exactly
-the keys of its TypedDict, so the browser's generated typedefs never drift from what the relay sends.
+the keys of its TypedDict, so the browser's generated typedefs never drift from what the relay sends. Every
+example message of docs/protocol.md has exactly its TypedDict's keys, and the committed browser module is what
+the generator writes today.
 """
 
 from __future__ import annotations
 
 import importlib
 import json
+import re
 import sys
 import typing
 from pathlib import Path
-from typing import Any, Literal, NotRequired, get_args, get_origin, get_type_hints
+from typing import Any, Literal, NotRequired, get_args, get_origin, get_type_hints, is_typeddict
 
 import pytest
 
@@ -98,13 +101,76 @@ def test_each_builder_returns_exactly_its_typeddicts_keys(cls: type, message: di
 
 def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> None:
     union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
-    assert union == {name for name in vars(messages) if name.endswith("Message") and name != "ServerMessage"}
+    assert union == {name for name, value in vars(messages).items() if name.endswith("Message") and is_typeddict(value)}
     assert len(union) == 14
-    sys.path.insert(0, str(ROOT / "tools"))
-    generated = importlib.import_module("gen_protocol_js").render()
+    generated = _generator().render()
     for name in union | {t.__name__ for t in COMMANDS}:
         assert f"}} {name} */" in generated, name
     assert "@typedef {" + " | ".join(t.__name__ for t in typing.get_args(messages.ServerMessage)) in generated
+
+
+def _generator() -> Any:
+    sys.path.insert(0, str(ROOT / "tools"))
+    return importlib.import_module("gen_protocol_js")
+
+
+def test_generated_browser_protocol_is_current() -> None:
+    committed = (ROOT / "xr_client/src/protocol.js").read_text()
+    assert committed == _generator().render(), "xr_client/src/protocol.js is stale: run python tools/gen_protocol_js.py"
+
+
+def test_each_state_message_knows_its_coalescing_key() -> None:
+    """Each sensor keeps its own newest reading; every other state message one per identifier."""
+    gas = messages.sensor_message("robot1", name="gas", value=1.0, unit="ppm", warning=False, stamp=1.0)
+    assert messages.state_key(gas) == protocol.sensor_key("robot1", "gas") == "robot1/sensor/gas"
+    pose = messages.pose_message("robot1", stamp=1.0, frame="map", x=0, y=0, z=0, qx=0, qy=0, qz=0, qw=1)
+    status = messages.status_message("robot2", online=True, age=None, mode="idle", goal=None, controller=None)
+    scene = messages.scene_message(None, {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
+    playback = messages.playback_message(position=1.0, duration=2.0, rate=1.0, paused=False, loop=True)
+    for message in (pose, status, scene, playback):
+        assert messages.state_key(message) == message["identifier"]
+    union = {t.__name__ for t in typing.get_args(messages.StateMessage)}
+    assert union == {"PoseMessage", "SensorMessage", "StatusMessage", "ScanMessage", "SceneMessage", "PlaybackMessage"}
+
+
+# -- docs/protocol.md, the contract, against the types --------------------------------------------------------
+
+DOC = (ROOT / "docs/protocol.md").read_text()
+
+
+def _doc_examples() -> list[dict[str, Any]]:
+    """Every JSON object in the doc that has an identifier (inline or in a code block)."""
+    decoder = json.JSONDecoder()
+    return [decoder.raw_decode(DOC, m.start())[0] for m in re.finditer(r'\{"identifier"', DOC)]
+
+
+def _server_type(identifier: str) -> type:
+    kind = identifier if identifier in protocol.SERVER_GLOBAL_KINDS else identifier.partition("/")[2]
+    if kind.startswith("camera/"):
+        return messages.FrameHeader
+    cls: type = getattr(messages, kind.capitalize() + "Message")
+    return cls
+
+
+def test_each_example_of_the_doc_has_exactly_its_typeddicts_keys_in_order() -> None:
+    examples = _doc_examples()
+    for example in examples:
+        assert list(example) == list(get_type_hints(_server_type(example["identifier"]))), example
+    documented = {_server_type(e["identifier"]) for e in examples}
+    assert documented == {messages.FrameHeader, *typing.get_args(messages.ServerMessage)} - {messages.HelloMessage}
+
+
+def _table_column(heading: str) -> list[str]:
+    """The backticked names of a table's first column, from the table under ``heading``."""
+    table = DOC[DOC.index(heading) :].split("\n\n")[0]
+    return [name for row in re.findall(r"^\| (`[^|]+`) \|", table, re.M) for name in re.findall(r"`([^`]+)`", row)]
+
+
+def test_the_docs_tables_name_every_field_code_and_command() -> None:
+    assert set(_table_column("| field | type | meaning |")) == set(get_type_hints(messages.HelloMessage))
+    assert _table_column("| code | when |") == list(protocol.ErrorCode.ALL)
+    commands = {f"<robot>/{kind}" for kind in protocol.CLIENT_ROBOT_KINDS} | set(protocol.CLIENT_GLOBAL_KINDS)
+    assert set(_table_column("| identifier | fields | effect |")) == commands
 
 
 def protocol_bytes(message: dict[str, Any]) -> bytes:
