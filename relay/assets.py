@@ -16,7 +16,7 @@ from typing import Any
 from .config import Robot, Scene
 from .events import MapEvent, RobotModelEvent
 from .hub import Hub
-from .messages import Transform2D, encode, model_message, scene_message
+from .messages import Transform2D, encode, model_message, scene_message, state_key
 from .twin.map_twin import grid_to_glb
 from .twin.urdf import robot_description_glb
 
@@ -102,7 +102,8 @@ class GeneratedAssets:
                 len(glb) // 1024,
                 self.scene_url,
             )
-            self._hub.publish_state("scene", encode(scene_message(self.scene_url, self.map_to_scene())))
+            scene = scene_message(self.scene_url, self.map_to_scene())
+            self._hub.publish_state(state_key(scene), encode(scene))
 
     async def _build_model(self, event: RobotModelEvent) -> None:
         """A robot's URDF becomes its glTF model (once per distinct description)."""

@@ -50,7 +50,7 @@ from .messages import HelloMessage, PlaybackMessage, backend_message, encode, pl
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .outbox import Outbox
-from .protocol import PROTOCOL_VERSION, Role, sensor_key
+from .protocol import PROTOCOL_VERSION, Role
 from .ratelimit import TokenBucket
 from .streams import CameraStreams
 from .supervision import Supervisor
@@ -213,7 +213,7 @@ class Relay:
             fields = dataclasses.asdict(event)
             del fields["robot"]  # fleet-wide
             self._playback = playback_message(**fields)
-            self.hub.publish_state("playback", encode(self._playback))
+            self.outbox.state(self._playback)
         elif isinstance(event, MapEvent):
             self._live_map = event.grid
             logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)
@@ -228,18 +228,18 @@ class Relay:
     def _on_robot_event(self, event: Event, now: float) -> None:
         if isinstance(event, PoseEvent):
             message = self.fleet.on_pose(event, now)
-            self.hub.publish_state(message["identifier"], encode(message))
+            self.outbox.state(message)
             if self.outbox.online_changed(event.robot, now):
                 self.outbox.status(event.robot, now)
         elif isinstance(event, SensorEvent):
             sensor = self.fleet.on_sensor(event)
             if sensor is not None:
-                self.hub.publish_state(sensor_key(event.robot, event.name), encode(sensor))
+                self.outbox.state(sensor)
         elif isinstance(event, NavEvent):
             self.fleet.on_nav(event)
             self.outbox.status(event.robot, now)
         elif isinstance(event, ScanEvent):
             scan = scan_message(**dataclasses.asdict(event))
-            self.hub.publish_state(scan["identifier"], encode(scan))
+            self.outbox.state(scan)
         elif isinstance(event, FrameEvent):
             self.streams.on_frame(event, now)

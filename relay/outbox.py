@@ -13,7 +13,17 @@ import logging
 from .clients import Client
 from .fleet import FleetState
 from .hub import Hub
-from .messages import LeaseReason, ack_message, backend_message, encode, error_message, estop_message, lease_message
+from .messages import (
+    LeaseReason,
+    StateMessage,
+    ack_message,
+    backend_message,
+    encode,
+    error_message,
+    estop_message,
+    lease_message,
+    state_key,
+)
 from .protocol import RequestId
 
 logger = logging.getLogger(__name__)
@@ -37,10 +47,14 @@ class Outbox:
 
     # -- to every client --------------------------------------------------------------------------
 
+    def state(self, message: StateMessage) -> None:
+        """Latest-value state to every client, coalesced under the message's own key."""
+        self.hub.publish_state(state_key(message), encode(message))
+
     def status(self, robot: str, now: float) -> None:
         status = self.fleet.status(robot, now)
         self._was_online[robot] = status["online"]
-        self.hub.publish_state(status["identifier"], encode(status))
+        self.state(status)
 
     def online_changed(self, robot: str, now: float) -> bool:
         """Whether ``robot``'s online state differs from what clients were last told."""
