@@ -93,6 +93,11 @@ class CommandHandler:
             # client's later frames (an estop among them) behind it.
             client.spawn(self._run_apart(client, command, self._snapshot(client, command)))
             return
+        if isinstance(command, GoalPose):
+            # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
+            # estop was once acknowledged 16 s late). Anything that overtakes the goal supersedes it.
+            client.spawn(self._run_apart(client, command, self._goal(client, command, now)))
+            return
         try:
             await self._dispatch(client, command, now)
         except ProtocolError as exc:
@@ -124,7 +129,7 @@ class CommandHandler:
         else:
             self.audit.frame(client, identifier, request_id, None, error)
 
-    async def _run_apart(self, client: Client, command: Snapshot, work: Awaitable[None]) -> None:
+    async def _run_apart(self, client: Client, command: Snapshot | GoalPose, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""
         try:
             await work
@@ -199,7 +204,8 @@ class CommandHandler:
             # Control changed hands: the robot stops before the new operator's command applies.
             await self.backend.send_velocity(robot.name, 0.0, 0.0)
         if self.fleet.status(robot.name, now)["mode"] != "teleop" or previous is not None:
-            # Teleoperation overrides navigation.
+            # Teleoperation overrides navigation, also a goal still being planned.
+            self.control.supersede(robot.name)
             await self.backend.cancel(robot.name)
             self.fleet.set_teleop(robot.name, True)
             self.outbox.status(robot.name, now)
