@@ -432,3 +432,19 @@ async def test_the_sim_never_follows_a_plan_superseded_while_planning(relay_serv
     await sim.send_goal("robot1", 3.0, 6.0, None)
     assert sim.world.robots["robot1"].follower is not None
     await sim.cancel("robot1")
+
+
+async def test_an_invalid_utf8_text_frame_closes_with_1007_as_rfc6455_and_the_doc_say(
+    relay_server: RunningRelay,
+) -> None:
+    """RFC 6455 (8.1) has an endpoint fail the connection on a text frame that is not UTF-8; docs/protocol.md
+    says so, and every other malformed text frame still gets an `error` on an open connection."""
+    client = await client_of(relay_server)
+    await client.ws.send(b'{"identifier": "ping", "t": 1, "x": "\xff\xfe"}', text=True)
+    await asyncio.wait_for(client._reader, 10)  # the reader ends when the relay closes the connection
+    assert client.closed_code == 1007
+    # The relay itself is unharmed: a new connection works.
+    other = await client_of(relay_server)
+    await other.send({"identifier": "ping", "t": 2.0})
+    assert (await other.wait_for(lambda m: m["identifier"] == "pong"))["t"] == 2.0
+    await other.close()
