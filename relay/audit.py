@@ -126,7 +126,7 @@ class CommandAudit:
     def command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
         if self.log is None or isinstance(command, Ping):
             return  # pings are keep-alives, not commands
-        values = {k: v for k, v in dataclasses.asdict(command).items() if k not in ("robot", "id")}
+        values = {k: v for k, v in dataclasses.asdict(command).items() if k not in ("robot", "id", "sent")}
         self.frame(client, command_identifier(command), getattr(command, "id", None), values, error)
 
     def frame(

@@ -27,7 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
             "browsers and headsets over one WebSocket, and serves the WebXR client on the same port."
         ),
         epilog="Open the printed URL in a browser. `xr-relay record --out DIR` records the fleet's topics from a "
-        "live ROS 2 graph (see `xr-relay record --help`). Protocol: docs/protocol.md; configuration: "
+        "live ROS 2 graph (see `xr-relay record --help`); `xr-relay watchdog` stops robots when the relay cannot "
+        "(see `xr-relay watchdog --help`). Protocol: docs/protocol.md; configuration: "
         "docs/configuration.md; security: docs/security.md.",
     )
     parser.add_argument(
@@ -147,6 +148,11 @@ def main(argv: list[str] | None = None) -> int:
         from .record import main as record_main
 
         return record_main(argv[1:])
+    if argv and argv[0] == "watchdog":
+        # `xr-relay watchdog`: the robot-side stop (relay/watchdog/node.py), run on or next to the robots.
+        from .watchdog.node import main as watchdog_main
+
+        return watchdog_main(argv[1:])
     args = build_parser().parse_args(argv)
     logging.basicConfig(
         level=getattr(logging, args.log_level.upper()),

@@ -8,6 +8,7 @@ import secrets
 from collections.abc import Awaitable
 from dataclasses import dataclass, field
 
+from .freshness import SenderClock
 from .hub import Channel
 from .protocol import Role
 from .ratelimit import TokenBucket
@@ -35,6 +36,8 @@ class Client:
     #: many were dropped unrecorded since.
     audit_quiet_until: float = -float("inf")
     unaudited_drops: int = 0
+    #: The client's clock as its ``cmd_vel.t`` stamps show it: how long each command took to reach the relay.
+    sender_clock: SenderClock = field(default_factory=SenderClock)
 
     def spawn(self, coro: Awaitable[None]) -> None:
         """Run ``coro`` beside the client's later frames, and cancel it if the client disconnects first."""

@@ -70,8 +70,10 @@ class CommandHandler:
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
 
-    async def handle_text(self, client: Client, data: str | bytes, now: float) -> None:
-        """Handle one text frame. Only unexpected failures propagate (the server then closes with 1011)."""
+    async def handle_text(self, client: Client, data: str | bytes, now: float, received: float | None = None) -> None:
+        """Handle one text frame, read from the connection at ``received`` (default ``now``). Only unexpected
+        failures propagate (the server then closes with 1011)."""
+        received = now if received is None else received
         try:
             command = parse_command(data, self.robots)
         except ProtocolError as exc:
@@ -96,10 +98,10 @@ class CommandHandler:
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
             # estop was once acknowledged 16 s late). Anything that overtakes the goal supersedes it.
-            client.spawn(self._run_apart(client, command, self._goal(client, command, now)))
+            client.spawn(self._run_apart(client, command, self._goal(client, command, now, received)))
             return
         try:
-            await self._dispatch(client, command, now)
+            await self._dispatch(client, command, now, received)
         except ProtocolError as exc:
             exc.request_id = request_id if exc.request_id is None else exc.request_id
             self.outbox.error(client, exc.request_id, exc.code, exc.message)
@@ -143,15 +145,13 @@ class CommandHandler:
         else:
             self.audit.command(client, command, None)
 
-    async def _dispatch(self, client: Client, command: Command, now: float) -> None:
+    async def _dispatch(self, client: Client, command: Command, now: float, received: float) -> None:
         if isinstance(command, Ping):
             client.channel.put_priority(encode(pong_message(command.t, self.wall_clock())))
         elif isinstance(command, EStop):
             await self._estop(client, command, now)
         elif isinstance(command, CmdVel):
-            await self._cmd_vel(client, command, now)
-        elif isinstance(command, GoalPose):
-            await self._goal(client, command, now)
+            await self._cmd_vel(client, command, now, received)
         elif isinstance(command, Cancel):
             self.control.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
@@ -193,9 +193,27 @@ class CommandHandler:
             )
         self.outbox.ack(client, command.id)
 
-    async def _cmd_vel(self, client: Client, command: CmdVel, now: float) -> None:
+    def _require_fresh(self, identifier: str, request_id: RequestId | None, age: float) -> None:
+        """A motion command that waited longer than the deadman's timeout (a frozen or starved relay, a stalled
+        network) is dropped: replaying it would move a robot the deadman has already stopped."""
+        timeout = self.control.deadman.timeout
+        if age > timeout:
+            raise CommandRejected(
+                ErrorCode.STALE,
+                f"{identifier}: dropped: {age:.2f} s old when the relay got to it, more than the deadman's "
+                f"{timeout:g} s; nothing reached the robot",
+                request_id,
+            )
+
+    async def _cmd_vel(self, client: Client, command: CmdVel, now: float, received: float) -> None:
         robot = self.robots[command.robot]
         identifier = robot_identifier(robot.name, "cmd_vel")
+        # Its age: the time since the relay read it, plus, when the client stamps its commands, how much longer
+        # than its quickest recent command it took to reach the relay (relay.freshness).
+        age = now - received
+        if command.sent is not None:
+            age += client.sender_clock.age(command.sent, received)
+        self._require_fresh(identifier, command.id, age)
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, robot.name, identifier, command.id, now, moves=True)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
@@ -209,12 +227,14 @@ class CommandHandler:
             await self.backend.cancel(robot.name)
             self.fleet.set_teleop(robot.name, True)
             self.outbox.status(robot.name, now)
-        await self.backend.send_velocity(robot.name, clamped.linear, clamped.angular)
+        stamp = self.wall_clock() - age  # when the operator's command reached the relay, for a robot's watchdog
+        await self.backend.send_velocity(robot.name, clamped.linear, clamped.angular, stamp=stamp)
         if command.id is not None:
             self.outbox.ack(client, command.id)
 
-    async def _goal(self, client: Client, command: GoalPose, now: float) -> None:
+    async def _goal(self, client: Client, command: GoalPose, now: float, received: float) -> None:
         identifier = robot_identifier(command.robot, "goal_pose")
+        self._require_fresh(identifier, command.id, now - received)
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
         check_goal(command.robot, command.x, command.y, self.map_grid())

@@ -201,10 +201,12 @@ class Relay:
         self.hub.counters.messages_in += 1
         self.commands.handle_binary(client)
 
-    async def handle_text(self, client: Client, data: str | bytes) -> None:
-        """Handle one text frame. Only unexpected failures propagate (the server then closes with 1011)."""
+    async def handle_text(self, client: Client, data: str | bytes, received: float | None = None) -> None:
+        """Handle one text frame read at ``received`` (the relay's clock; default now). Only unexpected failures
+        propagate (the server then closes with 1011)."""
         self.hub.counters.messages_in += 1
-        await self.commands.handle_text(client, data, self.clock())
+        now = self.clock()
+        await self.commands.handle_text(client, data, now, now if received is None else received)
 
     # -- backend events (always on the loop thread) -----------------------------------------------
 

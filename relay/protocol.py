@@ -59,6 +59,7 @@ class ErrorCode:
     ESTOPPED: Final = "estopped"  # the robot's emergency stop is latched: reset it before moving it
     SUPERSEDED: Final = "superseded"  # an estop, take-over, cancel or newer goal overtook this command
     AUDIT_UNAVAILABLE: Final = "audit_unavailable"  # the relay cannot record commands: it moves no robot
+    STALE: Final = "stale"  # a motion command older than the deadman timeout when the relay got to it: dropped
 
     ALL: Final = (
         BAD_REQUEST,
@@ -77,6 +78,7 @@ class ErrorCode:
         ESTOPPED,
         SUPERSEDED,
         AUDIT_UNAVAILABLE,
+        STALE,
     )
 
 
@@ -97,6 +99,8 @@ MAX_STRING_LENGTH: Final = 1024
 MAX_COORDINATE: Final = 1.0e6
 #: Largest goal yaw (rad) accepted; yaws wrap, so this only catches nonsense.
 MAX_YAW: Final = 100.0
+#: ``cmd_vel.t``, milliseconds on the client's monotonic clock: a page open for a year stays below it.
+MAX_CLIENT_CLOCK: Final = 1.0e12
 #: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
@@ -160,6 +164,7 @@ class CmdVel:
     linear: float
     angular: float
     id: RequestId | None
+    sent: float | None = None  # seconds on the client's own clock (``t``, milliseconds on the wire)
 
 
 @dataclass(frozen=True, slots=True)
@@ -235,6 +240,7 @@ class CmdVelCommand(TypedDict):
     linear: float
     angular: float
     id: NotRequired[RequestId]
+    t: NotRequired[float]  # ms on the client's monotonic clock (performance.now()): how old the command is
 
 
 class CancelCommand(TypedDict):
@@ -509,7 +515,14 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         linear = _number(obj, "linear", identifier)
         angular = _number(obj, "angular", identifier)
         assert linear is not None and angular is not None
-        return CmdVel(robot=robot, linear=linear, angular=angular, id=_request_id(obj, required=False))
+        sent = _number(obj, "t", identifier, required=False, low=0.0, high=MAX_CLIENT_CLOCK)
+        return CmdVel(
+            robot=robot,
+            linear=linear,
+            angular=angular,
+            id=_request_id(obj, required=False),
+            sent=None if sent is None else sent / 1000.0,
+        )
 
     rid = _request_id(obj, required=True)
     assert rid is not None

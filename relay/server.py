@@ -156,7 +156,9 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
-                await relay.handle_text(client, msg.data)
+                # The time the frame was taken from the connection: a motion command that waited longer than the
+                # deadman's timeout before the relay got to it is dropped (relay.commands).
+                await relay.handle_text(client, msg.data, relay.clock())
             elif msg.type == WSMsgType.BINARY:
                 relay.handle_binary(client)
             elif msg.type == WSMsgType.ERROR:

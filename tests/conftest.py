@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
+import random
 import re
 import threading
 import time
@@ -142,3 +144,15 @@ async def relay_server(fleet_config: FleetConfig) -> AsyncIterator[RunningRelay]
         yield running
     finally:
         await running.runner.cleanup()
+
+
+_DOMAINS = itertools.count(random.randint(20, 120))
+
+
+@pytest.fixture
+def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
+    """A ROS_DOMAIN_ID of this test's own, discovery on this machine only: runs never see each other."""
+    domain = next(_DOMAINS)
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return domain

@@ -22,8 +22,10 @@ from relay.backends.base import Backend
 from relay.config import FleetConfig
 from relay.core import Relay
 from relay.events import EventSink, FrameEvent, PoseEvent
+from relay.freshness import CREEP
 from relay.messages import decode_frame
 from relay.options import Options
+from relay.ratelimit import TokenBucket
 
 Call = tuple[Any, ...]
 
@@ -40,6 +42,7 @@ class FakeBackend(Backend):
         self.frame: FrameEvent | None = None
         #: When set, goals are "planned" until the test sets it (a slow A* in a worker, as the sim does).
         self.planning: asyncio.Event | None = None
+        self.stamps: list[float | None] = []  # of each velocity: when the operator's command reached the relay
 
     async def start(self) -> None:
         self.calls.append(("start",))
@@ -47,8 +50,9 @@ class FakeBackend(Backend):
     async def stop(self) -> None:
         self.calls.append(("stop",))
 
-    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         self.calls.append(("velocity", robot, linear, angular))
+        self.stamps.append(stamp)
 
     async def send_goal(
         self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
@@ -117,8 +121,11 @@ class Station:
         client = self.relay.connect(transport, role=role)  # type: ignore[arg-type]
         return client, transport
 
-    async def send(self, client: Any, message: dict[str, Any], *, apart: bool = True) -> None:
-        await self.relay.handle_text(client, orjson.dumps(message))
+    async def send(
+        self, client: Any, message: dict[str, Any], *, apart: bool = True, received: float | None = None
+    ) -> None:
+        """``received``: when the frame was read from the connection (default now)."""
+        await self.relay.handle_text(client, orjson.dumps(message), received)
         await self.settle(apart=apart)
 
     async def tick(self, seconds: float) -> None:
@@ -190,6 +197,57 @@ async def test_commands_that_keep_coming_keep_the_deadman_quiet(station: Station
         await station.send(client, {"identifier": "robot1/cmd_vel", "linear": 0.3, "angular": 0.0})
         await station.tick(0.1)
     assert ("velocity", "robot1", 0.0, 0.0) not in station.backend.moves("robot1")
+
+
+async def test_a_motion_command_that_waited_past_the_deadman_is_dropped(station: Station) -> None:
+    # The relay was frozen (SIGSTOP, a starved loop) while the frames sat read but unhandled: replaying them
+    # would move a robot the deadman has stopped.
+    client, seen = station.connect()
+    timeout = station.relay.config.safety.deadman_timeout
+    late = station.clock.now - timeout - 0.1
+    await station.send(client, {"identifier": "robot1/cmd_vel", "id": 1, "linear": 0.3, "angular": 0.0}, received=late)
+    await station.send(client, {"identifier": "robot1/goal_pose", "id": 2, "x": 3.0, "y": 6.0}, received=late)
+    for request_id in (1, 2):
+        [error] = seen.replies(request_id)
+        assert error["code"] == "stale" and "nothing reached the robot" in error["message"], error
+    assert station.backend.moves("robot1") == []
+    # A frame read within the timeout still drives, stamped with when it reached the relay.
+    await station.send(client, {"identifier": "robot1/cmd_vel", "id": 3, "linear": 0.3, "angular": 0.0},
+                       received=station.clock.now - timeout + 0.1)  # fmt: skip
+    assert seen.replies(3) == [{"identifier": "ack", "id": 3}]
+    assert station.backend.moves("robot1") == [("velocity", "robot1", 0.3, 0.0)]
+    wall = station.relay.commands.wall_clock()
+    assert station.backend.stamps[-1] == pytest.approx(wall - timeout + 0.1, abs=0.05)
+
+
+async def test_stamped_commands_buffered_while_the_relay_was_frozen_are_dropped(station: Station) -> None:
+    # 20 Hz teleop stamped with the client's clock (t, ms), whose offset from the relay's is arbitrary.
+    client, seen = station.connect()
+    client.allowance = TokenBucket.full(100.0, station.clock.now)  # the 10/s of this station would drop the burst
+    offset = 123_456.0
+
+    async def drive(sent: float, received: float, request_id: int) -> None:
+        message = {"identifier": "robot1/cmd_vel", "id": request_id, "linear": 0.3, "angular": 0.0,
+                   "t": (sent + offset) * 1000}  # fmt: skip
+        await station.send(client, message, received=received)
+
+    for i in range(20):  # one second of normal driving: each frame reaches the relay 5-15 ms after it was sent
+        station.clock.now += 0.05
+        await drive(station.clock.now - 0.005 - 0.01 * (i % 2), station.clock.now, i)
+    assert all(seen.replies(i)[0]["identifier"] == "ack" for i in range(20))
+    # The relay is frozen for 3 s. The client sent 60 frames meanwhile; they all arrive when it resumes.
+    frozen_at = station.clock.now
+    station.clock.now += 3.0
+    for i in range(60):
+        await drive(frozen_at + 0.05 * (i + 1), station.clock.now, 100 + i)
+    codes = [seen.replies(100 + i)[0].get("code", "ack") for i in range(60)]
+    # Those sent more than the deadman's timeout (0.5 s) before the relay resumed are dropped, the last ~0.5 s go;
+    # the estimate may read ages young by its creep over the silence (relay.freshness: 0.02 s/s x 3 s).
+    timeout = station.relay.config.safety.deadman_timeout
+    ages = [3.0 - 0.05 * (i + 1) for i in range(60)]
+    assert all(code == "stale" for code, age in zip(codes, ages, strict=True) if age > timeout + CREEP * 3.0), codes
+    assert all(code == "ack" for code, age in zip(codes, ages, strict=True) if age < timeout), codes
+    assert len(station.backend.moves("robot1")) == 20 + codes.count("ack")
 
 
 async def test_a_goal_during_teleop_stops_teleop_before_the_goal(station: Station) -> None:

@@ -320,9 +320,9 @@ async def test_shutdown_stops_robots_first_then_closes_with_going_away(fleet_con
     commands: list[tuple[float, str]] = []
     original = sim.send_velocity
 
-    async def spy(robot: str, linear: float, angular: float) -> None:
+    async def spy(robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         commands.append((time.monotonic(), f"{robot}:{linear}:{angular}"))
-        await original(robot, linear, angular)
+        await original(robot, linear, angular, stamp=stamp)
 
     sim.send_velocity = spy  # type: ignore[method-assign]
     started = time.monotonic()

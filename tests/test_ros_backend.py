@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import asyncio
 import io
-import itertools
 import json
 import math
 import os
-import random
 import signal
 import sys
 import time
@@ -43,7 +41,6 @@ import sensor_msgs.msg  # noqa: E402, F401
 import std_msgs.msg  # noqa: E402, F401
 
 FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4" / "front.jpg"
-_DOMAINS = itertools.count(random.randint(20, 120))
 
 FLEET = """
 safety: {deadman_timeout: 0.5, offline_after: 2.0}
@@ -63,14 +60,6 @@ robots:
     limits: {linear: 0.3, angular: 0.8}
     scan: null
 """
-
-
-@pytest.fixture
-def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
-    domain = next(_DOMAINS)
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    return domain
 
 
 class Peer:

@@ -7,8 +7,10 @@ PoseWithCovarianceStamped or PoseStamped according to its pose source), its sens
 message types), a LaserScan and, when a client asks, camera images (sensor_msgs/Image rgb8 or a JPEG
 CompressedImage, once the simulated camera is available), and the facility's map on the map topic
 (transient local). It follows ``cmd_vel`` (Twist or TwistStamped) and ``goal_pose`` (PoseStamped) like the
-``sim`` backend does. It is the demo for people without robots, and the counterpart of the integration
-tests: ``xr-relay --backend ros`` against it gives the same experience as ``--backend sim``.
+``sim`` backend does; robots with ``cmd_vel.watchdog`` get their teleop through the watchdog (relay/watchdog),
+which runs in this process, on the robots' side of the network. It is the demo for people without robots,
+and the counterpart of the integration tests: ``xr-relay --backend ros`` against it gives the same experience
+as ``--backend sim``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from relay.errors import ConfigError  # noqa: E402
 from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
+from relay.watchdog.node import Watchdogs  # noqa: E402
 
 logger = logging.getLogger("fake_fleet")
 
@@ -119,6 +122,10 @@ class FakeFleet:
             )
         self.map_pub = self.node.create_publisher(OccupancyGrid, config.ros.map_topic, latched)
         self._publish_map(OccupancyGrid)
+        # Robots whose cmd_vel.watchdog is set get the relay's teleop through a watchdog on the robot's side, as
+        # real robots should (docs/reliability.md): it stops them when the relay cannot.
+        watched = [robot for robot in config.robots if robot.watchdog_topic is not None]
+        self.watchdogs = Watchdogs(self.node, config, watched, config.safety.deadman_timeout) if watched else None
         self._cameras: list[tuple[str, Any, Any, Any, float]] = []  # robot, camera spec, publisher, lens, period
         self._start_cameras()
         sim = config.sim
@@ -287,6 +294,8 @@ def main(argv: list[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if fleet.watchdogs is not None:
+            fleet.watchdogs.stop_all()
         fleet.node.destroy_node()
         rclpy.try_shutdown()
     return 0

@@ -36,7 +36,9 @@ class Backend(abc.ABC):
     async def stop(self) -> None: ...
 
     @abc.abstractmethod
-    async def send_velocity(self, robot: str, linear: float, angular: float) -> None: ...
+    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
+        """Command a velocity. ``stamp`` is the wall-clock time the operator's command reached the relay (None: a
+        stop of the relay's own, or now); a backend that hands commands to a watchdog stamps them with it."""
 
     @abc.abstractmethod
     async def send_goal(

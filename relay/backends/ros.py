@@ -57,6 +57,10 @@ from .ros_cameras import RosCameras
 
 logger = logging.getLogger(__name__)
 
+#: Seconds between heartbeats (std_msgs/Header on ``ros.heartbeat_topic``) while the event loop runs; the
+#: watchdog's timeout (the deadman's, 0.5 s by default) spans five of them.
+HEARTBEAT_PERIOD = 0.1
+
 INSTALL_HINT = (
     "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
     "or source a ROS 2 installation first (`source /opt/ros/<distro>/setup.bash`)"
@@ -93,6 +97,7 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
         ("sensor_msgs.msg", "CompressedImage"),
         ("sensor_msgs.msg", "LaserScan"),
         ("nav_msgs.msg", "OccupancyGrid"),
+        ("std_msgs.msg", "Header"),
     ):
         needed.setdefault(f"{module}.{cls}", (module, cls, "the relay"))
     classes: dict[str, Any] = {}
@@ -136,6 +141,8 @@ class RosBackend(Backend):
         self._cameras = RosCameras(config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy)
         self._goals = GoalWatch()
         self._grid: OccupancyGrid | None = None
+        self._heartbeat_pub: Any = None
+        self._heartbeat_task: asyncio.Task[None] | None = None
 
     def _msg(self, module: str, cls: str) -> Any:
         return self._messages[f"{module}.{cls}"]
@@ -145,6 +152,8 @@ class RosBackend(Backend):
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
         await asyncio.to_thread(self._start_node)
+        if self._heartbeat_pub is not None:
+            self._heartbeat_task = asyncio.create_task(self._beat(), name="ros-heartbeat")
         logger.info(
             "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots",
             os.environ.get("ROS_DOMAIN_ID", "0"),
@@ -165,6 +174,11 @@ class RosBackend(Backend):
         self._node.create_subscription(
             self._msg("nav_msgs.msg", "OccupancyGrid"), self.config.ros.map_topic, self._on_map, self._qos("map")
         )
+        self._heartbeat_pub = None
+        if any(robot.watchdog_topic is not None for robot in self.config.robots):
+            self._heartbeat_pub = self._node.create_publisher(
+                self._msg("std_msgs.msg", "Header"), self.config.ros.heartbeat_topic, self._qos("commands")
+            )
         self._executor = self._new_executor(executors)
         self._executor.add_node(self._node)
         self._thread = threading.Thread(target=self._spin, name="ros-executor", daemon=True)
@@ -205,9 +219,24 @@ class RosBackend(Backend):
         self.failure = None
         logger.warning("ros backend recovered: node and subscriptions re-created")
 
+    async def _beat(self) -> None:
+        """The heartbeat the watchdogs wait for, published from the event loop: a loop that cannot run (a frozen
+        or starved relay) sends none, and every watchdog stops its robot."""
+        header = self._msg("std_msgs.msg", "Header")()
+        header.frame_id = "xr_relay"
+        while True:
+            when = time.time()
+            header.stamp.sec, header.stamp.nanosec = int(when), int((when - int(when)) * 1e9)
+            if self._heartbeat_pub is not None and self._node is not None:
+                with contextlib.suppress(Exception):  # a node being rebuilt (recover): the next beat goes out
+                    self._heartbeat_pub.publish(header)
+            await asyncio.sleep(HEARTBEAT_PERIOD)
+
     async def stop(self) -> None:
         if self._node is None:
             return
+        if self._heartbeat_task is not None:
+            self._heartbeat_task.cancel()
         for robot in self.config.robots:
             await self.stop_robot(robot.name)
         executor, node, context = self._executor, self._node, self._context
@@ -277,8 +306,13 @@ class RosBackend(Backend):
                 lambda m, r=name: self._post(RobotModelEvent(r, str(m.data))),
                 self._qos("map"),
             )
-        twist = ("geometry_msgs.msg", "TwistStamped" if robot.cmd_vel_stamped else "Twist")
-        self._cmd_pubs[name] = node.create_publisher(self._msg(*twist), robot.cmd_vel_topic, self._qos("commands"))
+        if robot.watchdog_topic is not None:
+            # The watchdog (relay/watchdog) forwards fresh commands to cmd_vel and stops the robot without us.
+            twist_cls = self._msg("geometry_msgs.msg", "TwistStamped")
+            self._cmd_pubs[name] = node.create_publisher(twist_cls, robot.watchdog_topic, self._qos("commands"))
+        else:
+            twist = ("geometry_msgs.msg", "TwistStamped" if robot.cmd_vel_stamped else "Twist")
+            self._cmd_pubs[name] = node.create_publisher(self._msg(*twist), robot.cmd_vel_topic, self._qos("commands"))
         self._goal_pubs[name] = node.create_publisher(
             self._msg("geometry_msgs.msg", "PoseStamped"), robot.goal_topic, self._qos("commands")
         )
@@ -355,13 +389,16 @@ class RosBackend(Backend):
         assert robot is not None
         return robot
 
-    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         spec = self._robot(robot)
-        twist_cls = self._msg("geometry_msgs.msg", "TwistStamped" if spec.cmd_vel_stamped else "Twist")
-        message = twist_cls()
-        twist = message.twist if spec.cmd_vel_stamped else message
-        if spec.cmd_vel_stamped:
-            message.header.stamp = self._node.get_clock().now().to_msg()
+        stamped = spec.cmd_vel_stamped or spec.watchdog_topic is not None
+        message = self._msg("geometry_msgs.msg", "TwistStamped" if stamped else "Twist")()
+        twist = message.twist if stamped else message
+        if stamped:
+            # The watchdog judges a command's age by this stamp: the time the operator's command reached the relay.
+            when = time.time() if stamp is None else stamp
+            message.header.stamp.sec = int(when)
+            message.header.stamp.nanosec = int((when - int(when)) * 1e9)
             message.header.frame_id = spec.pose.base_frame
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)

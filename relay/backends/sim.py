@@ -90,7 +90,7 @@ class SimBackend(Backend):
 
     # -- commands ---------------------------------------------------------------------------------
 
-    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         self.world.set_velocity(robot, linear, angular)
 
     async def send_goal(

@@ -200,13 +200,16 @@ def _safety(reader: _Reader, node: Node) -> Safety:
 
 
 def _ros(reader: _Reader, node: Node) -> Ros:
-    f = reader.mapping(node, "ros", ("map_topic", "qos"))
+    f = reader.mapping(node, "ros", ("map_topic", "heartbeat_topic", "qos"))
     map_topic = Ros.map_topic
     if "map_topic" in f:
         map_topic = _topic(reader, f["map_topic"], "ros.map_topic", "")
+    heartbeat_topic = Ros.heartbeat_topic
+    if "heartbeat_topic" in f:
+        heartbeat_topic = _topic(reader, f["heartbeat_topic"], "ros.heartbeat_topic", "")
     qos = dict(Ros.qos)
     if "qos" in f:
         q = reader.mapping(f["qos"], "ros.qos", QOS_NAMES)
         for key, value in q.items():
             qos[key] = reader.choice(value, f"ros.qos.{key}", ("reliable", "best_effort"))  # type: ignore[assignment]
-    return Ros(map_topic=map_topic, qos=tuple(qos.items()))
+    return Ros(map_topic=map_topic, heartbeat_topic=heartbeat_topic, qos=tuple(qos.items()))

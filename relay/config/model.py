@@ -93,6 +93,9 @@ class Robot:
     initial_pose: Pose2D
     scan_topic: str | None = None  # sensor_msgs/LaserScan; None: no scan
     model_source: ModelSource | None = None
+    #: Where the relay publishes its teleop (TwistStamped) for ``xr-relay watchdog``, which forwards fresh commands
+    #: to ``cmd_vel_topic`` and stops the robot when they or the relay's heartbeat stop. None: straight to cmd_vel.
+    watchdog_topic: str | None = None
 
     def camera(self, name: str | None) -> Camera | None:
         """The named camera, or the first one when ``name`` is None."""
@@ -158,6 +161,9 @@ class Ros:
     """Settings of the ``ros`` backend."""
 
     map_topic: str = "/map"
+    #: std_msgs/Header the relay publishes from its event loop (10 Hz) while it runs; ``xr-relay watchdog`` stops
+    #: its robots when it stops.
+    heartbeat_topic: str = "/xr_relay/heartbeat"
     #: Reliability per kind of topic; depth and durability are fixed (images depth 1, map transient local).
     qos: tuple[tuple[str, Reliability], ...] = (
         ("pose", "best_effort"),

@@ -54,7 +54,7 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     )
     model, model_source = _model(reader, f, path, namespace, base_dir)
     pose = _pose_source(reader, f.get("pose"), f"{path}.pose", namespace)
-    cmd_vel_topic, stamped, goal_topic = _command_topics(reader, f, path, namespace)
+    cmd_vel_topic, stamped, watchdog_topic, goal_topic = _command_topics(reader, f, path, namespace)
     cameras = _cameras(reader, f, path, namespace)
     sensors = _sensors(reader, f, path, namespace)
     limits, initial = _limits(reader, f, path)
@@ -69,6 +69,7 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
         pose=pose,
         cmd_vel_topic=cmd_vel_topic,
         cmd_vel_stamped=stamped,
+        watchdog_topic=watchdog_topic,
         goal_topic=goal_topic,
         cameras=tuple(cameras),
         sensors=tuple(sensors),
@@ -115,21 +116,33 @@ def _model(
     return model, model_source
 
 
-def _command_topics(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> tuple[str, bool, str]:
-    """cmd_vel (and whether it is a TwistStamped) and goal_pose."""
+def _command_topics(
+    reader: _Reader, f: dict[str, Node], path: str, namespace: str
+) -> tuple[str, bool, str | None, str]:
+    """cmd_vel (whether it is a TwistStamped, and the watchdog's input topic if any) and goal_pose."""
     cmd_vel_topic = resolve_topic(namespace, "cmd_vel")
     stamped = False
+    watchdog: str | None = None
     if "cmd_vel" in f:
-        c = reader.mapping(f["cmd_vel"], f"{path}.cmd_vel", ("topic", "stamped"))
+        c = reader.mapping(f["cmd_vel"], f"{path}.cmd_vel", ("topic", "stamped", "watchdog"))
         if "topic" in c:
             cmd_vel_topic = _topic(reader, c["topic"], f"{path}.cmd_vel.topic", namespace)
         stamped = reader.get(c, "stamped", f"{path}.cmd_vel", reader.boolean, False)
+        if "watchdog" in c:
+            # true: the default input topic; a string: that topic; false: none (the relay publishes on cmd_vel).
+            node, where = c["watchdog"], f"{path}.cmd_vel.watchdog"
+            if isinstance(reader.value(node), str):
+                watchdog = _topic(reader, node, where, namespace)
+            elif reader.boolean(node, where):
+                watchdog = resolve_topic(namespace, "xr_relay/cmd_vel")
+            if watchdog == cmd_vel_topic:
+                raise reader.fail(node, where, "the watchdog's input must be another topic than cmd_vel's")
     goal_topic = resolve_topic(namespace, "goal_pose")
     if "goal_pose" in f:
         g = reader.mapping(f["goal_pose"], f"{path}.goal_pose", ("topic",))
         if "topic" in g:
             goal_topic = _topic(reader, g["topic"], f"{path}.goal_pose.topic", namespace)
-    return cmd_vel_topic, stamped, goal_topic
+    return cmd_vel_topic, stamped, watchdog, goal_topic
 
 
 def _cameras(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> list[Camera]:

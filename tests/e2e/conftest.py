@@ -185,9 +185,9 @@ async def station() -> AsyncIterator[Station]:
     backend = running.relay.backend
     original = backend.send_velocity
 
-    async def spy(robot: str, linear: float, angular: float) -> None:
+    async def spy(robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         velocities.append((time.monotonic(), robot, linear, angular))
-        await original(robot, linear, angular)
+        await original(robot, linear, angular, stamp=stamp)
 
     backend.send_velocity = spy
     goals: list[tuple[str, float, float, float | None]] = []

@@ -34,10 +34,12 @@ export class CommandSender {
   /**
    * @param {Link} link
    * @param {(text: string) => void} onNotSent
+   * @param {() => number} [clock] milliseconds on a monotonic clock, stamped on every cmd_vel as `t`
    */
-  constructor(link, onNotSent) {
+  constructor(link, onNotSent, clock = () => performance.now()) {
     this.link = link;
     this.onNotSent = onNotSent;
+    this.clock = clock;
   }
 
   /**
@@ -67,7 +69,8 @@ export class CommandSender {
    */
   twist(command) {
     /** @type {import('./protocol.js').CmdVelCommand} */
-    const message = { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular) };
+    // `t` lets the relay drop a command that waited (in a frozen relay, a stalled network) past the deadman's timeout.
+    const message = { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular), t: Math.round(this.clock()) };
     // Silently dropped while disconnected: the relay's deadman stops the robot on its side.
     if (this.link.send(/** @type {Record<string, unknown>} */ (message), false) === null) return;
     this.counts.cmdVel++;

@@ -7,6 +7,7 @@ import { PoseSmoother } from '../src/pose_smoother.js';
 import { SNAP_ANGLE, SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../src/locomotion.js';
 import { vrAvailability } from '../src/security.js';
 import { scanToPoints } from '../src/scan.js';
+import { CommandSender } from '../src/command_sender.js';
 
 /** @param {object} header @param {number[]} payload */
 function frame(header, payload) {
@@ -135,4 +136,16 @@ test('frame timing: a fixed ring, recent samples in order, quantiles', async () 
   assert.equal(t.stats().samples, 4);
   assert.equal(t.stats().max, 6);
   assert.equal(t.stats().p50, 5);
+});
+
+test('every cmd_vel carries the client clock as t, so the relay can drop a command that waited', () => {
+  /** @type {Record<string, unknown>[]} */
+  const sent = [];
+  let now = 1234.4;
+  const sender = new CommandSender({ send: (m) => (sent.push(m), '') }, () => {}, () => now);
+  sender.twist({ robot: 'robot1', linear: 0.2, angular: -0.1 });
+  now = 1284.6;
+  sender.twist({ robot: 'robot1', linear: 0, angular: 0 });
+  assert.deepEqual(sent.map((m) => m.t), [1234, 1285]);
+  assert.deepEqual(Object.keys(sent[0]).sort(), ['angular', 'identifier', 'linear', 't']);
 });

@@ -182,7 +182,7 @@ class BagBackend(Backend):
             return f"{robot} is a recording (bag {spec.shown}); it cannot be commanded"
         return f"{robot} is not in any of the replayed recordings; with --backend bag no robot can be commanded"
 
-    async def send_velocity(self, robot: str, linear: float, angular: float) -> None:
+    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
         """Nothing to drive: only stop paths (deadman, estop, shutdown) get here, and a recording is stopped."""
 
     async def send_goal(
