@@ -15,10 +15,11 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Awaitable, Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .audit import CommandAudit
 from .backends.base import Backend
+from .budget import SnapshotBudget
 from .clients import Client
 from .config import Robot
 from .control import Control
@@ -66,6 +67,7 @@ class CommandHandler:
     audit: CommandAudit
     map_grid: Callable[[], OccupancyGrid | None]
     wall_clock: Callable[[], float] = time.time
+    snapshots: SnapshotBudget = field(default_factory=SnapshotBudget)
 
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
@@ -92,7 +94,13 @@ class CommandHandler:
             return
         if isinstance(command, Snapshot):
             # Rendering or waiting for the next camera frame takes a while: do not hold up this
-            # client's later frames (an estop among them) behind it.
+            # client's later frames (an estop among them) behind it; and spend no more than the budget.
+            refusal = self.snapshots.take(client.client_id, client.role, now)
+            if refusal is not None:
+                error = ProtocolError(ErrorCode.BUSY, f"{command_identifier(command)}: refused: {refusal}", command.id)
+                self.outbox.error(client, command.id, error.code, error.message)
+                self.audit.command(client, command, error)
+                return
             client.spawn(self._run_apart(client, command, self._snapshot(client, command)))
             return
         if isinstance(command, GoalPose):
@@ -265,6 +273,12 @@ class CommandHandler:
         self.outbox.ack(client, command.id)
 
     async def _snapshot(self, client: Client, command: Snapshot) -> None:
+        try:
+            await self._take_snapshot(client, command)
+        finally:
+            self.snapshots.done(client.client_id, client.role)
+
+    async def _take_snapshot(self, client: Client, command: Snapshot) -> None:
         robot = self.robots[command.robot]
         camera = robot.camera(command.camera)
         identifier = robot_identifier(robot.name, "snapshot")

@@ -175,6 +175,7 @@ class Relay:
     async def _drop_client(self, client: Client) -> None:
         self._clients.pop(client.client_id, None)
         client.cancel_tasks()
+        self.commands.snapshots.forget(client.client_id)
         streams = list(client.channel.streams)
         await self.hub.remove(client.channel)
         self.streams.streams_ended(streams)

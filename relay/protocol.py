@@ -60,6 +60,7 @@ class ErrorCode:
     SUPERSEDED: Final = "superseded"  # an estop, take-over, cancel or newer goal overtook this command
     AUDIT_UNAVAILABLE: Final = "audit_unavailable"  # the relay cannot record commands: it moves no robot
     STALE: Final = "stale"  # a motion command older than the deadman timeout when the relay got to it: dropped
+    BUSY: Final = "busy"  # the snapshot budget or a work pool (planning, rendering) is full: try again shortly
 
     ALL: Final = (
         BAD_REQUEST,
@@ -79,6 +80,7 @@ class ErrorCode:
         SUPERSEDED,
         AUDIT_UNAVAILABLE,
         STALE,
+        BUSY,
     )
 
 

@@ -19,6 +19,7 @@ import orjson
 import pytest
 
 from relay.backends.base import Backend
+from relay.budget import OPERATOR_RESERVE, TOTAL
 from relay.config import FleetConfig
 from relay.core import Relay
 from relay.events import EventSink, FrameEvent, PoseEvent
@@ -533,6 +534,38 @@ async def test_snapshot_runs_apart_and_answers_with_a_frame_then_an_ack(station:
     assert header["identifier"] == "robot1/camera/front" and header["request_id"] == "s2"
     assert header["width"] == 480 and header["lens"]["model"] == "equidistant" and payload.startswith(b"\xff\xd8")
     assert seen.replies("s2") == [{"identifier": "ack", "id": "s2"}]
+
+
+async def test_snapshots_are_budgeted_per_client_and_viewers_cannot_starve_operators(station: Station) -> None:
+    station.backend.frame = FrameEvent(
+        robot="robot1", camera="front", stamp=12.5, width=480, height=480, jpeg=b"\xff\xd8jpeg\xff\xd9"
+    )
+    station.backend.planning = None
+    gate = asyncio.Event()
+    slow = station.backend.snapshot
+
+    async def held(robot: str, camera: str) -> FrameEvent | None:
+        await gate.wait()  # a render that takes a while
+        return await slow(robot, camera)
+
+    station.backend.snapshot = held  # type: ignore[method-assign]
+    viewers = [station.connect("viewer") for _ in range(4)]
+    for i, (viewer, _) in enumerate(viewers):
+        for j in range(3):  # each viewer floods
+            await station.send(viewer, {"identifier": "robot1/snapshot", "id": f"v{i}-{j}"}, apart=False)
+    refusals = [m for _, seen in viewers for m in seen.texts if m.get("code") == "busy"]
+    started = sum(1 for i, (_, seen) in enumerate(viewers) for j in range(3) if not seen.replies(f"v{i}-{j}"))
+    assert started == TOTAL - OPERATOR_RESERVE and len(refusals) == 12 - started
+    assert any("kept for operators" in m["message"] for m in refusals)
+    assert any("already in progress" in m["message"] for m in refusals)
+    # The operator's snapshot is taken although the viewers asked first, and more often.
+    operator, seen = station.connect()
+    await station.send(operator, {"identifier": "robot1/snapshot", "id": "op"}, apart=False)
+    gate.set()
+    await station.settle()
+    assert seen.replies("op") == [{"identifier": "ack", "id": "op"}] and len(seen.frames) == 1
+    served = sum(len(s.frames) for _, s in viewers)
+    assert served == started
 
 
 async def test_every_frame_is_audited_with_its_outcome(station: Station, tmp_path: Path) -> None:

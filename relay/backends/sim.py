@@ -2,11 +2,12 @@
 
 A thin asyncio adapter over :class:`relay.sim.world.SimWorld`: the world is integrated at
 ``sim.physics_rate`` (>= 50 Hz), poses are published at ``sim.pose_rate`` whether the robots move or not (as
-odometry is), sensors at ``sim.sensor_rate``. Planning a goal runs in a worker thread, never on the loop.
+odometry is), sensors at ``sim.sensor_rate``. Planning a goal runs in a pool of its own, never on the loop.
 
 Cameras: each camera of robots.yaml sees the scene's glTF through its lens, ray cast by
 :class:`relay.sim.camera.SimCamera` in a worker thread (about 65-115 ms for 480x480 with Embree on 2 cores).
-A stream renders at most one frame at a time per camera, at up to the rate asked for.
+A stream renders at most one frame at a time per camera, at up to the rate asked for; renders (streams and
+snapshots) share one rendering thread with a bounded queue (relay.work).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import logging
 import time
 from collections.abc import Callable
 
+from ..budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
 from ..events import EventSink, FrameEvent, NavEvent, PoseEvent, SensorEvent
@@ -27,6 +29,7 @@ from ..protocol import ErrorCode
 from ..sim.camera import SimCamera, rgb_to_jpeg
 from ..sim.world import Goal, NoPathError, Outcome, SimWorld
 from ..twin.frames import map_to_scene_matrix
+from ..work import Busy, WorkPool
 from .base import Backend
 
 logger = logging.getLogger(__name__)
@@ -42,6 +45,13 @@ class SimBackend(Backend):
         self.camera: SimCamera | None = None
         self._lenses: dict[tuple[str, str], LensModel] = {}
         self._streams: dict[tuple[str, str], tuple[float, asyncio.Task[None]]] = {}
+        # Pools of their own (relay.work), not asyncio's default one that anything can fill. One render thread:
+        # the other core stays for the event loop and planning. The rendering queue holds every camera's stream
+        # frame (one each) and the snapshot budget's total (relay.budget), so a snapshot within budget never
+        # finds it full.
+        cameras = sum(len(robot.cameras) for robot in config.robots)
+        self._planning = WorkPool("planning", workers=1, queue=4)
+        self._rendering = WorkPool("rendering", workers=1, queue=cameras + SNAPSHOTS_AT_ONCE)
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
         self.sink(NavEvent(robot, navigating, goal, outcome, message))
@@ -76,6 +86,8 @@ class SimBackend(Backend):
         for _, task in self._streams.values():
             task.cancel()
         self._streams.clear()
+        self._planning.shutdown()
+        self._rendering.shutdown()
         if self._world is None:
             return
         for name in self.world.robots:
@@ -97,10 +109,12 @@ class SimBackend(Backend):
         self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
     ) -> None:
         try:
-            # A* takes milliseconds to tens of them: keep it off the event loop.
-            path = await asyncio.to_thread(self.world.plan, robot, x, y)
+            # A* takes milliseconds to tens of them: off the event loop, in a pool no snapshot can fill.
+            path = await self._planning.run(lambda: self.world.plan(robot, x, y))
         except NoPathError as exc:
             raise CommandRejected(ErrorCode.NO_PATH, f"{robot}/goal_pose: {exc}") from None
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"{robot}/goal_pose: {exc}; try again shortly") from None
         if current():  # an estop or a take-over while planning: the robot must not follow the old plan
             self.world.follow(robot, path, yaw)
 
@@ -117,7 +131,10 @@ class SimBackend(Backend):
         # Plain floats cross to the worker thread: the world keeps moving on the loop meanwhile.
         x, y, yaw, stamp = float(state.x), float(state.y), float(state.yaw), time.time()
         render = self.camera.render
-        jpeg = await asyncio.to_thread(lambda: rgb_to_jpeg(render(x, y, yaw, lens)))
+        try:
+            jpeg = await self._rendering.run(lambda: rgb_to_jpeg(render(x, y, yaw, lens)))
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"{robot}/snapshot: {exc}; try again shortly") from None
         return FrameEvent(robot, camera, stamp, lens.width, lens.height, jpeg)
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
@@ -134,9 +151,10 @@ class SimBackend(Backend):
         period = 1.0 / fps
         while True:
             started = loop.time()
-            frame = await self.snapshot(robot, camera)
-            if frame is not None:
-                self.sink(frame)
+            with contextlib.suppress(CommandRejected):  # the rendering pool is full: this frame is skipped
+                frame = await self.snapshot(robot, camera)
+                if frame is not None:
+                    self.sink(frame)
             # One render in flight: when rendering is slower than the period, the rate drops instead of
             # frames piling up.
             await asyncio.sleep(max(0.0, period - (loop.time() - started)))
