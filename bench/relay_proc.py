@@ -268,7 +268,7 @@ def relay_options(backend: str, token: str | None) -> Options:
 
 async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | None) -> None:
     import relay.core
-    from relay.server import RELAY_KEY, create_app
+    from relay.server import RELAY_KEY, create_app, open_runner
 
     synthetic: SyntheticBackend | None = None
     if args.backend == "synthetic":
@@ -288,8 +288,7 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
     if args.backend == "sim" and jpeg is not None:
         install_jpeg_camera(backend, config, jpeg)
     images = count_images(backend)
-    runner = web.AppRunner(app, shutdown_timeout=1.0, access_log=None)
-    await runner.setup()
+    runner = await open_runner(app)  # as `xr-relay` runs it: guarded connections
     try:
         site = web.TCPSite(runner, "127.0.0.1", 0)
         await site.start()

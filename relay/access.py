@@ -16,6 +16,7 @@ doubling up to :data:`MAX_DELAY`: a guesser gets a handful of tries a minute ins
 from __future__ import annotations
 
 import hmac
+import ipaddress
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -44,7 +45,36 @@ class Access:
     allow_viewers: bool = False
     allowed_origins: tuple[str, ...] = ()
     window: float = 60.0  # wrong tokens older than this (s) no longer slow an address
+    #: Names the Host header may carry besides IP addresses (lower case): see ``check_host``.
+    allowed_hosts: frozenset[str] = frozenset({"localhost"})
     _failures: dict[str, deque[float]] = field(default_factory=dict)
+
+    def check_host(self, host: str | None) -> None:
+        """DNS rebinding: a hostile page at ``evil.example``, its name re-pointed at 127.0.0.1, sends ``Host`` and
+        ``Origin`` both ``evil.example:P``, which pass the Origin check. So the Host must be an IP address or a
+        name this relay is known by (localhost, this machine's names, ``--allow-host``). No Host (HTTP/1.0
+        tools) is allowed: browsers always send one."""
+        if host is None:
+            return
+        name = host.strip().lower()
+        if name.startswith("["):  # [v6]:port
+            name = name[1 : name.find("]")] if "]" in name else name
+        elif name.count(":") == 1:
+            name = name.split(":", 1)[0]
+        name = name.rstrip(".")
+        try:
+            ipaddress.ip_address(name)
+            return
+        except ValueError:
+            pass
+        if name in self.allowed_hosts:
+            return
+        shown = host if len(host) <= 80 else host[:80] + "..."
+        raise Refused(
+            403,
+            f"Host {shown!r} is not a name of this relay (a DNS rebinding attempt?); if you reach the relay by "
+            f"that name, start it with --allow-host {name[:80]}",
+        )
 
     def check_origin(self, origin: str | None, own_origin: str) -> None:
         if origin is None:

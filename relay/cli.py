@@ -92,6 +92,14 @@ def _add_access_options(access: argparse._ArgumentGroup) -> None:
         help="a web origin (scheme://host:port) allowed to open /ws besides the relay's own; repeatable",
     )
     access.add_argument(
+        "--allow-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a host name the relay is reached by, besides IP addresses, localhost and this machine's names "
+        "(requests naming any other Host are refused: DNS rebinding); repeatable",
+    )
+    access.add_argument(
         "--max-message-rate",
         type=float,
         default=60.0,
@@ -185,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
             token=args.token or secrets.token_urlsafe(24),
             allow_viewers=args.allow_viewers,
             allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
+            allowed_hosts=tuple(args.allow_host),
             tls_cert=cert,
             tls_key=key,
             max_message_rate=args.max_message_rate,

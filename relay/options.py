@@ -31,6 +31,12 @@ class Options:
     allow_viewers: bool = False
     #: Origins allowed besides the relay's own, e.g. ("https://ops.example.org",).
     allowed_origins: tuple[str, ...] = ()
+    #: Host names (of the Host header) allowed besides IP addresses, localhost and this machine's names.
+    allowed_hosts: tuple[str, ...] = ()
+    #: Seconds a connection has to send its request's headers (relay.guard).
+    header_timeout: float = 10.0
+    #: Connections that are not an admitted WebSocket kept at once; one more closes the oldest (relay.guard).
+    max_unadmitted: int = 256
     #: Certificate and key (PEM) to serve https/wss; None: plain http/ws.
     tls_cert: str | None = None
     tls_key: str | None = None

@@ -14,6 +14,7 @@ import socket
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from aiohttp import WSCloseCode, WSMsgType, web
 
@@ -22,6 +23,7 @@ from .access import Access, Refused
 from .clients import Client
 from .config import FleetConfig
 from .core import Relay
+from .guard import ConnectionGuard
 from .options import Options
 from .tls import fingerprint, server_context
 
@@ -44,6 +46,7 @@ SHUTDOWN_TIMEOUT = 1.5
 RELAY_KEY = web.AppKey("relay", Relay)
 ACCESS_KEY = web.AppKey("access", Access)
 SOCKETS_KEY = web.AppKey("sockets", set[web.WebSocketResponse])
+GUARD_KEY = web.AppKey("guard", ConnectionGuard)
 
 
 class AiohttpTransport:
@@ -151,6 +154,7 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     if sock is not None:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_SEND_BUFFER)
     await ws.prepare(request)
+    request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)
     client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address)
     try:
@@ -172,6 +176,28 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
         request.app[SOCKETS_KEY].discard(ws)
         await relay.disconnect(client)
     return ws
+
+
+async def check_token(request: web.Request) -> web.Response:
+    """POST /auth with the token as the body: what a handshake with it would get (200 and the role, or the
+    refusal), under the same Origin check and the same slowing of wrong tokens. A browser cannot see why a
+    WebSocket handshake failed; the page asks here, so that a tab with a stale token stops retrying and says
+    what to do instead of knocking every few seconds."""
+    access = request.app[ACCESS_KEY]
+    address = request.remote or "unknown"
+    body = await request.content.read(1025)
+    try:
+        if len(body) > 1024:
+            raise Refused(400, "a token is shorter than that")
+        access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
+        token = body.decode("utf-8", errors="replace").strip() or None
+        role, delay = access.admit(token, address, time.monotonic())
+    except Refused as exc:
+        await asyncio.sleep(exc.delay)
+        return web.Response(status=exc.status, text=exc.reason + "\n")
+    if delay > 0:
+        await asyncio.sleep(delay)
+    return web.json_response({"role": role})
 
 
 async def generated_scene(request: web.Request) -> web.Response:
@@ -206,6 +232,7 @@ async def healthz(request: web.Request) -> web.Response:
 async def metrics(request: web.Request) -> web.Response:
     relay = request.app[RELAY_KEY]
     c = relay.hub.counters
+    guard = request.app[GUARD_KEY].counts
     now = time.monotonic()
     lines = [
         ("xr_relay_messages_in_total", "counter", "Frames received from clients", c.messages_in),
@@ -218,6 +245,21 @@ async def metrics(request: web.Request) -> web.Response:
         ("xr_relay_clients", "gauge", "Clients connected now", relay.clients),
         ("xr_relay_robots_online", "gauge", "Robots with fresh data", relay.fleet.robots_online(now)),
         ("xr_relay_uptime_seconds", "gauge", "Seconds since start", round(relay.uptime(), 3)),
+        ("xr_relay_connections", "gauge", "TCP connections now", guard["connections"]),
+        (
+            "xr_relay_connections_unadmitted",
+            "gauge",
+            "Connections not (yet) an admitted WebSocket",
+            guard["unadmitted"],
+        ),
+        ("xr_relay_connections_timed_out_total", "counter", "Closed for not sending headers", guard["timed_out"]),
+        ("xr_relay_connections_evicted_total", "counter", "Closed to make room (flood)", guard["evicted"]),
+        (
+            "xr_relay_accept_failures_total",
+            "counter",
+            "accept() failures (out of descriptors)",
+            guard["accept_failures"],
+        ),
     ]
     text = "".join(f"# HELP {n} {h}\n# TYPE {n} {t}\n{n} {v}\n" for n, t, h, v in lines)
     return web.Response(
@@ -244,15 +286,63 @@ async def _close_sockets(app: web.Application) -> None:
     )
 
 
+@web.middleware
+async def _guarded(
+    request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
+) -> web.StreamResponse:
+    """Every request: its connection's header deadline is met (relay.guard), and its Host is one of ours."""
+    guard = request.app[GUARD_KEY]
+    guard.request_started(request.protocol)
+    try:
+        try:
+            request.app[ACCESS_KEY].check_host(request.headers.get("Host"))
+        except Refused as exc:
+            logger.warning("refused a request from %s: %s", request.remote, exc.reason)
+            return web.Response(status=exc.status, text=exc.reason + "\n")
+        return await handler(request)
+    finally:
+        guard.request_ended(request.protocol)
+
+
+async def open_runner(app: web.Application) -> web.AppRunner:
+    """The app's runner, set up, with its connections guarded (relay.guard): what ``serve`` and the tests use."""
+    # access_log=None: the access log would write query strings, and /ws?token=... carries the token.
+    # keepalive_timeout: an idle kept-alive connection is closed after this long (aiohttp's default is an hour).
+    runner = web.AppRunner(app, shutdown_timeout=SHUTDOWN_TIMEOUT, access_log=None, keepalive_timeout=15.0)
+    await runner.setup()
+    assert runner.server is not None
+    app[GUARD_KEY].attach(runner.server)
+    return runner
+
+
+async def _stop_guard(app: web.Application) -> None:
+    app[GUARD_KEY].stop()
+
+
+def own_host_names(options: Options) -> frozenset[str]:
+    """Names the Host header may carry: localhost, this machine's names, ``--host``, ``--allow-host`` and the
+    hosts of ``--allow-origin`` (IP addresses are always allowed; see ``Access.check_host``)."""
+    hostname = socket.gethostname().lower()
+    names = {"localhost", hostname, f"{hostname}.local", socket.getfqdn().lower(), options.host.lower()}
+    names.update(h.lower().rstrip(".") for h in options.allowed_hosts)
+    names.update(urlsplit(origin).hostname or "" for origin in options.allowed_origins)
+    return frozenset(n for n in names if n)
+
+
 def create_app(config: FleetConfig, options: Options | None = None) -> web.Application:
     options = options or Options()
-    app = web.Application()
+    app = web.Application(middlewares=[_guarded])
     app[RELAY_KEY] = Relay(config, options)
-    app[ACCESS_KEY] = Access(options.token, options.allow_viewers, options.allowed_origins)
+    app[ACCESS_KEY] = Access(
+        options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
+    )
+    app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
+    app.on_cleanup.append(_stop_guard)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)
     app.on_shutdown.append(_close_sockets)
     app.router.add_get("/ws", websocket_handler)
+    app.router.add_post("/auth", check_token)
     app.router.add_get("/healthz", healthz)
     app.router.add_get("/metrics", metrics)
     app.router.add_get("/scenes/generated/{name}", generated_scene)
@@ -265,9 +355,7 @@ async def serve(config: FleetConfig, options: Options) -> None:
     """Run until SIGINT or SIGTERM, then shut down cleanly."""
     host, port, backend = options.host, options.port, options.backend
     app = create_app(config, options)
-    # access_log=None: the access log would write query strings, and /ws?token=... carries the token.
-    runner = web.AppRunner(app, shutdown_timeout=SHUTDOWN_TIMEOUT, access_log=None)
-    await runner.setup()
+    runner = await open_runner(app)
     ssl_context = None
     if options.tls_cert and options.tls_key:
         ssl_context = server_context(Path(options.tls_cert), Path(options.tls_key))

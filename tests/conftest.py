@@ -23,7 +23,7 @@ import relay.backends.sim  # noqa: F401 - imported once here, as the relay does 
 from relay.config import FleetConfig, load_config
 from relay.core import Relay
 from relay.options import Options
-from relay.server import RELAY_KEY, create_app
+from relay.server import RELAY_KEY, create_app, open_runner
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED_DATA = ROOT.parent / "shared" / "data"
@@ -129,8 +129,7 @@ class RunningRelay:
 
 async def start_relay(config: FleetConfig, backend: str = "sim", options: Options | None = None) -> RunningRelay:
     app = create_app(config, options or Options(backend=backend))
-    runner = web.AppRunner(app, shutdown_timeout=1.0)
-    await runner.setup()
+    runner = await open_runner(app)
     site = web.TCPSite(runner, "127.0.0.1", 0)
     await site.start()
     host, port = runner.addresses[0][:2]

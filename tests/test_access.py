@@ -16,6 +16,7 @@ import aiohttp
 import pytest
 from websockets.exceptions import InvalidStatus
 
+from relay.access import FIRST_DELAY, FREE_FAILURES
 from relay.backends.sim import SimBackend
 from relay.config import FleetConfig
 from relay.options import Options
@@ -320,3 +321,35 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
         _, err = process.communicate(timeout=10)
     assert "connected as operator" in err and "refused a connection" in err
     assert "SECRET" not in err
+
+
+async def test_the_page_can_ask_why_its_token_is_refused(fleet_config: FleetConfig) -> None:
+    # Browsers hide a refused handshake's status; POST /auth answers under the same rules, so a stale tab stops.
+    running = await start_relay(fleet_config, options=Options(token=TOKEN))
+    try:
+        async with aiohttp.ClientSession() as http:
+            async with http.post(running.url + "/auth", data=TOKEN) as response:
+                assert response.status == 200 and (await response.json()) == {"role": "operator"}
+            async with http.post(running.url + "/auth", data="stale") as response:
+                assert response.status == 401 and "wrong operator token" in await response.text()
+            async with http.post(running.url + "/auth", data="") as response:
+                assert response.status == 401 and "token is required" in await response.text()
+            foreign = {"Origin": "https://evil.example"}
+            async with http.post(running.url + "/auth", data=TOKEN, headers=foreign) as response:
+                assert response.status == 403  # another site learns nothing, not even whether a token is right
+            async with http.post(running.url + "/auth", data="x" * 5000) as response:
+                assert response.status == 400
+            # Wrong tokens here are slowed like wrong handshakes; the right one is never slowed.
+            for _ in range(FREE_FAILURES + 2):
+                async with http.post(running.url + "/auth", data="guess") as response:
+                    assert response.status == 401
+            started = time.monotonic()
+            async with http.post(running.url + "/auth", data="guess") as response:
+                assert response.status == 401
+            assert time.monotonic() - started >= FIRST_DELAY * 4 * 0.9
+            started = time.monotonic()
+            async with http.post(running.url + "/auth", data=TOKEN) as response:
+                assert response.status == 200
+            assert time.monotonic() - started < FIRST_DELAY
+    finally:
+        await running.runner.cleanup()

@@ -4,8 +4,15 @@ snapshot and a live stream. Screenshots go to test-artifacts/; JS time per frame
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
+
+from playwright.async_api import Browser
+
+from relay.config import load_config
+from relay.options import Options
+from tests.conftest import ROOT, start_relay
 
 from .conftest import SOFTWARE_GL, Client, OpenClient, Station, distance, record_timing, wait_until, window_stats
 from .test_client_vr import measure_rate, snapshot_until_uploaded
@@ -144,3 +151,27 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     assert client.errors == [], client.errors
     # The robots keep their poses updated while all of this happened.
     assert math.isfinite(station.pose("robot1")[0])
+
+
+async def test_a_tab_with_a_wrong_token_stops_knocking_and_says_what_to_do(browser: Browser) -> None:
+    # A stale tab (the relay restarted with a new token) once retried every 5 s and had the address slowed.
+    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
+    running = await start_relay(config, options=Options(token="the-current-token"))
+    handshakes: list[str] = []
+    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+    page.on("websocket", lambda ws: handshakes.append(ws.url))
+    try:
+        await page.goto(running.url + "/#token=last-weeks-token")
+        client = Client(page, "refused")
+        text = await client.wait("s.link.startsWith('refused') && s.link", 20)
+        assert "wrong operator token" in text and "open the address the relay printed" in text
+        await page.wait_for_timeout(6000)  # longer than the longest retry delay (5 s)
+        assert len(handshakes) == 1, handshakes
+        await client.shot("01-refused-token")
+        # The right token in the address gets in at once.
+        await page.goto(running.url + "/#token=the-current-token")
+        await page.reload()
+        await client.wait("s.connected", 30)
+    finally:
+        await page.close()
+        await running.runner.cleanup()

@@ -10,7 +10,7 @@
  * allocates is released in dispose().
  */
 import * as THREE from 'three';
-import { RelayConnection, operatorToken, relayUrl } from './connection.js';
+import { pageConnection } from './connection.js';
 import { FleetModel } from './fleet_model.js';
 import { sensorPanel } from './sensor_panel.js';
 import { MenuState } from './menu_state.js';
@@ -108,7 +108,7 @@ export class App {
     this.goalPointer = new GoalPointer();
     this.goals = new GoalTracker();
     this.history = new SensorHistory();
-    this.connection = new RelayConnection(relayUrl(window.location, operatorToken(window.location, window.sessionStorage)));
+    this.connection = pageConnection(window.location, window.sessionStorage);
     this.sender = new CommandSender(this.connection, (text) => this.#notify(text, 'error'));
     this.router = new MessageRouter({ fleet: this.fleet, goals: this.goals, history: this.history, commands: this.sender });
     /** @type {OperatorActions} */

@@ -34,12 +34,34 @@ export function operatorToken(location, storage) {
   }
 }
 
+/**
+ * Why the relay would refuse a handshake with this token, or null when it would not (then a failed handshake was
+ * the network's doing, and retrying helps). The browser hides the HTTP status of a refused WebSocket handshake;
+ * POST /auth answers the same question under the same rules (and the same slowing of wrong tokens).
+ * @param {Location | URL} location @param {string | null} token @param {typeof fetch} [fetcher]
+ * @returns {Promise<string | null>}
+ */
+export async function accessRefusal(location, token, fetcher = fetch) {
+  try {
+    const response = await fetcher(`${location.origin}/auth`, { method: 'POST', body: token ?? '', headers: { 'Content-Type': 'text/plain' } });
+    if (response.status === 401 || response.status === 403) return (await response.text()).trim() || `HTTP ${response.status}`;
+    return null;
+  } catch {
+    return null; // the relay is unreachable: keep trying
+  }
+}
+
 export class RelayConnection extends EventTarget {
-  /** @param {string} url @param {{now?: () => number}} [options] */
+  /**
+   * @param {string} url
+   * @param {{now?: () => number, refusal?: () => Promise<string | null>}} [options] `refusal` asks why a handshake
+   *   failed (accessRefusal); a reason stops the retries.
+   */
   constructor(url, options = {}) {
     super();
     this.url = url;
     this.now = options.now ?? (() => performance.now());
+    this.refusal = options.refusal ?? (async () => null);
     this.policy = new ReconnectPolicy();
     /** @type {WebSocket | null} */
     this.socket = null;
@@ -91,12 +113,22 @@ export class RelayConnection extends EventTarget {
       }
       this.dispatchEvent(new CustomEvent('message', { detail: message }));
     });
-    socket.addEventListener('close', () => {
+    let opened = false;
+    socket.addEventListener('open', () => { opened = true; });
+    socket.addEventListener('close', async () => {
       if (socket !== this.socket) return;
       this.socket = null;
       if (this.disposed) return;
       const delay = this.policy.closed(this.now());
       this.#status();
+      // A handshake that failed may have been refused (a stale token): ask why before knocking again.
+      const reason = opened ? null : await this.refusal();
+      if (this.disposed || this.socket !== null) return;
+      if (reason) {
+        this.policy.refused(reason);
+        this.#status();
+        return;
+      }
       this.retryTimer = setTimeout(() => this.connect(), delay);
     });
     if (this.pingTimer === undefined) {
@@ -142,4 +174,14 @@ export class RelayConnection extends EventTarget {
     this.socket?.close();
     this.socket = null;
   }
+}
+
+/**
+ * The connection to the relay that served this page, with this tab's operator token; a refused token stops
+ * the retries (accessRefusal).
+ * @param {Location} location @param {Pick<Storage, 'getItem' | 'setItem'> | null} storage
+ */
+export function pageConnection(location, storage) {
+  const token = operatorToken(location, storage);
+  return new RelayConnection(relayUrl(location, token), { refusal: () => accessRefusal(location, token) });
 }

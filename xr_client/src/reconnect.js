@@ -11,7 +11,7 @@ export const PING_PERIOD_MS = 2000;
 /** No pong for this long: the link is dead even if the socket has not noticed (Wi-Fi roaming). */
 export const PONG_TIMEOUT_MS = 6000;
 
-/** @typedef {'connecting' | 'connected' | 'reconnecting'} LinkState */
+/** @typedef {'connecting' | 'connected' | 'reconnecting' | 'refused'} LinkState */
 
 export class ReconnectPolicy {
   /** @param {{first?: number, max?: number}} [options] */
@@ -31,6 +31,19 @@ export class ReconnectPolicy {
     /** @type {number | null} */
     this.openedAt = null;
     this.everOpened = false;
+    /** Why the relay refuses this page (its token): set, no more attempts are made. */
+    this.refusal = '';
+  }
+
+  /**
+   * The relay refused the handshake and said why (POST /auth): retrying cannot help, so nothing is retried and
+   * the operator is told what to do. A token that was wrong stays wrong.
+   * @param {string} reason
+   */
+  refused(reason) {
+    this.state = 'refused';
+    this.refusal = reason;
+    this.retryAt = null;
   }
 
   /** A socket is being opened. @param {number} now */
@@ -81,6 +94,7 @@ export class ReconnectPolicy {
 
   /** The status line: "connected · 12 ms", "reconnecting in 3 s", "connecting…". @param {number} now */
   describe(now) {
+    if (this.state === 'refused') return `refused: ${this.refusal} · open the address the relay printed (…/#token=…) and reload`;
     if (this.state === 'connected') return this.latency === null ? 'connected' : `connected · ${Math.round(this.latency)} ms`;
     if (this.state === 'reconnecting' && this.retryAt !== null) {
       const countdown = `reconnecting in ${Math.max(0, Math.ceil((this.retryAt - now) / 1000))} s`;

@@ -2,6 +2,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { ReconnectPolicy, PONG_TIMEOUT_MS } from '../src/reconnect.js';
+import { accessRefusal } from '../src/connection.js';
 import { operatorToken, relayUrl } from '../src/connection.js';
 
 test('the relay address comes from the page origin, ws or wss to match', () => {
@@ -49,4 +50,31 @@ test('a connection that lasted resets the backoff; latency from ping/pong', () =
   assert.equal(p.stale(2020 + PONG_TIMEOUT_MS + 1), true);
   assert.equal(p.closed(20_000), 500);
   assert.equal(p.latency, null);
+});
+
+test('a refused token stops the retries and says what to do', () => {
+  const p = new ReconnectPolicy();
+  p.connecting(0);
+  p.closed(50);
+  p.refused('wrong operator token');
+  assert.equal(p.state, 'refused');
+  assert.equal(p.retryAt, null);
+  assert.equal(p.describe(5_000), 'refused: wrong operator token · open the address the relay printed (…/#token=…) and reload');
+});
+
+test('accessRefusal asks the relay why, and only a refusal stops the retries', async () => {
+  const where = new URL('http://127.0.0.1:8080/#token=stale');
+  /** @type {{url: string, body: unknown}[]} */
+  const asked = [];
+  /** @param {number} status @param {string} text */
+  const answer = (status, text) => /** @type {typeof fetch} */ (async (url, init) => {
+    asked.push({ url: String(url), body: init?.body });
+    return new Response(text, { status });
+  });
+  assert.equal(await accessRefusal(where, 'stale', answer(401, 'wrong operator token\n')), 'wrong operator token');
+  assert.deepEqual(asked[0], { url: 'http://127.0.0.1:8080/auth', body: 'stale' });
+  assert.equal(await accessRefusal(where, 'good', answer(200, '{"role": "operator"}')), null);
+  assert.equal(await accessRefusal(where, null, answer(403, 'origin x is not allowed')), 'origin x is not allowed');
+  const unreachable = /** @type {typeof fetch} */ (async () => { throw new TypeError('Failed to fetch'); });
+  assert.equal(await accessRefusal(where, 'good', unreachable), null);
 });
