@@ -3,7 +3,16 @@
 Operators answer "who sent robot2 where, and when" from it. Each record is written with one ``write`` on a
 file opened for appending, and handed to the kernel at once (no user-space buffer), so it survives the relay
 being killed (SIGKILL) right after. When the file reaches ``max_bytes`` it is rotated: ``audit.jsonl``
-becomes ``audit.jsonl.1``, ``.1`` becomes ``.2`` and so on, keeping ``backups`` old files.
+becomes ``audit.jsonl.1``, ``.1`` becomes ``.2`` and so on, keeping ``backups`` old files, and more while they
+hold records of the last ``KEEP_SECONDS`` (an hour): rotation never drops a record younger than that.
+
+**The budget.** So that an hour fits in bounded space, what a client can make the relay write is bounded:
+records of refused frames, and every record of a viewer, are written at most ``QUIET_RATE`` a second per client
+(bursts of twice that); the rest are counted into the next record's message ("N more ... not recorded"). An
+operator's accepted commands are all recorded: at most ``--max-message-rate`` (60) a second, ~250 bytes each
+for cmd_vel, so an operator driving flat out writes at most ~54 MB an hour (20 Hz teleop: ~18 MB), and a
+viewer or a client sending garbage at most ~4 MB an hour (records clipped to ~600 bytes). With the defaults
+(10 MB files, 5 kept) the disk holds about 60 MB, more during an hour in which more was written.
 
 A record (docs/security.md lists the fields):
 
@@ -23,6 +32,8 @@ import dataclasses
 import datetime as dt
 import logging
 import os
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,11 +41,17 @@ import orjson
 
 from .errors import AuditLogUnavailable, ProtocolError
 from .protocol import Command, Ping, RequestId, command_identifier
+from .ratelimit import TokenBucket
 
 if TYPE_CHECKING:
     from .clients import Client
 
 logger = logging.getLogger(__name__)
+
+#: Seconds of records that rotation never drops, however many files that takes.
+KEEP_SECONDS = 3600.0
+#: Records per second and client for refused frames and for viewers (bursts of twice that); the rest are counted.
+QUIET_RATE = 2.0
 
 
 class AuditLog:
@@ -99,16 +116,31 @@ class AuditLog:
                 logger.error("audit log %s: %s; motion commands are refused until it works", self.path, exc)
             self.failure = f"the audit log {self.path} cannot be written: {exc.strerror or exc}"
 
+    def _backup(self, index: int) -> Path:
+        return self.path.with_name(f"{self.path.name}.{index}")
+
     def _rotate(self) -> None:
         os.close(self._fd)
-        for index in range(self.backups - 1, 0, -1):
-            older = self.path.with_name(f"{self.path.name}.{index}")
-            if older.exists():
-                older.replace(self.path.with_name(f"{self.path.name}.{index + 1}"))
-        if self.backups > 0:
-            self.path.replace(self.path.with_name(f"{self.path.name}.1"))
-        else:
-            self.path.unlink()
+        last = 0
+        while self._backup(last + 1).exists():
+            last += 1
+        for index in range(last, 0, -1):
+            self._backup(index).replace(self._backup(index + 1))
+        self.path.replace(self._backup(1))
+        # Beyond ``backups``, a file goes only when its newest record (its last write) is over an hour old.
+        cutoff = time.time() - KEEP_SECONDS
+        kept = 0
+        for index in range(last + 1, self.backups, -1):
+            old = self._backup(index)
+            if old.stat().st_mtime < cutoff:
+                old.unlink()
+            else:
+                kept += 1
+        if kept:
+            logger.warning(
+                "audit log %s: keeping %d files beyond --audit-log's %d backups: they hold records of the last hour",
+                self.path, kept, self.backups,
+            )  # fmt: skip
         self._fd = self._open()
 
     def close(self) -> None:
@@ -120,8 +152,10 @@ class AuditLog:
 class CommandAudit:
     """Records commands as their outcome is known; a relay without an audit log records nothing."""
 
-    def __init__(self, log: AuditLog | None) -> None:
+    def __init__(self, log: AuditLog | None, clock: Callable[[], float] = time.monotonic) -> None:
         self.log = log
+        self._clock = clock
+        self._quiet: dict[str, tuple[TokenBucket, int]] = {}  # client id -> (allowance, records not written)
 
     def command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
         if self.log is None or isinstance(command, Ping):
@@ -140,6 +174,19 @@ class CommandAudit:
         """One client frame, also one that could not be parsed (``identifier`` and ``values`` None then)."""
         if self.log is None:
             return
+        message = error.message if error else None
+        if error is not None or client.role != "operator":
+            # Refusals and viewers' records are budgeted per client (module docstring): a flood cannot rotate
+            # the operators' records away, and what was not written is counted in the next record.
+            now = self._clock()
+            allowance, skipped = self._quiet.get(client.client_id) or (TokenBucket.full(QUIET_RATE, now), 0)
+            if not allowance.take(now):
+                self._quiet[client.client_id] = (allowance, skipped + 1)
+                return
+            self._quiet[client.client_id] = (allowance, 0)
+            if skipped:
+                note = f"{skipped} more refused or viewer records of this client not written since the last"
+                message = f"{message} ({note})" if message else note
         self.log.record(
             client=client.client_id,
             role=client.role,
@@ -149,8 +196,11 @@ class CommandAudit:
             values=values,
             outcome="refused" if error else "accepted",
             code=error.code if error else None,
-            message=error.message if error else None,
+            message=message,
         )
+
+    def forget(self, client_id: str) -> None:
+        self._quiet.pop(client_id, None)
 
     @property
     def failure(self) -> str | None:

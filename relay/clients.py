@@ -32,10 +32,6 @@ class Client:
     address: str | None = None
     #: Commands that outlive their frame (snapshots), cancelled when the client goes.
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
-    #: Rate-limited frames are audited once per period (relay.commands): until when the next is not, and how
-    #: many were dropped unrecorded since.
-    audit_quiet_until: float = -float("inf")
-    unaudited_drops: int = 0
     #: The client's clock as its ``cmd_vel.t`` stamps show it: how long each command took to reach the relay.
     sender_clock: SenderClock = field(default_factory=SenderClock)
 

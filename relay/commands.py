@@ -50,9 +50,6 @@ from .streams import CameraStreams
 
 logger = logging.getLogger(__name__)
 
-#: A client over its rate gets an audit record of that at most this often (s); the rest are counted in it.
-RATE_LIMIT_AUDIT_PERIOD = 1.0
-
 
 @dataclass
 class CommandHandler:
@@ -120,20 +117,14 @@ class CommandHandler:
     def _rate_limited(
         self, client: Client, request_id: RequestId | None, identifier: str | None, command: Command | None, now: float
     ) -> None:
-        """Refuse a frame over the client's rate. The audit log records at most one such refusal per client and
-        second, saying how many it did not record since, so that a flood cannot rotate the real records away."""
+        """Refuse a frame over the client's rate. Its audit record is budgeted like every refusal (relay.audit), so
+        that a flood cannot rotate the real records away."""
         error = ProtocolError(
             ErrorCode.RATE_LIMITED,
             f"more than {client.allowance.rate:g} messages a second; this one was dropped",
             request_id,
         )
         self.outbox.error(client, request_id, error.code, error.message)
-        if now < client.audit_quiet_until:
-            client.unaudited_drops += 1
-            return
-        if client.unaudited_drops:
-            error.message += f" ({client.unaudited_drops} more dropped and not recorded since the last record)"
-        client.audit_quiet_until, client.unaudited_drops = now + RATE_LIMIT_AUDIT_PERIOD, 0
         if command is not None:
             self.audit.command(client, command, error)
         else:

@@ -90,7 +90,7 @@ class Relay:
         )
         self.streams = CameraStreams(self.robots, self.hub, self.backend)
         self.assets = GeneratedAssets(config.scene, self.robots, self.hub)
-        self.audit = CommandAudit(AuditLog(options.audit_log) if options.audit_log else None)
+        self.audit = CommandAudit(AuditLog(options.audit_log) if options.audit_log else None, clock=self.clock)
         self.commands = CommandHandler(
             self.robots,
             self.backend,
@@ -176,6 +176,7 @@ class Relay:
         self._clients.pop(client.client_id, None)
         client.cancel_tasks()
         self.commands.snapshots.forget(client.client_id)
+        self.audit.forget(client.client_id)
         streams = list(client.channel.streams)
         await self.hub.remove(client.channel)
         self.streams.streams_ended(streams)

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import signal
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -54,24 +56,42 @@ async def test_scripted_session_is_in_the_audit_log_after_sigkill(tmp_path: Path
             await process.wait()
 
 
-def test_rotation_keeps_a_bounded_number_of_files(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
-    audit = AuditLog(path, max_bytes=2000, backups=2)
-    for i in range(100):
+def _ids(tmp_path: Path) -> list[int]:
+    names = sorted(
+        (p.name for p in tmp_path.iterdir()), key=lambda n: -int(n.rsplit(".", 1)[1]) if n[-1].isdigit() else 0
+    )
+    return [json.loads(line)["id"] for name in names for line in (tmp_path / name).read_text().splitlines()]
+
+
+def _write(audit: AuditLog, ids: range) -> None:
+    for i in ids:
         audit.record(
             client="c1", role="operator", address=None, identifier="robot1/cmd_vel", request_id=i,
             values={"linear": 0.1, "angular": 0.0}, outcome="accepted",
         )  # fmt: skip
+
+
+def test_rotation_never_drops_the_last_hour_and_then_keeps_a_bounded_number_of_files(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    audit = AuditLog(path, max_bytes=2000, backups=2)
+    _write(audit, range(100))
+    # Every record of the last hour is still there, in order, although that takes more than 2 backups.
+    assert _ids(tmp_path) == list(range(100))
+    files = len(list(tmp_path.iterdir()))
+    assert files > 3
+    # Two hours later those files are old: rotation drops them beyond the 2 backups, and keeps the new hour's.
+    two_hours_ago = time.time() - 7200
+    for old in tmp_path.iterdir():
+        os.utime(old, (two_hours_ago, two_hours_ago))
+    _write(audit, range(100, 130))
     audit.close()
-    files = sorted(p.name for p in tmp_path.iterdir())
-    assert files == ["a.jsonl", "a.jsonl.1", "a.jsonl.2"]
-    ids = [
-        json.loads(line)["id"]
-        for name in ("a.jsonl.2", "a.jsonl.1", "a.jsonl")
-        for line in (tmp_path / name).read_text().splitlines()
-    ]
-    assert ids == sorted(ids) and ids[-1] == 99  # the newest records, in order, across the rotated files
-    assert all((tmp_path / f).stat().st_size <= 2000 + 200 for f in files)
+    ids = _ids(tmp_path)
+    assert ids == list(range(ids[0], 130))  # the newest records, in order, nothing missing in between
+    assert len(list(tmp_path.iterdir())) < files  # the old hour's files are gone ...
+    for path in tmp_path.glob("a.jsonl.*"):
+        if int(path.name.rsplit(".", 1)[1]) > 2:  # ... and a file kept beyond the 2 backups ends in the new hour
+            assert json.loads(path.read_text().splitlines()[-1])["id"] >= 100, path.name
+    assert all(path.stat().st_size <= 2000 + 200 for path in tmp_path.iterdir())  # rotated at the size
 
 
 async def test_a_relay_that_cannot_keep_its_record_moves_no_robot(tmp_path: Path) -> None:
