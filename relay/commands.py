@@ -212,6 +212,7 @@ class CommandHandler:
         age = now - received
         if command.sent is not None:
             age += client.sender_clock.age(command.sent, received)
+        self.control.require_operator(client, identifier, command.id)  # a viewer hears "forbidden", nothing else
         self._require_fresh(identifier, command.id, age)
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, robot.name, identifier, command.id, now, moves=True)
@@ -233,6 +234,7 @@ class CommandHandler:
 
     async def _goal(self, client: Client, command: GoalPose, now: float, received: float) -> None:
         identifier = robot_identifier(command.robot, "goal_pose")
+        self.control.require_operator(client, identifier, command.id)
         self._require_fresh(identifier, command.id, now - received)
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)

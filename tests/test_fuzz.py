@@ -9,15 +9,18 @@ import logging
 import math
 import random
 import tracemalloc
+from pathlib import Path
 from typing import Any
 
 import hypothesis.strategies as st
 import pytest
 from hypothesis import HealthCheck, given, settings
 
+from relay.config import FleetConfig
 from relay.errors import ProtocolError
+from relay.options import Options
 from relay.protocol import CLIENT_ROBOT_KINDS, Command, parse_command
-from tests.conftest import RunningRelay
+from tests.conftest import RunningRelay, start_relay
 from tests.test_access import CommandSpy
 from tests.wsclient import TestClient
 
@@ -185,3 +188,99 @@ async def test_frames_over_the_socket_limit_close_the_connection(relay_server: R
     other = await TestClient.open(relay_server.ws_url)
     await other.hello()
     await other.close()
+
+
+#: One well-formed message of every kind a client may send; the hostile values below replace one field at a time.
+EVERY_KIND: dict[str, dict[str, Any]] = {
+    "goal_pose": {"identifier": "robot1/goal_pose", "x": 3.0, "y": 6.0, "yaw": 0.5},
+    "cmd_vel": {"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.1, "t": 1000.0},
+    "cancel": {"identifier": "robot1/cancel"},
+    "snapshot": {"identifier": "robot1/snapshot", "camera": "front"},
+    "stream": {"identifier": "robot1/stream", "camera": "front", "fps": 5},
+    "lease": {"identifier": "robot1/lease", "action": "acquire", "force": False},
+    "estop": {"identifier": "estop", "robot": "robot2", "action": "stop"},
+    "playback/pause": {"identifier": "playback/pause"},
+    "playback/resume": {"identifier": "playback/resume"},
+    "playback/seek": {"identifier": "playback/seek", "value": 1.0},
+    "playback/rate": {"identifier": "playback/rate", "value": 2.0},
+}
+HOSTILE: list[Any] = [
+    "r" * 1000,  # the 1000-character name that once filled the audit log
+    "robot1\u0000",
+    "\ud800",  # a lone surrogate: valid JSON escape, invalid text
+    -1e308,
+    1e308,
+    2**80,
+    -0.0,
+    True,
+    None,
+    [],
+    {"$gt": ""},
+    "<script>alert(1)</script>",
+]
+
+
+def hostile_frames() -> list[tuple[str, str]]:
+    """(kind, frame): every field of every kind (and its id, and its identifier's robot) set to each value."""
+    frames = []
+    for kind, base in EVERY_KIND.items():
+        for field in [*(k for k in base if k != "identifier"), "id"]:
+            for value in HOSTILE:
+                frames.append((kind, json.dumps({**base, "id": f"{kind}-{len(frames)}", field: value})))
+        if "/" in base["identifier"] and not base["identifier"].startswith("playback"):
+            for value in HOSTILE[:3]:
+                identifier = f"{value}/{base['identifier'].split('/')[1]}"
+                frames.append((kind, json.dumps({**base, "id": f"{kind}-{len(frames)}", "identifier": identifier})))
+    return frames
+
+
+@pytest.mark.parametrize("role", ["viewer", "operator"])
+async def test_every_command_kind_with_hostile_values(role: str, fleet_config: FleetConfig, tmp_path: Path) -> None:
+    audit = tmp_path / "audit.jsonl"
+    running = await start_relay(
+        fleet_config, options=Options(token="op", allow_viewers=True, audit_log=str(audit), max_message_rate=200)
+    )
+    spy = CommandSpy(running.relay.backend)  # type: ignore[arg-type]
+    client = await TestClient.open(running.ws_url + ("?token=op" if role == "operator" else ""))
+    try:
+        assert (await client.hello())["role"] == role
+        frames = hostile_frames()
+        outcomes: dict[str, int] = {}
+        for kind, frame in frames:
+            start = len(client.messages)
+            await client.send_raw(frame)
+            if kind == "cmd_vel" and json.loads(frame).get("id") is None:
+                # The 20 Hz stream is acknowledged only with an id: a ping after it shows whether it was refused.
+                await client.send({"identifier": "ping", "t": 42})
+                await client.wait_for(lambda m: m["identifier"] == "pong", start=start)
+                errors = [m for _, m in client.messages[start:] if m["identifier"] == "error"]
+                reply = errors[0] if errors else {"identifier": "ack"}
+            else:
+                # Frames go one at a time, so the next reply is this frame's (its id may be the hostile value).
+                try:
+                    reply = await client.wait_for(lambda m: m["identifier"] in ("ack", "error"), start=start)
+                except TimeoutError:
+                    raise AssertionError(f"no reply to {frame[:300]}") from None
+            key = reply.get("code") or "ack"
+            outcomes[key] = outcomes.get(key, 0) + 1
+            assert len(reply.get("message") or "") < 400, reply
+            await asyncio.sleep(0.006)  # under the rate limit: what is under test is each frame's answer
+        print(f"\nhostile values as {role}: {len(frames)} frames, {outcomes}")  # noqa: T201
+        assert sum(outcomes.values()) == len(frames)
+        if role == "viewer":
+            # A viewer may watch (streams, snapshots of existing cameras) and nothing else.
+            assert spy.moving_commands() == [] and spy.calls == []
+            assert set(outcomes) <= {"ack", "forbidden", "bad_request", "unknown_robot", "no_camera", "busy"}, outcomes
+        else:
+            for name, args in spy.moving_commands():  # whatever reached a robot is finite and within its limits
+                assert all(math.isfinite(a) for a in args[1:] if isinstance(a, float)), (name, args)
+                if name == "send_velocity":
+                    assert abs(args[1]) <= 0.6 and abs(args[2]) <= 1.8, args
+        assert "internal" not in outcomes, outcomes
+        # Still connected and answering; the audit log holds short lines only.
+        reply = await client.request({"identifier": "robot1/snapshot", "camera": "front"}, timeout=20)
+        assert reply["identifier"] in ("ack", "error") and client.closed_code is None
+        assert max(len(line) for line in audit.read_text().splitlines()) < 700
+    finally:
+        await client.close()
+        await running.runner.cleanup()
