@@ -222,7 +222,7 @@ HOSTILE: list[Any] = [
 
 def hostile_frames() -> list[tuple[str, str]]:
     """(kind, frame): every field of every kind (and its id, and its identifier's robot) set to each value."""
-    frames = []
+    frames: list[tuple[str, str]] = []
     for kind, base in EVERY_KIND.items():
         for field in [*(k for k in base if k != "identifier"), "id"]:
             for value in HOSTILE:
