@@ -1,0 +1,1 @@
+"""Inspection: targets, missions that visit them, captures and findings, their storage and their report."""

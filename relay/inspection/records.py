@@ -1,0 +1,86 @@
+"""What inspection work leaves behind, as the store keeps it (relay.inspection.store) and the protocol sends it.
+
+Plain frozen dataclasses; positions in the map frame (REP 103: metres, radians); times are Unix seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+FindingStatus = Literal["ok", "anomaly", "needs_review"]
+FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review")
+MissionState = Literal["pending", "running", "paused", "done", "aborted"]
+StepKind = Literal["inspect", "goto", "capture", "dwell"]
+
+
+@dataclass(frozen=True, slots=True)
+class Target:
+    """A point of interest: a barrel, a panel, a valve."""
+
+    id: str  # letters, digits, _ and -; unique
+    name: str  # shown to operators
+    kind: str  # e.g. "gas", "temperature", "valve"
+    x: float
+    y: float
+    facing: float | None = None  # yaw (rad) a robot should have when it looks at the target; None: face it
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """One step of a mission. ``inspect``: go to the target's standoff pose facing it, then capture.
+    ``goto``: go to (x, y, yaw). ``capture``: take the camera image and the readings here. ``dwell``: wait."""
+
+    kind: StepKind
+    target: str | None = None  # inspect, capture (optional)
+    x: float | None = None  # goto
+    y: float | None = None
+    yaw: float | None = None
+    seconds: float | None = None  # dwell
+
+
+@dataclass(frozen=True, slots=True)
+class MissionRecord:
+    id: str
+    name: str
+    robot: str
+    steps: tuple[Step, ...]
+    state: MissionState
+    current: int  # index of the step being done (== len(steps) when done)
+    reason: str  # why it is in its state ("" when there is nothing to say)
+    created: float
+    updated: float
+    owner: str = ""  # the client id of the operator who started it
+
+
+@dataclass(frozen=True, slots=True)
+class CaptureRecord:
+    id: str
+    robot: str
+    t: float
+    x: float
+    y: float
+    yaw: float
+    readings: dict[str, float] = field(default_factory=dict)  # sensor name -> value (units from robots.yaml)
+    mission: str | None = None
+    target: str | None = None
+    image: str | None = None  # sha256 hex of the JPEG kept beside the database; None: no camera image
+    width: int = 0
+    height: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class FindingRecord:
+    id: str
+    capture: str  # the capture it is about
+    robot: str
+    x: float  # where (the target's position, else the capture's)
+    y: float
+    status: FindingStatus
+    note: str
+    source: Literal["operator", "rule"]
+    created: float
+    updated: float
+    mission: str | None = None
+    target: str | None = None
+    region: tuple[tuple[int, int], ...] | None = None  # outline in image pixels (u right, v down), None: none
