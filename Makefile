@@ -37,7 +37,14 @@ $(CHROMIUM):
 	@command -v apt-get >/dev/null || { echo "Install Chromium at $(CHROMIUM) for the browser tests"; exit 1; }
 	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
 
-test: setup $(CHROMIUM)
+# The inspection store's tests run against a real PostgreSQL server, from Debian's package.
+POSTGRES := /usr/lib/postgresql
+
+$(POSTGRES):
+	@command -v apt-get >/dev/null || { echo "Install PostgreSQL (Debian's postgresql) for the store's tests"; exit 1; }
+	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq postgresql
+
+test: setup $(CHROMIUM) $(POSTGRES)
 	cd xr_client && node --test test/
 	$(BIN)/python -m pytest -q -p no:cacheprovider
 

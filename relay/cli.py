@@ -65,6 +65,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
         "(default ./xr-relay-audit.jsonl; '' turns it off)",
     )
+    inspection = parser.add_argument_group("inspection (missions, captures, findings)")
+    inspection.add_argument(
+        "--database",
+        default="xr-relay-inspection.sqlite",
+        metavar="FILE_OR_URL",
+        help="where missions, captures and findings are kept: a SQLite file (default ./xr-relay-inspection.sqlite, "
+        "images in ./xr-relay-inspection-images) or a postgresql:// URL",
+    )
+    inspection.add_argument("--images", metavar="DIR", help="capture images (default: beside a SQLite file)")
+    inspection.add_argument("--targets", metavar="FILE", help="a targets file besides the facility's own targets")
     _add_access_options(parser.add_argument_group("access (docs/security.md)"))
     _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
     _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
@@ -156,6 +166,11 @@ def main(argv: list[str] | None = None) -> int:
         from .record import main as record_main
 
         return record_main(argv[1:])
+    if argv and argv[0] == "report":
+        # `xr-relay report --mission ID`: the inspection report as HTML, JSON and CSV (relay/inspection/report.py).
+        from .inspection.report import main as report_main
+
+        return report_main(argv[1:])
     if argv and argv[0] == "watchdog":
         # `xr-relay watchdog`: the robot-side stop (relay/watchdog/node.py), run on or next to the robots.
         from .watchdog.node import main as watchdog_main
@@ -200,6 +215,9 @@ def main(argv: list[str] | None = None) -> int:
             lease_timeout=args.lease_timeout,
             bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
             audit_log=args.audit_log or None,
+            database=args.database,
+            images=args.images,
+            targets=args.targets,
         )
         asyncio.run(serve(config, options))
     except (BackendUnavailable, AuditLogUnavailable) as exc:

@@ -25,6 +25,8 @@ from .config import Robot
 from .control import Control
 from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
+from .inspection.service import Inspection
+from .inspection.wire import MissionStart
 from .messages import encode, pong_message
 from .occupancy import OccupancyGrid
 from .outbox import Outbox
@@ -35,6 +37,7 @@ from .protocol import (
     ErrorCode,
     EStop,
     GoalPose,
+    InspectionCommands,
     Lease,
     Ping,
     Playback,
@@ -65,6 +68,7 @@ class CommandHandler:
     map_grid: Callable[[], OccupancyGrid | None]
     wall_clock: Callable[[], float] = time.time
     snapshots: SnapshotBudget = field(default_factory=SnapshotBudget)
+    inspection: Inspection | None = None  # relay.core sets it
 
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
@@ -100,6 +104,10 @@ class CommandHandler:
                 return
             client.spawn(self._run_apart(client, command, self._snapshot(client, command)))
             return
+        if isinstance(command, InspectionCommands):
+            # Starting a mission plans every step; a region is segmented: both take a while, so they run apart.
+            client.spawn(self._run_apart(client, command, self._inspection(client, command, now)))
+            return
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
             # estop was once acknowledged 16 s late). Anything that overtakes the goal supersedes it.
@@ -130,17 +138,25 @@ class CommandHandler:
         else:
             self.audit.frame(client, identifier, request_id, None, error)
 
-    async def _run_apart(self, client: Client, command: Snapshot | GoalPose, work: Awaitable[None]) -> None:
+    async def _inspection(self, client: Client, command: Command, now: float) -> None:
+        assert self.inspection is not None
+        if isinstance(command, MissionStart):
+            self._require_record("mission/start", command.id)
+        await self.inspection.handle(client, command, now)
+        self.outbox.ack(client, getattr(command, "id"))  # noqa: B009 - every inspection command has an id
+
+    async def _run_apart(self, client: Client, command: Command, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""
         try:
             await work
         except ProtocolError as exc:
-            exc.request_id = command.id if exc.request_id is None else exc.request_id
+            exc.request_id = getattr(command, "id", None) if exc.request_id is None else exc.request_id
             self.outbox.error(client, exc.request_id, exc.code, exc.message)
             self.audit.command(client, command, exc)
         except Exception:
-            logger.exception("command %r of client %s failed", command.id, client.client_id)
-            self.outbox.error(client, command.id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
+            request_id = getattr(command, "id", None)
+            logger.exception("command %r of client %s failed", request_id, client.client_id)
+            self.outbox.error(client, request_id, ErrorCode.INTERNAL, "the relay failed on this command; see its log")
         else:
             self.audit.command(client, command, None)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Sequence
+from collections.abc import Awaitable, Callable, Sequence
 
 from .backends.base import Backend
 from .clients import Client
@@ -47,6 +47,10 @@ class Control:
         #: Per robot, a number that every stop and every new goal bumps: work that finishes for an older
         #: number (a goal still being planned when the estop came) is dropped.
         self._generation: dict[str, int] = {}
+        #: Robots whose lease must not expire although idle (on a mission: dwelling, capturing).
+        self.keep: Callable[[], set[str]] = set
+        #: Told of every stop of a robot by these rules (reason, whether an estop): missions pause or abort.
+        self.on_stopped: Callable[..., Awaitable[None]] | None = None
 
     def generation(self, robot: str) -> int:
         return self._generation.get(robot, 0)
@@ -114,7 +118,11 @@ class Control:
         self.supersede(robot)
         self.deadman.release_robot(robot)
         self.fleet.set_teleop(robot, False)
-        await self.backend.stop_robot(robot)
+        try:
+            await self.backend.stop_robot(robot)
+        finally:
+            if self.on_stopped is not None:
+                await self.on_stopped(robot, reason, estop=False)
 
     async def estop(self, robot: str | None, by: str | None, now: float) -> dict[str, BaseException]:
         """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why.
@@ -139,6 +147,9 @@ class Control:
         self.outbox.estop(stopped, by)
         for name in robots:
             self.outbox.status(name, now)
+        if self.on_stopped is not None:
+            for name in robots:
+                await self.on_stopped(name, f"emergency stop by {by}", estop=True)
         return failed
 
     def reset_estop(self, robot: str | None, by: str | None, now: float) -> list[str]:
@@ -219,7 +230,7 @@ class Control:
             except Exception:
                 # The ticker must outlive one failed stop, or no deadman would ever fire again.
                 logger.exception("deadman could not stop %s", robot)
-        busy = self.fleet.busy()
+        busy = self.fleet.busy() | self.keep()
         for robot in busy:
             self.leases.keep_alive(robot, now)
         for robot in self.leases.expired(now, busy):

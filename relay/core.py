@@ -46,6 +46,7 @@ from .events import (
 )
 from .fleet import FleetState
 from .hub import Hub, Transport
+from .inspection.service import Inspection
 from .messages import HelloMessage, PlaybackMessage, backend_message, encode, playback_message, scan_message
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
@@ -101,6 +102,11 @@ class Relay:
             self.audit,
             self.map_grid,
         )
+        self.inspection = Inspection(
+            config, options, backend=self.backend, control=self.control, fleet=self.fleet, hub=self.hub,
+            map_grid=self.map_grid, clock=clock,
+        )  # fmt: skip
+        self.commands.inspection = self.inspection
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
         self.started_at = clock()
         self._clients: dict[str, Client] = {}
@@ -115,6 +121,7 @@ class Relay:
             # Reading and thresholding a large PGM is milliseconds of numpy work: off the loop.
             self._map = await asyncio.to_thread(from_map_yaml, self.config.map)
         await self.backend.start()
+        await self.inspection.start()
         self.audit.started(f"{self.options.host}:{self.options.port}")
         self.supervisor.start()
         logger.info("backend %s started with %d robots", self.backend.name, len(self.robots))
@@ -122,6 +129,7 @@ class Relay:
     async def stop(self) -> None:
         """Stop every robot first, then the ticker, the client writers and the backend."""
         await self.control.stop_all("shutdown")
+        await self.inspection.stop()
         self.assets.close()
         await self.supervisor.stop()
         for client in list(self._clients.values()):
@@ -161,6 +169,7 @@ class Relay:
         client = Client(client_id, role, channel, allowance, address)
         self._clients[client_id] = client
         channel.put_priority(encode(self.hello(client)))
+        self.inspection.on_connect(client)
         logger.info("client %s connected as %s", client_id, role)
         return client
 
@@ -242,6 +251,7 @@ class Relay:
         elif isinstance(event, NavEvent):
             self.fleet.on_nav(event)
             self.outbox.status(event.robot, now)
+            self.inspection.on_nav(event)
         elif isinstance(event, ScanEvent):
             scan = scan_message(**dataclasses.asdict(event))
             self.outbox.state(scan)

@@ -15,6 +15,7 @@ from typing import Any, Literal, NotRequired, TypedDict, cast
 import orjson
 
 from .errors import ProtocolError
+from .inspection.messages import FindingMessage, MissionMessage, RegionMessage, TargetsMessage
 from .protocol import FRAME_PREFIX, ErrorCode, Mode, RequestId, Role, robot_identifier, sensor_key
 
 
@@ -229,6 +230,10 @@ ServerMessage = (
     | BackendMessage
     | LeaseMessage
     | ModelMessage
+    | TargetsMessage
+    | MissionMessage
+    | FindingMessage
+    | RegionMessage
 )
 
 #: The messages of a client's state lane (relay/hub.py): a slow client gets only the newest of each coalescing key.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 
 @dataclass(frozen=True)
@@ -40,5 +41,13 @@ class Options:
     #: Certificate and key (PEM) to serve https/wss; None: plain http/ws.
     tls_cert: str | None = None
     tls_key: str | None = None
+    #: The inspection database: a SQLite file or a postgresql:// URL; None: a temporary one for this run.
+    database: str | None = None
+    #: Where capture images are kept (default: beside a SQLite file, ``<name>-images``).
+    images: str | None = None
+    #: A targets file (relay/inspection/targets.py) besides the facility's own.
+    targets: str | None = None
+    #: Mission files a client may start by name.
+    missions_dir: Path = field(default_factory=lambda: Path(__file__).resolve().parent.parent / "missions")
     #: Messages per second a client may send (sustained; bursts of twice that pass); estop is never limited.
     max_message_rate: float = 60.0

@@ -17,7 +17,7 @@ import re
 import struct
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
-from typing import Any, Final, Literal, NotRequired, TypedDict
+from typing import Any, Final, Literal, NotRequired, TypeAlias, TypedDict
 
 import orjson
 
@@ -87,7 +87,24 @@ class ErrorCode:
 #: Robot-scoped kinds a client may send (``<robot>/<kind>``).
 CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease")
 #: Global identifiers a client may send.
-CLIENT_GLOBAL_KINDS: Final = ("estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate")
+CLIENT_GLOBAL_KINDS: Final = (
+    "estop",
+    "ping",
+    "playback/pause",
+    "playback/resume",
+    "playback/seek",
+    "playback/rate",
+    # relay.inspection.wire.INSPECTION_KINDS:
+    "mission/start",
+    "mission/pause",
+    "mission/resume",
+    "mission/skip",
+    "mission/abort",
+    "finding/mark",
+    "finding/update",
+    "region",
+    "target/add",
+)
 #: Playback speed factors a client may ask for (bag backend).
 MIN_PLAYBACK_RATE: Final = 0.05
 MAX_PLAYBACK_RATE: Final = 20.0
@@ -107,7 +124,9 @@ MAX_CLIENT_CLOCK: Final = 1.0e12
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
-SERVER_GLOBAL_KINDS: Final = ("hello", "ack", "error", "pong", "estop", "scene", "playback", "backend")
+SERVER_GLOBAL_KINDS: Final = (
+    "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region",
+)  # fmt: skip
 
 Role = Literal["operator", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
@@ -223,8 +242,6 @@ class Lease:
     force: bool
 
 
-Command = GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
-
 # The wire form of each command (what a client sends), typed for the browser's generated ``ClientMessage``;
 # tests/test_protocol.py checks each against ``parse_command``.
 
@@ -298,20 +315,6 @@ class PlaybackRateCommand(TypedDict):
     id: RequestId
     rate: float
 
-
-ClientMessage = (
-    GoalPoseCommand
-    | CmdVelCommand
-    | CancelCommand
-    | SnapshotCommand
-    | StreamCommand
-    | LeaseCommand
-    | EstopCommand
-    | PingCommand
-    | PlaybackCommand
-    | PlaybackSeekCommand
-    | PlaybackRateCommand
-)
 
 _MISSING: Final = object()
 
@@ -453,6 +456,8 @@ def command_identifier(command: Command) -> str:
         return "estop"
     if isinstance(command, Playback):
         return f"playback/{command.action}"
+    if isinstance(command, InspectionCommands):
+        return inspection_identifier(command)
     kind = {
         GoalPose: "goal_pose",
         CmdVel: "cmd_vel",
@@ -498,6 +503,8 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         elif action == "rate":
             value = _number(obj, "rate", identifier, low=MIN_PLAYBACK_RATE, high=MAX_PLAYBACK_RATE)
         return Playback(id=rid, action=action, value=value)  # type: ignore[arg-type]
+    if identifier in INSPECTION_KINDS:
+        return parse_inspection(obj, identifier)
 
     robot, sep, kind = identifier.partition("/")
     if not sep or kind not in CLIENT_ROBOT_KINDS:
@@ -555,3 +562,51 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
     fps = _number(obj, "fps", identifier, low=0.0, high=MAX_STREAM_FPS)
     assert camera is not None and fps is not None
     return Stream(robot=robot, id=rid, camera=camera, fps=fps)
+
+
+# The inspection commands (missions, findings, regions, targets) use the parser's helpers above.
+from .inspection.wire import (  # noqa: E402
+    INSPECTION_KINDS,
+    FindingMark,
+    FindingMarkCommand,
+    FindingUpdateCommand,
+    MissionControl,
+    MissionControlCommand,
+    MissionFileCommand,
+    MissionStart,
+    MissionStepsCommand,
+    MissionTargetsCommand,
+    RegionCommand,
+    RegionRequest,
+    TargetAdd,
+    TargetAddCommand,
+    inspection_identifier,
+    parse_inspection,
+)
+
+InspectionCommands: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
+Command: TypeAlias = (
+    GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
+    | MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
+)  # fmt: skip
+ClientMessage: TypeAlias = (
+    GoalPoseCommand
+    | CmdVelCommand
+    | CancelCommand
+    | SnapshotCommand
+    | StreamCommand
+    | LeaseCommand
+    | EstopCommand
+    | PingCommand
+    | PlaybackCommand
+    | PlaybackSeekCommand
+    | PlaybackRateCommand
+    | MissionFileCommand
+    | MissionStepsCommand
+    | MissionTargetsCommand
+    | MissionControlCommand
+    | FindingMarkCommand
+    | FindingUpdateCommand
+    | RegionCommand
+    | TargetAddCommand
+)

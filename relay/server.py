@@ -200,6 +200,39 @@ async def check_token(request: web.Request) -> web.Response:
     return web.json_response({"role": role})
 
 
+def _may_read_inspection(request: web.Request) -> None:
+    """Capture images and reports: for the operator (the token in ``?token=``), and for anyone when viewers are
+    allowed (viewers see findings). Wrong tokens are slowed like wrong handshakes."""
+    access = request.app[ACCESS_KEY]
+    try:
+        access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
+        access.admit(request.query.get("token"), request.remote or "unknown", time.monotonic())
+    except Refused as exc:
+        raise web.HTTPUnauthorized(text=exc.reason + "\n") from None
+
+
+async def capture_image(request: web.Request) -> web.Response:
+    _may_read_inspection(request)
+    inspection = request.app[RELAY_KEY].inspection
+    sha = request.match_info["sha"]
+    jpeg = await inspection.image(sha)
+    if jpeg is None:
+        raise web.HTTPNotFound(text="no such capture image\n")
+    return web.Response(body=jpeg, content_type="image/jpeg", headers={"Cache-Control": "private, max-age=86400"})
+
+
+async def report(request: web.Request) -> web.Response:
+    _may_read_inspection(request)
+    inspection = request.app[RELAY_KEY].inspection
+    mission, kind = request.match_info["mission"], request.match_info["kind"]
+    try:
+        text = await inspection.report(mission, kind)
+    except ValueError as exc:
+        raise web.HTTPNotFound(text=f"{exc}\n") from None
+    types = {"html": "text/html", "json": "application/json", "csv": "text/csv"}
+    return web.Response(text=text, content_type=types[kind], charset="utf-8")
+
+
 async def generated_scene(request: web.Request) -> web.Response:
     """A twin the relay built (from a live map); kept in memory, replaced when the map changes."""
     glb = request.app[RELAY_KEY].generated.get(request.match_info["name"])
@@ -343,6 +376,8 @@ def create_app(config: FleetConfig, options: Options | None = None) -> web.Appli
     app.on_shutdown.append(_close_sockets)
     app.router.add_get("/ws", websocket_handler)
     app.router.add_post("/auth", check_token)
+    app.router.add_get(r"/captures/{sha:[0-9a-f]{64}}.jpg", capture_image)
+    app.router.add_get(r"/report/{mission:[A-Za-z0-9_.-]{1,128}}.{kind:html|json|csv}", report)
     app.router.add_get("/healthz", healthz)
     app.router.add_get("/metrics", metrics)
     app.router.add_get("/scenes/generated/{name}", generated_scene)

@@ -28,7 +28,11 @@ ROBOTS = ("robot1",)
 #: A valid value for each field name (the parser checks ranges; these are inside them).
 SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear": 0.1, "angular": 0.0,
                            "camera": "front", "fps": 10.0, "action": "acquire", "force": True, "robot": "robot1",
-                           "t": 3.0, "rate": 2.0}  # fmt: skip
+                           "t": 3.0, "rate": 2.0, "file": "demo", "steps": [{"inspect": "spill"}],
+                           "targets": ["spill"], "name": "Valves", "mission": "m-1.robot1", "capture": "c-1",
+                           "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
+                           "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
+                           "facing": 0.5}  # fmt: skip
 
 
 def _identifier(cls: type) -> str:
@@ -102,7 +106,7 @@ def test_each_builder_returns_exactly_its_typeddicts_keys(cls: type, message: di
 def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> None:
     union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
     assert union == {name for name, value in vars(messages).items() if name.endswith("Message") and is_typeddict(value)}
-    assert len(union) == 14
+    assert len(union) == 18
     generated = _generator().render()
     for name in union | {t.__name__ for t in COMMANDS}:
         assert f"}} {name} */" in generated, name

@@ -116,6 +116,29 @@ export class CommandSender {
     return this.#send(robot ? { identifier: 'estop', robot, action: 'reset' } : { identifier: 'estop', action: 'reset' });
   }
 
+  /** Start a mission file of the relay's missions/ directory ("demo"). @param {string} file */
+  missionStart(file) {
+    return this.#send({ identifier: 'mission/start', file });
+  }
+
+  /** @param {'pause' | 'resume' | 'skip' | 'abort'} action @param {string} mission */
+  mission(action, mission) {
+    return this.#send({ identifier: /** @type {`mission/${typeof action}`} */ (`mission/${action}`), mission });
+  }
+
+  /**
+   * Change a finding's status, note or region.
+   * @param {string} finding @param {{status?: 'ok' | 'anomaly' | 'needs_review', note?: string, region?: number[][] | null}} fields
+   */
+  findingUpdate(finding, fields) {
+    return this.#send({ identifier: 'finding/update', finding, ...fields });
+  }
+
+  /** Ask the relay to segment the region around a pixel of a capture's image. @param {string} capture @param {number} u @param {number} v */
+  region(capture, u, v) {
+    return this.#send({ identifier: 'region', capture, u: Math.round(u), v: Math.round(v) });
+  }
+
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;

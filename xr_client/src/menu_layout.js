@@ -10,6 +10,7 @@ export const MENU_ROWS = Object.freeze([
   ['robots', 'Robot'],
   ['tools', 'Tool'],
   ['camera', 'Camera'],
+  ['mission', 'Mission'],
   ['options', 'Comfort'],
   ['estop', ''],
 ]);

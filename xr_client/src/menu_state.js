@@ -31,7 +31,8 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'estop_reset'}
  *   | {type: 'select', robot: string | null}
  *   | {type: 'cancel', robot: string}
- *   | {type: 'tool', tool: Tool}} MenuEffect
+ *   | {type: 'tool', tool: Tool}
+ *   | {type: 'mission', action: 'start' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
  */
 
 export const MODE_FREE_ROAM = 'free_roam';
@@ -58,6 +59,9 @@ export class MenuState {
     /** Robots whose emergency stop is latched (from their statuses): they cannot be driven or sent
      * anywhere, and `Reset E-STOP` is offered. @type {string[]} */
     this.latched = [];
+    /** The selected robot's mission, if it is on one (`Pause`/`Resume` and `Abort mission` are offered).
+     * @type {'running' | 'paused' | null} */
+    this.mission = null;
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -119,6 +123,14 @@ export class MenuState {
     }
   }
 
+  /** The selected robot's mission state (from the inspection model). @param {'running' | 'paused' | null} state */
+  setMission(state) {
+    if (state !== this.mission) {
+      this.mission = state;
+      this.#changed();
+    }
+  }
+
   get canCommand() {
     return this.operator && this.connected;
   }
@@ -173,6 +185,13 @@ export class MenuState {
       { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive },
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
       { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
+      { id: 'mission:demo', label: 'Run demo mission', group: 'mission', active: false, enabled: this.operator && this.connected },
+      ...(this.mission
+        ? [
+            { id: 'mission:toggle', label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission', group: 'mission', active: this.mission === 'paused', enabled: this.operator && this.connected },
+            { id: 'mission:abort', label: 'Abort mission', group: 'mission', active: false, enabled: this.operator && this.connected },
+          ]
+        : []),
       { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
       { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
@@ -208,6 +227,9 @@ export class MenuState {
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...this.#setTool('none'), { type: 'estop' }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
+    else if (id === 'mission:demo') effects = [{ type: 'mission', action: 'start', robot: null }];
+    else if (id === 'mission:toggle') effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
+    else if (id === 'mission:abort') effects = [{ type: 'mission', action: 'abort', robot: this.selected }];
     this.#changed();
     return effects;
   }

@@ -6,12 +6,14 @@
  */
 import { ERROR_CODES, parseIdentifier } from './protocol.js';
 import { PoseSmoother } from './pose_smoother.js';
+import { InspectionModel } from './inspection_model.js';
 
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
  * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
  *   | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage | import('./protocol.js').PlaybackMessage
- *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage} GlobalMessage the messages whose
+ *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
+ *   | import('./protocol.js').MissionMessage | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage} GlobalMessage the messages whose
  *   identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
@@ -24,9 +26,11 @@ import { PoseSmoother } from './pose_smoother.js';
  *   | {type: 'goal_state', robot: string, active: boolean}
  *   | {type: 'estop_state', latched: string[]}
  *   | {type: 'sensor_warning', robot: string}
- *   | {type: 'offer_takeover', robot: string, text: string}} RouterEffect
+ *   | {type: 'offer_takeover', robot: string, text: string}
+ *   | {type: 'inspection'}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
- *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender}} RouterModels
+ *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender,
+ *   inspection?: InspectionModel}} RouterModels
  */
 
 export class MessageRouter {
@@ -43,6 +47,7 @@ export class MessageRouter {
     this.goals = models.goals;
     this.history = models.history;
     this.commands = models.commands;
+    this.inspection = models.inspection ?? new InspectionModel();
   }
 
   /**
@@ -107,6 +112,13 @@ export class MessageRouter {
         return [{ type: 'link' }];
       case 'backend':
         return [notice(message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`, message.ok ? 'info' : 'error')];
+      case 'targets':
+      case 'mission':
+      case 'finding':
+      case 'region': {
+        const told = this.inspection.apply(message).map((n) => notice(n.text, n.kind));
+        return [{ type: 'inspection' }, ...told];
+      }
       default:
         return []; // pong: the connection measures it
     }
@@ -118,6 +130,7 @@ export class MessageRouter {
     this.playback = hello.playback ?? null;
     this.goals.reset();
     this.commands.reset();
+    this.inspection.reset(); // the relay sends the targets, missions and findings again right after hello
     // Robot views are rebuilt only when the fleet description changed (a reconnect to the same relay
     // keeps them, and with them their loaded models).
     const key = JSON.stringify(hello.robots);

@@ -1,0 +1,130 @@
+"""What clients are told of inspection work: ``targets``, ``mission``, ``finding`` and ``region`` (docs/protocol.md).
+
+Missions, findings and targets go through every client's priority lane: they are few, and none may be coalesced
+away (a finding is not a newer value of another). A client that connects gets the targets, the missions and the
+latest findings right after ``hello``.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, TypedDict
+
+from ..protocol import RequestId
+from .records import FindingRecord, FindingStatus, MissionRecord, MissionState, StepKind, Target
+
+#: Findings a newly connected client is sent (the newest); the rest are in the report and the database.
+FINDINGS_ON_CONNECT = 200
+
+
+class TargetDescription(TypedDict):
+    id: str
+    name: str
+    kind: str
+    x: float
+    y: float
+    facing: float | None
+
+
+class TargetsMessage(TypedDict):
+    identifier: Literal["targets"]
+    targets: list[TargetDescription]
+
+
+class StepDescription(TypedDict):
+    kind: StepKind
+    target: str | None
+    x: float | None
+    y: float | None
+    yaw: float | None
+    seconds: float | None
+
+
+class MissionMessage(TypedDict):
+    identifier: Literal["mission"]
+    id: str
+    name: str
+    robot: str
+    state: MissionState
+    current: int
+    steps: list[StepDescription]
+    reason: str
+    owner: str
+    updated: float
+
+
+class FindingMessage(TypedDict):
+    identifier: Literal["finding"]
+    id: str
+    capture: str
+    mission: str | None
+    target: str | None
+    robot: str
+    x: float
+    y: float
+    status: FindingStatus
+    note: str
+    source: Literal["operator", "rule"]
+    region: list[list[int]] | None
+    image: str | None  # URL of the capture's JPEG (/captures/<sha256>.jpg), None: no image
+    readings: dict[str, float]
+    created: float
+    updated: float
+
+
+class RegionMessage(TypedDict):
+    identifier: Literal["region"]
+    id: RequestId
+    capture: str
+    outline: list[list[int]]
+
+
+def targets_message(targets: list[Target]) -> TargetsMessage:
+    return {
+        "identifier": "targets",
+        "targets": [
+            {"id": t.id, "name": t.name, "kind": t.kind, "x": t.x, "y": t.y, "facing": t.facing} for t in targets
+        ],
+    }
+
+
+def mission_message(record: MissionRecord) -> MissionMessage:
+    return {
+        "identifier": "mission",
+        "id": record.id,
+        "name": record.name,
+        "robot": record.robot,
+        "state": record.state,
+        "current": record.current,
+        "steps": [
+            {"kind": s.kind, "target": s.target, "x": s.x, "y": s.y, "yaw": s.yaw, "seconds": s.seconds}
+            for s in record.steps
+        ],
+        "reason": record.reason,
+        "owner": record.owner,
+        "updated": round(record.updated, 3),
+    }
+
+
+def finding_message(finding: FindingRecord, image: str | None, readings: dict[str, float]) -> FindingMessage:
+    return {
+        "identifier": "finding",
+        "id": finding.id,
+        "capture": finding.capture,
+        "mission": finding.mission,
+        "target": finding.target,
+        "robot": finding.robot,
+        "x": finding.x,
+        "y": finding.y,
+        "status": finding.status,
+        "note": finding.note,
+        "source": finding.source,
+        "region": None if finding.region is None else [list(p) for p in finding.region],
+        "image": None if image is None else f"/captures/{image}.jpg",
+        "readings": readings,
+        "created": round(finding.created, 3),
+        "updated": round(finding.updated, 3),
+    }
+
+
+def region_message(request_id: RequestId, capture: str, outline: tuple[tuple[int, int], ...]) -> RegionMessage:
+    return {"identifier": "region", "id": request_id, "capture": capture, "outline": [list(p) for p in outline]}

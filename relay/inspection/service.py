@@ -1,0 +1,449 @@
+"""Inspection in the relay: targets, missions, captures and findings, wired to the rules every command obeys.
+
+- **Rules**: viewers see targets, missions and findings, and create none (``forbidden``); a mission starts only for
+  robots the operator may command (lease, estop latch, recordings), and only once every step was checked
+  (relay.inspection.missions); while it runs, the mission holds the robot's lease (relay.inspection.runner).
+- **Captures**: the robot's first camera's image (a snapshot), its readings, its pose and the time, stored with
+  the image beside the database (relay.inspection.store). At an ``inspect`` step a rule makes a finding:
+  ``anomaly`` naming each reading over its threshold (robots.yaml's ``warn_above``/``warn_below``), else ``ok``
+  with the readings; a ``capture`` step makes one only for an anomaly.
+- **Storage** runs on one thread of its own (``WorkPool("store")``); a database that is locked or full pauses the
+  mission with the store's message, and the command that needed it gets an ``error`` naming the database.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import secrets
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from ..errors import CommandRejected
+from ..events import NavEvent
+from ..protocol import ErrorCode, RequestId
+from ..work import Busy, WorkPool
+from .messages import FINDINGS_ON_CONNECT, finding_message, mission_message, region_message, targets_message
+from .missions import MissionError, MissionPlan, assign, load_mission, resolve, steps_from_wire
+from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
+from .runner import MissionRunner, holder
+from .targets import TARGET_ID, facility_targets, load_targets
+from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd
+
+if TYPE_CHECKING:
+    from ..backends.base import Backend
+    from ..clients import Client
+    from ..config import FleetConfig
+    from ..control import Control
+    from ..fleet import FleetState
+    from ..hub import Hub
+    from ..occupancy import OccupancyGrid
+    from ..options import Options
+    from .store import Store
+
+logger = logging.getLogger(__name__)
+T = TypeVar("T")
+
+
+def _new_id(prefix: str) -> str:
+    return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"
+
+
+class Inspection:
+    def __init__(
+        self,
+        config: FleetConfig,
+        options: Options,
+        *,
+        backend: Backend,
+        control: Control,
+        fleet: FleetState,
+        hub: Hub,
+        map_grid: Callable[[], OccupancyGrid | None],
+        clock: Callable[[], float],
+        wall_clock: Callable[[], float] = time.time,
+    ) -> None:
+        self.config, self.options = config, options
+        self.robots = {r.name: r for r in config.robots}
+        self.backend, self.control, self.fleet, self.hub = backend, control, fleet, hub
+        self.map_grid, self.clock, self.wall = map_grid, clock, wall_clock
+        self.targets: dict[str, Target] = {}
+        self.store: Store | None = None
+        self._store_pool = WorkPool("store", workers=1, queue=256)
+        self._segmenting = WorkPool("segmenting", workers=1, queue=2)
+        self._temporary: tempfile.TemporaryDirectory[str] | None = None
+        self._recent: list[Any] = []  # the newest finding messages, for clients that connect later
+        self.runner = MissionRunner(
+            go=self._go, stop=self._stop, capture=self._capture, publish=self._publish, release=self._release,
+            wall_clock=wall_clock,
+        )  # fmt: skip
+        control.keep = self.mission_robots
+        control.on_stopped = self.runner.robot_stopped
+
+    # -- lifecycle --------------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        from .store import Store
+
+        database, images = self.options.database, self.options.images
+        if database is None:  # library use and tests: a database of this run only
+            self._temporary = tempfile.TemporaryDirectory(prefix="xr-relay-inspection-")
+            database = str(Path(self._temporary.name) / "inspection.sqlite")
+        if images is None:
+            images = str(Path(database).with_name(Path(database).stem + "-images")) if "://" not in database else "."
+        self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
+        world = self.config.sim.world
+        if world is not None and world.exists():
+            from ..twin.facility import load_facility
+
+            facility = await asyncio.to_thread(load_facility, world)
+            self.targets.update((t.id, t) for t in facility_targets(facility))
+        if self.options.targets is not None:
+            self.targets.update((t.id, t) for t in await asyncio.to_thread(load_targets, self.options.targets))
+        logger.info("inspection: %d targets, database %s", len(self.targets), database)
+
+    async def stop(self) -> None:
+        await self.runner.stop()
+        for run in self.runner.runs.values():
+            await self._save(run.record)
+        if self.store is not None:
+            store = self.store
+            await self._store_pool.run(store.close)
+        self._store_pool.shutdown()
+        self._segmenting.shutdown()
+        if self._temporary is not None:
+            self._temporary.cleanup()
+
+    def mission_robots(self) -> set[str]:
+        return {run.record.robot for run in self.runner.runs.values() if run.record.state in ("running", "paused")}
+
+    def on_connect(self, client: Client) -> None:
+        """A new client learns the targets, the missions and the newest findings after its ``hello``."""
+        from ..messages import encode
+
+        client.channel.put_priority(encode(targets_message(list(self.targets.values()))))
+        for record in self.runner.records():
+            client.channel.put_priority(encode(mission_message(record)))
+        for message in self._recent[-FINDINGS_ON_CONNECT:]:
+            client.channel.put_priority(encode(message))
+
+    def on_nav(self, event: NavEvent) -> None:
+        self.runner.on_nav(event)
+
+    # -- commands ---------------------------------------------------------------------------------
+
+    async def handle(self, client: Client, command: Any, now: float) -> None:
+        """Carry out one inspection command; raises CommandRejected (or ProtocolError) when refused."""
+        identifier = f"{type(command).__name__}"
+        self.control.require_operator(client, identifier, command.id)
+        if isinstance(command, MissionStart):
+            await self._start(client, command, now)
+        elif isinstance(command, MissionControl):
+            await self._control(client, command, now)
+        elif isinstance(command, FindingMark):
+            await self._finding(client, command)
+        elif isinstance(command, RegionRequest):
+            await self._region(client, command)
+        elif isinstance(command, TargetAdd):
+            self._add_target(command)
+
+    async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
+        from .store import StoreError
+
+        store = self.store
+        if store is None:
+            raise CommandRejected(ErrorCode.INTERNAL, "the inspection database is not open", request_id)
+        try:
+            return await self._store_pool.run(lambda: work(store))
+        except (StoreError, Busy) as exc:
+            raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
+
+    async def _start(self, client: Client, command: MissionStart, now: float) -> None:
+        plan = self._plan(command)
+        robots: dict[str, tuple[Step, ...]]
+        if plan.targets:
+            unknown = [t for t in plan.targets if t not in self.targets]
+            if unknown:
+                raise CommandRejected(
+                    ErrorCode.BAD_REQUEST,
+                    f"mission/start: unknown target(s) {', '.join(unknown)}; the targets are "
+                    f"{', '.join(sorted(self.targets)) or 'none'}",
+                    command.id,
+                )
+            free = {r: self._position(r) for r in self.robots if self._free(client, r, now)}
+            try:
+                assigned = assign(plan.targets, {r: p for r, p in free.items() if p is not None}, self.targets)
+            except MissionError as exc:
+                raise CommandRejected(ErrorCode.BAD_REQUEST, f"mission/start: {exc}", command.id) from None
+            robots = {r: tuple(Step("inspect", target=t) for t in ts) for r, ts in assigned.items()}
+        else:
+            robots = dict(plan.robots)
+        for robot in robots:
+            if robot not in self.robots:
+                raise CommandRejected(ErrorCode.UNKNOWN_ROBOT, f"mission/start: unknown robot {robot!r}", command.id)
+            self.control.require_commandable(client, robot, f"mission/start {robot}", command.id, now, moves=True)
+            if self.runner.active(robot) is not None:
+                raise CommandRejected(
+                    ErrorCode.BAD_REQUEST, f"mission/start: {robot} is on a mission already", command.id
+                )
+        # Every step of every robot is checked before any robot moves.
+        grid = self.map_grid()
+        planner = await asyncio.to_thread(_planner, grid)
+        waypoints = {}
+        for robot, steps in robots.items():
+            start = self._position(robot) or (self.robots[robot].initial_pose.x, self.robots[robot].initial_pose.y)
+            try:
+                waypoints[robot] = await asyncio.to_thread(resolve, robot, steps, self.targets, start, grid, planner)
+            except MissionError as exc:
+                raise CommandRejected(ErrorCode.NO_PATH, f"mission/start: {exc}", command.id) from None
+        group = _new_id("m")
+        wall = self.wall()
+        for robot, steps in robots.items():
+            record = MissionRecord(
+                f"{group}.{robot}", plan.name, robot, steps, "pending", 0, "", wall, wall, client.client_id
+            )
+            await self._store(_saver(record), command.id)
+            previous = self.control.leases.holder(robot)
+            self.control.leases.take(robot, holder(record.id), now)
+            self.control.lease_changed(robot, holder(record.id), previous, "acquired", now)
+            self.runner.start(record, waypoints[robot])
+            logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(steps))
+
+    def _plan(self, command: MissionStart) -> MissionPlan:
+        try:
+            if command.file is not None:
+                if not TARGET_ID.match(command.file):
+                    raise MissionError(f"mission/start: no mission file named {command.file[:64]!r}")
+                path = self.options.missions_dir / f"{command.file}.yaml"
+                if not path.is_file():
+                    available = sorted(p.stem for p in self.options.missions_dir.glob("*.yaml"))
+                    raise MissionError(
+                        f"mission/start: no mission file {command.file!r}; there are {', '.join(available) or 'none'}"
+                    )
+                return load_mission(path)
+            name = command.name or "mission"
+            if command.targets is not None:
+                return MissionPlan(name, targets=command.targets)
+            assert command.robot is not None
+            return MissionPlan(name, robots=((command.robot, steps_from_wire(command.steps, "mission/start")),))
+        except MissionError as exc:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), command.id) from None
+
+    def _free(self, client: Client, robot: str, now: float) -> bool:
+        holder_now = self.control.leases.holder(robot)
+        return (
+            self.fleet.online(robot, now)
+            and robot not in self.control.latched
+            and self.runner.active(robot) is None
+            and holder_now in (None, client.client_id)
+            and self.backend.command_refusal(robot) is None
+        )
+
+    def _position(self, robot: str) -> tuple[float, float] | None:
+        pose = self.fleet.snapshot(self.clock())[robot]["pose"]
+        return None if pose is None else (pose["x"], pose["y"])
+
+    async def _control(self, client: Client, command: MissionControl, now: float) -> None:
+        run = self.runner.runs.get(command.mission)
+        if run is None:
+            raise CommandRejected(
+                ErrorCode.BAD_REQUEST, f"mission/{command.action}: no mission {command.mission[:80]!r}", command.id
+            )
+        if run.record.state in ("done", "aborted"):
+            raise CommandRejected(
+                ErrorCode.BAD_REQUEST,
+                f"mission/{command.action}: mission {run.record.id} has ended ({run.record.state})",
+                command.id,
+            )
+        robot = run.record.robot
+        lease = self.control.leases.holder(robot)
+        if lease not in (holder(run.record.id), client.client_id):
+            raise CommandRejected(
+                ErrorCode.LEASED, f"mission/{command.action}: {robot} is controlled by {lease}", command.id
+            )
+        if command.action == "resume":
+            self.control.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
+            if lease != holder(run.record.id):  # an operator who took over hands the robot back to the mission
+                self.control.leases.take(robot, holder(run.record.id), now)
+                self.control.lease_changed(robot, holder(run.record.id), lease, "acquired", now)
+        try:
+            await self.runner.act(run, command.action, client.client_id)
+        except ValueError as exc:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, f"mission/{command.action}: {exc}", command.id) from None
+
+    # -- what the runner asks of the relay --------------------------------------------------------
+
+    async def _go(self, robot: str, x: float, y: float, yaw: float | None) -> None:
+        generation = self.control.supersede(robot)
+        self.fleet.set_teleop(robot, False)
+        await self.backend.send_goal(robot, x, y, yaw, current=lambda: self.control.generation(robot) == generation)
+
+    async def _stop(self, robot: str) -> None:
+        self.control.supersede(robot)
+        await self.backend.stop_robot(robot)
+
+    async def _publish(self, record: MissionRecord) -> None:
+        from ..messages import encode
+
+        self.hub.broadcast_priority(encode(mission_message(record)))
+        await self._save(record)
+
+    async def _save(self, record: MissionRecord) -> None:
+        store = self.store
+        if store is not None:
+            await self._store_pool.run(lambda: store.save_mission(record))
+
+    def _release(self, record: MissionRecord) -> None:
+        robot, now = record.robot, self.clock()
+        if self.control.leases.holder(robot) == holder(record.id):
+            self.control.leases.release(robot, holder(record.id))
+            self.control.lease_changed(robot, None, holder(record.id), "released", now)
+
+    async def _capture(self, record: MissionRecord, step: Step) -> None:
+        robot = self.robots[record.robot]
+        camera = robot.camera(None)
+        frame = None
+        if camera is not None:
+            try:
+                frame = await self.backend.snapshot(robot.name, camera.name)
+            except CommandRejected as exc:  # the rendering pool is full: the readings still count
+                logger.warning("mission %s: no image at step %d: %s", record.id, record.current + 1, exc)
+        state = self.fleet.snapshot(self.clock())[robot.name]
+        pose, sensors = state["pose"], state["sensors"]
+        wall = self.wall()
+        capture = CaptureRecord(
+            _new_id("c"), robot.name, wall,
+            pose["x"] if pose else 0.0, pose["y"] if pose else 0.0, pose["yaw"] if pose else 0.0,
+            {name: m["value"] for name, m in sensors.items()}, record.id, step.target,
+            None, frame.width if frame else 0, frame.height if frame else 0,
+        )  # fmt: skip
+        stored = await self._store(lambda s: s.add_capture(capture, frame.jpeg if frame else None))
+        warnings = [m for m in sensors.values() if m["warning"]]
+        if step.kind != "inspect" and not warnings:
+            return
+        specs = {s.name: s for s in robot.sensors}
+
+        def over(name: str, value: float, unit: str) -> str:
+            spec = specs.get(name)
+            limit = spec.warn_above if spec and spec.warn_above is not None and value > spec.warn_above else None
+            below = spec.warn_below if spec and limit is None else None
+            bound = (
+                f"over {limit:g}" if limit is not None else f"under {below:g}" if below is not None else "out of range"
+            )
+            return f"{name} {value:.1f} {unit} ({bound} {unit})"
+
+        if warnings:
+            note = "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
+        else:
+            note = "within thresholds: " + ", ".join(
+                f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values()
+            )
+        target = self.targets.get(step.target or "")
+        finding = FindingRecord(
+            _new_id("f"), stored.id, robot.name, target.x if target else stored.x, target.y if target else stored.y,
+            "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
+        )  # fmt: skip
+        await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
+
+    async def _announce(self, finding: FindingRecord, capture: CaptureRecord) -> None:
+        from ..messages import encode
+
+        message = finding_message(finding, capture.image, capture.readings)
+        kept = [m for m in self._recent if m["id"] != finding.id][-FINDINGS_ON_CONNECT:]
+        self._recent = [*kept, message]
+        self.hub.broadcast_priority(encode(message))
+
+    # -- reading ----------------------------------------------------------------------------------
+
+    async def image(self, sha: str) -> bytes | None:
+        store = self.store
+        return None if store is None else await self._store_pool.run(lambda: store.image(sha))
+
+    async def report(self, mission: str, kind: str) -> str:
+        """The report of a mission (or of a fleet mission's group) as html, json or csv; ValueError if unknown."""
+        from . import report
+
+        store = self.store
+        if store is None:
+            raise ValueError("the inspection database is not open")
+        grid = self.map_grid()
+
+        def build() -> str:
+            found = report.collect(store, mission)
+            if kind == "json":
+                return report.as_json(found)
+            return report.as_csv(found) if kind == "csv" else report.as_html(found, store, grid)
+
+        return await self._store_pool.run(build)
+
+    # -- findings, regions, targets ---------------------------------------------------------------
+
+    async def _finding(self, client: Client, command: FindingMark) -> None:
+        wall = self.wall()
+        if command.action == "mark":
+            assert command.capture is not None and command.status is not None
+            capture = await self._capture_record(command.capture, command.id)
+            target = self.targets.get(capture.target or "")
+            finding = FindingRecord(
+                _new_id("f"), capture.id, capture.robot, target.x if target else capture.x,
+                target.y if target else capture.y, command.status, command.note or "", "operator", wall, wall,
+                capture.mission, capture.target, command.region,
+            )  # fmt: skip
+            await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), capture)
+            return
+        assert command.finding is not None
+        finding_id = command.finding
+        updated = await self._store(
+            lambda s: s.update_finding(
+                finding_id, status=command.status, note=command.note, region=command.region, updated=wall
+            ),
+            command.id,
+        )
+        await self._announce(updated, await self._capture_record(updated.capture, command.id))
+
+    async def _capture_record(self, capture_id: str, request_id: RequestId) -> CaptureRecord:
+        capture: CaptureRecord | None = await self._store(lambda s: s.capture(capture_id), request_id)
+        if capture is None:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, f"no capture {capture_id[:80]!r}", request_id)
+        return capture
+
+    async def _region(self, client: Client, command: RegionRequest) -> None:
+        from ..messages import encode
+        from .segment import SegmentError, region_from_point
+
+        capture = await self._capture_record(command.capture, command.id)
+        sha = capture.image
+        jpeg = None if sha is None else await self._store(lambda s: s.image(sha), command.id)
+        if jpeg is None:
+            raise CommandRejected(ErrorCode.NO_CAMERA, f"region: capture {capture.id} has no image", command.id)
+        try:
+            outline = await self._segmenting.run(lambda: region_from_point(jpeg, command.u, command.v))
+        except SegmentError as exc:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, f"region: {exc}", command.id) from None
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"region: {exc}; try again shortly", command.id) from None
+        client.channel.put_priority(encode(region_message(command.id, capture.id, outline)))
+
+    def _add_target(self, command: TargetAdd) -> None:
+        from ..messages import encode
+
+        self.targets[command.target] = Target(
+            command.target, command.name or command.target, command.kind or "point", command.x, command.y,
+            command.facing,
+        )  # fmt: skip
+        self.hub.broadcast_priority(encode(targets_message(list(self.targets.values()))))
+
+
+def _planner(grid: OccupancyGrid | None) -> Any:
+    if grid is None:
+        return None
+    from ..sim.planner import Planner
+
+    return Planner(grid, 0.25)
+
+
+def _saver(record: MissionRecord) -> Callable[[Store], None]:
+    return lambda store: store.save_mission(record)

@@ -1,0 +1,167 @@
+"""Inspection missions end to end on the sim, over /ws: the demo mission runs without a hand on the stick, goes on
+when its operator's client is killed, and leaves three findings with images in the database and the report; bad
+missions are refused before any robot moves; viewers create nothing; an estop aborts."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+
+from relay.config import FleetConfig
+from relay.inspection.store import Store
+from relay.options import Options
+from tests.conftest import RunningRelay, start_relay
+from tests.wsclient import TestClient
+
+TOKEN = "op"
+
+
+async def relay_with_database(fleet_config: FleetConfig, tmp_path: Path, **options: Any) -> RunningRelay:
+    return await start_relay(
+        fleet_config,
+        options=Options(token=TOKEN, allow_viewers=True, database=str(tmp_path / "inspection.sqlite"), **options),
+    )
+
+
+async def operator(running: RunningRelay) -> TestClient:
+    client = await TestClient.open(f"{running.ws_url}?token={TOKEN}")
+    await client.hello()
+    return client
+
+
+def missions(client: TestClient) -> dict[str, dict[str, Any]]:
+    """The newest `mission` message of each mission this client received."""
+    latest: dict[str, dict[str, Any]] = {}
+    for _, message in client.messages:
+        if message["identifier"] == "mission":
+            latest[message["id"]] = message
+    return latest
+
+
+async def test_the_demo_mission_survives_its_operator_and_leaves_three_findings(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        first = await operator(running)
+        targets = await first.wait_for(lambda m: m["identifier"] == "targets")
+        assert sorted(t["id"] for t in targets["targets"]) == ["leak", "panels", "spill"]
+        reply = await first.request({"identifier": "mission/start", "file": "demo"}, timeout=30)
+        assert reply["identifier"] == "ack", reply
+        await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running")
+        started = missions(first)
+        assert {m["robot"]: m["steps"][0]["target"] for m in started.values()} == {
+            "robot1": "spill", "robot2": "panels", "robot3": "leak",
+        }  # fmt: skip
+        group = next(iter(started)).split(".")[0]
+        await asyncio.sleep(1.0)
+        first.ws.transport.abort()  # the operator's client dies mid-mission
+        await asyncio.sleep(1.0)
+        second = await operator(running)
+        await second.wait_for(lambda m: m["identifier"] == "mission")
+        assert all(m["state"] == "running" for m in missions(second).values()), missions(second)
+        for _ in range(180):  # up to 90 s: the robots cross their rooms at 0.6 m/s
+            if all(m["state"] == "done" for m in missions(second).values()):
+                break
+            await asyncio.sleep(0.5)
+        assert all(m["state"] == "done" for m in missions(second).values()), missions(second)
+        findings = [m for _, m in second.messages if m["identifier"] == "finding"]
+        by_target = {f["target"]: f for f in findings}
+        assert sorted(by_target) == ["leak", "panels", "spill"]
+        # The sim's hazards: the spill's gas and the leak's humidity are over their thresholds; the panels are warm
+        # but under 45 degC.
+        assert (by_target["spill"]["status"], by_target["leak"]["status"]) == ("anomaly", "anomaly")
+        assert by_target["panels"]["status"] == "ok"
+        assert "gas" in by_target["spill"]["note"] and "humidity" in by_target["leak"]["note"]
+        async with aiohttp.ClientSession() as http:
+            for finding in findings:
+                async with http.get(f"{running.url}{finding['image']}?token={TOKEN}") as response:
+                    assert response.status == 200 and (await response.read()).startswith(b"\xff\xd8")
+            async with http.get(f"{running.url}{findings[0]['image']}") as response:
+                assert response.status in (200, 401)  # viewers are allowed here: 200
+            async with http.get(f"{running.url}/report/{group}.html?token={TOKEN}") as response:
+                report = await response.text()
+                assert response.status == 200
+            async with http.get(f"{running.url}/report/{group}.csv?token={TOKEN}") as response:
+                rows = (await response.text()).strip().splitlines()
+        assert report.count("data:image/jpeg;base64,") == 3 and "3 findings: 1 ok, 2 anomaly" in report
+        assert len(rows) == 4 and rows[0].startswith("finding,status")
+        await second.close()
+    finally:
+        await running.runner.cleanup()
+    # The database outlives the relay: three findings with their images.
+    store = Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "inspection-images")
+    stored = store.findings()
+    assert len(stored) == 3 and all(store.image(store.capture(f.capture).image or "") for f in stored)  # type: ignore[union-attr]
+    assert {m.state for m in store.missions()} == {"done"}
+    store.close()
+
+
+async def test_bad_missions_are_refused_before_any_robot_moves(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    missions_dir = tmp_path / "missions"
+    missions_dir.mkdir()
+    (missions_dir / "broken.yaml").write_text("robots:\n  - robot: robot1\n    steps: [{inspect: spill}\n")
+    running = await relay_with_database(fleet_config, tmp_path, missions_dir=missions_dir)
+    try:
+        client = await operator(running)
+        cases: list[tuple[dict[str, Any], str, str]] = [
+            ({"file": "broken"}, "bad_request", "broken.yaml"),
+            ({"file": "nothing"}, "bad_request", "no mission file 'nothing'; there are broken"),
+            ({"targets": ["spill", "valve-9"]}, "bad_request", "unknown target(s) valve-9"),
+            ({"robot": "robot1", "steps": [{"inspect": "spill"}, {"goto": {"x": 6.0, "y": 6.0}}]}, "no_path",
+             "step 2 (goto): no path"),
+            ({"robot": "robot1", "steps": [{"goto": {"x": 60.0, "y": 6.0}}]}, "no_path", "outside the map"),
+            ({"robot": "robot9", "steps": [{"dwell": 1}]}, "unknown_robot", "robot9"),
+            ({"robot": "robot1", "steps": "spill"}, "bad_request", "steps must be a list"),
+        ]  # fmt: skip
+        for fields, code, text in cases:
+            reply = await client.request({"identifier": "mission/start", **fields}, timeout=30)
+            assert (reply.get("code"), text in reply.get("message", "")) == (code, True), (fields, reply)
+        assert not missions(client)
+        assert all(r.follower is None for r in running.relay.backend.world.robots.values())  # type: ignore[attr-defined]
+        viewer = await TestClient.open(running.ws_url)
+        await viewer.hello()
+        for fields in (
+            {"identifier": "mission/start", "file": "broken"},
+            {"identifier": "target/add", "target": "x", "x": 1, "y": 1},
+        ):
+            assert (await viewer.request(fields))["code"] == "forbidden"
+        await viewer.close()
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_an_estop_aborts_a_mission_and_a_take_over_pauses_it(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        first = await operator(running)
+        steps = [{"goto": {"x": 3.0, "y": 2.5}}, {"dwell": 30}]
+        assert (await first.request({"identifier": "mission/start", "robot": "robot1", "steps": steps}))[
+            "identifier"
+        ] == "ack"
+        await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running")
+        [mission_id] = missions(first)
+        # Another operator takes robot1 over by force: the mission pauses, and says why.
+        second = await operator(running)
+        assert (await second.request({"identifier": "robot1/lease", "force": True}))["identifier"] == "ack"
+        paused = await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "paused")
+        assert "takes over" in paused["reason"]
+        # The holder hands it back with resume; then an estop aborts it.
+        assert (await second.request({"identifier": "mission/resume", "mission": mission_id}))["identifier"] == "ack"
+        await first.wait_for(
+            lambda m: m["identifier"] == "mission" and m["state"] == "running", start=len(first.messages) - 5
+        )
+        assert (await first.request({"identifier": "estop"}))["identifier"] == "ack"
+        aborted = await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "aborted")
+        assert "emergency stop" in aborted["reason"]
+        assert running.relay.control.leases.holder("robot1") is None  # the mission let go of the robot
+        reply = await first.request({"identifier": "mission/resume", "mission": mission_id})
+        assert reply["code"] == "bad_request" and "ended" in reply["message"]
+        for client in (first, second):
+            await client.close()
+    finally:
+        await running.runner.cleanup()

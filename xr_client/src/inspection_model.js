@@ -1,0 +1,111 @@
+// @ts-check
+/**
+ * Inspection as the relay reports it: targets, missions (one per robot) and findings, kept by id, with what the
+ * operator is told when a mission changes state. No DOM, no WebGL: test/inspection_model.test.js drives it with the
+ * relay's message shapes. Views (view/inspection_view.js, the findings list) read it.
+ */
+
+/**
+ * @typedef {import('./protocol.js').TargetDescription} Target
+ * @typedef {import('./protocol.js').MissionMessage} Mission
+ * @typedef {import('./protocol.js').FindingMessage} Finding
+ * @typedef {import('./protocol.js').RegionMessage} Region
+ * @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus
+ * @typedef {{text: string, kind: 'info' | 'warning' | 'error'}} InspectionNotice
+ */
+
+/** Pin colours by status (the report uses the same). */
+export const STATUS_COLOURS = Object.freeze({ ok: '#2e9e4f', anomaly: '#d62d20', needs_review: '#e8a317' });
+
+export class InspectionModel {
+  /** @type {Map<string, Target>} */
+  targets = new Map();
+  /** @type {Map<string, Mission>} */
+  missions = new Map();
+  /** @type {Map<string, Finding>} */
+  findings = new Map();
+  /** Outlines the relay segmented, by the request id that asked (region). @type {Map<string, number[][]>} */
+  regions = new Map();
+  /** Bumped on every change, so views redraw only when something changed. */
+  version = 0;
+
+  /**
+   * Apply one inspection message; returns what the operator should be told (nothing for most).
+   * @param {import('./protocol.js').TargetsMessage | Mission | Finding | Region} message
+   * @returns {InspectionNotice[]}
+   */
+  apply(message) {
+    this.version++;
+    switch (message.identifier) {
+      case 'targets':
+        this.targets = new Map(message.targets.map((t) => [t.id, t]));
+        return [];
+      case 'mission':
+        return this.#mission(message);
+      case 'finding': {
+        const known = this.findings.has(message.id);
+        this.findings.set(message.id, message);
+        if (known || message.status !== 'anomaly') return [];
+        return [{ text: `Finding at ${message.target ?? message.robot}: ${message.note}`, kind: 'warning' }];
+      }
+      case 'region':
+        this.regions.set(String(message.id), message.outline);
+        return [];
+    }
+  }
+
+  /** @param {Mission} mission @returns {InspectionNotice[]} */
+  #mission(mission) {
+    const before = this.missions.get(mission.id);
+    this.missions.set(mission.id, mission);
+    if (before?.state === mission.state) return [];
+    const why = mission.reason ? `: ${mission.reason}` : '';
+    switch (mission.state) {
+      case 'paused':
+        return [{ text: `${mission.robot}'s mission paused${why}`, kind: 'warning' }];
+      case 'aborted':
+        return [{ text: `${mission.robot}'s mission aborted${why}`, kind: 'error' }];
+      case 'done':
+        return [{ text: `${mission.robot}'s mission done (${mission.steps.length} steps)`, kind: 'info' }];
+      default:
+        return before ? [{ text: `${mission.robot}'s mission running again`, kind: 'info' }] : [];
+    }
+  }
+
+  /** The mission a robot is on (running or paused), if any. @param {string} robot */
+  active(robot) {
+    for (const mission of this.missions.values()) {
+      if (mission.robot === robot && (mission.state === 'running' || mission.state === 'paused')) return mission;
+    }
+    return null;
+  }
+
+  /** One line for the sensor panel or the menu: "mission: step 2 of 3 (inspect spill)". @param {string} robot */
+  progress(robot) {
+    const mission = this.active(robot);
+    if (!mission) return '';
+    const step = mission.steps[mission.current];
+    const what = step ? `${step.kind}${step.target ? ` ${step.target}` : ''}` : 'finishing';
+    const state = mission.state === 'paused' ? ` · paused${mission.reason ? `: ${mission.reason}` : ''}` : '';
+    return `mission: step ${Math.min(mission.current + 1, mission.steps.length)} of ${mission.steps.length} (${what})${state}`;
+  }
+
+  /**
+   * Findings, newest first, filtered by status and robot (null: all).
+   * @param {{status?: FindingStatus | null, robot?: string | null}} [filter]
+   */
+  list(filter = {}) {
+    return [...this.findings.values()]
+      .filter((f) => (filter.status ? f.status === filter.status : true) && (filter.robot ? f.robot === filter.robot : true))
+      .sort((a, b) => b.created - a.created);
+  }
+
+  /** A new relay (hello after a reconnect): what it sends next replaces everything. */
+  reset() {
+    this.targets.clear();
+    this.missions.clear();
+    this.findings.clear();
+    this.regions.clear();
+    this.version++;
+  }
+}
