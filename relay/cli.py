@@ -14,6 +14,8 @@ from . import __version__
 from .backends import BACKENDS
 from .config import load_config
 from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
+from .inspection.kml import KmlError
+from .inspection.store import StoreError
 from .options import BagOptions, Options
 
 EXIT_USAGE = 2
@@ -220,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
             targets=args.targets,
         )
         asyncio.run(serve(config, options))
-    except (BackendUnavailable, AuditLogUnavailable) as exc:
+    except (BackendUnavailable, AuditLogUnavailable, StoreError, KmlError, ConfigError) as exc:
         log.error("%s", exc)
         return EXIT_USAGE
     except OSError as exc:

@@ -5,12 +5,14 @@ missions are refused before any robot moves; viewers create nothing; an estop ab
 from __future__ import annotations
 
 import asyncio
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import aiohttp
 
 from relay.config import FleetConfig
+from relay.inspection.kml import Georeference, to_map
 from relay.inspection.store import Store
 from relay.options import Options
 from tests.conftest import RunningRelay, start_relay
@@ -163,5 +165,46 @@ async def test_an_estop_aborts_a_mission_and_a_take_over_pauses_it(fleet_config:
         assert reply["code"] == "bad_request" and "ended" in reply["message"]
         for client in (first, second):
             await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_a_kmz_of_placemarks_becomes_a_fleet_mission(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    import simplekml  # type: ignore[import-untyped]
+
+    geo = Georeference(lat=48.137, lon=11.575)
+    north = to_map(geo, geo.lat + 1e-4, geo.lon)[1] / 1e-4  # metres per degree, as the importer computes them
+    east = to_map(geo, geo.lat, geo.lon + 1e-4)[0] / 1e-4
+    kml = simplekml.Kml()
+    for name, (x, y) in {"Drum 7": (1.8, 8.2), "Valve 12": (15.6, 7.6)}.items():  # the spill and the leak
+        point = kml.newpoint(name=name, coords=[(geo.lon + x / east, geo.lat + y / north)])
+        point.extendeddata.newdata("kind", "drum" if name.startswith("Drum") else "valve")
+    missions_dir = tmp_path / "missions"
+    missions_dir.mkdir()
+    kml.savekmz(str(missions_dir / "rounds.kmz"))
+    running = await relay_with_database(replace(fleet_config, georeference=geo), tmp_path, missions_dir=missions_dir)
+    try:
+        client = await operator(running)
+        reply = await client.request({"identifier": "mission/start", "file": "rounds"}, timeout=30)
+        assert reply["identifier"] == "ack", reply
+        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        placed = {t["id"]: (round(t["x"], 2), round(t["y"], 2), t["kind"]) for t in targets}
+        assert placed["drum-7"] == (1.8, 8.2, "drum") and placed["valve-12"] == (15.6, 7.6, "valve")
+        await client.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running")
+        assert {m["robot"]: m["steps"][0]["target"] for m in missions(client).values()} == {
+            "robot1": "drum-7", "robot3": "valve-12",
+        }  # fmt: skip
+        assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+    # Without a georeference the same file is refused, saying what to add.
+    running = await relay_with_database(fleet_config, tmp_path / "second", missions_dir=missions_dir)
+    try:
+        client = await operator(running)
+        reply = await client.request({"identifier": "mission/start", "file": "rounds"}, timeout=30)
+        assert reply["code"] == "bad_request" and "add a georeference to robots.yaml" in reply["message"], reply
+        assert not missions(client)
+        await client.close()
     finally:
         await running.runner.cleanup()

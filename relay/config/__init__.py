@@ -18,6 +18,7 @@ import yaml
 from yaml.nodes import MappingNode, Node
 
 from ..errors import ConfigError
+from ..inspection.kml import Georeference
 from .model import (
     LENS_MODELS,
     POSE_SOURCES,
@@ -98,7 +99,9 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     if root is None:
         raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
 
-    top = reader.mapping(root, "", ("robots", "scene", "map", "sim", "safety", "ros"), required=("robots",))
+    top = reader.mapping(
+        root, "", ("robots", "scene", "map", "sim", "safety", "ros", "georeference"), required=("robots",)
+    )
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
     map_path: Path | None = None
     if "map" in top and reader.value(top["map"]) is not None:
@@ -108,6 +111,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     sim = _sim(reader, top["sim"], base_dir) if "sim" in top else Sim()
     safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
     ros = _ros(reader, top["ros"]) if "ros" in top else Ros()
+    georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
@@ -117,7 +121,22 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         robots.append(robot)
     if not robots:
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
-    return FleetConfig(source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros)
+    return FleetConfig(
+        source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros,
+        georeference=georeference,
+    )  # fmt: skip
+
+
+def _georeference(reader: _Reader, node: Node) -> Georeference:
+    """Where the map frame is on Earth, for KML/KMZ placemarks (relay/inspection/kml.py)."""
+    f = reader.mapping(node, "georeference", ("lat", "lon", "yaw"), required=("lat", "lon"))
+    lat = reader.number(f["lat"], "georeference.lat")
+    lon = reader.number(f["lon"], "georeference.lon")
+    yaw = reader.get(f, "yaw", "georeference", reader.number, 0.0)
+    try:
+        return Georeference(lat, lon, yaw)
+    except ValueError as exc:
+        raise reader.fail(node, "georeference", str(exc)) from None
 
 
 def _scene(reader: _Reader, node: Node) -> Scene:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
 POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
@@ -189,6 +189,8 @@ class FleetConfig:
     sim: Sim = field(default_factory=Sim)
     safety: Safety = field(default_factory=Safety)
     ros: Ros = field(default_factory=Ros)
+    #: Where the map frame is on Earth (relay.inspection.kml.Georeference), for KML/KMZ placemarks; None: unknown.
+    georeference: Any = None
 
     def robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)

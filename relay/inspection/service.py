@@ -26,6 +26,7 @@ from ..errors import CommandRejected
 from ..events import NavEvent
 from ..protocol import ErrorCode, RequestId
 from ..work import Busy, WorkPool
+from .kml import KmlError, targets_from_kml
 from .messages import FINDINGS_ON_CONNECT, finding_message, mission_message, region_message, targets_message
 from .missions import MissionError, MissionPlan, assign, load_mission, resolve, steps_from_wire
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
@@ -102,8 +103,19 @@ class Inspection:
             facility = await asyncio.to_thread(load_facility, world)
             self.targets.update((t.id, t) for t in facility_targets(facility))
         if self.options.targets is not None:
-            self.targets.update((t.id, t) for t in await asyncio.to_thread(load_targets, self.options.targets))
+            self.targets.update(
+                (t.id, t) for t in await asyncio.to_thread(self._load_targets, Path(self.options.targets))
+            )
         logger.info("inspection: %d targets, database %s", len(self.targets), database)
+
+    def _load_targets(self, path: Path) -> list[Target]:
+        """A targets file: YAML, or KML/KMZ placemarks placed by robots.yaml's georeference."""
+        if path.suffix.lower() in (".kml", ".kmz"):
+            try:
+                return targets_from_kml(path.read_bytes(), str(path), self.config.georeference)
+            except OSError as exc:
+                raise KmlError(f"{path}: cannot read it: {exc.strerror or exc}") from None
+        return load_targets(path)
 
     async def stop(self) -> None:
         await self.runner.stop()
@@ -215,22 +227,39 @@ class Inspection:
     def _plan(self, command: MissionStart) -> MissionPlan:
         try:
             if command.file is not None:
-                if not TARGET_ID.match(command.file):
-                    raise MissionError(f"mission/start: no mission file named {command.file[:64]!r}")
-                path = self.options.missions_dir / f"{command.file}.yaml"
-                if not path.is_file():
-                    available = sorted(p.stem for p in self.options.missions_dir.glob("*.yaml"))
-                    raise MissionError(
-                        f"mission/start: no mission file {command.file!r}; there are {', '.join(available) or 'none'}"
-                    )
-                return load_mission(path)
+                return self._mission_file(command.file)
             name = command.name or "mission"
             if command.targets is not None:
                 return MissionPlan(name, targets=command.targets)
             assert command.robot is not None
             return MissionPlan(name, robots=((command.robot, steps_from_wire(command.steps, "mission/start")),))
-        except MissionError as exc:
+        except (MissionError, KmlError) as exc:
             raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), command.id) from None
+
+    def _mission_file(self, name: str) -> MissionPlan:
+        """``missions/<name>.yaml``, or ``<name>.kmz``/``.kml``: its placemarks are targets, visited by the fleet."""
+        if not TARGET_ID.match(name):
+            raise MissionError(f"mission/start: no mission file named {name[:64]!r}")
+        folder = self.options.missions_dir
+        for suffix in (".yaml", ".kmz", ".kml"):
+            path = folder / f"{name}{suffix}"
+            if not path.is_file():
+                continue
+            if suffix == ".yaml":
+                return load_mission(path)
+            targets = self._add_targets(targets_from_kml(path.read_bytes(), path.name, self.config.georeference))
+            if not targets:
+                raise MissionError(f"{path.name}: no placemark with a point: nothing to inspect")
+            return MissionPlan(name, targets=tuple(t.id for t in targets))
+        available = sorted({p.stem for p in folder.glob("*") if p.suffix in (".yaml", ".kmz", ".kml")})
+        raise MissionError(f"mission/start: no mission file {name!r}; there are {', '.join(available) or 'none'}")
+
+    def _add_targets(self, targets: list[Target]) -> list[Target]:
+        from ..messages import encode
+
+        self.targets.update((t.id, t) for t in targets)
+        self.hub.broadcast_priority(encode(targets_message(list(self.targets.values()))))
+        return targets
 
     def _free(self, client: Client, robot: str, now: float) -> bool:
         holder_now = self.control.leases.holder(robot)

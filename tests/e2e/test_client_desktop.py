@@ -175,3 +175,32 @@ async def test_a_tab_with_a_wrong_token_stops_knocking_and_says_what_to_do(brows
     finally:
         await page.close()
         await running.runner.cleanup()
+
+
+async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Station, open_client: OpenClient) -> None:
+    client = await open_client(station.url, "inspection")
+    page = client.page
+    await client.wait("s.inspection.targets === 3")
+    await page.click('#menu button[data-button="mission:demo"]:not([disabled])')
+    await client.wait("Object.keys(s.inspection.missions).length === 3", 30)
+    await client.shot("01-mission-running")
+    await client.wait("Object.values(s.inspection.missions).every((m) => m === 'done')", 120)
+    state = await client.wait("s.inspection.findings.length === 3 && s.inspection.pins === 3 && s.inspection")
+    assert sorted((f["target"], f["status"]) for f in state["findings"]) == [
+        ("leak", "anomaly"), ("panels", "ok"), ("spill", "anomaly"),
+    ]  # fmt: skip
+    # The findings list: pick the spill, see its image, call it needs review, mark a region from one click.
+    await page.click("#findings li:has-text('spill')")
+    image = page.locator("#findings .capture img")
+    await image.wait_for(state="visible")
+    await page.wait_for_function("() => document.querySelector('#findings .capture img').naturalWidth > 0")
+    await page.click('#findings button[data-status="needs_review"]')
+    await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.status === 'needs_review')")
+    box = await image.bounding_box()
+    assert box is not None
+    await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.55)
+    await page.locator('#findings button[data-region="accept"]').click(timeout=20_000)
+    await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.region)")
+    await page.wait_for_selector("#findings polygon")
+    await client.shot("02-finding-with-region", "findings.png")
+    assert not client.errors, client.errors

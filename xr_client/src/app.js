@@ -10,7 +10,8 @@
  * allocates is released in dispose().
  */
 import * as THREE from 'three';
-import { pageConnection } from './connection.js';
+import { operatorToken, pageConnection } from './connection.js';
+import { InspectionUi } from './view/inspection_ui.js';
 import { FleetModel } from './fleet_model.js';
 import { sensorPanel } from './sensor_panel.js';
 import { MenuState } from './menu_state.js';
@@ -19,7 +20,6 @@ import { CommandSender } from './command_sender.js';
 import { TeleopLoop, shapeStick } from './teleop.js';
 import { GoalPointer, GoalTracker } from './goal_pointer.js';
 import { SensorHistory } from './sensor_history.js';
-import { mapToScene } from './frames.js';
 import { vrAvailability } from './security.js';
 import { ModelLoader } from './view/gltf_loading.js';
 import { TwinView } from './view/twin_view.js';
@@ -69,6 +69,7 @@ export class App {
   // UNBUILT stands in until then and is never read) ----------------------------------------------------
   /** @type {THREE.WebGLRenderer} */ renderer = UNBUILT;
   /** @type {THREE.Scene} */ scene = UNBUILT;
+  /** @type {InspectionUi} */ inspectionUi = UNBUILT;
   /** @type {THREE.Group} */ rig = UNBUILT;
   /** @type {THREE.PerspectiveCamera} */ camera = UNBUILT;
   /** @type {THREE.Group} */ world = UNBUILT;
@@ -172,6 +173,8 @@ export class App {
     this.world.add(this.goalView.group);
     this.teleportView = new TeleportView();
     this.world.add(this.teleportView.group);
+    const token = operatorToken(window.location, window.sessionStorage);
+    this.inspectionUi = new InspectionUi({ world: this.world, model: this.router.inspection, sender: this.sender, panel: document.getElementById('findings'), token, transform: () => this.fleet.scene.mapToScene });
     this.vignette = new Vignette();
     this.camera.add(this.vignette.mesh);
     this.toast = new LabelSprite({ width: 900, height: 120, worldHeight: 0.09, onTop: true });
@@ -304,6 +307,9 @@ export class App {
       case 'offer_takeover':
         queueMicrotask(() => this.#offerTakeOver(effect.robot, effect.text));
         break;
+      case 'inspection':
+        this.inspectionUi.update(this.menu);
+        break;
     }
   }
 
@@ -417,6 +423,9 @@ export class App {
         case 'estop_reset':
           this.sender.estopReset();
           break;
+        case 'mission':
+          this.inspectionUi.command(effect);
+          break;
       }
     }
   }
@@ -424,6 +433,7 @@ export class App {
   /** The selected robot's camera feeds the POV screen; its teleop limits apply. */
   #syncSelection() {
     this.menu.setGoalActive(Boolean(this.fleet.robot(this.menu.selected)?.status?.goal));
+    this.inspectionUi.update(this.menu);
     const camera = this.fleet.camera(this.menu.selected);
     const identifier = camera?.identifier ?? '';
     if (identifier !== this.decoder.accept) {
@@ -559,17 +569,6 @@ export class App {
     return snapshotState(this);
   }
 
-  /**
-   * Where a map point (ROS, metres) appears on the desktop page, in CSS pixels (tests click there).
-   * @param {number} x @param {number} y @param {number} [z]
-   * @returns {[number, number]}
-   */
-  mapToPage(x, y, z = 0) {
-    const v = new THREE.Vector3(...mapToScene(this.fleet.scene.mapToScene, x, y, z)).project(this.camera);
-    const rect = this.renderer.domElement.getBoundingClientRect();
-    return [rect.left + ((v.x + 1) / 2) * rect.width, rect.top + ((1 - v.y) / 2) * rect.height];
-  }
-
   dispose() {
     this.renderer.setAnimationLoop(null);
     clearInterval(this.teleopTimer);
@@ -592,6 +591,7 @@ export class App {
     this.menuPanel.dispose();
     this.wristPanel.dispose();
     this.hemisphere.dispose();
+    this.inspectionUi.dispose();
     this.loader.dispose();
     this.renderer.dispose();
     this.renderer.domElement.remove();

@@ -34,6 +34,7 @@ await Promise.race([
 
 const { App } = await import('./app.js');
 const { mapToScene } = await import('./frames.js');
+const { mapToPage } = await import('./view/state_snapshot.js');
 const container = /** @type {HTMLElement} */ (document.getElementById('viewport'));
 // ?maxfps=N caps the drawing rate (a software-rendered browser in CI; a laptop on battery).
 const maxFps = Number(params.get('maxfps')) || undefined;
@@ -45,7 +46,7 @@ app.start();
     return app.testState();
   },
   /** @param {number} x @param {number} y @param {number} [z] map point -> page pixels */
-  mapToPage: (x, y, z) => app.mapToPage(x, y, z),
+  mapToPage: (x, y, z) => mapToPage(app, x, y, z),
   /** @param {number} x @param {number} y @param {number} [z] map point -> scene (glTF) point */
   mapToScene: (x, y, z) => mapToScene(app.fleet.scene.mapToScene, x, y, z),
   version: 1,

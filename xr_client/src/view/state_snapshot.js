@@ -5,6 +5,7 @@
  * reads in a console. Building it changes nothing.
  */
 import * as THREE from 'three';
+import { mapToScene } from '../frames.js';
 
 /** @param {import('../app.js').App} app */
 export function snapshotState(app) {
@@ -13,6 +14,12 @@ export function snapshotState(app) {
   return {
     connected: app.linkOk,
     link: app.linkText,
+    inspection: {
+      targets: app.inspectionUi.model.targets.size,
+      missions: Object.fromEntries([...app.inspectionUi.model.missions.values()].map((m) => [m.robot, m.state])),
+      findings: app.inspectionUi.model.list().map((f) => ({ id: f.id, target: f.target, status: f.status, region: f.region !== null })),
+      pins: app.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
+    },
     clientId: app.fleet.clientId,
     presenting: app.presenting,
     vr: app.vr,
@@ -60,4 +67,15 @@ export function snapshotState(app) {
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles },
   };
+}
+
+/**
+ * Where a map point (ROS, metres) appears on the desktop page, in CSS pixels (tests click there).
+ * @param {import('../app.js').App} app @param {number} x @param {number} y @param {number} [z]
+ * @returns {[number, number]}
+ */
+export function mapToPage(app, x, y, z = 0) {
+  const v = new THREE.Vector3(...mapToScene(app.fleet.scene.mapToScene, x, y, z)).project(app.camera);
+  const rect = app.renderer.domElement.getBoundingClientRect();
+  return [rect.left + ((v.x + 1) / 2) * rect.width, rect.top + ((1 - v.y) / 2) * rect.height];
 }

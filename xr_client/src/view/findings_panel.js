@@ -1,0 +1,108 @@
+// @ts-check
+/**
+ * The findings on the desktop: a list with a status filter, and the selected finding's image with its region,
+ * readings and note. The operator sets its status, and marks a region: a click on the image asks the relay to
+ * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo:
+ * click again). Behaviour is the inspection model's; this is DOM only.
+ */
+import { STATUS_COLOURS } from '../inspection_model.js';
+
+const STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);
+
+export class FindingsPanel {
+  /** @type {string | null} */
+  selected = null;
+  /** @type {'anomaly' | 'needs_review' | 'ok' | ''} */
+  filter = '';
+  /** The region request awaiting its outline, and the outline to accept. @type {{request: string, finding: string} | null} */
+  pending = null;
+  /** @type {number[][] | null} */
+  proposal = null;
+
+  /**
+   * @param {HTMLElement} root
+   * @param {import('../inspection_model.js').InspectionModel} model
+   * @param {import('../command_sender.js').CommandSender} sender
+   * @param {string | null} token the operator token, for the capture images
+   */
+  constructor(root, model, sender, token) {
+    this.root = root;
+    this.model = model;
+    this.sender = sender;
+    this.token = token;
+    root.addEventListener('click', (event) => this.#click(/** @type {HTMLElement} */ (event.target), /** @type {MouseEvent} */ (event)));
+    // The outline is in the image's pixels: its overlay takes the image's size once it is known.
+    root.addEventListener('load', (event) => {
+      const img = event.target;
+      if (img instanceof HTMLImageElement) img.nextElementSibling?.setAttribute('viewBox', `0 0 ${img.naturalWidth} ${img.naturalHeight}`);
+    }, true);
+    root.addEventListener('change', (event) => {
+      this.filter = /** @type {any} */ (/** @type {HTMLSelectElement} */ (event.target).value);
+      this.render();
+    });
+  }
+
+  render() {
+    const findings = this.model.list({ status: this.filter || null });
+    this.root.hidden = this.model.findings.size === 0;
+    if (this.pending) {
+      const outline = this.model.regions.get(this.pending.request);
+      if (outline) {
+        this.proposal = outline;
+        this.pending = null;
+      }
+    }
+    const options = ['', ...STATUSES].map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`).join('');
+    const items = findings
+      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === this.selected ? 'active' : ''}"><span class="dot" style="background:${STATUS_COLOURS[f.status]}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
+      .join('');
+    this.root.innerHTML = `<div class="head"><b>Findings (${this.model.findings.size})</b><select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+  }
+
+  #detail() {
+    const f = this.selected ? this.model.findings.get(this.selected) : null;
+    if (!f) return '';
+    const region = this.proposal ?? f.region;
+    const src = f.image ? `${f.image}${this.token ? `?token=${encodeURIComponent(this.token)}` : ''}` : '';
+    const outline = region ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${this.proposal ? 'proposal' : ''}"/>` : '';
+    const picture = src
+      ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
+      : '<p>no image</p>';
+    const readings = Object.entries(f.readings).map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`).join(' · ');
+    const buttons = STATUSES.map((s) => `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`).join('');
+    const regionButtons = this.proposal
+      ? '<button type="button" data-region="accept">Accept region</button><button type="button" data-region="redo">Redo</button>'
+      : `<small>${this.pending ? 'segmenting…' : 'click the image to mark a region'}</small>`;
+    return `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p><p>${buttons}</p><p>${regionButtons}</p></section>`;
+  }
+
+  /** @param {HTMLElement} target @param {MouseEvent} event */
+  #click(target, event) {
+    const item = target.closest('[data-finding]');
+    const f = this.selected ? this.model.findings.get(this.selected) : null;
+    if (item) {
+      this.selected = item.getAttribute('data-finding');
+      this.proposal = null;
+      this.pending = null;
+    } else if (f && target.dataset.status) {
+      this.sender.findingUpdate(f.id, { status: /** @type {any} */ (target.dataset.status) });
+    } else if (f && target.dataset.region === 'accept' && this.proposal) {
+      this.sender.findingUpdate(f.id, { region: this.proposal });
+      this.proposal = null;
+    } else if (target.dataset.region === 'redo') {
+      this.proposal = null;
+    } else if (f && target instanceof HTMLImageElement && target.naturalWidth) {
+      const rect = target.getBoundingClientRect();
+      const u = ((event.clientX - rect.left) / rect.width) * target.naturalWidth;
+      const v = ((event.clientY - rect.top) / rect.height) * target.naturalHeight;
+      const request = this.sender.region(f.capture, u, v);
+      if (request) this.pending = { request, finding: f.id };
+    } else return;
+    this.render();
+  }
+}
+
+/** @param {string} text */
+function esc(text) {
+  return text.replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
+}

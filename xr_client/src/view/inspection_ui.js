@@ -1,0 +1,50 @@
+// @ts-check
+/**
+ * Inspection in the page: the targets and findings in the twin (InspectionView), the findings list on the desktop
+ * (FindingsPanel), and the menu's mission buttons carried out as commands. The app calls `update` when the router
+ * reports an inspection change and when the selection changes.
+ */
+import { InspectionView } from './inspection_view.js';
+import { FindingsPanel } from './findings_panel.js';
+
+export class InspectionUi {
+  /**
+   * @param {{world: import('three').Group, model: import('../inspection_model.js').InspectionModel,
+   *   sender: import('../command_sender.js').CommandSender, panel: HTMLElement | null, token: string | null,
+   *   transform: () => import('../frames.js').MapToScene}} parts
+   */
+  constructor(parts) {
+    this.model = parts.model;
+    this.sender = parts.sender;
+    this.transform = parts.transform;
+    this.view = new InspectionView(parts.world);
+    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, parts.sender, parts.token) : null;
+  }
+
+  /** Redraw what changed, and tell the menu whether the selected robot is on a mission. @param {import('../menu_state.js').MenuState} menu */
+  update(menu) {
+    this.view.update(this.model, this.transform());
+    this.panel?.render();
+    const mission = menu.selected ? this.model.active(menu.selected) : null;
+    menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
+  }
+
+  /** A mission button of the menu. @param {{action: 'start' | 'pause' | 'resume' | 'abort', robot: string | null}} effect */
+  command(effect) {
+    if (effect.action === 'start') {
+      this.sender.missionStart('demo');
+      return;
+    }
+    const mission = effect.robot ? this.model.active(effect.robot) : null;
+    if (mission) this.sender.mission(effect.action, mission.id);
+  }
+
+  /** The selected robot's mission, one line for its panel ('' when it has none). @param {string | null} robot */
+  progress(robot) {
+    return robot ? this.model.progress(robot) : '';
+  }
+
+  dispose() {
+    this.view.dispose();
+  }
+}
