@@ -260,3 +260,28 @@ def test_bad_value_is_not_echoed_in_full() -> None:
     with pytest.raises(ProtocolError) as info:
         parse_command('{"identifier":"robot1/goal_pose","id":"a","x":"' + "z" * 5000 + '","y":1}', ROBOTS)
     assert len(info.value.message) < 200
+
+
+def test_inspection_messages_are_pinned() -> None:
+    from relay.inspection.messages import finding_message, mission_message, region_message, targets_message
+    from relay.inspection.records import FindingRecord, MissionRecord, Step, Target
+
+    assert encode(targets_message([Target("spill", "Spill", "gas", 1.8, 8.2)])) == (
+        b'{"identifier":"targets","targets":[{"id":"spill","name":"Spill","kind":"gas","x":1.8,"y":8.2,"facing":null}]}'
+    )
+    mission = MissionRecord("m-1.robot1", "Demo", "robot1", (Step("dwell", seconds=2.0),), "paused", 0, "c2", 1.0, 2.5)
+    assert encode(mission_message(mission)) == (
+        b'{"identifier":"mission","id":"m-1.robot1","name":"Demo","robot":"robot1","state":"paused","current":0,'
+        b'"steps":[{"kind":"dwell","target":null,"x":null,"y":null,"yaw":null,"seconds":2.0}],"reason":"c2",'
+        b'"owner":"","updated":2.5}'
+    )
+    finding = FindingRecord("f-1", "c-1", "robot1", 1.8, 8.2, "anomaly", "gas", "rule", 3.0, 3.0, "m-1.robot1",
+                            "spill", ((1, 2), (3, 4), (5, 6)))  # fmt: skip
+    assert encode(finding_message(finding, "ab" * 32, {"gas": 698.2})) == (
+        b'{"identifier":"finding","id":"f-1","capture":"c-1","mission":"m-1.robot1","target":"spill","robot":"robot1",'
+        b'"x":1.8,"y":8.2,"status":"anomaly","note":"gas","source":"rule","region":[[1,2],[3,4],[5,6]],'
+        b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{"gas":698.2},"created":3.0,"updated":3.0}'
+    )
+    assert encode(region_message("r7", "c-1", ((1, 2), (3, 4), (5, 6)))) == (
+        b'{"identifier":"region","id":"r7","capture":"c-1","outline":[[1,2],[3,4],[5,6]]}'
+    )

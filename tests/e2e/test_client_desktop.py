@@ -190,7 +190,7 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
         ("leak", "anomaly"), ("panels", "ok"), ("spill", "anomaly"),
     ]  # fmt: skip
     # The findings list: pick the spill, see its image, call it needs review, mark a region from one click.
-    await page.click("#findings li:has-text('spill')")
+    await page.click("#findings li[data-finding]:has-text('spill')")
     image = page.locator("#findings .capture img")
     await image.wait_for(state="visible")
     await page.wait_for_function("() => document.querySelector('#findings .capture img').naturalWidth > 0")
@@ -203,4 +203,18 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.region)")
     await page.wait_for_selector("#findings polygon")
     await client.shot("02-finding-with-region", "findings.png")
+    # The report of that mission, from the panel's link: the three findings with their images.
+    href = await page.get_attribute("#findings .head a", "href")
+    assert href is not None and href.startswith("/report/m-")
+    response = await page.request.get(station.url + href)
+    report = await response.text()
+    assert response.ok and report.count("data:image/jpeg;base64,") == 3 and "needs review" in report
+    # A mission made in the page: pick the leak, then the spill, for the fleet.
+    await page.click("#findings li[data-target='leak']")
+    await page.click("#findings li[data-target='spill']")
+    order = {t: await page.inner_text(f"#findings li[data-target='{t}'] .order") for t in ("leak", "spill", "panels")}
+    assert order == {"leak": "1", "spill": "2", "panels": ""}
+    await page.click('#findings button[data-mission="start"]')
+    # Each robot inspects its target again (it stands next to it since the demo): two new findings.
+    await client.wait("s.inspection.findings.length === 5", 60)
     assert not client.errors, client.errors

@@ -121,6 +121,16 @@ export class CommandSender {
     return this.#send({ identifier: 'mission/start', file });
   }
 
+  /**
+   * A mission made in the page: the targets in the order picked, for the fleet (each to the nearest free robot) or
+   * for one robot (inspected in that order).
+   * @param {string[]} targets @param {string | null} robot
+   */
+  missionTargets(targets, robot) {
+    if (robot) return this.#send({ identifier: 'mission/start', robot, steps: targets.map((t) => ({ inspect: t })), name: `${targets.length} targets` });
+    return this.#send({ identifier: 'mission/start', targets, name: `${targets.length} targets` });
+  }
+
   /** @param {'pause' | 'resume' | 'skip' | 'abort'} action @param {string} mission */
   mission(action, mission) {
     return this.#send({ identifier: /** @type {`mission/${typeof action}`} */ (`mission/${action}`), mission });

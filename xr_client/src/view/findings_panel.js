@@ -18,6 +18,10 @@ export class FindingsPanel {
   pending = null;
   /** @type {number[][] | null} */
   proposal = null;
+  /** Targets picked for a new mission, in order. @type {string[]} */
+  picked = [];
+  /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
+  robot = null;
 
   /**
    * @param {HTMLElement} root
@@ -44,7 +48,8 @@ export class FindingsPanel {
 
   render() {
     const findings = this.model.list({ status: this.filter || null });
-    this.root.hidden = this.model.findings.size === 0;
+    this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0;
+    this.picked = this.picked.filter((t) => this.model.targets.has(t));
     if (this.pending) {
       const outline = this.model.regions.get(this.pending.request);
       if (outline) {
@@ -56,7 +61,25 @@ export class FindingsPanel {
     const items = findings
       .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === this.selected ? 'active' : ''}"><span class="dot" style="background:${STATUS_COLOURS[f.status]}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
       .join('');
-    this.root.innerHTML = `<div class="head"><b>Findings (${this.model.findings.size})</b><select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+    // The report of the mission the selected (else the newest) finding came from: all robots of that start.
+    const about = (this.selected ? this.model.findings.get(this.selected) : null) ?? findings[0] ?? null;
+    const group = about?.mission ? about.mission.split('.')[0] : null;
+    const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
+    const report = group ? `<a href="/report/${encodeURIComponent(group)}.html${query}" target="_blank" rel="noopener">Report</a>` : '';
+    this.root.innerHTML = `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>${report}<select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+  }
+
+  /** The targets, picked in order for a new mission (click to pick or unpick). */
+  #targets() {
+    const rows = [...this.model.targets.values()]
+      .map((t) => {
+        const n = this.picked.indexOf(t.id);
+        return `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}"><span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`;
+      })
+      .join('');
+    const who = this.robot ? `with ${esc(this.robot)}` : 'with the fleet';
+    const start = this.picked.length ? `<button type="button" data-mission="start">Inspect ${this.picked.length} ${who}</button>` : '<small>pick targets in order</small>';
+    return `<div class="head"><b>Targets</b>${start}</div><ol class="targets">${rows}</ol>`;
   }
 
   #detail() {
@@ -79,8 +102,14 @@ export class FindingsPanel {
   /** @param {HTMLElement} target @param {MouseEvent} event */
   #click(target, event) {
     const item = target.closest('[data-finding]');
+    const pick = target.closest('[data-target]');
     const f = this.selected ? this.model.findings.get(this.selected) : null;
-    if (item) {
+    if (pick) {
+      const id = /** @type {string} */ (pick.getAttribute('data-target'));
+      this.picked = this.picked.includes(id) ? this.picked.filter((t) => t !== id) : [...this.picked, id];
+    } else if (target.dataset.mission === 'start' && this.picked.length) {
+      if (this.sender.missionTargets(this.picked, this.robot)) this.picked = [];
+    } else if (item) {
       this.selected = item.getAttribute('data-finding');
       this.proposal = null;
       this.pending = null;

@@ -24,6 +24,7 @@ export class InspectionUi {
   /** Redraw what changed, and tell the menu whether the selected robot is on a mission. @param {import('../menu_state.js').MenuState} menu */
   update(menu) {
     this.view.update(this.model, this.transform());
+    if (this.panel) this.panel.robot = menu.selected;
     this.panel?.render();
     const mission = menu.selected ? this.model.active(menu.selected) : null;
     menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
