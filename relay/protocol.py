@@ -580,6 +580,7 @@ from .inspection.wire import (  # noqa: E402
     RegionRequest,
     TargetAdd,
     TargetAddCommand,
+    TargetFromPixelCommand,
     inspection_identifier,
     parse_inspection,
 )
@@ -609,4 +610,5 @@ ClientMessage: TypeAlias = (
     | FindingUpdateCommand
     | RegionCommand
     | TargetAddCommand
+    | TargetFromPixelCommand
 )

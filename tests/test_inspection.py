@@ -78,6 +78,15 @@ async def test_the_demo_mission_survives_its_operator_and_leaves_three_findings(
         assert (by_target["spill"]["status"], by_target["leak"]["status"]) == ("anomaly", "anomaly")
         assert by_target["panels"]["status"] == "ok"
         assert "gas" in by_target["spill"]["note"] and "humidity" in by_target["leak"]["note"]
+        # A target from a pixel: the centre of the spill's image, where the robot looked.
+        spill = by_target["spill"]
+        added = await second.request(
+            {"identifier": "target/add", "target": "drum-3", "capture": spill["capture"], "u": 239.5, "v": 300}
+        )
+        assert added["identifier"] == "ack", added
+        targets = [m for _, m in second.messages if m["identifier"] == "targets"][-1]["targets"]
+        drum = next(t for t in targets if t["id"] == "drum-3")
+        assert 0.5 < drum["x"] < 3.0 and 6.5 < drum["y"] < 9.0, drum  # in front of the spill's standoff pose
         async with aiohttp.ClientSession() as http:
             for finding in findings:
                 async with http.get(f"{running.url}{finding['image']}?token={TOKEN}") as response:

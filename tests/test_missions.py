@@ -188,3 +188,21 @@ async def test_pause_resume_skip_abort_and_stops() -> None:
     assert fleet.released == ["m1.robot1"]
     with pytest.raises(ValueError, match="has ended"):
         await fleet.runner.act(run, "resume", "c1")
+
+
+def test_a_pixel_of_the_camera_image_becomes_a_map_point() -> None:
+    from relay.config import load_config
+    from relay.inspection.pixel import pixel_to_map
+
+    camera = load_config(ROOT / "robots.yaml").robots[0].cameras[0]  # 180 degree equidistant, 480 x 480
+    pose = (3.0, 1.5, math.pi / 2)  # robot1's spawn, facing north through the chemical storage's door
+    x, y = pixel_to_map(camera, 480, 480, pose, 239.5, 239.5, FACILITY.grid)  # the optical axis: level
+    assert abs(x - 3.0) < 0.01 and 9.5 < y < 10.0  # the room's far wall
+    assert not FACILITY.grid.is_free(x, y)
+    # 60 degrees below the axis (an equidistant lens: 240 px for 90 degrees): the floor 0.3 / tan(60) m ahead.
+    x, y = pixel_to_map(camera, 480, 480, pose, 239.5, 239.5 + 160, FACILITY.grid)
+    assert abs(x - 3.0) < 0.01 and abs(y - (1.5 + 0.3 / math.tan(math.radians(60)))) < 0.01
+    with pytest.raises(ValueError, match="outside the field"):
+        pixel_to_map(camera, 480, 480, pose, 2, 2, FACILITY.grid)  # a corner of the image: black, no ray
+    with pytest.raises(ValueError, match="looks at nothing"):
+        pixel_to_map(camera, 480, 480, pose, 239.5, 100, None)  # upwards, with no map to stop it

@@ -29,6 +29,7 @@ from ..work import Busy, WorkPool
 from .kml import KmlError, targets_from_kml
 from .messages import FINDINGS_ON_CONNECT, finding_message, mission_message, region_message, targets_message
 from .missions import MissionError, MissionPlan, assign, load_mission, resolve, steps_from_wire
+from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
 from .runner import MissionRunner, holder
 from .targets import TARGET_ID, facility_targets, load_targets
@@ -160,7 +161,7 @@ class Inspection:
         elif isinstance(command, RegionRequest):
             await self._region(client, command)
         elif isinstance(command, TargetAdd):
-            self._add_target(command)
+            await self._add_target(command)
 
     async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
         from .store import StoreError
@@ -456,14 +457,24 @@ class Inspection:
             raise CommandRejected(ErrorCode.BUSY, f"region: {exc}; try again shortly", command.id) from None
         client.channel.put_priority(encode(region_message(command.id, capture.id, outline)))
 
-    def _add_target(self, command: TargetAdd) -> None:
-        from ..messages import encode
-
-        self.targets[command.target] = Target(
-            command.target, command.name or command.target, command.kind or "point", command.x, command.y,
-            command.facing,
-        )  # fmt: skip
-        self.hub.broadcast_priority(encode(targets_message(list(self.targets.values()))))
+    async def _add_target(self, command: TargetAdd) -> None:
+        x, y = command.x, command.y
+        if command.capture is not None:
+            assert command.u is not None and command.v is not None
+            capture = await self._capture_record(command.capture, command.id)
+            camera = self.robots[capture.robot].camera(None)
+            if camera is None or not capture.width:
+                raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: capture {capture.id} has no image", command.id)
+            try:
+                x, y = pixel_to_map(
+                    camera, capture.width, capture.height, (capture.x, capture.y, capture.yaw), command.u, command.v,
+                    self.map_grid(),
+                )  # fmt: skip
+            except ValueError as exc:
+                raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
+        assert x is not None and y is not None
+        target = Target(command.target, command.name or command.target, command.kind or "point", x, y, command.facing)
+        self._add_targets([target])
 
 
 def _planner(grid: OccupancyGrid | None) -> Any:

@@ -81,13 +81,18 @@ class RegionRequest:
 
 @dataclass(frozen=True, slots=True)
 class TargetAdd:
+    """A target at (x, y), or where pixel (u, v) of ``capture``'s image looks (relay.inspection.pixel)."""
+
     id: RequestId
     target: str
-    x: float
-    y: float
+    x: float | None
+    y: float | None
     name: str | None
     kind: str | None
     facing: float | None
+    capture: str | None = None
+    u: float | None = None
+    v: float | None = None
 
 
 InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
@@ -155,6 +160,17 @@ class TargetAddCommand(TypedDict):
     name: NotRequired[str]
     kind: NotRequired[str]
     facing: NotRequired[float]
+
+
+class TargetFromPixelCommand(TypedDict):
+    identifier: Literal["target/add"]
+    id: RequestId
+    target: str
+    capture: str
+    u: float
+    v: float
+    name: NotRequired[str]
+    kind: NotRequired[str]
 
 
 def inspection_identifier(command: InspectionCommand) -> str:
@@ -228,14 +244,19 @@ def _parse(obj: dict[str, Any], identifier: str, rid: RequestId) -> InspectionCo
 
     if not TARGET_ID.match(target):
         raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: field 'target' must be 1-64 letters, digits, _ or -")
+    name = _string(obj, "name", identifier, required=False)
+    kind = _string(obj, "kind", identifier, required=False)
+    if obj.get("capture") is not None:
+        capture = _string(obj, "capture", identifier, required=True)
+        u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
+        v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
+        return TargetAdd(rid, target, None, None, name, kind, None, capture, u, v)
+    if obj.get("x") is None or obj.get("y") is None:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: give x and y, or a capture with u and v")
     x = _number(obj, "x", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
     y = _number(obj, "y", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
-    assert x is not None and y is not None
     facing = _number(obj, "facing", identifier, required=False, low=-MAX_YAW, high=MAX_YAW)
-    return TargetAdd(
-        rid, target, x, y, _string(obj, "name", identifier, required=False),
-        _string(obj, "kind", identifier, required=False), facing,
-    )  # fmt: skip
+    return TargetAdd(rid, target, x, y, name, kind, facing)
 
 
 def _strings(obj: dict[str, Any], field: str, identifier: str) -> tuple[str, ...] | None:

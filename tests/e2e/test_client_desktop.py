@@ -203,6 +203,12 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.region)")
     await page.wait_for_selector("#findings polygon")
     await client.shot("02-finding-with-region", "findings.png")
+    # Shift-click on the image: a new target where that pixel looks, named in a dialog.
+    page.once("dialog", lambda dialog: asyncio.ensure_future(dialog.accept("drum-9")))
+    await page.keyboard.down("Shift")
+    await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.6)
+    await page.keyboard.up("Shift")
+    await client.wait("s.inspection.targets === 4")
     # The report of that mission, from the panel's link: the three findings with their images.
     href = await page.get_attribute("#findings .head a", "href")
     assert href is not None and href.startswith("/report/m-")

@@ -144,6 +144,11 @@ export class CommandSender {
     return this.#send({ identifier: 'finding/update', finding, ...fields });
   }
 
+  /** A target where a pixel of a capture's image looks (the relay casts the lens ray into the map). @param {string} target @param {string} capture @param {number} u @param {number} v */
+  targetFromPixel(target, capture, u, v) {
+    return this.#send({ identifier: 'target/add', target, capture, u: Math.round(u), v: Math.round(v) });
+  }
+
   /** Ask the relay to segment the region around a pixel of a capture's image. @param {string} capture @param {number} u @param {number} v */
   region(capture, u, v) {
     return this.#send({ identifier: 'region', capture, u: Math.round(u), v: Math.round(v) });

@@ -78,9 +78,10 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'finding/update', id: RequestId, finding: string, status?: FindingStatus, note?: string, region?: number[][] | null}} FindingUpdateCommand */
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, u: number, v: number}} RegionCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, x: number, y: number, name?: string, kind?: string, facing?: number}} TargetAddCommand */
+/** @typedef {{identifier: 'target/add', id: RequestId, target: string, capture: string, u: number, v: number, name?: string, kind?: string}} TargetFromPixelCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand | TargetFromPixelCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

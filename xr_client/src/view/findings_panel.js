@@ -95,7 +95,7 @@ export class FindingsPanel {
     const buttons = STATUSES.map((s) => `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`).join('');
     const regionButtons = this.proposal
       ? '<button type="button" data-region="accept">Accept region</button><button type="button" data-region="redo">Redo</button>'
-      : `<small>${this.pending ? 'segmenting…' : 'click the image to mark a region'}</small>`;
+      : `<small>${this.pending ? 'segmenting…' : 'click the image to mark a region; shift-click: a new target there'}</small>`;
     return `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p><p>${buttons}</p><p>${regionButtons}</p></section>`;
   }
 
@@ -124,6 +124,12 @@ export class FindingsPanel {
       const rect = target.getBoundingClientRect();
       const u = ((event.clientX - rect.left) / rect.width) * target.naturalWidth;
       const v = ((event.clientY - rect.top) / rect.height) * target.naturalHeight;
+      if (event.shiftKey) {
+        // Shift-click: a new target where this pixel looks, named by the operator.
+        const name = window.prompt('Name of the new target (letters, digits, - and _)', 'target-1');
+        if (name) this.sender.targetFromPixel(name.trim().replace(/[^A-Za-z0-9_-]+/g, '-').slice(0, 64), f.capture, u, v);
+        return;
+      }
       const request = this.sender.region(f.capture, u, v);
       if (request) this.pending = { request, finding: f.id };
     } else return;
