@@ -209,6 +209,15 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.6)
     await page.keyboard.up("Shift")
     await client.wait("s.inspection.targets === 4")
+    # Shift-click on the twin's floor: a target there (the corridor in front of robot2's room).
+    px, py = await page_point(client, 10.5, 2.0)
+    page.once("dialog", lambda dialog: asyncio.ensure_future(dialog.accept("valve-4")))
+    await page.keyboard.down("Shift")
+    await page.mouse.click(px, py)
+    await page.keyboard.up("Shift")
+    await client.wait("s.inspection.targets === 5")
+    valve = station.running.relay.inspection.targets["valve-4"]
+    assert abs(valve.x - 10.5) < 0.3 and abs(valve.y - 2.0) < 0.3, valve
     # The report of that mission, from the panel's link: the three findings with their images.
     href = await page.get_attribute("#findings .head a", "href")
     assert href is not None and href.startswith("/report/m-")

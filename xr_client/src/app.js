@@ -47,7 +47,7 @@ const UNBUILT = /** @type {any} */ (null);
  * What the operator can do, as the views call it: the only way a view acts on the station.
  * @typedef {{toggleMenu: () => void, pressMenu: (id: string) => void, selectRobot: (name: string) => void,
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
- *   enterVR: () => void}} OperatorActions
+ *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void}} OperatorActions
  */
 
 export class App {
@@ -119,7 +119,7 @@ export class App {
       selectRobot: (name) => this.#apply(this.menu.select(name)),
       sendGoal: (goal) => this.#sendGoal(goal),
       driveStick: (source, x, y) => this.#driveStick(source, x, y),
-      enterVR: () => this.xrSession.enter(),
+      enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
     };
     this.#buildScene(options);
     this.#buildViews(container);

@@ -144,6 +144,11 @@ export class CommandSender {
     return this.#send({ identifier: 'finding/update', finding, ...fields });
   }
 
+  /** A target at a map point. @param {string} target @param {number} x @param {number} y */
+  targetAt(target, x, y) {
+    return this.#send({ identifier: 'target/add', target, x: round(x), y: round(y) });
+  }
+
   /** A target where a pixel of a capture's image looks (the relay casts the lens ray into the map). @param {string} target @param {string} capture @param {number} u @param {number} v */
   targetFromPixel(target, capture, u, v) {
     return this.#send({ identifier: 'target/add', target, capture, u: Math.round(u), v: Math.round(v) });

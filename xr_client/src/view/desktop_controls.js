@@ -154,8 +154,15 @@ export class DesktopControls {
       this.down = null;
       return;
     }
-    // A click (not a drag) on a robot, or near one (robots are small seen from afar), selects it.
+    // A click (not a drag) on a robot, or near one (robots are small seen from afar), selects it; a shift-click on
+    // the floor adds a target there.
     if (this.down && this.down.id === e.pointerId && Math.hypot(e.clientX - this.down.x, e.clientY - this.down.y) < 5) {
+      const floor = e.shiftKey ? this.#floorHit(e) : null;
+      if (floor) {
+        this.host.actions.addTarget({ x: floor.x, y: floor.y });
+        this.down = null;
+        return;
+      }
       const robot = this.#robotAt(e);
       if (robot) this.host.actions.selectRobot(robot);
     }

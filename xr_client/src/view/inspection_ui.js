@@ -40,6 +40,12 @@ export class InspectionUi {
     if (mission) this.sender.mission(effect.action, mission.id);
   }
 
+  /** A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog. @param {{x: number, y: number}} point */
+  addTarget(point) {
+    const name = window.prompt(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, `target-${this.model.targets.size + 1}`);
+    if (name) this.sender.targetAt(name.trim().replace(/[^A-Za-z0-9_-]+/g, '-').slice(0, 64), point.x, point.y);
+  }
+
   /** The selected robot's mission, one line for its panel ('' when it has none). @param {string | null} robot */
   progress(robot) {
     return robot ? this.model.progress(robot) : '';
