@@ -1,164 +1,450 @@
-"""relay.inspection.store on a real SQLite file (and on a real PostgreSQL server from Debian's package, when it can
-be installed): round trips, images by hash, migrations, and the failures operators meet (locked, full, corrupt)."""
+"""relay.inspection.store on a real SQLite file and on a real PostgreSQL server (Debian's package, started for the
+session): round trips of every record, images by hash, migrations, and the failures operators meet (locked, full,
+corrupt, unreachable)."""
 
 from __future__ import annotations
 
+import hashlib
+import itertools
 import os
+import pwd
 import shutil
 import socket
 import sqlite3
 import subprocess
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+import relay.inspection.store as store_module
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
-from relay.inspection.report import as_csv, as_html, collect
-from relay.inspection.store import SCHEMA_VERSION, Store, StoreError
+from relay.inspection.store import SCHEMA_VERSION, Store, StoreError, UnknownRecord
+
+BUSY = 0.3  # seconds: the busy timeout of the tests, short so that a lock test takes well under a second
 
 STEPS = (
     Step("inspect", target="spill"),
-    Step("goto", x=1.0, y=2.0, yaw=0.5),
-    Step("dwell", seconds=2.0),
+    Step("goto", x=1.25, y=-2.0, yaw=0.1 + 0.2),  # 0.30000000000000004: floats must come back bit for bit
     Step("capture"),
+    Step("capture", target="valve-3"),
+    Step("dwell", seconds=2.5),
+    Step("goto", x=0.0, y=0.0),  # no yaw: None must stay None, not become 0
 )
 
 
-def _mission(**fields: Any) -> MissionRecord:
-    return replace(MissionRecord("m-1.robot1", "Demo", "robot1", STEPS, "running", 0, "", 10.0, 10.0, "c1"), **fields)
+def _mission(**changes: Any) -> MissionRecord:
+    record = MissionRecord("m-1.robot1", "Tank farm — Nord 'B' ✓", "robot1", STEPS, "running", 0, "", 10.0, 10.0, "c1")
+    return replace(record, **changes)
 
 
-def _exercise(store: Store) -> None:
-    store.save_mission(_mission())
-    store.save_mission(_mission(state="paused", current=2, reason="c2 takes over", updated=11.0))  # an upsert
-    [mission] = store.missions()
-    assert (mission.state, mission.current, mission.reason, mission.steps) == ("paused", 2, "c2 takes over", STEPS)
-    jpeg = b"\xff\xd8" + os.urandom(64) + b"\xff\xd9"
-    capture = CaptureRecord("c-1", "robot1", 12.0, 2.3, 7.6, 2.35, {"gas": 698.2, "temperature": 21.3}, "m-1.robot1",
-                            "spill", None, 480, 480)  # fmt: skip
-    stored = store.add_capture(capture, jpeg)
-    again = store.add_capture(replace(stored, id="c-2", image=None), jpeg)
-    assert stored.image is not None and stored.image == again.image and store.image(stored.image) == jpeg
-    assert len(list(store.images.rglob("*.jpg"))) == 1  # the same image, kept once
-    assert store.image("../../etc/passwd") is None and store.image("0" * 64) is None
-    assert store.capture("c-1") == stored and [c.id for c in store.captures("m-1.robot1")] == ["c-1", "c-2"]
-    finding = FindingRecord("f-1", "c-1", "robot1", 1.8, 8.2, "anomaly", "gas high", "rule", 13.0, 13.0, "m-1.robot1",
-                            "spill")  # fmt: skip
-    store.add_finding(finding)
-    store.add_finding(FindingRecord("f-2", "c-2", "robot2", 9.0, 9.6, "ok", "", "operator", 14.0, 14.0))
-    region = ((1, 2), (30, 4), (20, 40))
-    updated = store.update_finding("f-1", status="needs_review", region=region, updated=15.0)
-    assert (updated.status, updated.note, updated.region, updated.updated) == ("needs_review", "gas high", region, 15.0)
-    assert [f.id for f in store.findings()] == ["f-1", "f-2"]
-    assert [f.id for f in store.findings(status="ok")] == ["f-2"]
-    assert [f.id for f in store.findings(mission="m-1.robot1", robot="robot1")] == ["f-1"]
-    with pytest.raises(StoreError, match="no finding 'f-9'"):
-        store.update_finding("f-9", status="ok", updated=16.0)
-    with pytest.raises(ValueError, match="status must be one of"):
-        store.update_finding("f-1", status="broken", updated=16.0)
-    report = collect(store, "m-1")
-    assert [f.id for f in report.findings] == ["f-1"]
-    assert "data:image/jpeg;base64," in as_html(report, store, None) and "f-1,needs_review" in as_csv(report)
+def _capture(**changes: Any) -> CaptureRecord:
+    record = CaptureRecord("c-1", "robot1", 12.0, 2.3, -7.6, -3.141592653589793, {"gas": 698.2, "temperature": 1e-300})
+    return replace(record, **{"mission": "m-1.robot1", "target": "spill", "width": 640, "height": 480, **changes})
 
 
-def test_sqlite_round_trips(tmp_path: Path) -> None:
-    store = Store.open(str(tmp_path / "db" / "inspection.sqlite"), tmp_path / "images")
-    assert store.schema_version == SCHEMA_VERSION
-    _exercise(store)
-    store.close()
-    reopened = Store.open(str(tmp_path / "db" / "inspection.sqlite"), tmp_path / "images")  # migrations run once
-    assert len(reopened.findings()) == 2
-    reopened.close()
+def _finding(**changes: Any) -> FindingRecord:
+    record = FindingRecord("f-1", "c-1", "robot1", 1.8, 8.2, "anomaly", "gas high? 698 ppm", "rule", 13.0, 13.0)
+    return replace(record, **{"mission": "m-1.robot1", "target": "spill", **changes})
 
 
-def test_a_newer_schema_is_refused_and_an_old_one_migrated(tmp_path: Path) -> None:
-    path = tmp_path / "old.sqlite"
-    sqlite3.connect(path).executescript(
-        "CREATE TABLE schema_version (version INTEGER); INSERT INTO schema_version VALUES (0);"
-    )
-    store = Store.open(str(path), tmp_path / "images")
-    assert store.schema_version == SCHEMA_VERSION and store.missions() == []
-    store.close()
-    sqlite3.connect(path, isolation_level=None).execute("UPDATE schema_version SET version = 99")
-    with pytest.raises(StoreError, match=r"old.sqlite has schema version 99, newer than this relay's"):
-        Store.open(str(path), tmp_path / "images")
+JPEG = b"\xff\xd8\xff\xe0" + bytes(range(256)) * 4 + b"\xff\xd9"
 
 
-def test_locked_full_and_corrupt_databases_say_so(tmp_path: Path) -> None:
-    path = tmp_path / "inspection.sqlite"
-    store = Store.open(str(path), tmp_path / "images", busy_timeout=0.2)
-    other = sqlite3.connect(path, isolation_level=None)
-    other.execute("BEGIN EXCLUSIVE")
-    started = time.monotonic()
-    with pytest.raises(StoreError, match=r"inspection.sqlite is locked by another process"):
-        store.save_mission(_mission())
-    assert time.monotonic() - started < 3
-    other.execute("ROLLBACK")
-    store.save_mission(_mission())  # works again once the other process lets go
-    # Full: the database may not grow past its current pages.
-    pages = store._db.execute("PRAGMA page_count").fetchone()[0]
-    store._db.execute(f"PRAGMA max_page_count = {pages}")
-    with pytest.raises(StoreError, match="is full"):
-        for i in range(2000):
-            store.save_mission(_mission(id=f"m-{i}", reason="x" * 500))
-    assert store.mission("m-1.robot1") is not None  # what was there is intact
-    store.close()
-    corrupt = tmp_path / "corrupt.sqlite"
-    corrupt.write_bytes(os.urandom(8192))
-    with pytest.raises(StoreError, match=r"corrupt.sqlite is not a database or is corrupt"):
-        Store.open(str(corrupt), tmp_path / "images")
+# -- the databases --------------------------------------------------------------------------------------------------
 
 
-# -- PostgreSQL --------------------------------------------------------------------------------------------------
+def _postgres_binaries() -> tuple[Path | None, str]:
+    """Debian's PostgreSQL binaries (the newest major version), installing the package once if it is missing."""
+
+    def newest() -> Path | None:
+        found = sorted(Path("/usr/lib/postgresql").glob("*/bin/initdb"), key=lambda p: p.parent.parent.name.zfill(4))
+        return found[-1].parent if found and (found[-1].parent / "pg_ctl").exists() else None
+
+    if (binaries := newest()) is not None:
+        return binaries, ""
+    if os.geteuid() != 0 or shutil.which("apt-get") is None:
+        return None, "no PostgreSQL server in /usr/lib/postgresql, and apt-get cannot install one here (not root)"
+    try:
+        done = subprocess.run(
+            ["apt-get", "install", "-y", "-q", "postgresql"],
+            capture_output=True,
+            text=True,
+            timeout=500,
+            env={**os.environ, "DEBIAN_FRONTEND": "noninteractive"},
+        )
+        why = (done.stderr.strip().splitlines() or ["no output"])[-1]
+    except subprocess.TimeoutExpired:
+        why = "it took over 500 s"
+    return newest(), f"no PostgreSQL server: `apt-get install -y postgresql` failed ({why})"
 
 
-def _postgres_bin() -> Path | None:
-    found = sorted(Path("/usr/lib/postgresql").glob("*/bin/initdb"))
-    if not found and shutil.which("apt-get") and os.geteuid() == 0:
-        subprocess.run(["apt-get", "install", "-y", "-q", "postgresql"], capture_output=True, timeout=600,
-                       env={**os.environ, "DEBIAN_FRONTEND": "noninteractive"})  # fmt: skip
-        found = sorted(Path("/usr/lib/postgresql").glob("*/bin/initdb"))
-    return found[-1].parent if found else None
-
-
-@pytest.fixture(scope="module")
-def postgres_url() -> Iterator[str]:
-    pytest.importorskip("psycopg", reason="psycopg is not installed (`pip install '.[dev]'`)")
-    binaries = _postgres_bin()
+@pytest.fixture(scope="session")
+def postgres_server() -> Iterator[str]:
+    """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``) for the session; its admin URL."""
+    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
+    binaries, why = _postgres_binaries()
     if binaries is None:
-        pytest.skip("no PostgreSQL server: Debian's postgresql package is not installed and could not be installed")
-    # Not under pytest's tmp dir: that is private to root, and the server runs as the `postgres` account.
+        pytest.skip(why)
+    # Not under pytest's tmp_path: root's is mode 0700, and the server must run as another account (PostgreSQL
+    # refuses to run as root): the package's `postgres` account, else `nobody`.
     data = Path(tempfile.mkdtemp(prefix="xr-relay-pg-"))
     run_as: list[str] = []
-    if os.geteuid() == 0:  # PostgreSQL refuses to run as root: use the `postgres` account the package created
-        shutil.chown(data, "postgres")
-        run_as = ["runuser", "-u", "postgres", "--"]
+    if os.geteuid() == 0:
+        account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
+        shutil.chown(data, account)
+        run_as = ["runuser", "-u", account, "--"]
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    subprocess.run([*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay"],
-                   check=True, capture_output=True)  # fmt: skip
-    options = f"-c listen_addresses=127.0.0.1 -c port={port} -c unix_socket_directories={data}"
-    subprocess.run([*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db"), "-o", options, "-w", "-l",
-                    str(data / "log"), "start"], check=True, capture_output=True)  # fmt: skip
+    pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
     try:
+        subprocess.run(
+            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay", "--no-sync"],
+            check=True,
+            capture_output=True,
+        )
+        # fsync off: a test server that dies loses nothing of value, and CREATE DATABASE per test gets fast.
+        options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off"
+        started = subprocess.run(
+            [*pg_ctl, "-o", options, "-l", str(data / "log"), "-w", "-t", "60", "start"], capture_output=True
+        )
+        if started.returncode != 0:
+            log = (data / "log").read_text(errors="replace") if (data / "log").exists() else ""
+            raise RuntimeError(f"PostgreSQL did not start: {started.stderr.decode(errors='replace')}\n{log}")
         yield f"postgresql://relay@127.0.0.1:{port}/postgres"
     finally:
-        subprocess.run([*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db"), "-m", "immediate", "stop"],
-                       capture_output=True)  # fmt: skip
+        subprocess.run([*pg_ctl, "-m", "fast", "stop"], capture_output=True)
         shutil.rmtree(data, ignore_errors=True)
 
 
-def test_postgresql_round_trips(postgres_url: str, tmp_path: Path) -> None:
-    store = Store.open(postgres_url, tmp_path / "images")
-    assert store.schema_version == SCHEMA_VERSION
-    _exercise(store)
-    store.close()
-    with pytest.raises(StoreError, match=r"relay:\*\*\*@|127.0.0.1"):
-        Store.open(postgres_url.replace("relay@", "relay:secret@").rsplit(":", 1)[0] + ":1/postgres", tmp_path / "i",
-                   busy_timeout=1)  # fmt: skip
+_DATABASES = itertools.count()
+
+
+@pytest.fixture
+def postgres_url(postgres_server: str) -> str:
+    """A new, empty database on the session's server: tests do not see each other's rows."""
+    import psycopg
+
+    name = f"test_{os.getpid()}_{next(_DATABASES)}"
+    with psycopg.connect(postgres_server, autocommit=True) as admin:
+        admin.execute(f"CREATE DATABASE {name}")
+    return postgres_server.rsplit("/", 1)[0] + "/" + name
+
+
+@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.timeout(900))])
+def url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
+    """Where a store lives: a SQLite file in a directory not yet made, or a PostgreSQL database."""
+    if request.param == "sqlite":
+        return str(tmp_path / "db" / "inspection.sqlite")
+    return str(request.getfixturevalue("postgres_url"))
+
+
+@pytest.fixture
+def store(url: str, tmp_path: Path) -> Iterator[Store]:
+    with Store.open(url, tmp_path / "images", busy_timeout=BUSY) as opened:
+        yield opened
+
+
+def _raw(url: str) -> Any:
+    """Another connection to the same database, in autocommit mode, as another process would have."""
+    if url.startswith("postgresql://"):
+        import psycopg
+
+        return psycopg.connect(url, autocommit=True)
+    return sqlite3.connect(url, isolation_level=None)
+
+
+def _version(url: str) -> int:
+    raw = _raw(url)
+    try:
+        return int(raw.execute("SELECT version FROM schema_version").fetchone()[0])
+    finally:
+        raw.close()
+
+
+# -- round trips ----------------------------------------------------------------------------------------------------
+
+
+def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
+    assert store.schema_version == SCHEMA_VERSION == 1
+    assert store.mission("m-1.robot1") is None and store.missions() == []
+    store.save_mission(_mission())
+    assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
+    changed = _mission(state="paused", current=2, reason="c2 takes over", updated=11.5, owner="c2", name="Renamed")
+    store.save_mission(changed)  # the same id: replaced, not added
+    assert store.missions() == [changed]
+    done = _mission(id="m-2.robot2", robot="robot2", steps=(), state="done", created=20.0, updated=21.0)
+    store.save_mission(done)
+    assert [m.id for m in store.missions()] == ["m-2.robot2", "m-1.robot1"]  # newest first
+    assert store.mission("m-2.robot2") == done and store.mission("m-2") is None
+
+
+def test_captures_round_trip_oldest_first(store: Store) -> None:
+    later = store.add_capture(_capture(id="c-late", t=50.0), JPEG)
+    assert later == _capture(id="c-late", t=50.0, image=hashlib.sha256(JPEG).hexdigest())
+    # No image: the record says so whatever image it came with; no readings, no mission, no target.
+    bare = CaptureRecord("c-bare", "robot2", 5.0, 0.0, 0.0, 0.0, image="f" * 64)
+    stored = store.add_capture(bare, None)
+    assert stored == replace(bare, image=None) and stored.readings == {} and stored.mission is None
+    early = store.add_capture(_capture(id="c-early", t=10.0), JPEG)
+    assert store.capture("c-late") == later and store.capture("c-bare") == stored and store.capture("c-9") is None
+    assert store.captures() == [stored, early, later]  # by time, not by insertion
+    assert store.captures("m-1.robot1") == [early, later] and store.captures("m-9") == []
+
+
+def test_findings_round_trip_and_filters(store: Store) -> None:
+    store.add_capture(_capture(), JPEG)
+    polygon = ((1, 2), (630, 4), (320, 470), (0, 479))
+    findings = [
+        _finding(id="f-late", created=30.0, updated=30.0, region=polygon),
+        _finding(id="f-ok", status="ok", note="", source="operator", created=20.0, updated=20.0),
+        _finding(id="f-other", robot="robot2", mission=None, target=None, status="needs_review", created=25.0),
+        _finding(id="f-early", created=5.0, updated=5.0, region=()),  # an empty outline is not "no outline"
+    ]
+    assert [store.add_finding(f) for f in findings] == findings
+    assert store.findings() == sorted(findings, key=lambda f: f.created)  # oldest first
+    assert [f.id for f in store.findings(mission="m-1.robot1")] == ["f-early", "f-ok", "f-late"]
+    assert [f.id for f in store.findings(status="anomaly")] == ["f-early", "f-late"]
+    assert [f.id for f in store.findings(robot="robot2")] == ["f-other"]
+    assert [f.id for f in store.findings(mission="m-1.robot1", status="ok", robot="robot1")] == ["f-ok"]
+    assert store.findings(mission="m-1.robot1", robot="robot2") == []
+    assert store.findings(status="needs_review")[0].region is None
+
+
+def test_update_finding_changes_only_what_is_given(store: Store) -> None:
+    store.add_capture(_capture(), None)
+    store.add_finding(_finding(region=((1, 1), (5, 1), (5, 5))))
+    new = store.update_finding("f-1", status="needs_review", updated=14.0)
+    assert new == _finding(region=((1, 1), (5, 1), (5, 5)), status="needs_review", updated=14.0)
+    region = ((10, 20), (30, 40), (50, 10))
+    new = store.update_finding("f-1", note="valve closed", region=region, updated=15.0)
+    assert (new.status, new.note, new.region, new.updated) == ("needs_review", "valve closed", region, 15.0)
+    assert store.findings() == [new]  # what it returned is what is stored
+    with pytest.raises(UnknownRecord, match=r"no finding 'f-9'") as unknown:
+        store.update_finding("f-9", status="ok", updated=16.0)
+    assert isinstance(unknown.value, StoreError) and isinstance(unknown.value, LookupError)
+    with pytest.raises(ValueError, match="status must be one of ok, anomaly, needs_review, got 'broken'"):
+        store.update_finding("f-1", status="broken", updated=16.0)
+    with pytest.raises(ValueError, match="status must be one of"):
+        store.add_finding(_finding(id="f-2", status="fine"))
+    assert store.findings() == [new]
+
+
+def test_a_finding_needs_its_capture_and_ids_are_unique(store: Store) -> None:
+    with pytest.raises(StoreError, match=r"(?i)foreign key"):  # foreign keys are on (SQLite needs a pragma)
+        store.add_finding(_finding(capture="c-nowhere"))
+    first = store.add_capture(_capture(), JPEG)
+    with pytest.raises(StoreError, match=r"(?i)unique|duplicate"):
+        store.add_capture(_capture(robot="robot9"), None)
+    assert store.captures() == [first] and store.findings() == []  # nothing of the failed calls was kept
+
+
+# -- images ---------------------------------------------------------------------------------------------------------
+
+
+def test_images_are_stored_once_by_hash(store: Store) -> None:
+    sha = hashlib.sha256(JPEG).hexdigest()
+    assert store.add_capture(_capture(id="c-1"), JPEG).image == sha
+    assert store.add_capture(_capture(id="c-2", t=13.0), JPEG).image == sha
+    other = JPEG[:-2] + b"\x00\xff\xd9"
+    other_sha = store.add_capture(_capture(id="c-3", t=14.0), other).image
+    assert other_sha is not None and other_sha != sha
+    files = sorted(p.relative_to(store.images).as_posix() for p in store.images.rglob("*") if p.is_file())
+    assert files == sorted([f"{sha[:2]}/{sha}.jpg", f"{other_sha[:2]}/{other_sha}.jpg"])  # no temporary files left
+    assert store.image(sha) == JPEG and store.image(other_sha) == other
+    assert store.image("0" * 64) is None  # well-formed, not stored
+
+
+def test_image_refuses_names_that_are_not_a_hash(tmp_path: Path) -> None:
+    with Store.open(str(tmp_path / "a" / "inspection.sqlite"), tmp_path / "a" / "images") as store:
+        # Files a path trick would reach: <images>/../../secret.jpg and one with an absolute name.
+        (tmp_path / "secret.jpg").write_bytes(b"secret")
+        assert (store.images / ".." / "../secret.jpg").resolve() == (tmp_path / "secret.jpg").resolve()
+        sha = store.add_capture(_capture(), JPEG).image
+        assert sha is not None
+        for name in ("../secret", "../etc/passwd", "/etc/passwd", ("../" * 22)[:64], sha.upper(), sha + "\n", ""):
+            assert store.image(name) is None, name
+        assert store.image(sha) == JPEG
+
+
+# -- migrations -----------------------------------------------------------------------------------------------------
+
+
+def test_an_old_database_is_migrated_once(url: str, tmp_path: Path) -> None:
+    if not url.startswith("postgresql://"):
+        Path(url).parent.mkdir(parents=True)
+    raw = _raw(url)
+    raw.execute("CREATE TABLE schema_version (version INTEGER NOT NULL)")
+    raw.execute("INSERT INTO schema_version (version) VALUES (0)")
+    raw.close()
+    with Store.open(url, tmp_path / "images") as store:
+        assert store.schema_version == SCHEMA_VERSION and _version(url) == SCHEMA_VERSION
+        store.add_capture(_capture(), None)
+        store.add_finding(_finding())
+    with Store.open(url, tmp_path / "images") as store:  # at the current version: nothing runs, nothing is lost
+        assert store.findings() == [_finding()] and _version(url) == SCHEMA_VERSION
+
+
+def test_a_newer_database_is_refused_untouched(url: str, tmp_path: Path) -> None:
+    Store.open(url, tmp_path / "images").close()
+    raw = _raw(url)
+    raw.execute("UPDATE schema_version SET version = 99")
+    raw.close()
+    with pytest.raises(StoreError, match=r"has schema version 99, newer than this relay's 1: use a newer relay"):
+        Store.open(url, tmp_path / "images")
+    assert _version(url) == 99
+
+
+def test_a_second_migration_applies_or_changes_nothing(
+    url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    with Store.open(url, tmp_path / "images") as store:
+        store.add_capture(_capture(), None)
+        store.add_finding(_finding())
+    broken = ("CREATE TABLE extra (id TEXT)", "ALTER TABLE no_such_table ADD COLUMN x INTEGER")
+    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS, broken))
+    with pytest.raises(StoreError, match=r"no_such_table.*\(in migration 2; nothing changed\)"):
+        Store.open(url, tmp_path / "images")
+    raw = _raw(url)
+    with pytest.raises(Exception, match="extra"):  # its first statement was rolled back with the rest
+        raw.execute("SELECT id FROM extra")
+    raw.close()
+    assert _version(url) == 1
+    added = ("ALTER TABLE findings ADD COLUMN severity INTEGER", "UPDATE findings SET severity = 2")
+    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS[:1], added))
+    with Store.open(url, tmp_path / "images") as store:
+        assert store.schema_version == 2 and _version(url) == 2
+        assert store.findings() == [_finding()]  # the code reads the columns it knows
+    raw = _raw(url)
+    assert raw.execute("SELECT id, severity FROM findings").fetchall() == [("f-1", 2)]
+    raw.close()
+
+
+def test_relays_opening_a_new_database_at_once_migrate_it_once(url: str, tmp_path: Path) -> None:
+    barrier = threading.Barrier(4)
+
+    def open_one(i: int) -> int:
+        barrier.wait()
+        with Store.open(url, tmp_path / "images", busy_timeout=10) as opened:
+            opened.save_mission(_mission(id=f"m-{i}"))
+            return opened.schema_version
+
+    with ThreadPoolExecutor(4) as pool:
+        assert list(pool.map(open_one, range(4))) == [SCHEMA_VERSION] * 4
+    raw = _raw(url)
+    assert raw.execute("SELECT version FROM schema_version").fetchall() == [(SCHEMA_VERSION,)]
+    raw.close()
+    with Store.open(url, tmp_path / "images") as store:
+        assert sorted(m.id for m in store.missions()) == ["m-0", "m-1", "m-2", "m-3"]
+
+
+# -- failures -------------------------------------------------------------------------------------------------------
+
+
+def test_a_locked_database_says_so_within_the_busy_timeout(store: Store, url: str) -> None:
+    store.save_mission(_mission())
+    other: Any = _raw(url)
+    if store.postgres:
+        other.autocommit = False
+        other.execute("LOCK TABLE missions IN ACCESS EXCLUSIVE MODE")  # until its transaction ends
+    else:
+        other.execute("BEGIN EXCLUSIVE")
+        assert store.mission("m-1.robot1") == _mission()  # WAL: readers go on while another process writes
+    started = time.monotonic()
+    with pytest.raises(StoreError, match=rf"database {store.name} is locked by another process"):
+        store.save_mission(_mission(state="paused"))
+    waited = time.monotonic() - started
+    assert BUSY * 0.8 <= waited < BUSY + 2.0  # it waited for the lock, then gave up
+    if store.postgres:
+        other.rollback()
+    else:
+        other.execute("ROLLBACK")
+    store.save_mission(_mission(state="paused"))  # works again once the other process lets go
+    assert store.mission("m-1.robot1") == _mission(state="paused")
+    other.close()
+
+
+def test_a_full_sqlite_database_says_so_and_keeps_what_it_had(tmp_path: Path) -> None:
+    path = tmp_path / "inspection.sqlite"
+    with Store.open(str(path), tmp_path / "images") as store:
+        store.save_mission(_mission())
+        # A full disk, without filling one: SQLite's own size limit gives the same SQLITE_FULL. The pragma is per
+        # connection, so it goes to the store's own.
+        pages = store._db.execute("PRAGMA page_count").fetchone()[0]
+        store._db.execute(f"PRAGMA max_page_count = {pages}")
+        saved = []
+        with pytest.raises(StoreError, match=rf"database {path} is full"):
+            for i in range(1000):
+                store.save_mission(_mission(id=f"m-{i}", reason="x" * 3000))
+                saved.append(f"m-{i}")
+        assert {m.id for m in store.missions()} == {"m-1.robot1", *saved}  # the failed one left nothing behind
+        store._db.execute(f"PRAGMA max_page_count = {pages * 100}")
+        store.save_mission(_mission(id="m-after"))  # room again: the store goes on
+        assert store.mission("m-after") == _mission(id="m-after")
+
+
+def test_a_corrupt_sqlite_file_is_refused_untouched(tmp_path: Path) -> None:
+    garbage = tmp_path / "garbage.sqlite"
+    content = bytes((i * 7919 + 13) % 251 for i in range(16384))
+    garbage.write_bytes(content)
+    with pytest.raises(StoreError, match=rf"database {garbage} is not a SQLite database"):
+        Store.open(str(garbage), tmp_path / "images")
+    assert garbage.read_bytes() == content  # not overwritten: it may be someone's data
+    # A real database with its tables' pages overwritten: the header is fine, the content is not.
+    damaged = tmp_path / "damaged.sqlite"
+    with Store.open(str(damaged), tmp_path / "images") as store:
+        store.save_mission(_mission())
+    with damaged.open("r+b") as file:
+        file.seek(4096)
+        file.write(content[: damaged.stat().st_size - 4096])
+    with pytest.raises(StoreError, match=rf"database {damaged} is corrupt: database disk image is malformed"):
+        Store.open(str(damaged), tmp_path / "images")  # the migration's look at schema_version finds it
+
+
+def test_sqlite_file_is_created_in_wal_mode_and_a_directory_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "new" / "dirs" / "inspection.sqlite"
+    with Store.open(str(path), tmp_path / "images" / "deep") as store:
+        assert path.is_file() and (tmp_path / "images" / "deep").is_dir()
+        assert sqlite3.connect(path).execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+    with pytest.raises(StoreError, match=rf"database {store.name} is closed"):
+        store.missions()
+    store.close()  # twice is fine
+    with pytest.raises(StoreError, match=rf"database {tmp_path} cannot be opened"):
+        Store.open(str(tmp_path), tmp_path / "images")
+
+
+def test_an_unreachable_postgresql_says_so_without_the_password(tmp_path: Path) -> None:
+    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
+    with socket.socket() as probe:  # a port nobody listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    for url in (
+        f"postgresql://relay:s3cret@127.0.0.1:{port}/x",
+        f"postgresql://relay@127.0.0.1:{port}/x?password=s3cret",
+    ):
+        with pytest.raises(StoreError) as refused:
+            Store.open(url, tmp_path / "images", busy_timeout=1)
+        message = str(refused.value)
+        assert message.startswith(f"database postgresql://relay@127.0.0.1:{port}/x is unreachable: "), message
+        assert "s3cret" not in message
+
+
+def test_postgresql_connection_lost_is_reported_then_reconnected(postgres_url: str, tmp_path: Path) -> None:
+    with Store.open(postgres_url, tmp_path / "images", busy_timeout=BUSY) as store:
+        store.save_mission(_mission())
+        admin = _raw(postgres_url)
+        admin.execute(
+            "SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE datname = current_database() "
+            "AND pid <> pg_backend_pid()"
+        )
+        admin.close()
+        with pytest.raises(StoreError, match=rf"database {store.name} (closed the connection|is unreachable)"):
+            store.missions()
+        assert store.missions() == [_mission()]  # the next call connects again
