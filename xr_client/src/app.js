@@ -545,7 +545,7 @@ export class App {
 
   /** What the wrist and corner sensor panels show. @param {number} now */
   sensorPanelData(now) {
-    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText, ok: this.linkOk }, now);
+    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText, ok: this.linkOk }, now, this.inspectionUi.progress(this.menu.selected));
   }
 
   /** The POV panel's caption. */

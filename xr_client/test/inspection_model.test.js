@@ -71,3 +71,15 @@ test('the router hands inspection messages to the model and resets it on hello',
   router.route({ identifier: 'region', id: 'r7', capture: 'c-1', outline: [[1, 2], [3, 4], [5, 6]] }, 0);
   assert.deepEqual(inspection.regions.get('r7'), [[1, 2], [3, 4], [5, 6]]);
 });
+
+test("the sensor panel's status line carries the selected robot's mission progress", async () => {
+  const { sensorPanel } = await import('../src/sensor_panel.js');
+  const fleet = new FleetModel();
+  const hello = JSON.parse((await import('node:fs')).readFileSync(new URL('./fixtures/hello.json', import.meta.url), 'utf8'));
+  fleet.apply(hello);
+  const model = new InspectionModel();
+  model.apply(mission({}));
+  const panel = sensorPanel(fleet, 'robot1', new SensorHistory(), { text: 'connected', ok: true }, 0, model.progress('robot1'));
+  assert.match(panel.status, / · mission: step 1 of 2 \(inspect spill\)$/);
+  assert.doesNotMatch(sensorPanel(fleet, 'robot2', new SensorHistory(), { text: '', ok: true }, 0, model.progress('robot2')).status, /mission/);
+});
