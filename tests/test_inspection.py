@@ -217,3 +217,26 @@ async def test_a_kmz_of_placemarks_becomes_a_fleet_mission(fleet_config: FleetCo
         await client.close()
     finally:
         await running.runner.cleanup()
+
+
+async def test_a_locked_database_refuses_the_mission_naming_it_and_no_robot_moves(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    import sqlite3
+
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        other = sqlite3.connect(tmp_path / "inspection.sqlite", isolation_level=None)  # another process's lock
+        other.execute("BEGIN EXCLUSIVE")
+        reply = await client.request({"identifier": "mission/start", "file": "demo"}, timeout=30)
+        assert reply["code"] == "internal" and "inspection.sqlite is locked" in reply["message"], reply
+        assert all(r.follower is None for r in running.relay.backend.world.robots.values())  # type: ignore[attr-defined]
+        other.execute("ROLLBACK")
+        other.close()
+        reply = await client.request({"identifier": "mission/start", "file": "demo"}, timeout=30)
+        assert reply["identifier"] == "ack", reply  # works again once the lock is gone
+        assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        await client.close()
+    finally:
+        await running.runner.cleanup()

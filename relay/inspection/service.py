@@ -214,16 +214,19 @@ class Inspection:
                 raise CommandRejected(ErrorCode.NO_PATH, f"mission/start: {exc}", command.id) from None
         group = _new_id("m")
         wall = self.wall()
-        for robot, steps in robots.items():
-            record = MissionRecord(
-                f"{group}.{robot}", plan.name, robot, steps, "pending", 0, "", wall, wall, client.client_id
-            )
+        records = [
+            MissionRecord(f"{group}.{robot}", plan.name, robot, steps, "pending", 0, "", wall, wall, client.client_id)
+            for robot, steps in robots.items()
+        ]
+        for record in records:  # all stored before any robot moves: a full or locked database starts none
             await self._store(_saver(record), command.id)
+        for record in records:
+            robot = record.robot
             previous = self.control.leases.holder(robot)
             self.control.leases.take(robot, holder(record.id), now)
             self.control.lease_changed(robot, holder(record.id), previous, "acquired", now)
             self.runner.start(record, waypoints[robot])
-            logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(steps))
+            logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(record.steps))
 
     def _plan(self, command: MissionStart) -> MissionPlan:
         try:
