@@ -32,7 +32,7 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'select', robot: string | null}
  *   | {type: 'cancel', robot: string}
  *   | {type: 'tool', tool: Tool}
- *   | {type: 'mission', action: 'start' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
+ *   | {type: 'mission', action: 'start' | 'all' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
  */
 
 export const MODE_FREE_ROAM = 'free_roam';
@@ -186,6 +186,7 @@ export class MenuState {
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
       { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
       { id: 'mission:demo', label: 'Run demo mission', group: 'mission', active: false, enabled: this.operator && this.connected },
+      { id: 'mission:all', label: this.selected ? `All targets: ${this.selected}` : 'All targets: fleet', group: 'mission', active: false, enabled: this.operator && this.connected },
       ...(this.mission
         ? [
             { id: 'mission:toggle', label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission', group: 'mission', active: this.mission === 'paused', enabled: this.operator && this.connected },
@@ -228,6 +229,7 @@ export class MenuState {
     else if (id === 'estop') effects = [...this.#setTool('none'), { type: 'estop' }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     else if (id === 'mission:demo') effects = [{ type: 'mission', action: 'start', robot: null }];
+    else if (id === 'mission:all') effects = [{ type: 'mission', action: 'all', robot: this.selected }];
     else if (id === 'mission:toggle') effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
     else if (id === 'mission:abort') effects = [{ type: 'mission', action: 'abort', robot: this.selected }];
     this.#changed();

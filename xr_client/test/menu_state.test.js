@@ -150,3 +150,21 @@ test('a viewer cannot command: tools and E-STOP are disabled, and the version mo
   assert.equal(m.seated, true);
   assert.ok(m.version > v);
 });
+
+test('the mission buttons: the demo, every target for the selected robot or the fleet, and its mission controls', () => {
+  const menu = new MenuState();
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  menu.setConnected(true);
+  assert.deepEqual(menu.press('mission:demo'), [{ type: 'mission', action: 'start', robot: null }]);
+  assert.equal(menu.buttons().find((b) => b.id === 'mission:all')?.label, 'All targets: fleet');
+  menu.select('robot1');
+  assert.deepEqual(menu.press('mission:all'), [{ type: 'mission', action: 'all', robot: 'robot1' }]);
+  assert.equal(menu.buttons().find((b) => b.id === 'mission:toggle'), undefined); // no mission: no controls
+  menu.setMission('running');
+  assert.deepEqual(menu.press('mission:toggle'), [{ type: 'mission', action: 'pause', robot: 'robot1' }]);
+  menu.setMission('paused');
+  assert.equal(menu.buttons().find((b) => b.id === 'mission:toggle')?.label, 'Resume mission');
+  assert.deepEqual(menu.press('mission:abort'), [{ type: 'mission', action: 'abort', robot: 'robot1' }]);
+  menu.setConnected(false);
+  assert.deepEqual(menu.press('mission:demo'), []); // disabled while disconnected
+});

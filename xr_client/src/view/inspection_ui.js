@@ -30,10 +30,19 @@ export class InspectionUi {
     menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
   }
 
-  /** A mission button of the menu. @param {{action: 'start' | 'pause' | 'resume' | 'abort', robot: string | null}} effect */
+  /**
+   * A mission button of the menu: the demo file; every target, for the selected robot or the fleet (a mission
+   * made in VR as well as on the desktop); or the selected robot's mission paused, resumed or aborted.
+   * @param {{action: 'start' | 'all' | 'pause' | 'resume' | 'abort', robot: string | null}} effect
+   */
   command(effect) {
     if (effect.action === 'start') {
       this.sender.missionStart('demo');
+      return;
+    }
+    if (effect.action === 'all') {
+      const targets = [...this.model.targets.keys()];
+      if (targets.length) this.sender.missionTargets(targets, effect.robot);
       return;
     }
     const mission = effect.robot ? this.model.active(effect.robot) : null;
