@@ -17,7 +17,7 @@ import re
 import struct
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
-from typing import Any, Final, Literal, NotRequired, TypeAlias, TypedDict
+from typing import Any, Final, Literal, TypeAlias
 
 import orjson
 
@@ -240,80 +240,6 @@ class Lease:
     id: RequestId
     action: Literal["acquire", "release"]
     force: bool
-
-
-# The wire form of each command (what a client sends), typed for the browser's generated ``ClientMessage``;
-# tests/test_protocol.py checks each against ``parse_command``.
-
-
-class GoalPoseCommand(TypedDict):
-    identifier: str  # <robot>/goal_pose
-    id: RequestId
-    x: float
-    y: float
-    yaw: NotRequired[float | None]
-
-
-class CmdVelCommand(TypedDict):
-    identifier: str  # <robot>/cmd_vel
-    linear: float
-    angular: float
-    id: NotRequired[RequestId]
-    t: NotRequired[float]  # ms on the client's monotonic clock (performance.now()): how old the command is
-
-
-class CancelCommand(TypedDict):
-    identifier: str  # <robot>/cancel
-    id: RequestId
-
-
-class SnapshotCommand(TypedDict):
-    identifier: str  # <robot>/snapshot
-    id: RequestId
-    camera: NotRequired[str]
-
-
-class StreamCommand(TypedDict):
-    identifier: str  # <robot>/stream
-    id: RequestId
-    camera: str
-    fps: float
-
-
-class LeaseCommand(TypedDict):
-    identifier: str  # <robot>/lease
-    id: RequestId
-    action: NotRequired[Literal["acquire", "release"]]
-    force: NotRequired[bool]
-
-
-class EstopCommand(TypedDict):
-    identifier: Literal["estop"]
-    id: RequestId
-    robot: NotRequired[str]
-    action: NotRequired[Literal["stop", "reset"]]
-
-
-class PingCommand(TypedDict):
-    identifier: Literal["ping"]
-    t: float
-
-
-class PlaybackCommand(TypedDict):
-    identifier: Literal["playback/pause", "playback/resume"]
-    id: RequestId
-
-
-class PlaybackSeekCommand(TypedDict):
-    identifier: Literal["playback/seek"]
-    id: RequestId
-    t: float
-
-
-class PlaybackRateCommand(TypedDict):
-    identifier: Literal["playback/rate"]
-    id: RequestId
-    rate: float
 
 
 _MISSING: Final = object()
@@ -568,19 +494,10 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
 from .inspection.wire import (  # noqa: E402
     INSPECTION_KINDS,
     FindingMark,
-    FindingMarkCommand,
-    FindingUpdateCommand,
     MissionControl,
-    MissionControlCommand,
-    MissionFileCommand,
     MissionStart,
-    MissionStepsCommand,
-    MissionTargetsCommand,
-    RegionCommand,
     RegionRequest,
     TargetAdd,
-    TargetAddCommand,
-    TargetFromPixelCommand,
     inspection_identifier,
     parse_inspection,
 )
@@ -590,25 +507,3 @@ Command: TypeAlias = (
     GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
     | MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
 )  # fmt: skip
-ClientMessage: TypeAlias = (
-    GoalPoseCommand
-    | CmdVelCommand
-    | CancelCommand
-    | SnapshotCommand
-    | StreamCommand
-    | LeaseCommand
-    | EstopCommand
-    | PingCommand
-    | PlaybackCommand
-    | PlaybackSeekCommand
-    | PlaybackRateCommand
-    | MissionFileCommand
-    | MissionStepsCommand
-    | MissionTargetsCommand
-    | MissionControlCommand
-    | FindingMarkCommand
-    | FindingUpdateCommand
-    | RegionCommand
-    | TargetAddCommand
-    | TargetFromPixelCommand
-)

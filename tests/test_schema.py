@@ -19,7 +19,7 @@ from typing import Any, Literal, NotRequired, get_args, get_origin, get_type_hin
 
 import pytest
 
-from relay import messages, protocol
+from relay import client_wire, messages, protocol
 from relay.errors import ProtocolError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -51,14 +51,14 @@ def _fields(cls: type) -> tuple[list[str], list[str]]:
     return required, optional
 
 
-COMMANDS = typing.get_args(protocol.ClientMessage)
+COMMANDS = typing.get_args(client_wire.ClientMessage)
 
 
 @pytest.mark.parametrize("cls", COMMANDS, ids=lambda c: c.__name__)
 def test_each_command_typeddict_is_what_the_parser_accepts(cls: type) -> None:
     identifier = _identifier(cls)
     required, optional = _fields(cls)
-    samples = {**SAMPLES, "action": "reset"} if cls is protocol.EstopCommand else SAMPLES
+    samples = {**SAMPLES, "action": "reset"} if cls is client_wire.EstopCommand else SAMPLES
     full = {"identifier": identifier, **{k: samples[k] for k in required + optional}}
     protocol.parse_command(protocol_bytes(full), ROBOTS)
     protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: samples[k] for k in required}}), ROBOTS)

@@ -33,7 +33,7 @@ from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
 from .runner import MissionRunner, holder
 from .targets import TARGET_ID, facility_targets, load_targets
-from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd
+from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd, inspection_identifier
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
@@ -150,8 +150,7 @@ class Inspection:
 
     async def handle(self, client: Client, command: Any, now: float) -> None:
         """Carry out one inspection command; raises CommandRejected (or ProtocolError) when refused."""
-        identifier = f"{type(command).__name__}"
-        self.control.require_operator(client, identifier, command.id)
+        self.control.require_operator(client, inspection_identifier(command), command.id)
         if isinstance(command, MissionStart):
             await self._start(client, command, now)
         elif isinstance(command, MissionControl):

@@ -12,16 +12,6 @@ from dataclasses import dataclass
 from typing import Any, Final, Literal, NotRequired, TypedDict
 
 from ..errors import ProtocolError
-from ..protocol import (
-    MAX_COORDINATE,
-    MAX_YAW,
-    ErrorCode,
-    RequestId,
-    _number,
-    _request_id,
-    _show,
-    _string,
-)
 from .records import FINDING_STATUSES, FindingStatus
 
 MISSION_ACTIONS: Final = ("pause", "resume", "skip", "abort")
@@ -289,3 +279,17 @@ def _outline(value: Any, identifier: str) -> tuple[tuple[int, int], ...] | None:
             f"{identifier}: field 'region' must be a list of 3 to {MAX_OUTLINE} [u, v] pixels",
         )
     return tuple(points)
+
+
+# Last: relay.protocol imports this module at its end, so either may be imported first; the helpers are used only
+# inside the functions above.
+from ..protocol import (  # noqa: E402
+    MAX_COORDINATE,
+    MAX_YAW,
+    ErrorCode,
+    RequestId,
+    _number,
+    _request_id,
+    _show,
+    _string,
+)
