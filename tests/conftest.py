@@ -5,13 +5,16 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
+import os
 import random
 import re
+import sys
 import threading
 import time
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import hypothesis  # noqa: F401 - imported up front: its plugin's lazy import at session end trips CPython 3.11.7
 import pytest
@@ -155,3 +158,21 @@ def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     return domain
+
+
+async def relay_process(
+    *args: str, stderr: int = asyncio.subprocess.DEVNULL, **options: Any
+) -> tuple[asyncio.subprocess.Process, str]:
+    """``python -m relay ARGS --port 0`` in a process of its own (this environment, so this test's ROS domain);
+    returns it and the base URL it printed (``http://127.0.0.1:P``). ``options`` go to create_subprocess_exec."""
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "relay", *args, "--port", "0", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
+        stderr=stderr, env=dict(os.environ), **options,
+    )  # fmt: skip
+    assert process.stdout is not None
+    line = (await asyncio.wait_for(process.stdout.readline(), 60)).decode()
+    if "open " not in line:
+        process.kill()
+        await process.wait()
+        raise AssertionError(f"the relay did not start: it printed {line!r}")
+    return process, line.split("open ")[1].split("/#")[0]

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import os
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -21,7 +19,7 @@ import pytest
 
 from relay.config import FleetConfig
 from relay.options import Options
-from tests.conftest import ROOT, SHARED_DATA, start_relay
+from tests.conftest import SHARED_DATA, relay_process, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "operator-secret"
@@ -157,16 +155,12 @@ async def test_estop_is_acked_and_stops_the_robot_within_100_ms_under_a_viewer_f
         },
         tmp_path,
     )  # fmt: skip
-    relay = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0",
-        "--token", TOKEN, "--allow-viewers", "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.DEVNULL, env=dict(os.environ),
-    )  # fmt: skip
+    relay, base = await relay_process(
+        "--backend", "ros", "--config", str(config), "--token", TOKEN, "--allow-viewers", "--audit-log", ""
+    )
     clients: list[TestClient] = []
     try:
-        assert relay.stdout is not None
-        line = (await asyncio.wait_for(relay.stdout.readline(), 60)).decode()
-        ws_url = line.split("open ")[1].split("/#")[0].replace("http", "ws") + "/ws"
+        ws_url = base.replace("http", "ws") + "/ws"
         operator = await TestClient.open(f"{ws_url}?token={TOKEN}")
         viewers = [await TestClient.open(ws_url) for _ in range(3)]
         clients = [operator, *viewers]

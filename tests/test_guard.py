@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import os
 import resource
-import sys
 import time
 from pathlib import Path
 
@@ -21,7 +19,7 @@ import pytest
 from relay.config import FleetConfig
 from relay.guard import ACCEPT_FAILURE, ConnectionGuard
 from relay.options import Options
-from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.conftest import RunningRelay, relay_process, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "operator-secret"
@@ -137,16 +135,17 @@ async def test_a_relay_short_of_descriptors_still_lets_the_operator_in(tmp_path:
     def limit() -> None:
         resource.setrlimit(resource.RLIMIT_NOFILE, (256, 256))
 
-    relay = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--port", "0", "--token", TOKEN, "--audit-log", str(tmp_path / "audit.jsonl"),
-        cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=dict(os.environ),
+    relay, base = await relay_process(
+        "--token",
+        TOKEN,
+        "--audit-log",
+        str(tmp_path / "audit.jsonl"),
+        stderr=asyncio.subprocess.PIPE,
         preexec_fn=limit,
-    )  # fmt: skip
+    )
     writers = []
     try:
-        assert relay.stdout is not None and relay.stderr is not None
-        line = (await asyncio.wait_for(relay.stdout.readline(), 60)).decode()
-        base = line.split("open ")[1].split("/#")[0]
+        assert relay.stderr is not None
         host, port = base.removeprefix("http://").split(":")
         for _ in range(400):
             _, writer = await asyncio.open_connection(host, int(port))

@@ -25,7 +25,7 @@ import pytest
 import trimesh
 
 from relay.config import FleetConfig, load_config, parse_config
-from tests.conftest import ROOT, SHARED_DATA, RunningRelay, start_relay
+from tests.conftest import ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
 from tests.gltf_validate import validate_glb
 from tests.wsclient import TestClient
 
@@ -323,15 +323,8 @@ async def test_relay_terminated_during_teleop_stops_the_robot_before_exiting(ros
     config = tmp_path / "fleet.yaml"
     config.write_text(FLEET)
     peer = await start_peer(POSES, tmp_path)
-    relay = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0",
-        "--token", "t", "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.PIPE, env=dict(os.environ),
-    )  # fmt: skip
+    relay, base = await relay_process("--backend", "ros", "--config", str(config), "--token", "t", "--audit-log", "")
     try:
-        assert relay.stdout is not None
-        line = (await asyncio.wait_for(relay.stdout.readline(), 60)).decode()
-        base = line.split("open ")[1].split("/#")[0]
         client = await TestClient.open(base.replace("http", "ws") + "/ws?token=t")
         await client.hello()
         await drive_until_echoed(client, peer)

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from relay.watchdog.rules import WatchdogRules
-from tests.conftest import ROOT
+from tests.conftest import ROOT, relay_process
 from tests.wsclient import TestClient
 
 TIMEOUT = 0.5
@@ -94,16 +94,10 @@ async def test_a_relay_frozen_mid_teleop_leaves_its_robot_stopped(ros_domain: in
         sys.executable, "-m", "relay", "watchdog", "--config", str(config), cwd=ROOT,
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=dict(os.environ),
     )  # fmt: skip
-    relay = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0",
-        "--token", "t", "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
-        stderr=asyncio.subprocess.DEVNULL, env=dict(os.environ),
-    )  # fmt: skip
+    relay, base = await relay_process("--backend", "ros", "--config", str(config), "--token", "t", "--audit-log", "")
     try:
-        assert relay.stdout is not None and watchdog.stdout is not None
+        assert watchdog.stdout is not None
         assert b"watching alpha" in await asyncio.wait_for(watchdog.stdout.readline(), 60)
-        line = (await asyncio.wait_for(relay.stdout.readline(), 60)).decode()
-        base = line.split("open ")[1].split("/#")[0]
         client = await TestClient.open(base.replace("http", "ws") + "/ws?token=t")
         await client.hello()
 
