@@ -7,6 +7,7 @@ test-artifacts/."""
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
 from collections.abc import Awaitable, Callable
@@ -14,7 +15,7 @@ from collections.abc import Awaitable, Callable
 import pytest
 
 from .conftest import SOFTWARE_GL, Client, OpenClient, Station, distance, record_timing, wait_until, window_stats
-from .xr_helpers import aim_arc, button, press_menu_button, set_menu, stick
+from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu, stick
 
 GOAL = (9.0, 6.0)
 
@@ -174,6 +175,75 @@ async def test_vr_locomotion(station: Station, open_client: OpenClient) -> None:
     await client.frames(3)  # held: no second turn
     assert abs((await client.state())["rig"]["yaw"] - (yaw - math.pi / 6)) < 1e-6
     await stick(client, "left", 0.0, 0.0)
+    assert client.errors == [], client.errors
+
+
+async def test_vr_inspection_by_pointing(station: Station, open_client: OpenClient) -> None:
+    """The Inspect tool in VR: pick a target's ring, make a target by pointing at the floor, send the picked
+    target as robot1's mission from the menu, then open its finding's pin: the card shows the capture, sets the
+    status, and marks a region from one point of the image."""
+    client = await enter_vr(open_client, station.url)
+    await client.wait("s.inspection.targets === 3")
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot1")
+    await press_menu_button(client, "tool:inspect")
+    await client.wait("s.menu.tool === 'inspect'")
+    await set_menu(client, False)
+    targets = station.running.relay.inspection.targets
+    spill = targets["spill"]
+
+    async def point_and_select(point: list[float], hover: str) -> None:
+        await aim(client, "right", point)
+        await client.wait("s.xr.hover.right === arg", 20, hover)
+        await click(client, "right")
+
+    async def scene(x: float, y: float, z: float) -> list[float]:
+        point: list[float] = await client.page.evaluate(
+            "([x, y, z]) => window.__xrRelay.mapToScene(x, y, z)", [x, y, z]
+        )
+        return point
+
+    # The spill's ring, in the room behind the corridor's wall: picked (marks are picked through walls).
+    await point_and_select(await scene(spill.x, spill.y, 0.0), "insp:target:spill")
+    await client.wait("s.inspection.picked.join() === 'spill'")
+    # The corridor's floor: a new target there, named without a keyboard.
+    await point_and_select(await scene(6.0, 1.2, 0.0), "insp:floor")
+    await wait_until(lambda: "point-4" in targets, 10, "the target made by pointing at the floor")
+    assert math.hypot(targets["point-4"].x - 6.0, targets["point-4"].y - 1.2) < 0.3, targets["point-4"]
+    await client.wait("s.inspection.targets === 4")
+    await client.shot("08-inspect-picked")
+
+    # The menu sends the picked target as robot1's mission.
+    await set_menu(client, True)
+    await press_menu_button(client, "mission:picked")
+    await client.wait("s.inspection.missions.robot1 === 'running' && s.inspection.picked.length === 0", 20)
+    await set_menu(client, False)
+    finding = await client.wait("s.inspection.findings.find((f) => f.target === 'spill')", 120)
+    assert finding["status"] == "anomaly"  # the sim's gas over its threshold at the spill
+
+    # Its pin opens the card with the capture.
+    await point_and_select(await scene(finding["x"], finding["y"], 1.25), f"insp:finding:{finding['id']}")
+    card = await client.wait("s.inspection.card.visible && s.inspection.card.image && s.inspection.card", 20)
+    width, height = card["image"]
+    points = await client.page.evaluate("(p) => window.__xrRelay.cardPoints(p)", [width * 0.5, height * 0.55])
+    await point_and_select(points["status:needs_review"], "insp:card:status:needs_review")
+    await client.wait(
+        "s.inspection.findings.some((f) => f.id === arg && f.status === 'needs_review')", 10, finding["id"]
+    )
+    # A region from one point of the image: the relay's outline is proposed, then accepted.
+    await point_and_select(points["pixel"], "insp:image")
+    await client.wait("s.inspection.review.proposal", 30)
+    points = await client.page.evaluate("() => window.__xrRelay.cardPoints(null)")
+    await client.frames(2)
+    await client.shot("09-finding-card", "vr-finding-card.png")
+    await point_and_select(points["region:accept"], "insp:card:region:accept")
+    await client.wait("s.inspection.findings.some((f) => f.id === arg && f.region)", 10, finding["id"])
+    store = station.running.relay.inspection.store
+    assert store is not None
+    stored = next(f for f in await asyncio.to_thread(store.findings, robot="robot1") if f.id == finding["id"])
+    assert stored.status == "needs_review" and stored.region is not None and len(stored.region) >= 3
+    await point_and_select(points["card:close"], "insp:card:card:close")
+    await client.wait("!s.inspection.card.visible")
     assert client.errors == [], client.errors
 
 

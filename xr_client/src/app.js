@@ -20,7 +20,7 @@ import { CommandSender } from './command_sender.js';
 import { TeleopLoop, shapeStick } from './teleop.js';
 import { GoalPointer, GoalTracker } from './goal_pointer.js';
 import { SensorHistory } from './sensor_history.js';
-import { vrAvailability } from './security.js';
+import { pageVrAvailability, vrAvailability } from './security.js';
 import { ModelLoader } from './view/gltf_loading.js';
 import { TwinView } from './view/twin_view.js';
 import { FleetView } from './view/fleet_view.js';
@@ -28,10 +28,13 @@ import { GoalView } from './view/goal_view.js';
 import { TeleportView, Vignette } from './view/comfort_view.js';
 import { HemisphereScreen, POV_LAYER } from './view/hemisphere_screen.js';
 import { FrameDecoder } from './view/frame_decoder.js';
-import { MenuPanel, WristPanel } from './view/panels.js';
-import { LabelSprite } from './view/label_sprite.js';
+import { MenuPanel } from './view/panels.js';
 import { XRInput } from './view/xr_input.js';
 import { XRInteraction } from './view/xr_interaction.js';
+import { XRInspection } from './view/xr_inspection.js';
+import { FindingCard } from './view/finding_card.js';
+import { VRHud } from './view/vr_hud.js';
+import { estopBanner } from './estop_banner.js';
 import { XRSessionController } from './view/xr_session.js';
 import { Picking } from './view/picking.js';
 import { DesktopControls } from './view/desktop_controls.js';
@@ -60,7 +63,6 @@ export class App {
   povYaw = 0;
   linkText = 'connecting…';
   linkOk = false;
-  toastUntil = 0;
   frameCount = 0;
   /** @type {(() => void)[]} */
   unlisten = [];
@@ -80,15 +82,16 @@ export class App {
   /** @type {GoalView} */ goalView = UNBUILT;
   /** @type {TeleportView} */ teleportView = UNBUILT;
   /** @type {Vignette} */ vignette = UNBUILT;
-  /** @type {LabelSprite} */ toast = UNBUILT;
   /** @type {MenuPanel} */ menuPanel = UNBUILT;
-  /** @type {WristPanel} */ wristPanel = UNBUILT;
   /** @type {HemisphereScreen} */ hemisphere = UNBUILT;
   /** @type {FleetView} */ fleetView = UNBUILT;
   /** @type {Map<string, import('./view/robot_view.js').RobotView>} */ robotViews = UNBUILT;
   /** @type {FrameDecoder} */ decoder = UNBUILT;
   /** @type {XRInput} */ xrInput = UNBUILT;
   /** @type {XRInteraction} */ interaction = UNBUILT;
+  /** @type {FindingCard} */ findingCard = UNBUILT;
+  /** @type {XRInspection} */ xrInspection = UNBUILT;
+  /** @type {VRHud} */ hud = UNBUILT;
   /** @type {Overlay} */ overlay = UNBUILT;
   /** @type {DesktopControls} */ desktop = UNBUILT;
 
@@ -177,13 +180,9 @@ export class App {
     this.inspectionUi = new InspectionUi({ world: this.world, model: this.router.inspection, sender: this.sender, panel: document.getElementById('findings'), token, transform: () => this.fleet.scene.mapToScene });
     this.vignette = new Vignette();
     this.camera.add(this.vignette.mesh);
-    this.toast = new LabelSprite({ width: 900, height: 120, worldHeight: 0.09, onTop: true });
-    this.toast.sprite.position.set(0, -0.18, -0.9);
-    this.toast.sprite.visible = false;
-    this.camera.add(this.toast.sprite);
     this.menuPanel = new MenuPanel();
     this.scene.add(this.menuPanel.mesh, this.menuPanel.tab);
-    this.wristPanel = new WristPanel();
+    this.hud = new VRHud(this.camera);
     this.hemisphere = new HemisphereScreen(640, 640);
     this.scene.add(this.hemisphere.group);
     this.decoder = new FrameDecoder(
@@ -192,8 +191,12 @@ export class App {
     );
     this.xrInput = new XRInput(this.renderer, this.rig, this.scene);
     const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
+    this.findingCard = new FindingCard(token);
+    this.scene.add(this.findingCard.mesh);
+    const inspect = new XRInspection({ ui: this.inspectionUi, card: this.findingCard, picking, menu, camera, notify: (text) => this.#notify(text, 'info'), operator: () => menu.canCommand });
+    this.xrInspection = inspect;
     this.interaction = new XRInteraction({
-      xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions,
+      xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions, inspect, estop: this.hud.estop,
       locomotion: this.xrSession,
       link: () => this.linkText,
     });
@@ -230,16 +233,7 @@ export class App {
 
   /** Enter VR, or why not: a missing secure context is explained, never a silently missing button. */
   async #checkVr() {
-    /** @type {boolean | null} */
-    let supported = null;
-    if (navigator.xr) {
-      try {
-        supported = await navigator.xr.isSessionSupported('immersive-vr');
-      } catch {
-        supported = false; // a secure-context or permissions-policy refusal
-      }
-    }
-    this.vr = vrAvailability({ secure: window.isSecureContext, hostname: location.hostname, port: location.port, hasXR: 'xr' in navigator, vrSupported: supported });
+    this.vr = await pageVrAvailability({ ask: true });
     this.overlay.setVr(this.vr);
   }
 
@@ -297,9 +291,13 @@ export class App {
       case 'goal_state':
         if (effect.robot === this.menu.selected) this.menu.setGoalActive(effect.active);
         break;
-      case 'estop_state':
+      case 'estop_state': {
         this.menu.setLatched(effect.latched);
+        const robots = [...this.fleet.robots.keys()];
+        this.overlay.setBanner(estopBanner(effect.latched, robots, this.router.estopBy, this.fleet.clientId, this.fleet.role === 'operator'));
+        this.hud.estop.show(this.overlay.banner, this.presenting);
         break;
+      }
       case 'sensor_warning':
         // A strong pulse on the wrist that carries the panel.
         this.xrInput.pulse(this.xrInput.side('left'), 0.9, 250);
@@ -344,11 +342,7 @@ export class App {
    */
   #notify(text, kind, toast = true) {
     this.overlay.say(text, kind);
-    if (toast) {
-      this.toast.set([text], { accent: kind === 'info' ? '#3d8bff' : kind === 'warning' ? '#ffb020' : '#e02424' });
-      this.toast.sprite.visible = this.presenting;
-      this.toastUntil = performance.now() + 5000;
-    }
+    if (toast) this.hud.toast.say(text, kind, this.presenting, performance.now());
   }
 
   // -- commands (nothing queues while disconnected) ----------------------------------------------
@@ -418,13 +412,13 @@ export class App {
           break;
         case 'estop':
           this.teleop.stop(performance.now());
-          this.sender.estop();
+          this.sender.estop(effect.robot);
           break;
         case 'estop_reset':
           this.sender.estopReset();
           break;
         case 'mission':
-          this.inspectionUi.command(effect);
+          this.inspectionUi.command(effect, this.menu);
           break;
       }
     }
@@ -480,6 +474,7 @@ export class App {
     this.desktop.suspend();
     this.xrSession.placeAtStart();
     this.menuPanel.mesh.visible = this.menu.open;
+    this.hud.started(this.overlay.banner);
     document.body.classList.add('presenting');
     this.#applyView();
   }
@@ -490,10 +485,10 @@ export class App {
     this.menu.setOpen(false);
     this.menuPanel.mesh.visible = false;
     this.menuPanel.tab.visible = false;
-    this.wristPanel.mesh.removeFromParent();
+    this.hud.ended();
+    this.xrInspection.update(false);
     this.desktop.resume();
     this.savedRig = null;
-    this.toast.sprite.visible = false;
     document.body.classList.remove('presenting');
     this.#applyView();
   }
@@ -509,11 +504,10 @@ export class App {
     this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye });
     this.goalView.update(this.fleet, this.goals, start);
     if (this.presenting) {
-      this.#attachWrist();
       this.interaction.update(start, dt);
+      this.xrInspection.update(true);
       this.xrSession.updateSeat();
-      this.wristPanel.update(this.sensorPanelData(start));
-      if (this.toast.sprite.visible && start > this.toastUntil) this.toast.sprite.visible = false;
+      this.hud.update(start, this.xrInput.side('left')?.grip ?? null, this.sensorPanelData(start));
       if (this.menu.mode === 'pov') {
         // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
         this.camera.getWorldPosition(this.hemisphere.group.position);
@@ -535,12 +529,6 @@ export class App {
       this.frameTimer.record(performance.now() - start);
       this.renders++;
     }
-  }
-
-  #attachWrist() {
-    const left = this.xrInput.side('left');
-    const parent = left ? left.grip : null;
-    if (parent && this.wristPanel.mesh.parent !== parent) parent.add(this.wristPanel.mesh);
   }
 
   /** What the wrist and corner sensor panels show. @param {number} now */
@@ -587,11 +575,11 @@ export class App {
     this.goalView.dispose();
     this.teleportView.dispose();
     this.vignette.dispose();
-    this.toast.dispose();
     this.menuPanel.dispose();
-    this.wristPanel.dispose();
+    this.hud.dispose();
     this.hemisphere.dispose();
     this.inspectionUi.dispose();
+    this.findingCard.dispose();
     this.loader.dispose();
     this.renderer.dispose();
     this.renderer.domElement.remove();

@@ -36,9 +36,15 @@ export function layoutMenu(buttons, width, height, options = {}) {
     const inRow = buttons.filter((b) => b.group === group);
     const left = group === 'estop' ? margin : margin + label;
     const usable = width - margin - left;
-    const w = (usable - gap * (inRow.length - 1)) / inRow.length;
+    // E-STOP is twice as wide as anything beside it: the easiest target on the panel.
+    const weights = inRow.map((b) => (b.id === 'estop' ? 2 : 1));
+    const unit = (usable - gap * (inRow.length - 1)) / weights.reduce((a, b) => a + b, 0);
     const y = header + r * (rowHeight + gap);
-    inRow.forEach((b, i) => rects.push({ id: b.id, x: left + i * (w + gap), y, w, h: rowHeight }));
+    let x = left;
+    inRow.forEach((b, i) => {
+      rects.push({ id: b.id, x, y, w: unit * weights[i], h: rowHeight });
+      x += unit * weights[i] + gap;
+    });
   });
   return rects;
 }

@@ -6,17 +6,20 @@
  * Rules:
  * - mode `free_roam` | `pov`; `pov` needs a selected robot with a camera;
  * - robots are a radio group where pressing the selected one selects none;
- * - tools `teleop` and `goal` are exclusive; both need a selected robot and an operator connection;
- *   `goal` only in free roam (there is no floor in the POV space);
+ * - tools `teleop`, `goal` and `inspect` are exclusive; teleop and goal need a selected robot and an operator
+ *   connection; `goal` and `inspect` only in free roam (there is no floor in the POV space); `inspect` (point at
+ *   pins, rings and the floor) needs no robot, and serves viewers too (they review, they change nothing);
+ * - `Inspect picked (N)` is offered once targets are picked, for the selected robot or the fleet;
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
- * - E-STOP is always there; while an emergency stop is latched, `Reset E-STOP` sits beside it;
+ * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
+ *   latched, `Reset E-STOP` sits beside them;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
  *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
  */
 import { MAX_STREAM_FPS } from './protocol.js';
 
 /** @typedef {'free_roam' | 'pov'} Mode */
-/** @typedef {'none' | 'teleop' | 'goal'} Tool */
+/** @typedef {'none' | 'teleop' | 'goal' | 'inspect'} Tool */
 /** @typedef {{name: string, hasCamera: boolean}} MenuRobot */
 /**
  * @typedef {{id: string, label: string, group: string, active: boolean, enabled: boolean, danger?: boolean}} MenuButton
@@ -27,12 +30,12 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'stop_teleop', robot: string}
  *   | {type: 'stream', robot: string, fps: number}
  *   | {type: 'snapshot', robot: string}
- *   | {type: 'estop'}
+ *   | {type: 'estop', robot?: string}
  *   | {type: 'estop_reset'}
  *   | {type: 'select', robot: string | null}
  *   | {type: 'cancel', robot: string}
  *   | {type: 'tool', tool: Tool}
- *   | {type: 'mission', action: 'start' | 'all' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
+ *   | {type: 'mission', action: 'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
  */
 
 export const MODE_FREE_ROAM = 'free_roam';
@@ -62,6 +65,8 @@ export class MenuState {
     /** The selected robot's mission, if it is on one (`Pause`/`Resume` and `Abort mission` are offered).
      * @type {'running' | 'paused' | null} */
     this.mission = null;
+    /** How many targets are picked for a new mission (from the inspection review). */
+    this.picked = 0;
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -83,7 +88,7 @@ export class MenuState {
     } else if (this.mode === 'pov' && !this.robot(this.selected)?.hasCamera) {
       effects.push(...this.#setMode('free_roam'));
     }
-    if (!operator && this.tool !== 'none') effects.push(...this.#setTool('none'));
+    if (!operator && this.#moves()) effects.push(...this.#setTool('none'));
     if (this.live && this.selected) effects.push({ type: 'stream', robot: this.selected, fps: MAX_STREAM_FPS });
     this.#changed();
     return effects;
@@ -107,7 +112,7 @@ export class MenuState {
     if (robots.join() === this.latched.join()) return;
     this.latched = [...robots];
     // A tool of a latched robot would only earn refusals: it goes off (the estop already stopped teleop).
-    if (this.selected !== null && this.latched.includes(this.selected)) this.tool = 'none';
+    if (this.selected !== null && this.latched.includes(this.selected) && this.#moves()) this.tool = 'none';
     this.#changed();
   }
 
@@ -127,6 +132,14 @@ export class MenuState {
   setMission(state) {
     if (state !== this.mission) {
       this.mission = state;
+      this.#changed();
+    }
+  }
+
+  /** How many targets are picked, in order, for a new mission. @param {number} count */
+  setPicked(count) {
+    if (count !== this.picked) {
+      this.picked = count;
       this.#changed();
     }
   }
@@ -182,11 +195,15 @@ export class MenuState {
         active: this.tool === 'goal',
         enabled: command && !pov,
       },
+      { id: 'tool:inspect', label: pov ? 'Inspect (free roam only)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: !pov },
       { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive },
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
       { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
       { id: 'mission:demo', label: 'Run demo mission', group: 'mission', active: false, enabled: this.operator && this.connected },
       { id: 'mission:all', label: this.selected ? `All targets: ${this.selected}` : 'All targets: fleet', group: 'mission', active: false, enabled: this.operator && this.connected },
+      ...(this.picked
+        ? [{ id: 'mission:picked', label: `Inspect picked (${this.picked}): ${this.selected ?? 'fleet'}`, group: 'mission', active: false, enabled: this.operator && this.connected }]
+        : []),
       ...(this.mission
         ? [
             { id: 'mission:toggle', label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission', group: 'mission', active: this.mission === 'paused', enabled: this.operator && this.connected },
@@ -198,6 +215,9 @@ export class MenuState {
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
+    if (selected) {
+      list.push({ id: 'estop:robot', label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`, group: 'estop', active: latched, enabled: this.operator && !latched, danger: true });
+    }
     if (this.estopped) {
       list.push({ id: 'estop:reset', label: 'Reset E-STOP', group: 'estop', active: false, enabled: this.operator && this.connected });
     }
@@ -226,10 +246,12 @@ export class MenuState {
     } else if (id === 'opt:seated') this.seated = !this.seated;
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
     else if (id === 'menu:close') effects = this.setOpen(false);
-    else if (id === 'estop') effects = [...this.#setTool('none'), { type: 'estop' }];
+    else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
+    else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     else if (id === 'mission:demo') effects = [{ type: 'mission', action: 'start', robot: null }];
     else if (id === 'mission:all') effects = [{ type: 'mission', action: 'all', robot: this.selected }];
+    else if (id === 'mission:picked') effects = [{ type: 'mission', action: 'picked', robot: this.selected }];
     else if (id === 'mission:toggle') effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
     else if (id === 'mission:abort') effects = [{ type: 'mission', action: 'abort', robot: this.selected }];
     this.#changed();
@@ -241,6 +263,11 @@ export class MenuState {
     const effects = this.#select(name);
     this.#changed();
     return effects;
+  }
+
+  /** Whether the tool moves a robot (teleop, goal): the tools an estop or a lost robot turn off. */
+  #moves() {
+    return this.tool === 'teleop' || this.tool === 'goal';
   }
 
   /** Stop driving when the robot or mode changes: one effect, or none. @returns {MenuEffect[]} */
@@ -263,7 +290,7 @@ export class MenuState {
     this.selected = name;
     this.goalActive = false; // until the new robot's status says otherwise
     effects.push({ type: 'select', robot: name });
-    if (name === null && this.tool !== 'none') {
+    if (name === null && this.#moves()) {
       this.tool = 'none';
       effects.push({ type: 'tool', tool: 'none' });
     }
@@ -280,7 +307,7 @@ export class MenuState {
     if (mode === 'pov' && !this.robot(this.selected)?.hasCamera) return [];
     /** @type {MenuEffect[]} */
     const effects = [...this.#stopDriving(), ...this.#stopLive()];
-    if (mode === 'pov' && this.tool === 'goal') {
+    if (mode === 'pov' && (this.tool === 'goal' || this.tool === 'inspect')) {
       this.tool = 'none';
       effects.push({ type: 'tool', tool: 'none' });
     }

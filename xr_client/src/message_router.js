@@ -38,6 +38,8 @@ export class MessageRouter {
   playback = null;
   /** Pose smoothing per robot, fed here and sampled by the frame loop. @type {Map<string, PoseSmoother>} */
   smoothers = new Map();
+  /** Who latched each robot's estop, from the `estop` messages (a reset forgets it). @type {Map<string, string | null>} */
+  estopBy = new Map();
   /** The fleet description of the last `hello`, to rebuild robot views only when it changed. */
   #robotsKey = '';
 
@@ -104,8 +106,16 @@ export class MessageRouter {
       case 'estop': {
         const by = message.by ? ` (by ${message.by === this.fleet.clientId ? 'you' : message.by})` : '';
         // A relay from before the latch sends no `latched`: its estop was a stop.
-        if (message.latched === false) return [notice(`E-STOP reset: ${message.robots.join(', ')}${by}`, 'info')];
-        return [{ type: 'stop_teleop' }, notice(`EMERGENCY STOP: ${message.robots.join(', ')}${by}`, 'error')];
+        // The message is the latch's news: the banner shows (or goes) now, not with the next status.
+        for (const r of message.robots) {
+          if (message.latched === true) this.estopBy.set(r, message.by);
+          else this.estopBy.delete(r);
+          const entry = this.fleet.robots.get(r);
+          if (entry?.status && message.latched !== undefined) entry.status = { ...entry.status, estopped: message.latched };
+        }
+        const state = /** @type {RouterEffect} */ ({ type: 'estop_state', latched: this.latched() });
+        if (message.latched === false) return [notice(`E-STOP reset: ${message.robots.join(', ')}${by}`, 'info'), state];
+        return [{ type: 'stop_teleop' }, notice(`EMERGENCY STOP: ${message.robots.join(', ')}${by}`, 'error'), state];
       }
       case 'playback':
         this.playback = message;

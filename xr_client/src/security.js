@@ -37,3 +37,22 @@ export function vrAvailability(page) {
   }
   return { available: page.vrSupported === true, reason: page.vrSupported === null ? 'checking for a VR device…' : '', fix: '' };
 }
+
+/**
+ * This page's VR availability: before the browser answered (`ask: false`), or after asking it whether an
+ * immersive session is supported (a secure-context or permissions-policy refusal counts as no).
+ * @param {{ask: boolean}} options
+ * @returns {Promise<{available: boolean, reason: string, fix: string}>}
+ */
+export async function pageVrAvailability({ ask }) {
+  /** @type {boolean | null} */
+  let supported = null;
+  if (ask && navigator.xr) {
+    try {
+      supported = await navigator.xr.isSessionSupported('immersive-vr');
+    } catch {
+      supported = false;
+    }
+  }
+  return vrAvailability({ secure: window.isSecureContext, hostname: location.hostname, port: location.port, hasXR: 'xr' in navigator, vrSupported: supported });
+}

@@ -19,8 +19,14 @@ test('every menu button gets a rectangle inside the panel, rows do not overlap, 
       assert.ok(!overlap, `${r.id} overlaps ${o.id}`);
     }
   }
-  // E-STOP spans the last row, wider than any other button.
+  // E-STOP spans the last row, wider than any other button; with a robot selected, its own stop sits beside it.
   const estop = /** @type {import('../src/menu_layout.js').ButtonRect} */ (rects.find((r) => r.id === 'estop'));
   assert.ok(rects.every((r) => r.id === 'estop' || r.w < estop.w));
   assert.equal(buttonAt(rects, 2, 2), null);
+  menu.press('robot:robot3');
+  const withRobot = layoutMenu(menu.buttons(), 1024, 700);
+  const big = /** @type {import('../src/menu_layout.js').ButtonRect} */ (withRobot.find((r) => r.id === 'estop'));
+  const own = /** @type {import('../src/menu_layout.js').ButtonRect} */ (withRobot.find((r) => r.id === 'estop:robot'));
+  assert.equal(own.y, big.y);
+  assert.ok(Math.abs(big.w - 2 * own.w) < 1e-9 && rects.every((r) => r.id === 'estop' || r.w < big.w));
 });

@@ -66,20 +66,26 @@ test('an estop stops local teleop and says who pressed it', () => {
   assert.deepEqual(effects, [
     { type: 'stop_teleop' },
     { type: 'notify', text: 'EMERGENCY STOP: robot1, robot3 (by you)', kind: 'error', toast: true },
+    { type: 'estop_state', latched: [] }, // an estop without `latched` (a relay from before the latch) latches nothing
   ]);
 });
 
 test('a latched estop is shown until an operator resets it; a reset stops nothing locally', () => {
   const { router, commands, sent } = setUp();
   router.route(HELLO, 0);
+  const status = { identifier: 'robot1/status', online: true, age: 0.01, mode: /** @type {const} */ ('idle'), goal: null, controller: null, estopped: false };
+  for (const robot of ['robot1', 'robot2', 'robot3']) router.route({ ...status, identifier: `${robot}/status` }, 1);
+  // The latch shows with the estop message itself, before the statuses that follow it.
   const latched = router.route({ identifier: 'estop', robots: ['robot1', 'robot2', 'robot3'], by: 'c9-ffffff', latched: true }, 1);
   assert.equal(latched[0].type, 'stop_teleop');
-  const status = { identifier: 'robot1/status', online: true, age: 0.01, mode: /** @type {const} */ ('idle'), goal: null, controller: null, estopped: true };
-  assert.deepEqual(router.route(status, 2).at(-1), { type: 'estop_state', latched: ['robot1'] });
+  assert.deepEqual(latched.at(-1), { type: 'estop_state', latched: ['robot1', 'robot2', 'robot3'] });
+  assert.deepEqual(router.route({ ...status, estopped: true }, 2).at(-1), { type: 'estop_state', latched: ['robot1', 'robot2', 'robot3'] });
   assert.deepEqual(router.route({ identifier: 'estop', robots: ['robot1'], by: 'c1-abc123', latched: false }, 3), [
     { type: 'notify', text: 'E-STOP reset: robot1 (by you)', kind: 'info', toast: true },
+    { type: 'estop_state', latched: ['robot2', 'robot3'] },
   ]);
-  assert.deepEqual(router.route({ ...status, estopped: false }, 4).at(-1), { type: 'estop_state', latched: [] });
+  assert.deepEqual([...router.estopBy], [['robot2', 'c9-ffffff'], ['robot3', 'c9-ffffff']]);
+  assert.deepEqual(router.route({ ...status, estopped: false }, 4).at(-1), { type: 'estop_state', latched: ['robot2', 'robot3'] });
   commands.estopReset();
   assert.deepEqual(sent.at(-1), { identifier: 'estop', action: 'reset' });
 });

@@ -36,6 +36,9 @@ export class DesktopControls {
     this.orbit.screenSpacePanning = false;
     /** @type {Set<string>} */
     this.keys = new Set();
+    /** Keys pressed while Teleop was on: they drove the robot, and never fly the camera (an E-STOP that turns
+     * Teleop off under a held W must not send the view away). Released, they are forgotten. @type {Set<string>} */
+    this.driving = new Set();
     this.raycaster = new THREE.Raycaster();
     this.pointer = new THREE.Vector2();
     /** @type {number | null} the pointer whose press is placing a goal */
@@ -56,7 +59,7 @@ export class DesktopControls {
     on(window, 'pointerup', (e) => this.#pointerUp(e));
     on(window, 'keydown', (e) => this.#key(e, true));
     on(window, 'keyup', (e) => this.#key(e, false));
-    on(window, 'blur', () => this.keys.clear());
+    on(window, 'blur', () => (this.keys.clear(), this.driving.clear()));
     on(povPanel, 'pointerdown', (e) => {
       this.povDrag = { x: e.clientX, y: e.clientY, yaw: this.povLook.yaw, pitch: this.povLook.pitch };
       povPanel.setPointerCapture(e.pointerId);
@@ -196,10 +199,18 @@ export class DesktopControls {
     const target = /** @type {HTMLElement} */ (e.target);
     if (target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')) return;
     const code = e.code;
+    if (code === 'Space' || code === 'Escape') {
+      // E-STOP from anywhere on the page (a focused button would take Space as a click: not this one).
+      e.preventDefault();
+      if (down && !e.repeat && !this.host.presenting()) this.host.actions.pressMenu('estop');
+      return;
+    }
     if (!['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(code)) return;
     e.preventDefault();
     if (down) this.keys.add(code);
     else this.keys.delete(code);
+    if (down && this.host.menu.tool === 'teleop') this.driving.add(code);
+    if (!down) this.driving.delete(code);
     if (this.host.menu.tool === 'teleop') this.pollTeleop();
   }
 
@@ -214,10 +225,11 @@ export class DesktopControls {
 
   /** @param {number} dt s */
   update(dt) {
-    if (this.host.menu.tool !== 'teleop' && this.keys.size > 0) {
+    const flying = new Set([...this.keys].filter((k) => !this.driving.has(k)));
+    if (this.host.menu.tool !== 'teleop' && flying.size > 0) {
       // Fly: move the camera and its orbit target together, along the ground.
-      const [x, y] = keysToStick(this.keys);
-      const up = (this.keys.has('KeyE') ? 1 : 0) - (this.keys.has('KeyQ') ? 1 : 0);
+      const [x, y] = keysToStick(flying);
+      const up = (flying.has('KeyE') ? 1 : 0) - (flying.has('KeyQ') ? 1 : 0);
       const forward = new THREE.Vector3();
       this.host.camera.getWorldDirection(forward);
       forward.y = 0;

@@ -3,36 +3,29 @@
  * The findings on the desktop: a list with a status filter, and the selected finding's image with its region,
  * readings and note. The operator sets its status, and marks a region: a click on the image asks the relay to
  * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo:
- * click again). Behaviour is the inspection model's; this is DOM only.
+ * click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
-
-const STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);
+import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 
 export class FindingsPanel {
-  /** @type {string | null} */
-  selected = null;
   /** @type {'anomaly' | 'needs_review' | 'ok' | ''} */
   filter = '';
-  /** The region request awaiting its outline, and the outline to accept. @type {{request: string, finding: string} | null} */
-  pending = null;
-  /** @type {number[][] | null} */
-  proposal = null;
-  /** Targets picked for a new mission, in order. @type {string[]} */
-  picked = [];
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
 
   /**
    * @param {HTMLElement} root
    * @param {import('../inspection_model.js').InspectionModel} model
-   * @param {import('../command_sender.js').CommandSender} sender
+   * @param {import('../inspection_review.js').InspectionReview} review what is open, picked and proposed
+   * @param {(commands: import('../inspection_review.js').ReviewCommand[]) => void} run sends the review's commands
    * @param {string | null} token the operator token, for the capture images
    */
-  constructor(root, model, sender, token) {
+  constructor(root, model, review, run, token) {
     this.root = root;
     this.model = model;
-    this.sender = sender;
+    this.review = review;
+    this.run = run;
     this.token = token;
     root.addEventListener('click', (event) => this.#click(/** @type {HTMLElement} */ (event.target), /** @type {MouseEvent} */ (event)));
     // The outline is in the image's pixels: its overlay takes the image's size once it is known.
@@ -49,20 +42,13 @@ export class FindingsPanel {
   render() {
     const findings = this.model.list({ status: this.filter || null });
     this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0;
-    this.picked = this.picked.filter((t) => this.model.targets.has(t));
-    if (this.pending) {
-      const outline = this.model.regions.get(this.pending.request);
-      if (outline) {
-        this.proposal = outline;
-        this.pending = null;
-      }
-    }
-    const options = ['', ...STATUSES].map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`).join('');
+    const selected = this.review.selected;
+    const options = ['', ...FINDING_STATUSES].map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`).join('');
     const items = findings
-      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === this.selected ? 'active' : ''}"><span class="dot" style="background:${STATUS_COLOURS[f.status]}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
+      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" style="background:${STATUS_COLOURS[f.status]}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
       .join('');
     // The report of the mission the selected (else the newest) finding came from: all robots of that start.
-    const about = (this.selected ? this.model.findings.get(this.selected) : null) ?? findings[0] ?? null;
+    const about = (selected ? this.model.findings.get(selected) : null) ?? findings[0] ?? null;
     const group = about?.mission ? about.mission.split('.')[0] : null;
     const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
     const report = group ? `<a href="/report/${encodeURIComponent(group)}.html${query}" target="_blank" rel="noopener">Report</a>` : '';
@@ -71,67 +57,55 @@ export class FindingsPanel {
 
   /** The targets, picked in order for a new mission (click to pick or unpick). */
   #targets() {
+    const picked = this.review.picked;
     const rows = [...this.model.targets.values()]
       .map((t) => {
-        const n = this.picked.indexOf(t.id);
+        const n = picked.indexOf(t.id);
         return `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}"><span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`;
       })
       .join('');
     const who = this.robot ? `with ${esc(this.robot)}` : 'with the fleet';
-    const start = this.picked.length ? `<button type="button" data-mission="start">Inspect ${this.picked.length} ${who}</button>` : '<small>pick targets in order</small>';
+    const start = picked.length ? `<button type="button" data-mission="start">Inspect ${picked.length} ${who}</button>` : '<small>pick targets in order</small>';
     return `<div class="head"><b>Targets</b>${start}</div><ol class="targets">${rows}</ol>`;
   }
 
   #detail() {
-    const f = this.selected ? this.model.findings.get(this.selected) : null;
+    const review = this.review;
+    const f = review.selected ? this.model.findings.get(review.selected) : null;
     if (!f) return '';
-    const region = this.proposal ?? f.region;
+    const region = review.outline(this.model);
     const src = f.image ? `${f.image}${this.token ? `?token=${encodeURIComponent(this.token)}` : ''}` : '';
-    const outline = region ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${this.proposal ? 'proposal' : ''}"/>` : '';
+    const outline = region ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${review.proposal ? 'proposal' : ''}"/>` : '';
     const picture = src
       ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
       : '<p>no image</p>';
     const readings = Object.entries(f.readings).map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`).join(' · ');
-    const buttons = STATUSES.map((s) => `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`).join('');
-    const regionButtons = this.proposal
+    const buttons = FINDING_STATUSES.map((s) => `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`).join('');
+    const regionButtons = review.proposal
       ? '<button type="button" data-region="accept">Accept region</button><button type="button" data-region="redo">Redo</button>'
-      : `<small>${this.pending ? 'segmenting…' : 'click the image to mark a region; shift-click: a new target there'}</small>`;
+      : `<small>${review.pending ? review.hint() : 'click the image to mark a region; shift-click: a new target there'}</small>`;
     return `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p><p>${buttons}</p><p>${regionButtons}</p></section>`;
   }
 
   /** @param {HTMLElement} target @param {MouseEvent} event */
   #click(target, event) {
+    const review = this.review;
     const item = target.closest('[data-finding]');
     const pick = target.closest('[data-target]');
-    const f = this.selected ? this.model.findings.get(this.selected) : null;
-    if (pick) {
-      const id = /** @type {string} */ (pick.getAttribute('data-target'));
-      this.picked = this.picked.includes(id) ? this.picked.filter((t) => t !== id) : [...this.picked, id];
-    } else if (target.dataset.mission === 'start' && this.picked.length) {
-      if (this.sender.missionTargets(this.picked, this.robot)) this.picked = [];
-    } else if (item) {
-      this.selected = item.getAttribute('data-finding');
-      this.proposal = null;
-      this.pending = null;
-    } else if (f && target.dataset.status) {
-      this.sender.findingUpdate(f.id, { status: /** @type {any} */ (target.dataset.status) });
-    } else if (f && target.dataset.region === 'accept' && this.proposal) {
-      this.sender.findingUpdate(f.id, { region: this.proposal });
-      this.proposal = null;
-    } else if (target.dataset.region === 'redo') {
-      this.proposal = null;
-    } else if (f && target instanceof HTMLImageElement && target.naturalWidth) {
+    if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
+    else if (target.dataset.mission === 'start') this.run(review.startPicked(this.robot));
+    else if (item) review.select(item.getAttribute('data-finding'));
+    else if (target.dataset.status) this.run(review.setStatus(/** @type {any} */ (target.dataset.status)));
+    else if (target.dataset.region === 'accept') this.run(review.accept());
+    else if (target.dataset.region === 'redo') review.redo();
+    else if (target instanceof HTMLImageElement && target.naturalWidth) {
       const rect = target.getBoundingClientRect();
       const u = ((event.clientX - rect.left) / rect.width) * target.naturalWidth;
       const v = ((event.clientY - rect.top) / rect.height) * target.naturalHeight;
-      if (event.shiftKey) {
-        // Shift-click: a new target where this pixel looks, named by the operator.
-        const name = window.prompt('Name of the new target (letters, digits, - and _)', 'target-1');
-        if (name) this.sender.targetFromPixel(name.trim().replace(/[^A-Za-z0-9_-]+/g, '-').slice(0, 64), f.capture, u, v);
-        return;
-      }
-      const request = this.sender.region(f.capture, u, v);
-      if (request) this.pending = { request, finding: f.id };
+      // Shift-click: a new target where this pixel looks, named by the operator.
+      const name = event.shiftKey ? window.prompt('Name of the new target (letters, digits, - and _)', nextName(this.model, 'target')) : undefined;
+      if (name === null) return;
+      this.run(review.imageClick(this.model, u, v, event.shiftKey ? { target: true, name } : {}));
     } else return;
     this.render();
   }

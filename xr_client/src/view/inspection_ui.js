@@ -1,11 +1,13 @@
 // @ts-check
 /**
  * Inspection in the page: the targets and findings in the twin (InspectionView), the findings list on the desktop
- * (FindingsPanel), and the menu's mission buttons carried out as commands. The app calls `update` when the router
- * reports an inspection change and when the selection changes.
+ * (FindingsPanel), the operator's review both share (what is open, picked, proposed: InspectionReview), the
+ * review's and the menu's mission buttons carried out as commands. The app calls `update` when the router reports
+ * an inspection change and when the selection changes; the VR Inspect tool (xr_inspection.js) after each select.
  */
 import { InspectionView } from './inspection_view.js';
 import { FindingsPanel } from './findings_panel.js';
+import { InspectionReview, nextName, targetName } from '../inspection_review.js';
 
 export class InspectionUi {
   /**
@@ -17,27 +19,53 @@ export class InspectionUi {
     this.model = parts.model;
     this.sender = parts.sender;
     this.transform = parts.transform;
+    this.review = new InspectionReview();
     this.view = new InspectionView(parts.world);
-    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, parts.sender, parts.token) : null;
+    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, this.review, (commands) => this.run(commands), parts.token) : null;
+  }
+
+  /** Send what the review decided (nothing queues while disconnected: a refused send changes nothing). @param {import('../inspection_review.js').ReviewCommand[]} commands */
+  run(commands) {
+    const sender = this.sender;
+    for (const c of commands) {
+      if (c.type === 'finding_update') sender.findingUpdate(c.finding, c.fields);
+      else if (c.type === 'target_at') sender.targetAt(c.target, c.x, c.y);
+      else if (c.type === 'target_pixel') sender.targetFromPixel(c.target, c.capture, c.u, c.v);
+      else if (c.type === 'mission_targets') {
+        if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
+      } else if (c.type === 'region') {
+        const request = sender.region(c.capture, c.u, c.v);
+        if (request) this.review.regionAsked(String(request));
+      }
+    }
   }
 
   /** Redraw what changed, and tell the menu whether the selected robot is on a mission. @param {import('../menu_state.js').MenuState} menu */
   update(menu) {
-    this.view.update(this.model, this.transform());
+    this.review.sync(this.model);
+    this.view.update(this.model, this.review, this.transform());
     if (this.panel) this.panel.robot = menu.selected;
     this.panel?.render();
     const mission = menu.selected ? this.model.active(menu.selected) : null;
     menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
+    menu.setPicked(this.review.picked.length);
   }
 
   /**
    * A mission button of the menu: the demo file; every target, for the selected robot or the fleet (a mission
-   * made in VR as well as on the desktop); or the selected robot's mission paused, resumed or aborted.
-   * @param {{action: 'start' | 'all' | 'pause' | 'resume' | 'abort', robot: string | null}} effect
+   * made in VR as well as on the desktop); the targets picked in order; or the selected robot's mission paused,
+   * resumed or aborted.
+   * @param {{action: 'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort', robot: string | null}} effect
+   * @param {import('../menu_state.js').MenuState} menu
    */
-  command(effect) {
+  command(effect, menu) {
     if (effect.action === 'start') {
       this.sender.missionStart('demo');
+      return;
+    }
+    if (effect.action === 'picked') {
+      this.run(this.review.startPicked(effect.robot));
+      this.update(menu);
       return;
     }
     if (effect.action === 'all') {
@@ -51,8 +79,8 @@ export class InspectionUi {
 
   /** A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog. @param {{x: number, y: number}} point */
   addTarget(point) {
-    const name = window.prompt(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, `target-${this.model.targets.size + 1}`);
-    if (name) this.sender.targetAt(name.trim().replace(/[^A-Za-z0-9_-]+/g, '-').slice(0, 64), point.x, point.y);
+    const name = window.prompt(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, nextName(this.model, 'target'));
+    if (name && targetName(name)) this.run([{ type: 'target_at', target: targetName(name), x: point.x, y: point.y }]);
   }
 
   /** The selected robot's mission, one line for its panel ('' when it has none). @param {string | null} robot */

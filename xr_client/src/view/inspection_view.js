@@ -1,8 +1,9 @@
 // @ts-check
 /**
  * Inspection in the twin: each target as a ring on the floor with its name, each finding as a pin coloured by its
- * status (the report's colours) at its map position. Redrawn only when the model's version changes (never per
- * frame: a frame takes 100-300 ms under SwiftShader); geometries and materials are shared by all pins.
+ * status (the report's colours) at its map position, a picked target amber with its place in the order. Redrawn
+ * only when the model, the review or the twin changes (never per frame: a frame takes 100-300 ms under
+ * SwiftShader); geometries and materials are shared by all pins.
  */
 import * as THREE from 'three';
 import { mapToScene } from '../frames.js';
@@ -11,15 +12,22 @@ import { LabelSprite } from './label_sprite.js';
 
 export class InspectionView {
   group = new THREE.Group();
-  #version = -1;
   /** @type {LabelSprite[]} */
   #labels = [];
   #ring = new THREE.RingGeometry(0.28, 0.36, 32).rotateX(-Math.PI / 2);
   #ringMaterial = new THREE.MeshBasicMaterial({ color: 0x4fc3f7, transparent: true, opacity: 0.85, side: THREE.DoubleSide });
+  #pickedMaterial = new THREE.MeshBasicMaterial({ color: 0xffb020, transparent: true, opacity: 0.95, side: THREE.DoubleSide });
+  /** A target is picked by a disc a little wider than its ring (a ray grazing the floor misses a thin ring). */
+  #disc = new THREE.CircleGeometry(0.5, 24).rotateX(-Math.PI / 2);
+  #hidden = new THREE.MeshBasicMaterial({ visible: false });
+  /** @type {THREE.Object3D[]} rings' discs and pins: what a VR ray may select */
+  #pickables = [];
   #stick = new THREE.CylinderGeometry(0.015, 0.015, 1.2, 8).translate(0, 0.6, 0);
   #head = new THREE.SphereGeometry(0.09, 16, 12).translate(0, 1.25, 0);
   /** @type {Record<string, THREE.MeshBasicMaterial>} */
-  #pinMaterials = Object.fromEntries(Object.entries(STATUS_COLOURS).map(([status, colour]) => [status, new THREE.MeshBasicMaterial({ color: colour })]));
+  // Pins are drawn over the twin (no depth test), like RViz markers: findings in a room are seen from the corridor.
+  #pinMaterials = Object.fromEntries(Object.entries(STATUS_COLOURS).map(([status, colour]) => [status, new THREE.MeshBasicMaterial({ color: colour, depthTest: false, transparent: true, opacity: 0.92 })]));
+  #key = '';
 
   /** @param {THREE.Group} world */
   constructor(world) {
@@ -28,20 +36,26 @@ export class InspectionView {
   }
 
   /**
-   * Rebuild the markers when the model changed.
+   * Rebuild the markers when the model or the review (targets picked in order) changed.
    * @param {import('../inspection_model.js').InspectionModel} model
+   * @param {import('../inspection_review.js').InspectionReview} review
    * @param {import('../frames.js').MapToScene} transform the twin's map-to-scene transform
    */
-  update(model, transform) {
-    if (model.version === this.#version) return;
-    this.#version = model.version;
+  update(model, review, transform) {
+    const key = `${model.version}|${review.version}|${transform.x},${transform.y},${transform.z},${transform.yaw}`;
+    if (key === this.#key) return;
+    this.#key = key;
     this.#clear();
     for (const target of model.targets.values()) {
-      const ring = new THREE.Mesh(this.#ring, this.#ringMaterial);
+      const order = review.picked.indexOf(target.id);
+      const ring = new THREE.Mesh(this.#ring, order >= 0 ? this.#pickedMaterial : this.#ringMaterial);
       ring.position.set(...mapToScene(transform, target.x, target.y, 0.02));
       ring.name = `target:${target.id}`;
+      const disc = new THREE.Mesh(this.#disc, this.#hidden);
+      ring.add(disc);
+      this.#pickables.push(disc);
       const label = new LabelSprite({ worldHeight: 0.18 });
-      label.set([target.name, target.kind], { accent: '#4fc3f7' });
+      label.set([order >= 0 ? `${order + 1} · ${target.name}` : target.name, target.kind], { accent: order >= 0 ? '#ffb020' : '#4fc3f7' });
       label.sprite.position.set(...mapToScene(transform, target.x, target.y, 0.45));
       this.#labels.push(label);
       this.group.add(ring, label.sprite);
@@ -57,14 +71,22 @@ export class InspectionView {
       pin.name = `finding:${finding.id}`;
       const material = this.#pinMaterials[finding.status];
       pin.add(new THREE.Mesh(this.#stick, material), new THREE.Mesh(this.#head, material));
+      for (const part of pin.children) part.renderOrder = 15;
       pin.position.set(...mapToScene(transform, finding.x + 0.25 * n, finding.y, 0));
       this.group.add(pin);
+      this.#pickables.push(pin);
     }
+  }
+
+  /** What a VR ray may select: each target's disc (named by its ring) and each finding's pin. */
+  pickables() {
+    return this.#pickables;
   }
 
   #clear() {
     for (const label of this.#labels) label.dispose();
     this.#labels = [];
+    this.#pickables = [];
     this.group.clear();
   }
 
@@ -75,6 +97,9 @@ export class InspectionView {
     this.#stick.dispose();
     this.#head.dispose();
     this.#ringMaterial.dispose();
+    this.#pickedMaterial.dispose();
+    this.#disc.dispose();
+    this.#hidden.dispose();
     for (const material of Object.values(this.#pinMaterials)) material.dispose();
   }
 }

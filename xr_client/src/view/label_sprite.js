@@ -81,3 +81,34 @@ export class WarningSprite {
     this.material.dispose();
   }
 }
+
+/** A message under the view in VR, for a few seconds (the desktop shows the overlay's message line instead). */
+export class Toast {
+  /** @param {THREE.Camera} camera what the toast hangs from @param {number} [seconds] how long it stays */
+  constructor(camera, seconds = 5) {
+    this.label = new LabelSprite({ width: 900, height: 120, worldHeight: 0.09, onTop: true });
+    this.sprite = this.label.sprite;
+    this.sprite.position.set(0, -0.18, -0.9);
+    this.sprite.visible = false;
+    camera.add(this.sprite);
+    this.ms = seconds * 1000;
+    this.until = 0;
+  }
+
+  /** @param {string} text @param {'info' | 'error' | 'warning'} kind @param {boolean} presenting @param {number} now ms */
+  say(text, kind, presenting, now) {
+    this.label.set([text], { accent: kind === 'info' ? '#3d8bff' : kind === 'warning' ? '#ffb020' : '#e02424' });
+    this.sprite.visible = presenting;
+    this.until = now + this.ms;
+  }
+
+  /** Hide it once its time is up, or at once outside VR. @param {number} now ms @param {boolean} presenting */
+  update(now, presenting) {
+    if (this.sprite.visible && (!presenting || now > this.until)) this.sprite.visible = false;
+  }
+
+  dispose() {
+    this.sprite.removeFromParent();
+    this.label.dispose();
+  }
+}

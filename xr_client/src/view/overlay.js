@@ -1,6 +1,6 @@
 // @ts-check
 /**
- * The desktop overlay (HTML): the connection status, E-STOP, the Enter VR button or why VR is unavailable,
+ * The desktop overlay (HTML): the connection status, E-STOP and the latched-estop banner, the Enter VR button or why VR is unavailable,
  * the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
  * Robot POV panel and a message line. Reads what its host gives it; clicks go back through the host's actions.
  */
@@ -28,6 +28,10 @@ export class Overlay {
     this.povPanel = el('pov-panel');
     this.povInfo = el('pov-info');
     this.sensorCanvas = /** @type {HTMLCanvasElement} */ (el('sensor-canvas'));
+    this.estopBanner = el('estop-banner');
+    /** The latched-estop banner shown now (estop_banner.js), or null. @type {import('../estop_banner.js').EstopBanner | null} */
+    this.banner = null;
+    this.bannerKey = '';
     this.menuKey = '';
     this.messageTimer = /** @type {ReturnType<typeof setTimeout> | undefined} */ (undefined);
     this.sensorKey = '';
@@ -40,6 +44,11 @@ export class Overlay {
     };
     this.menu.addEventListener('click', onMenuClick);
     this.unlisten.push(() => this.menu.removeEventListener('click', onMenuClick));
+    const onBanner = (/** @type {MouseEvent} */ e) => {
+      if (/** @type {HTMLElement} */ (e.target).closest('button[data-button]')) onMenuClick(e);
+    };
+    this.estopBanner.addEventListener('click', onBanner);
+    this.unlisten.push(() => this.estopBanner.removeEventListener('click', onBanner));
     const onVr = () => host.actions.enterVR();
     this.vrButton.addEventListener('click', onVr);
     this.unlisten.push(() => this.vrButton.removeEventListener('click', onVr));
@@ -62,6 +71,35 @@ export class Overlay {
       const fix = document.createElement('span');
       fix.textContent = ` ${availability.fix}`;
       this.vrNotice.append(reason, fix);
+    }
+  }
+
+  /**
+   * The latched estop, at the top of the page until it is reset (null: none), with Reset E-STOP for operators.
+   * @param {import('../estop_banner.js').EstopBanner | null} banner
+   */
+  setBanner(banner) {
+    this.banner = banner;
+    const reset = this.host.menu.buttons().find((b) => b.id === 'estop:reset');
+    // Every status brings the latch again: the banner is rebuilt only when what it says changed.
+    const key = banner ? `${banner.text}|${banner.hint}|${reset?.enabled}` : '';
+    if (key === this.bannerKey) return;
+    this.bannerKey = key;
+    this.estopBanner.hidden = banner === null;
+    this.estopBanner.dataset.fleet = String(banner?.fleet ?? false);
+    this.estopBanner.replaceChildren();
+    if (!banner) return;
+    const text = document.createElement('strong');
+    text.textContent = banner.text;
+    const hint = document.createElement('span');
+    hint.textContent = banner.hint;
+    this.estopBanner.append(text, hint);
+    if (reset?.enabled) {
+      const button = document.createElement('button');
+      button.type = 'button';
+      button.dataset.button = 'estop:reset';
+      button.textContent = 'Reset E-STOP';
+      this.estopBanner.append(button);
     }
   }
 

@@ -2,7 +2,8 @@
 /**
  * What the operator's hands do in VR, once per XR frame: the menu button (one press, one toggle), pointer
  * rays with hover highlight and a haptic tick on the menu, select (trigger, pinch, transient-pointer) on
- * menu buttons, the menu tab and robots, the goal pointer (arc, press for the position, drag for the
+ * menu buttons, the menu tab, robots and (the Inspect tool, view/xr_inspection.js) pins, rings, the finding
+ * card and the floor, the goal pointer (arc, press for the position, drag for the
  * heading, release to send) on the pointing hand, teleop on the right stick, and locomotion on the left:
  * teleport arc, snap turn, optional smooth motion, all with the comfort vignette.
  */
@@ -12,6 +13,8 @@ import { SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../
 
 /** xr-standard index of the upper face button (Y on the left controller, B on the right). */
 export const MENU_BUTTON = 5;
+/** xr-standard index of the lower face button (X on the left controller, A on the right): E-STOP, on either hand. */
+export const ESTOP_BUTTON = 4;
 const MENU_DISTANCE = 0.75;
 
 export class XRInteraction {
@@ -22,6 +25,7 @@ export class XRInteraction {
    *   teleportView: import('./comfort_view.js').TeleportView, vignette: import('./comfort_view.js').Vignette,
    *   fleet: import('../fleet_model.js').FleetModel, picking: import('./picking.js').Picking,
    *   locomotion: import('./xr_session.js').XRSessionController, actions: import('../app.js').OperatorActions,
+   *   inspect: import('./xr_inspection.js').XRInspection, estop: import('./estop_view.js').EstopView,
    *   link: () => string}} host what the headset's interaction reads and drives, and nothing more
    */
   constructor(host) {
@@ -29,6 +33,8 @@ export class XRInteraction {
     this.raycaster = new THREE.Raycaster();
     /** @type {Map<number, ButtonEdge>} */
     this.menuEdges = new Map();
+    /** @type {Map<number, ButtonEdge>} */
+    this.estopEdges = new Map();
     /** @type {Map<number, string | null>} */
     this.hover = new Map();
     /** @type {import('./xr_input.js').InputSlot | null} the slot holding a goal press */
@@ -65,11 +71,11 @@ export class XRInteraction {
   #menuButtons() {
     const host = this.host;
     const input = host.xrInput;
-    // 1. The menu button: a rising edge toggles, holding it does nothing more.
+    // 1. The menu button: a rising edge toggles, holding it does nothing more. X or A: E-STOP, at once, whatever
+    // the menu or the tool (the menu's estop button: viewers are refused the same way).
     for (const slot of input.active()) {
-      let edge = this.menuEdges.get(slot.index);
-      if (!edge) this.menuEdges.set(slot.index, (edge = new ButtonEdge()));
-      if (edge.update(input.pressed(slot, MENU_BUTTON))) host.actions.toggleMenu();
+      if (edgeOf(this.menuEdges, slot.index).update(input.pressed(slot, MENU_BUTTON))) host.actions.toggleMenu();
+      if (edgeOf(this.estopEdges, slot.index).update(input.pressed(slot, ESTOP_BUTTON))) host.actions.pressMenu('estop');
     }
   }
 
@@ -83,32 +89,46 @@ export class XRInteraction {
     const targets = menu.open ? [panel.mesh] : [panel.tab];
     const robotsPickable = !menu.open && menu.mode === 'free_roam' && menu.tool !== 'goal';
     if (robotsPickable) targets.push(...host.picking.robotTargets());
+    targets.push(...host.inspect.pickables());
+    if (host.estop.button.mesh.parent) targets.push(host.estop.button.mesh);
     // A transient pointer (Vision Pro's gaze-and-pinch) disconnects right after its selectend: its slot
     // still has that event to hand over, at its last pose.
     for (const slot of input.slots.filter((s) => s.source !== null || s.events.length > 0)) {
       const { origin, direction } = input.ray(slot);
       this.raycaster.set(origin, direction);
       this.raycaster.far = 20;
-      const hit = this.raycaster.intersectObjects(targets, true)[0] ?? null;
+      const first = this.raycaster.intersectObjects(targets, true)[0] ?? null;
+      /** @type {{point: THREE.Vector3, distance: number, uv?: THREE.Vector2 | null} | null} */
+      let hit = first;
       let id = null;
-      if (hit?.object === panel.mesh && hit.uv) id = panel.buttonAtUv(hit.uv);
-      else if (hit?.object === panel.tab) id = 'menu:tab';
-      else if (hit) id = robotOf(hit.object);
+      if (first?.object === panel.mesh && first.uv) id = panel.buttonAtUv(first.uv);
+      else if (first?.object === panel.tab) id = 'menu:tab';
+      else if (first?.object === host.estop.button.mesh) id = 'estop';
+      else if (first) id = robotOf(first.object) ?? host.inspect.idOf(first);
+      if (!first) {
+        const floor = host.inspect.floorAt(this.raycaster);
+        if (floor) [id, hit] = [floor.id, { point: floor.point, distance: floor.point.distanceTo(origin) }];
+      }
       if (id !== (this.hover.get(slot.index) ?? null)) {
         this.hover.set(slot.index, id);
-        if (id && !id.startsWith('pick:')) input.pulse(slot, 0.25, 15); // the haptic tick of a hovered button
+        if (id && !QUIET_HOVER.some((p) => id.startsWith(p))) input.pulse(slot, 0.25, 15); // the haptic tick of a hovered button
       }
       input.showHit(slot, hit ? hit.point : null, hit ? hit.distance : 0);
 
-      this.#select(slot, id);
+      this.#select(slot, id, hit);
     }
-    const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && h !== 'menu:tab') ?? null;
+    host.inspect.setHover([...this.hover.values()]);
+    host.estop.hover([...this.hover.values()].includes('estop'));
+    const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && !h.startsWith('insp:') && h !== 'menu:tab') ?? null;
     panel.setTabHover([...this.hover.values()].includes('menu:tab'));
     panel.update(menu, menuHover, host.link());
   }
 
-  /** @param {import('./xr_input.js').InputSlot} slot @param {string | null} id what the slot's ray hovers */
-  #select(slot, id) {
+  /**
+   * @param {import('./xr_input.js').InputSlot} slot @param {string | null} id what the slot's ray hovers
+   * @param {{point: THREE.Vector3, uv?: THREE.Vector2 | null} | null} hit where
+   */
+  #select(slot, id, hit) {
     const host = this.host;
     const input = host.xrInput;
     // 3. Select: on what the ray hovers, else the goal pointer.
@@ -117,7 +137,10 @@ export class XRInteraction {
         this.lastPointer = slot;
         if (id === 'menu:tab') host.actions.toggleMenu();
         else if (id?.startsWith('pick:')) host.actions.selectRobot(id.slice(5));
-        else if (id) {
+        else if (id?.startsWith('insp:')) {
+          input.pulse(slot, 0.6, 30);
+          host.inspect.select(id, hit);
+        } else if (id) {
           input.pulse(slot, 0.6, 30);
           host.actions.pressMenu(id);
         } else if (this.#goalActive()) {
@@ -272,9 +295,20 @@ export class XRInteraction {
 
   dispose() {
     this.menuEdges.clear();
+    this.estopEdges.clear();
     this.hover.clear();
   }
 }
+
+/** @param {Map<number, ButtonEdge>} edges @param {number} index */
+function edgeOf(edges, index) {
+  let edge = edges.get(index);
+  if (!edge) edges.set(index, (edge = new ButtonEdge()));
+  return edge;
+}
+
+/** Hovering these gives no haptic tick: robots, the twin's floor and the image (a tick per pixel would buzz). */
+const QUIET_HOVER = ['pick:', 'insp:floor', 'insp:image'];
 
 /** @param {THREE.Object3D | null} object */
 function robotOf(object) {

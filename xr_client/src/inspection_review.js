@@ -1,0 +1,154 @@
+// @ts-check
+/**
+ * The operator's review of inspection, shared by the desktop's findings list and the VR finding card: which
+ * finding is open, the region asked of the relay and the outline it proposed (accept or redo), what a click on
+ * the image does (mark a region, or make a target where that pixel looks), and the targets picked in order for
+ * a new mission. No DOM, no WebGL: every act returns the commands to send (the page carries them out), and
+ * test/inspection_review.test.js drives it with the relay's message shapes.
+ */
+
+/** @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus */
+/**
+ * @typedef {{type: 'finding_update', finding: string, fields: {status?: FindingStatus, region?: number[][]}}
+ *   | {type: 'region', capture: string, u: number, v: number}
+ *   | {type: 'target_pixel', target: string, capture: string, u: number, v: number}
+ *   | {type: 'target_at', target: string, x: number, y: number}
+ *   | {type: 'mission_targets', targets: string[], robot: string | null}} ReviewCommand
+ */
+
+export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);
+
+/** A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64. @param {string} text */
+export function targetName(text) {
+  return text.trim().replace(/[^A-Za-z0-9_-]+/g, '-').replace(/^-+|-+$/g, '').slice(0, 64);
+}
+
+export class InspectionReview {
+  /** The finding open in the list or on the card. @type {string | null} */
+  selected = null;
+  /** The region request awaiting its outline. @type {{request: string, finding: string} | null} */
+  pending = null;
+  /** The outline the relay proposed, to accept or redo. @type {number[][] | null} */
+  proposal = null;
+  /** What a click (a select in VR) on the image does. @type {'region' | 'target'} */
+  imageAction = 'region';
+  /** Targets picked for a new mission, in order. @type {string[]} */
+  picked = [];
+  /** Bumped on every change, so views redraw only when something changed. */
+  version = 0;
+
+  /**
+   * Follow the model: targets that vanished are unpicked, a finding that vanished closes, and the outline of
+   * the pending request becomes the proposal once the relay sent it.
+   * @param {import('./inspection_model.js').InspectionModel} model
+   */
+  sync(model) {
+    const picked = this.picked.filter((t) => model.targets.has(t));
+    if (picked.length !== this.picked.length) this.#change(() => (this.picked = picked));
+    if (this.selected !== null && !model.findings.has(this.selected)) this.select(null);
+    const outline = this.pending ? model.regions.get(this.pending.request) : undefined;
+    if (outline) this.#change(() => ((this.proposal = outline), (this.pending = null)));
+  }
+
+  /** Open a finding (null: close); a region being marked on another one is dropped. @param {string | null} finding */
+  select(finding) {
+    if (finding === this.selected) return;
+    this.#change(() => {
+      this.selected = finding;
+      this.proposal = null;
+      this.pending = null;
+      this.imageAction = 'region';
+    });
+  }
+
+  /** Pick a target for the next mission, or unpick it. @param {string} target */
+  togglePick(target) {
+    this.#change(() => (this.picked = this.picked.includes(target) ? this.picked.filter((t) => t !== target) : [...this.picked, target]));
+  }
+
+  /** The picked targets as a mission, for one robot or for the fleet (null). @param {string | null} robot @returns {ReviewCommand[]} */
+  startPicked(robot) {
+    if (this.picked.length === 0) return [];
+    return [{ type: 'mission_targets', targets: [...this.picked], robot }];
+  }
+
+  /** The mission was sent: the picks are spent. */
+  picksSent() {
+    this.#change(() => (this.picked = []));
+  }
+
+  /** @param {'region' | 'target'} action */
+  setImageAction(action) {
+    if (action !== this.imageAction) this.#change(() => (this.imageAction = action));
+  }
+
+  /** Set the open finding's status. @param {FindingStatus} status @returns {ReviewCommand[]} */
+  setStatus(status) {
+    return this.selected ? [{ type: 'finding_update', finding: this.selected, fields: { status } }] : [];
+  }
+
+  /**
+   * A click on the open finding's image, at a pixel of the capture: a region to segment there, or (the image
+   * action 'target', or shift on the desktop) a target where that pixel looks, named `name`.
+   * @param {import('./inspection_model.js').InspectionModel} model
+   * @param {number} u @param {number} v pixel of the capture's image
+   * @param {{target?: boolean, name?: string}} [options]
+   * @returns {ReviewCommand[]}
+   */
+  imageClick(model, u, v, options = {}) {
+    const finding = this.selected ? model.findings.get(this.selected) : null;
+    if (!finding) return [];
+    if (options.target ?? this.imageAction === 'target') {
+      const name = targetName(options.name ?? nextName(model, 'spot'));
+      if (!name) return [];
+      this.setImageAction('region');
+      return [{ type: 'target_pixel', target: name, capture: finding.capture, u, v }];
+    }
+    return [{ type: 'region', capture: finding.capture, u, v }];
+  }
+
+  /** The relay was asked to segment (its request id, for the outline that answers). @param {string} request */
+  regionAsked(request) {
+    if (this.selected) this.#change(() => ((this.pending = { request, finding: /** @type {string} */ (this.selected) }), (this.proposal = null)));
+  }
+
+  /** Keep the proposed outline as the open finding's region. @returns {ReviewCommand[]} */
+  accept() {
+    if (!this.selected || !this.proposal) return [];
+    const commands = /** @type {ReviewCommand[]} */ ([{ type: 'finding_update', finding: this.selected, fields: { region: this.proposal } }]);
+    this.#change(() => (this.proposal = null));
+    return commands;
+  }
+
+  /** Drop the proposed outline: the next click on the image asks again. */
+  redo() {
+    if (this.proposal || this.pending) this.#change(() => ((this.proposal = null), (this.pending = null)));
+  }
+
+  /** The outline to draw over the open finding's image: the proposal, else the region it has. @param {import('./inspection_model.js').InspectionModel} model */
+  outline(model) {
+    const finding = this.selected ? model.findings.get(this.selected) : null;
+    return this.proposal ?? finding?.region ?? null;
+  }
+
+  /** What the operator is asked to do next with the open finding's image (a hint under it). */
+  hint() {
+    if (this.pending) return 'segmenting…';
+    if (this.proposal) return 'keep this region? Accept, or Redo and point again';
+    return this.imageAction === 'target' ? 'select a point of the image: a new target there' : 'select a point of the image to mark a region';
+  }
+
+  /** @param {() => void} fn */
+  #change(fn) {
+    fn();
+    this.version++;
+  }
+}
+
+/**
+ * The first free name `<base>-N` among the model's targets (a target made where no keyboard is at hand).
+ * @param {import('./inspection_model.js').InspectionModel} model @param {string} base
+ */
+export function nextName(model, base) {
+  for (let n = model.targets.size + 1; ; n++) if (!model.targets.has(`${base}-${n}`)) return `${base}-${n}`;
+}

@@ -1,0 +1,147 @@
+// @ts-check
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { InspectionModel } from '../src/inspection_model.js';
+import { InspectionReview, nextName, targetName } from '../src/inspection_review.js';
+import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../src/finding_card_layout.js';
+import { MenuState } from '../src/menu_state.js';
+
+/** @param {Partial<import('../src/protocol.js').FindingMessage>} fields @returns {import('../src/protocol.js').FindingMessage} */
+function finding(fields) {
+  return {
+    identifier: 'finding', id: 'f-1', capture: 'c-1', mission: 'm-1.robot1', target: 'spill', robot: 'robot1', x: 1.8,
+    y: 8.2, status: 'anomaly', note: 'gas 698.2 ppm (over 400 ppm)', source: 'rule', region: null,
+    image: '/captures/ab.jpg', readings: { gas: 698.2 }, created: 10, updated: 10, ...fields,
+  };
+}
+
+/** @param {string[]} ids */
+function targets(ids) {
+  return { identifier: /** @type {'targets'} */ ('targets'), targets: ids.map((id) => ({ id, name: id, kind: 'gas', x: 1, y: 2, yaw: null })) };
+}
+
+test('targets are picked in order, unpicked by a second select, and sent once as one mission', () => {
+  const model = new InspectionModel();
+  model.apply(targets(['spill', 'panels', 'leak']));
+  const review = new InspectionReview();
+  review.togglePick('leak');
+  review.togglePick('spill');
+  review.togglePick('panels');
+  review.togglePick('spill');
+  assert.deepEqual(review.picked, ['leak', 'panels']);
+  assert.deepEqual(review.startPicked('robot2'), [{ type: 'mission_targets', targets: ['leak', 'panels'], robot: 'robot2' }]);
+  assert.deepEqual(review.startPicked(null)[0], { type: 'mission_targets', targets: ['leak', 'panels'], robot: null });
+  review.picksSent();
+  assert.deepEqual(review.startPicked(null), [], 'nothing picked: no mission');
+  // A target the relay no longer has is unpicked.
+  review.togglePick('panels');
+  review.togglePick('leak');
+  model.apply(targets(['spill', 'leak']));
+  review.sync(model);
+  assert.deepEqual(review.picked, ['leak']);
+});
+
+test('a region is asked at the selected pixel, proposed when its outline arrives, and kept only on accept', () => {
+  const model = new InspectionModel();
+  model.apply(finding({}));
+  const review = new InspectionReview();
+  assert.deepEqual(review.imageClick(model, 10, 20), [], 'no finding open: nothing');
+  review.select('f-1');
+  assert.deepEqual(review.imageClick(model, 240, 260), [{ type: 'region', capture: 'c-1', u: 240, v: 260 }]);
+  review.regionAsked('r-7');
+  assert.equal(review.hint(), 'segmenting…');
+  review.sync(model);
+  assert.equal(review.proposal, null, 'no outline yet');
+  const outline = [[200, 220], [280, 220], [280, 300], [200, 300]];
+  model.apply({ identifier: 'region', id: 'r-7', capture: 'c-1', outline });
+  review.sync(model);
+  assert.deepEqual(review.proposal, outline);
+  assert.deepEqual(review.outline(model), outline, 'the proposal is drawn over the image');
+  review.redo();
+  assert.equal(review.outline(model), null, 'redo drops it; the finding had no region');
+  review.regionAsked('r-8');
+  model.apply({ identifier: 'region', id: 'r-8', capture: 'c-1', outline });
+  review.sync(model);
+  assert.deepEqual(review.accept(), [{ type: 'finding_update', finding: 'f-1', fields: { region: outline } }]);
+  assert.deepEqual(review.accept(), [], 'accepted once');
+  assert.deepEqual(review.setStatus('ok'), [{ type: 'finding_update', finding: 'f-1', fields: { status: 'ok' } }]);
+});
+
+test('a click on the image makes a target there in target mode, named without a keyboard, then goes back to regions', () => {
+  const model = new InspectionModel();
+  model.apply(targets(['spill', 'spot-2']));
+  model.apply(finding({}));
+  const review = new InspectionReview();
+  review.select('f-1');
+  review.setImageAction('target');
+  assert.deepEqual(review.imageClick(model, 5, 6), [{ type: 'target_pixel', target: 'spot-3', capture: 'c-1', u: 5, v: 6 }]);
+  assert.equal(review.imageAction, 'region');
+  assert.deepEqual(review.imageClick(model, 5, 6, { target: true, name: ' valve #4 ' }), [{ type: 'target_pixel', target: 'valve-4', capture: 'c-1', u: 5, v: 6 }]);
+  assert.deepEqual(review.imageClick(model, 5, 6, { target: true, name: '###' }), [], 'a name of nothing but symbols sends nothing');
+  assert.equal(targetName('a'.repeat(80)).length, 64);
+  assert.equal(nextName(model, 'point'), 'point-3');
+});
+
+test('opening another finding, or losing the open one, drops the region being marked', () => {
+  const model = new InspectionModel();
+  model.apply(finding({}));
+  model.apply(finding({ id: 'f-2', capture: 'c-2' }));
+  const review = new InspectionReview();
+  review.select('f-1');
+  review.regionAsked('r-1');
+  review.select('f-2');
+  assert.equal(review.pending, null);
+  model.reset();
+  review.sync(model);
+  assert.equal(review.selected, null, 'a new relay: the finding is gone, the card closes');
+});
+
+test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and disables what a viewer cannot do', () => {
+  const size = /** @type {[number, number]} */ ([480, 480]);
+  const layout = cardLayout({ status: 'anomaly', proposal: false, imageAction: 'region', operator: true, imageSize: size });
+  const image = /** @type {NonNullable<typeof layout.image>} */ (layout.image);
+  assert.ok(Math.abs(image.w - image.h) < 1e-9, 'a square capture stays square');
+  assert.ok(image.x >= 0 && image.x + image.w <= CARD_PX[0] && image.y + image.h <= CARD_PX[1]);
+  const [px, py] = pixelToCard(image, size, 120, 360);
+  const hit = cardHit(layout, size, px, py);
+  assert.ok(hit && 'pixel' in hit);
+  assert.ok(Math.abs(hit.pixel[0] - 120) < 1e-9 && Math.abs(hit.pixel[1] - 360) < 1e-9);
+  // Buttons never overlap the image, and each is hit at its centre.
+  for (const b of layout.buttons) {
+    assert.ok(b.x > image.x + image.w, `${b.id} right of the image`);
+    assert.deepEqual(cardHit(layout, size, b.x + b.w / 2, b.y + b.h / 2), { button: b.id });
+  }
+  assert.deepEqual(layout.buttons.filter((b) => b.active).map((b) => b.id), ['status:anomaly', 'image:region']);
+  const proposed = cardLayout({ status: 'ok', proposal: true, imageAction: 'region', operator: true, imageSize: size });
+  assert.ok(proposed.buttons.some((b) => b.id === 'region:accept'));
+  const viewer = cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: false, imageSize: size });
+  const ok = /** @type {import('../src/finding_card_layout.js').CardButton} */ (viewer.buttons.find((b) => b.id === 'status:ok'));
+  assert.equal(cardHit(viewer, size, ok.x + 5, ok.y + 5), null, 'a viewer cannot set a status');
+  const close = /** @type {import('../src/finding_card_layout.js').CardButton} */ (viewer.buttons.find((b) => b.id === 'card:close'));
+  assert.deepEqual(cardHit(viewer, size, close.x + 5, close.y + 5), { button: 'card:close' });
+  // A wide capture is letterboxed: its rectangle keeps 16:9.
+  const wide = /** @type {NonNullable<typeof layout.image>} */ (cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: true, imageSize: [1280, 720] }).image);
+  assert.ok(Math.abs(wide.w / wide.h - 16 / 9) < 1e-9);
+  assert.equal(cardHit(layout, null, px, py), null, 'no image loaded: the image area is nothing yet');
+});
+
+test('the menu offers Inspect in free roam to viewers too, and the picked targets as a mission', () => {
+  const menu = new MenuState();
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], false);
+  assert.equal(menu.buttons().find((b) => b.id === 'tool:inspect')?.enabled, true, 'viewers review findings');
+  menu.press('tool:inspect');
+  assert.equal(menu.tool, 'inspect');
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  assert.equal(menu.tool, 'inspect', 'becoming an operator keeps the tool');
+  assert.equal(menu.buttons().find((b) => b.id === 'mission:picked'), undefined, 'nothing picked: no button');
+  menu.setPicked(2);
+  menu.press('robot:robot1');
+  const button = menu.buttons().find((b) => b.id === 'mission:picked');
+  assert.equal(button?.label, 'Inspect picked (2): robot1');
+  assert.deepEqual(menu.press('mission:picked'), [{ type: 'mission', action: 'picked', robot: 'robot1' }]);
+  // An estop stops motion tools only: the operator keeps reviewing.
+  menu.press('estop');
+  assert.equal(menu.tool, 'inspect');
+  menu.press('mode:pov');
+  assert.equal(menu.tool, 'none', 'no floor to point at in Robot POV');
+});
