@@ -48,7 +48,7 @@ from .protocol import (
     parse_command,
     robot_identifier,
 )
-from .safety import check_goal, clamp_velocity
+from .safety import check_goal, check_goal_clear, clamp_velocity
 from .streams import CameraStreams
 
 logger = logging.getLogger(__name__)
@@ -255,6 +255,7 @@ class CommandHandler:
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
         check_goal(command.robot, command.x, command.y, self.map_grid())
+        check_goal_clear(command.robot, command.x, command.y, self.fleet.positions(now))
         if self.control.deadman.controller(command.robot) is not None:
             self.control.deadman.release_robot(command.robot)
             self.fleet.set_teleop(command.robot, False)

@@ -38,6 +38,7 @@ from .events import (
     FrameEvent,
     MapEvent,
     NavEvent,
+    PathEvent,
     PlaybackEvent,
     PoseEvent,
     RobotModelEvent,
@@ -47,7 +48,17 @@ from .events import (
 from .fleet import FleetState
 from .hub import Hub, Transport
 from .inspection.service import Inspection
-from .messages import HelloMessage, PlaybackMessage, backend_message, encode, playback_message, scan_message
+from .messages import (
+    GoalDescription,
+    HelloMessage,
+    PlaybackMessage,
+    backend_message,
+    encode,
+    nav_message,
+    path_message,
+    playback_message,
+    scan_message,
+)
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .outbox import Outbox
@@ -55,6 +66,7 @@ from .protocol import PROTOCOL_VERSION, Role
 from .ratelimit import TokenBucket
 from .streams import CameraStreams
 from .supervision import Supervisor
+from .vantage import vantage
 
 logger = logging.getLogger(__name__)
 
@@ -192,6 +204,8 @@ class Relay:
 
     def hello(self, client: Client) -> HelloMessage:
         grid = self.map_grid()
+        now = self.clock()
+        seen = vantage(grid, self.fleet.positions(now)) if grid is not None else None
         return {
             "identifier": "hello",
             "protocol": PROTOCOL_VERSION,
@@ -200,8 +214,9 @@ class Relay:
             "role": client.role,
             "scene": {"url": self.assets.scene_url, "map_to_scene": self.assets.map_to_scene()},
             "bounds": list(grid.bounds) if grid is not None else None,
+            "vantage": None if seen is None else {"x": seen.x, "y": seen.y, "yaw": seen.yaw},
             "robots": [describe_robot(r, self.assets.model_urls.get(r.name)) for r in self.config.robots],
-            "state": self.fleet.snapshot(self.clock()),
+            "state": self.fleet.snapshot(now),
             "playback": self._playback,
             "backend": backend_message(self.backend.name, self.backend.failure),
         }
@@ -251,7 +266,11 @@ class Relay:
         elif isinstance(event, NavEvent):
             self.fleet.on_nav(event)
             self.outbox.status(event.robot, now)
+            goal = None if event.goal is None else GoalDescription(x=event.goal[0], y=event.goal[1], yaw=event.goal[2])
+            self.outbox.state(nav_message(event.robot, outcome=event.outcome, goal=goal, message=event.message))
             self.inspection.on_nav(event)
+        elif isinstance(event, PathEvent):
+            self.outbox.state(path_message(event.robot, event.points))
         elif isinstance(event, ScanEvent):
             scan = scan_message(**dataclasses.asdict(event))
             self.outbox.state(scan)

@@ -50,6 +50,14 @@ class NavEvent:
 
 
 @dataclass(frozen=True, slots=True)
+class PathEvent:
+    """The robot's planned path to its goal (map frame, metres), as its planner made it; empty: no plan now."""
+
+    robot: str
+    points: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True, slots=True)
 class FrameEvent:
     """An encoded camera image (JPEG) for one robot camera."""
 
@@ -108,5 +116,7 @@ class PlaybackEvent:
     robot: str = ""
 
 
-Event = PoseEvent | SensorEvent | NavEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent | RobotModelEvent
+Event = (
+    PoseEvent | SensorEvent | NavEvent | PathEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent | RobotModelEvent
+)
 EventSink = Callable[[Event], None]

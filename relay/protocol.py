@@ -61,6 +61,7 @@ class ErrorCode:
     AUDIT_UNAVAILABLE: Final = "audit_unavailable"  # the relay cannot record commands: it moves no robot
     STALE: Final = "stale"  # a motion command older than the deadman timeout when the relay got to it: dropped
     BUSY: Final = "busy"  # the snapshot budget or a work pool (planning, rendering) is full: try again shortly
+    OCCUPIED: Final = "occupied"  # a goal on or next to another robot (safety.GOAL_CLEARANCE)
 
     ALL: Final = (
         BAD_REQUEST,
@@ -81,6 +82,7 @@ class ErrorCode:
         AUDIT_UNAVAILABLE,
         STALE,
         BUSY,
+        OCCUPIED,
     )
 
 
@@ -109,7 +111,7 @@ CLIENT_GLOBAL_KINDS: Final = (
 MIN_PLAYBACK_RATE: Final = 0.05
 MAX_PLAYBACK_RATE: Final = 20.0
 #: Robot-scoped kinds the server sends.
-SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "lease", "model")
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "nav", "path", "lease", "model")
 #: Deepest nesting of a client message (objects and arrays); v1 messages need 2.
 MAX_JSON_DEPTH: Final = 8
 #: Longest string anywhere in a client message.

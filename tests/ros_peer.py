@@ -2,9 +2,10 @@
 
     python tests/ros_peer.py CONFIG.json
 
-The JSON says what to publish: ``odom``/``amcl``/``pose`` poses, sensor values, raw and compressed images
-(from a real image file), and which command topics to echo. Every received command is printed to stdout as
-one JSON line with the receive time on the shared monotonic clock, so the test can time the deadman.
+The JSON says what to publish: ``odom``/``amcl``/``pose`` poses, planned paths (nav_msgs/Path), sensor values,
+raw and compressed images (from a real image file), and which command topics to echo. Every received command is
+printed to stdout as one JSON line with the receive time on the shared monotonic clock, so the test can time the
+deadman.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from typing import Any
 import cv2
 import rclpy
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import Odometry, Path
 from rclpy.executors import ExternalShutdownException
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image, Temperature
@@ -45,6 +46,17 @@ def main() -> int:
         pose.position.x, pose.position.y, pose.position.z = x, y, 0.0
         pose.orientation.z, pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
         publishers.append((node.create_publisher(cls, topic, reliable), message))
+
+    for item in spec.get("paths", []):
+        path = Path()
+        path.header.frame_id = "map"
+        for x, y in item["points"]:
+            stamped = PoseStamped()
+            stamped.header.frame_id = "map"
+            stamped.pose.position.x, stamped.pose.position.y = float(x), float(y)
+            stamped.pose.orientation.w = 1.0
+            path.poses.append(stamped)
+        publishers.append((node.create_publisher(Path, item["topic"], reliable), path))
 
     for item in spec.get("sensors", []):
         if item["type"] == "Temperature":

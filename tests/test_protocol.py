@@ -8,6 +8,7 @@ import pytest
 
 from relay.errors import ProtocolError
 from relay.messages import (
+    MAX_PATH_POINTS,
     FrameHeader,
     ack_message,
     backend_message,
@@ -18,6 +19,8 @@ from relay.messages import (
     estop_message,
     lease_message,
     model_message,
+    nav_message,
+    path_message,
     playback_message,
     pong_message,
     pose_message,
@@ -125,6 +128,24 @@ def test_scan_scene_playback_bytes() -> None:
     playback = playback_message(position=12.34567, duration=27.6, rate=1.0, paused=False, loop=True)
     assert encode(playback) == (
         b'{"identifier":"playback","position":12.346,"duration":27.6,"rate":1.0,"paused":false,"loop":true}'
+    )
+
+
+def test_nav_and_path_bytes() -> None:
+    reached = nav_message("robot1", outcome="reached", goal={"x": 9.0, "y": 6.0, "yaw": None}, message="")
+    assert encode(reached) == (
+        b'{"identifier":"robot1/nav","outcome":"reached","goal":{"x":9.0,"y":6.0,"yaw":null},"message":""}'
+    )
+    failed = nav_message("robot2", outcome="failed", goal=None, message="blocked for 30 s")
+    assert encode(failed) == b'{"identifier":"robot2/nav","outcome":"failed","goal":null,"message":"blocked for 30 s"}'
+    assert encode(path_message("robot1", [(3.0, 1.5), (8.7751, 2.3249), (9.0, 6.0)])) == (
+        b'{"identifier":"robot1/path","points":[[3.0,1.5],[8.78,2.32],[9.0,6.0]]}'
+    )
+    assert encode(path_message("robot1", [])) == b'{"identifier":"robot1/path","points":[]}'
+    # A planner's thousands of points are thinned evenly to MAX_PATH_POINTS, keeping both ends.
+    long = path_message("robot1", [(i * 0.01, 0.0) for i in range(5001)])
+    assert (
+        len(long["points"]) == MAX_PATH_POINTS and long["points"][0] == [0.0, 0.0] and long["points"][-1] == [50.0, 0.0]
     )
 
 

@@ -82,6 +82,14 @@ async def test_goal_is_reached_around_walls_and_yaw_applied(relay_server: Runnin
         start=navigating_at,
     )
     assert done["controller"] == status["controller"]  # the lease stays with the operator who sent the goal
+    # The plan it followed came first, from where it stood to the goal; then the news that it was reached, and an
+    # empty path (the client draws the path only while there is one).
+    kinds = [(m["identifier"], m) for _, m in client.messages if m["identifier"] in ("robot2/path", "robot2/nav")]
+    paths = [m["points"] for i, m in kinds if i == "robot2/path"]
+    assert len(paths[0]) >= 3 and math.dist(paths[0][0], (9.0, 1.5)) < 0.1 and paths[0][-1] == [3.0, 6.0]
+    reached = await client.wait_for(lambda m: m["identifier"] == "robot2/nav" and m["outcome"] == "reached")
+    assert reached["goal"] == {"x": 3.0, "y": 6.0, "yaw": math.pi}
+    await client.wait_for(lambda m: m["identifier"] == "robot2/path" and m["points"] == [])
     await asyncio.sleep(0.1)
     pose = client.pose("robot2")
     assert pose is not None
@@ -104,10 +112,19 @@ async def test_bad_goals_are_refused_and_change_nothing(relay_server: RunningRel
     assert wall["identifier"] == "error" and wall["code"] == "no_path"
     unknown = await client.request({"identifier": "robot7/goal_pose", "x": 1.0, "y": 1.0})
     assert unknown["code"] == "unknown_robot" and "robot7" in unknown["message"]
+    # On another robot (robot2 stands at (9, 1.5)), or next to it: refused naming it, before any planning.
+    on = await client.request({"identifier": "robot1/goal_pose", "x": 9.0, "y": 1.5})
+    near = await client.request({"identifier": "robot1/goal_pose", "x": 9.0, "y": 2.0})
+    for out in (on, near):
+        assert out["identifier"] == "error" and out["code"] == "occupied", out
+        assert "from robot2; a goal keeps 0.6 m from other robots" in out["message"]
+    beside = await client.request({"identifier": "robot1/goal_pose", "x": 3.0, "y": 2.0})  # robot1 itself is fine
+    assert beside["identifier"] == "ack", beside
+    await client.request({"identifier": "robot1/cancel"})
     await asyncio.sleep(0.3)
     assert relay_server.relay.fleet.status("robot1", time.monotonic())["mode"] == "idle"
     pose = client.pose("robot1")
-    assert pose is not None and math.hypot(pose["x"] - 3.0, pose["y"] - 1.5) < 0.01
+    assert pose is not None and math.hypot(pose["x"] - 3.0, pose["y"] - 1.5) < 0.6
     await client.close()
 
 

@@ -146,6 +146,7 @@ POSES = {
         {"kind": "odom", "topic": "/alpha/odom", "x": 1.25, "y": -2.5, "yaw": 0.75, "frame": "odom"},
         {"kind": "amcl", "topic": "/beta/amcl_pose", "x": -3.0, "y": 4.5, "yaw": -1.2},
     ],
+    "paths": [{"topic": "/alpha/plan", "points": [[1.25, -2.5], [2.0, -1.0], [2.0, 3.0]]}],
     "echo_twist": ["/alpha/cmd_vel"],
     "echo_goal": ["/alpha/goal_pose"],
 }
@@ -162,6 +163,9 @@ async def test_poses_from_odom_and_amcl_reach_clients(ros_relay: RunningRelay, t
         assert beta["qw"] == pytest.approx(math.cos(-0.6), abs=1e-6)
         status = await client.wait_for(lambda m: m["identifier"] == "beta/status" and m["online"], timeout=5)
         assert status["age"] < 1.0
+        # The robot's planner's nav_msgs/Path (robots.yaml `plan`, default `plan` in its namespace).
+        path = await client.wait_for(lambda m: m["identifier"] == "alpha/path", timeout=10)
+        assert path["points"] == [[1.25, -2.5], [2.0, -1.0], [2.0, 3.0]]
     finally:
         await client.close()
         await peer.stop()

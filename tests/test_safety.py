@@ -8,7 +8,7 @@ import pytest
 from relay.config import Limits
 from relay.errors import CommandRejected
 from relay.occupancy import OccupancyGrid
-from relay.safety import Deadman, check_goal, clamp_velocity
+from relay.safety import GOAL_CLEARANCE, Deadman, check_goal, check_goal_clear, clamp_velocity
 
 LIMITS = Limits(linear=0.5, angular=1.0)
 
@@ -37,6 +37,18 @@ def test_goal_bounds() -> None:
     assert info.value.code == "out_of_bounds" and "x -1.00..1.00" in info.value.message
     with pytest.raises(CommandRejected):
         check_goal("r", float("nan"), 0.0, None)
+
+
+def test_a_goal_keeps_clear_of_other_robots_not_of_its_own() -> None:
+    others = {"robot1": (3.0, 1.5), "robot2": (9.0, 1.5)}
+    check_goal_clear("robot1", 3.0, 1.6, others)  # next to itself: fine
+    check_goal_clear("robot1", 9.0, 1.5 + GOAL_CLEARANCE + 1e-6, others)
+    with pytest.raises(CommandRejected) as info:
+        check_goal_clear("robot1", 9.0, 1.5 + GOAL_CLEARANCE - 1e-6, others)
+    assert info.value.code == "occupied"
+    assert info.value.message == (
+        "robot1/goal_pose: (9.00, 2.10) is 0.60 m from robot2; a goal keeps 0.6 m from other robots"
+    )
 
 
 def test_deadman_expires_after_timeout() -> None:

@@ -106,7 +106,7 @@ def test_each_builder_returns_exactly_its_typeddicts_keys(cls: type, message: di
 def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> None:
     union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
     assert union == {name for name, value in vars(messages).items() if name.endswith("Message") and is_typeddict(value)}
-    assert len(union) == 18
+    assert len(union) == 20
     generated = _generator().render()
     for name in union | {t.__name__ for t in COMMANDS}:
         assert f"}} {name} */" in generated, name
@@ -131,10 +131,21 @@ def test_each_state_message_knows_its_coalescing_key() -> None:
     status = messages.status_message("robot2", online=True, age=None, mode="idle", goal=None, controller=None)
     scene = messages.scene_message(None, {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0})
     playback = messages.playback_message(position=1.0, duration=2.0, rate=1.0, paused=False, loop=True)
-    for message in (pose, status, scene, playback):
+    nav = messages.nav_message("robot1", outcome="reached", goal=None, message="")
+    path = messages.path_message("robot1", [(0.0, 0.0)])
+    for message in (pose, status, scene, playback, nav, path):
         assert messages.state_key(message) == message["identifier"]
     union = {t.__name__ for t in typing.get_args(messages.StateMessage)}
-    assert union == {"PoseMessage", "SensorMessage", "StatusMessage", "ScanMessage", "SceneMessage", "PlaybackMessage"}
+    assert union == {
+        "PoseMessage",
+        "SensorMessage",
+        "StatusMessage",
+        "ScanMessage",
+        "NavMessage",
+        "PathMessage",
+        "SceneMessage",
+        "PlaybackMessage",
+    }
 
 
 # -- docs/protocol.md, the contract, against the types --------------------------------------------------------

@@ -18,7 +18,7 @@ from relay.sim.follower import PathFollower
 from relay.sim.hazards import HazardSource, SensorField
 from relay.sim.kinematics import DiffDriveState, DriveLimits, normalize_angle, step
 from relay.sim.planner import NoPathError, Planner, plan_path
-from relay.sim.world import SimWorld
+from relay.sim.world import PLANNING_RADIUS, ROBOT_RADIUS, SimWorld
 
 TB3_MAP = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "maps" / "turtlebot3_world" / "map.yaml"
 
@@ -334,6 +334,28 @@ def test_plan_trivial_and_blocked_door() -> None:
     bricked = Planner(OccupancyGrid(0.0, 0.0, 0.05, occ))
     with pytest.raises(NoPathError, match="not reachable"):
         bricked.plan((9.0, 1.5), (3.0, 6.5))
+
+
+def test_the_sim_plans_around_the_other_robots_and_names_one_in_the_way() -> None:
+    world = SimWorld(load_config(Path(__file__).resolve().parent.parent / "robots.yaml"), lambda *_: None)
+    # robot1 (3, 1.5) to the corridor's east end, past robot2 (9, 1.5) and robot3 (15, 1.5): around them.
+    path = world.plan("robot1", 16.8, 1.5)
+    dense = [
+        (x0 + t * (x1 - x0), y0 + t * (y1 - y0))
+        for (x0, y0), (x1, y1) in itertools.pairwise(path)
+        for t in np.linspace(0.0, 1.0, 40)
+    ]
+    for other in ((9.0, 1.5), (15.0, 1.5)):
+        assert min(math.dist(p, other) for p in dense) >= ROBOT_RADIUS + PLANNING_RADIUS - 0.08, path
+    assert world.planner.plan((3.0, 1.5), (16.8, 1.5)) == [(3.0, 1.5), (16.8, 1.5)]  # the walls alone: straight
+    with pytest.raises(NoPathError, match=r"to \(9\.00, 1\.90\): the goal is next to robot2$"):
+        world.plan("robot1", 9.0, 1.9)
+    # robot2 parked in chemical storage's door: robot1 cannot get in, and is told why.
+    world.robots["robot2"].state = DiffDriveState(3.0, 3.0, 0.0)
+    with pytest.raises(NoPathError, match="other robots block every path to it"):
+        world.plan("robot1", 3.0, 6.5)
+    with pytest.raises(NoPathError, match="inside an obstacle"):  # the walls' own reasons stay theirs
+        world.plan("robot1", 6.0, 6.0)
 
 
 def test_plan_from_start_touching_a_wall(planner: Planner) -> None:

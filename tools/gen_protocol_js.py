@@ -18,7 +18,7 @@ from typing import Any, Literal, NotRequired, Union, get_args, get_origin, get_t
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from relay import client_wire, messages, protocol  # noqa: E402
+from relay import client_wire, messages, protocol, safety  # noqa: E402
 from relay.inspection import messages as inspection_messages  # noqa: E402
 from relay.inspection import records  # noqa: E402
 from relay.inspection import wire as inspection_wire  # noqa: E402
@@ -137,6 +137,7 @@ def render() -> str:
         "PROTOCOL_VERSION": protocol.PROTOCOL_VERSION,
         "MAX_TEXT_BYTES": protocol.MAX_TEXT_BYTES,
         "MAX_STREAM_FPS": protocol.MAX_STREAM_FPS,
+        "GOAL_CLEARANCE": safety.GOAL_CLEARANCE,
         "FRAME_PREFIX_BYTES": protocol.FRAME_PREFIX.size,
         "ERROR_CODES": dict(sorted(codes.items())),
         "CLIENT_ROBOT_KINDS": list(protocol.CLIENT_ROBOT_KINDS),

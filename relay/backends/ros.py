@@ -43,7 +43,7 @@ from typing import Any
 from ..cdr import odometry_pose
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..events import Event, EventSink, FrameEvent, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
 from ..geometry import yaw_to_quaternion
 from ..maps import map_event
 from ..occupancy import OccupancyGrid
@@ -97,6 +97,7 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
         ("sensor_msgs.msg", "CompressedImage"),
         ("sensor_msgs.msg", "LaserScan"),
         ("nav_msgs.msg", "OccupancyGrid"),
+        ("nav_msgs.msg", "Path"),
         ("std_msgs.msg", "Header"),
     ):
         needed.setdefault(f"{module}.{cls}", (module, cls, "the relay"))
@@ -298,6 +299,16 @@ class RosBackend(Backend):
                 lambda m, r=name: self._on_scan(r, m),
                 self._qos("scan"),
             )
+        if robot.plan_topic is not None:
+            # The planner's path (Nav2's global plan, in the map frame): drawn in the twin ahead of the robot.
+            node.create_subscription(
+                self._msg("nav_msgs.msg", "Path"),
+                robot.plan_topic,
+                lambda m, r=name: self._post(
+                    PathEvent(r, tuple((p.pose.position.x, p.pose.position.y) for p in m.poses))
+                ),
+                self._qos("sensors"),
+            )
         if robot.model_source is not None:
             # robot_state_publisher latches the description (transient local): a late subscriber still gets it.
             node.create_subscription(
@@ -449,3 +460,8 @@ class RosBackend(Backend):
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         return await self._cameras.snapshot(robot, camera)
+
+
+def path_points(message: Any) -> tuple[tuple[float, float], ...]:
+    """A nav_msgs/Path's positions, map frame (the planner's frame: Nav2's global plan is in ``map``)."""
+    return tuple((float(p.pose.position.x), float(p.pose.position.y)) for p in message.poses)

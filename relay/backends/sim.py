@@ -21,7 +21,7 @@ from collections.abc import Callable
 from ..budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
-from ..events import EventSink, FrameEvent, NavEvent, PoseEvent, SensorEvent
+from ..events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, SensorEvent
 from ..geometry import yaw_to_quaternion
 from ..lens import LensModel
 from ..occupancy import OccupancyGrid
@@ -55,6 +55,8 @@ class SimBackend(Backend):
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
         self.sink(NavEvent(robot, navigating, goal, outcome, message))
+        if not navigating:
+            self.sink(PathEvent(robot, ()))  # the plan ends with the goal, however it ended
 
     @property
     def world(self) -> SimWorld:
@@ -117,6 +119,7 @@ class SimBackend(Backend):
             raise CommandRejected(ErrorCode.BUSY, f"{robot}/goal_pose: {exc}; try again shortly") from None
         if current():  # an estop or a take-over while planning: the robot must not follow the old plan
             self.world.follow(robot, path, yaw)
+            self.sink(PathEvent(robot, tuple(path)))
 
     async def cancel(self, robot: str) -> None:
         self.world.cancel(robot)

@@ -92,6 +92,7 @@ class Robot:
     limits: Limits
     initial_pose: Pose2D
     scan_topic: str | None = None  # sensor_msgs/LaserScan; None: no scan
+    plan_topic: str | None = None  # nav_msgs/Path of the robot's planner; None: none
     model_source: ModelSource | None = None
     #: Where the relay publishes its teleop (TwistStamped) for ``xr-relay watchdog``, which forwards fresh commands
     #: to ``cmd_vel_topic`` and stops the robot when they or the relay's heartbeat stop. None: straight to cmd_vel.

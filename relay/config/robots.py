@@ -36,6 +36,7 @@ _ROBOT_FIELDS = (
     "limits",
     "initial_pose",
     "scan",
+    "plan",
 )
 
 
@@ -58,10 +59,12 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     cameras = _cameras(reader, f, path, namespace)
     sensors = _sensors(reader, f, path, namespace)
     limits, initial = _limits(reader, f, path)
-    scan_topic = _scan(reader, f, path, namespace)
+    scan_topic = _optional_topic(reader, f, path, namespace, "scan")
+    plan_topic = _optional_topic(reader, f, path, namespace, "plan")
     return Robot(
         model_source=model_source,
         scan_topic=scan_topic,
+        plan_topic=plan_topic,
         name=name,
         namespace=namespace,
         colour=colour,
@@ -192,18 +195,19 @@ def _limits(reader: _Reader, f: dict[str, Node], path: str) -> tuple[Limits, Pos
     return limits, initial
 
 
-def _scan(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> str | None:
-    """The scan topic; ``scan: null`` or ``false`` turns it off."""
-    scan_topic: str | None = resolve_topic(namespace, "scan")
-    if "scan" in f:
-        raw_scan = reader.value(f["scan"])
-        if raw_scan is None or raw_scan is False:
-            scan_topic = None
+def _optional_topic(reader: _Reader, f: dict[str, Node], path: str, namespace: str, field: str) -> str | None:
+    """A topic the robot may have (``scan``, ``plan``): ``{topic: ...}``, default the field's name in the robot's
+    namespace; ``null`` or ``false`` turns it off."""
+    topic: str | None = resolve_topic(namespace, field)
+    if field in f:
+        raw = reader.value(f[field])
+        if raw is None or raw is False:
+            topic = None
         else:
-            sc = reader.mapping(f["scan"], f"{path}.scan", ("topic",))
-            if "topic" in sc:
-                scan_topic = _topic(reader, sc["topic"], f"{path}.scan.topic", namespace)
-    return scan_topic
+            fields = reader.mapping(f[field], f"{path}.{field}", ("topic",))
+            if "topic" in fields:
+                topic = _topic(reader, fields["topic"], f"{path}.{field}.topic", namespace)
+    return topic
 
 
 _DEFAULT_POSE_TOPIC: dict[PoseSourceKind, str] = {

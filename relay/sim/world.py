@@ -13,6 +13,7 @@ stopping it on silence is the relay's deadman, not the simulator's.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -127,9 +128,25 @@ class SimWorld:
         sim.command = (linear, angular)
 
     def plan(self, robot: str, x: float, y: float) -> list[tuple[float, float]]:
-        """A path from the robot to (x, y); raises NoPathError. Safe to call from a worker thread."""
+        """A path from the robot to (x, y) around the walls and the other robots where they stand now; raises
+        NoPathError (naming the robot in the way when only a robot blocks it). Safe to call from a worker thread.
+
+        The others are discs of ROBOT_RADIUS, kept PLANNING_RADIUS away like walls: a path passes another robot
+        0.5 m centre to centre. Robots that move later are not re-planned around (the sim has no local planner).
+        """
         state = self.robots[robot].state
-        return self.planner.plan((state.x, state.y), (x, y))
+        others = {name: (sim.state.x, sim.state.y) for name, sim in self.robots.items() if name != robot}
+        grid = self.grid.with_discs((ox, oy, ROBOT_RADIUS) for ox, oy in others.values())
+        try:
+            return Planner(grid, PLANNING_RADIUS).plan((state.x, state.y), (x, y))
+        except NoPathError as exc:
+            try:
+                self.planner.plan((state.x, state.y), (x, y))
+            except NoPathError:
+                raise exc from None  # the walls alone forbid it: their reason
+            near = [n for n, (ox, oy) in others.items() if math.hypot(ox - x, oy - y) < ROBOT_RADIUS + PLANNING_RADIUS]
+            why = f"the goal is next to {near[0]}" if near else "other robots block every path to it"
+            raise NoPathError(f"no path from ({state.x:.2f}, {state.y:.2f}) to ({x:.2f}, {y:.2f}): {why}") from None
 
     def follow(self, robot: str, path: list[tuple[float, float]], yaw: float | None) -> None:
         sim = self.robots[robot]

@@ -9,7 +9,7 @@ import time
 
 from .conftest import OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
-from .xr_helpers import aim, button, click, press_menu_button, set_menu
+from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -92,4 +92,156 @@ async def test_vr_estop_within_reach_on_a_button_and_the_wrist(station: Station,
     await set_menu(client, True)
     await press_menu_button(client, "estop:reset")
     await wait_until(lambda: latched(station) == [], 5, "released")
+    assert client.errors == [], client.errors
+
+
+async def test_goal_mode_says_what_a_click_would_do_and_a_click_on_a_robot_selects_it(
+    station: Station, open_client: OpenClient
+) -> None:
+    client = await open_client(station.url, "goal-verdict")
+    page = client.page
+    await page.click('#menu button[data-button="robot:robot1"]')
+    await page.click('#menu button[data-button="tool:goal"]')
+    await client.wait("s.menu.tool === 'goal'")
+
+    async def hover(x: float, y: float) -> dict[str, object]:
+        px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [x, y])
+        await page.mouse.move(px, py)
+        goal: dict[str, object] = await client.wait("s.goal.verdict && s.goal", 10)
+        return goal
+
+    # On robot2: white, "select robot2"; the click selects it and sends no goal.
+    goal = await hover(9.0, 1.5)
+    assert goal["verdict"] == {"kind": "select", "robot": "robot2"} and goal["colour"] == "#ffffff", goal
+    await page.mouse.down()
+    await page.mouse.up()
+    await client.wait("s.menu.selected === 'robot2'")
+    await client.shot("02-click-on-a-robot-selects-it")
+    await page.click('#menu button[data-button="robot:robot1"]')
+    await client.wait("s.menu.selected === 'robot1' && s.menu.tool === 'goal'")
+
+    # Next to robot2: red, with the reason, and the click says it and sends nothing.
+    goal = await hover(9.5, 1.35)  # 0.52 m east of robot2, clear of its label
+    verdict = goal["verdict"]
+    assert isinstance(verdict, dict) and verdict["kind"] == "refused" and goal["colour"] == "#e02424", goal
+    assert verdict["reason"].startswith("too close to robot2")
+    tip = await page.inner_text("#cursor-tip")
+    assert tip.startswith("can't go there: too close to robot2 (0.5 m"), tip
+    await client.drawn(2)
+    await client.shot("03-refused-next-to-robot2", "goal-refused.png")
+    await page.mouse.down()
+    await page.mouse.up()
+    await client.wait("document.querySelector('#message').textContent.startsWith('No goal here: too close to robot2')")
+    # The wall between chemical storage and power distribution: refused as a wall.
+    goal = await hover(6.0, 6.0)
+    assert goal["verdict"] == {"kind": "refused", "reason": "a wall or an obstacle: point at the floor"}, goal
+    assert (await client.state())["goal"]["sent"] == 0 and station.goals == []
+
+    # The floor of power distribution: blue, and a click sends robot1 there.
+    goal = await hover(9.0, 6.0)
+    assert goal["verdict"] == {"kind": "goal"} and goal["colour"] == "#3d8bff", goal
+    await page.mouse.down()
+    await page.mouse.up()
+    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
+    assert station.goals[0][0] == "robot1"
+    assert client.errors == [], client.errors
+
+
+async def test_vr_arc_on_a_robot_selects_it_and_a_wall_is_refused(station: Station, open_client: OpenClient) -> None:
+    client = await enter_vr(open_client, station.url)
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot2")
+    await press_menu_button(client, "tool:goal")
+    await set_menu(client, False)
+    # The corridor's north wall, between two doors: red, and the trigger sends nothing.
+    wall = await client.page.evaluate("() => window.__xrRelay.mapToScene(5.5, 3.0, 0)")
+    await aim_arc(client, "right", wall)
+    refused = await client.wait("s.goal.verdict && s.goal.verdict.kind === 'refused' && s.goal", 10)
+    assert refused["verdict"]["reason"] == "a wall or an obstacle: point at the floor"
+    assert refused["colour"] == "#e02424"
+    await click(client, "right")
+    # The arc on robot1: white, and the trigger selects robot1 instead of sending robot2 into it.
+    robot1 = await client.page.evaluate("() => window.__xrRelay.mapToScene(3.0, 1.5, 0)")
+    await aim_arc(client, "right", robot1)
+    try:
+        await client.wait("s.goal.verdict && s.goal.verdict.kind === 'select' && s.goal.verdict.robot === 'robot1'", 10)
+    except Exception as exc:
+        s = await client.state()
+        raise AssertionError(f"no select on robot1: {s['goal']}, robot1 drawn at {s['robots']['robot1']}") from exc
+    await click(client, "right")
+    await client.wait("s.menu.selected === 'robot1'")
+    assert (await client.state())["goal"]["sent"] == 0
+    assert client.errors == [], client.errors
+
+
+async def test_the_plan_is_drawn_and_the_outcome_said(station: Station, open_client: OpenClient) -> None:
+    client = await open_client(station.url, "path")
+    page = client.page
+    await page.click('#menu button[data-button="robot:robot2"]')
+    await page.click('#menu button[data-button="tool:goal"]')
+    px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [9.0, 6.0])
+    await page.mouse.move(px, py)
+    await client.wait("s.goal.verdict && s.goal.verdict.kind === 'goal'", 10)
+    await page.mouse.down()
+    await page.mouse.up()
+    # The plan the sim follows, drawn ahead of robot2 in its colour, and the goal's ring until it is reached.
+    s = await client.wait("s.paths.robot2 >= 2 && s.markers.robot2 && s", 15)
+    await client.drawn(2)
+    await client.shot("04-path-ahead", "goal-path.png")
+    assert s["paths"]["robot2"] >= 2
+    await client.wait("document.querySelector('#message').textContent === 'robot2 reached its goal (9.0, 6.0)'", 60)
+    s = await client.wait("!s.paths.robot2 && !s.markers.robot2 && s", 5)
+    assert station.status("robot2")["goal"] is None
+    assert client.errors == [], client.errors
+
+
+async def test_vr_starts_seeing_the_fleet_and_sends_robot1_to_chemical_storage_from_the_overview(
+    station: Station, open_client: OpenClient
+) -> None:
+    """As a new operator: Enter VR, and without teleporting, select robot1 and send it into chemical storage."""
+    client = await enter_vr(open_client, station.url)
+    s = await client.wait("s.overview.visible && s.overview.arrows === 3 && s", 10)
+    start = s["rig"]["position"]
+    # The start is the relay's vantage: every robot in front, within the view, none hidden by a wall.
+    for robot in ROBOTS:
+        x, _, z = s["robots"][robot]["position"]
+        forward = (-math.sin(s["rig"]["yaw"]), -math.cos(s["rig"]["yaw"]))
+        to_robot = (x - start[0], z - start[2])
+        angle = math.degrees(math.acos((forward[0] * to_robot[0] + forward[1] * to_robot[1]) / math.hypot(*to_robot)))
+        assert angle <= 45, f"{robot} is {angle:.0f} degrees off the view"
+    await client.shot("11-start-with-overview", "vr-start.png")
+
+    async def point_at_table(x: float, y: float) -> None:
+        point = await client.page.evaluate("([x, y]) => window.__xrRelay.overviewPoint(x, y)", [x, y])
+        await aim(client, "right", point)
+        await client.wait("s.xr.hover.right === 'wim'", 10)
+
+    # robot1 on the table: the cursor says select, the trigger selects it.
+    await point_at_table(3.0, 1.5)
+    try:
+        await client.wait("s.overview.cursor && s.overview.cursor.verdict.robot === 'robot1'", 10)
+    except Exception as exc:
+        s = await client.state()
+        raise AssertionError(f"the table's cursor: {s['overview']}, hover {s['xr']['hover']}") from exc
+    await click(client, "right")
+    await client.wait("s.menu.selected === 'robot1'")
+    await set_menu(client, True)
+    await press_menu_button(client, "tool:goal")
+    await set_menu(client, False)
+    # Chemical storage's floor on the table: a goal there, pressed and released on the table.
+    await point_at_table(3.0, 6.5)
+    await client.wait("s.goal.verdict && s.goal.verdict.kind === 'goal'", 10)
+    await button(client, "right", "trigger", 1)
+    await client.wait("s.goal.pointer === 'placing'")
+    await button(client, "right", "trigger", 0)
+    await client.wait("s.goal.sent === 1")
+    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
+    robot, gx, gy, _ = station.goals[0]
+    assert robot == "robot1" and math.hypot(gx - 3.0, gy - 6.5) < 0.15, station.goals
+    assert (await client.state())["rig"]["position"] == start, "the operator did not move"
+    await wait_until(lambda: station.status("robot1")["mode"] == "navigating", 10, "robot1 on its way")
+    # Looking down at the table (the emulated headset pitched 35 degrees), for the picture.
+    await client.page.evaluate("() => window.__iwer.quaternion.set(-0.3007, 0, 0, 0.9537)")
+    await client.frames(4)
+    await client.shot("12-goal-from-the-overview", "vr-overview-goal.png")
     assert client.errors == [], client.errors

@@ -50,7 +50,7 @@ const UNBUILT = /** @type {any} */ (null);
  * What the operator can do, as the views call it: the only way a view acts on the station.
  * @typedef {{toggleMenu: () => void, pressMenu: (id: string) => void, selectRobot: (name: string) => void,
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
- *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void}} OperatorActions
+ *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string) => void}} OperatorActions
  */
 
 export class App {
@@ -123,6 +123,7 @@ export class App {
       sendGoal: (goal) => this.#sendGoal(goal),
       driveStick: (source, x, y) => this.#driveStick(source, x, y),
       enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
+      say: (text) => this.#notify(text, 'info', false),
     };
     this.#buildScene(options);
     this.#buildViews(container);
@@ -182,7 +183,7 @@ export class App {
     this.camera.add(this.vignette.mesh);
     this.menuPanel = new MenuPanel();
     this.scene.add(this.menuPanel.mesh, this.menuPanel.tab);
-    this.hud = new VRHud(this.camera);
+    this.hud = new VRHud(this.camera, this.scene);
     this.hemisphere = new HemisphereScreen(640, 640);
     this.scene.add(this.hemisphere.group);
     this.decoder = new FrameDecoder(
@@ -196,7 +197,7 @@ export class App {
     const inspect = new XRInspection({ ui: this.inspectionUi, card: this.findingCard, picking, menu, camera, notify: (text) => this.#notify(text, 'info'), operator: () => menu.canCommand });
     this.xrInspection = inspect;
     this.interaction = new XRInteraction({
-      xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions, inspect, estop: this.hud.estop,
+      xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions, inspect, estop: this.hud.estop, miniature: this.hud.miniature,
       locomotion: this.xrSession,
       link: () => this.linkText,
     });
@@ -307,6 +308,9 @@ export class App {
         break;
       case 'inspection':
         this.inspectionUi.update(this.menu);
+        break;
+      case 'nav':
+        if (effect.mine || effect.robot === this.menu.selected) this.#notify(effect.text, effect.kind);
         break;
     }
   }
@@ -501,13 +505,15 @@ export class App {
     const dt = Math.min(0.1, (start - this.lastFrame) / 1000);
     this.lastFrame = start;
     const eye = this.camera.getWorldPosition(new THREE.Vector3());
-    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye });
-    this.goalView.update(this.fleet, this.goals, start);
+    const linkStale = this.router.linkStale(this.linkOk, start);
+    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, linkStale });
+    this.goalView.update(this.fleet, this.goals, start, this.router.paths);
     if (this.presenting) {
       this.interaction.update(start, dt);
       this.xrInspection.update(true);
       this.xrSession.updateSeat();
-      this.hud.update(start, this.xrInput.side('left')?.grip ?? null, this.sensorPanelData(start));
+      const overview = { twin: this.twin, views: this.robotViews, cursor: this.interaction.wimCursor, transform: this.fleet.scene.mapToScene, show: this.menu.overview && this.menu.mode === 'free_roam' };
+      this.hud.update(start, this.xrInput.side('left')?.grip ?? null, this.sensorPanelData(start), overview);
       if (this.menu.mode === 'pov') {
         // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
         this.camera.getWorldPosition(this.hemisphere.group.position);
@@ -515,7 +521,7 @@ export class App {
       }
     } else {
       this.desktop.update(dt);
-      this.goalView.setPointer(this.fleet.scene.mapToScene, this.menu.tool === 'goal' ? this.goalPointer.marker : null, null);
+      this.goalView.setPointer(this.fleet.scene.mapToScene, this.menu.tool === 'goal' ? this.goalPointer.marker : null, null, this.goalPointer.verdict);
     }
     this.overlay.update(start);
     // In VR every frame is drawn: the XR framebuffer is cleared before each frame (WebXR), so a skipped
@@ -533,7 +539,8 @@ export class App {
 
   /** What the wrist and corner sensor panels show. @param {number} now */
   sensorPanelData(now) {
-    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText, ok: this.linkOk }, now, this.inspectionUi.progress(this.menu.selected));
+    const age = { freshness: this.router.freshness, linkStale: this.router.linkStale(this.linkOk, now) };
+    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText, ok: this.linkOk }, now, this.inspectionUi.progress(this.menu.selected), age);
   }
 
   /** The POV panel's caption. */

@@ -25,6 +25,9 @@ export class FleetModel {
     this.robots = new Map();
     /** @type {number[] | null} */
     this.bounds = null;
+    /** Where an operator sees the most robots from (the relay's hello.vantage; map frame), if known.
+     * @type {import('./protocol.js').VantageDescription | null} */
+    this.vantage = null;
     this.clientId = '';
     /** @type {import('./protocol.js').Role} */
     this.role = 'operator';
@@ -64,6 +67,7 @@ export class FleetModel {
   #hello(hello) {
     this.robots.clear();
     this.bounds = hello.bounds ?? null;
+    this.vantage = hello.vantage ?? null;
     this.clientId = hello.client_id;
     this.role = hello.role === 'viewer' ? 'viewer' : 'operator';
     this.#setScene(hello.scene);

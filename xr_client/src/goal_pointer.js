@@ -24,11 +24,19 @@ export class GoalPointer {
     this.anchor = null;
     /** @type {number | null} */
     this.yaw = null;
+    /** What a press would do at the hover point. @type {import('./goal_verdict.js').GoalVerdict | null} */
+    this.verdict = null;
   }
 
-  /** The pointer's floor hit this frame, or null when it meets no floor. @param {MapPoint | null} hit */
-  aim(hit) {
+  /**
+   * Where the pointer meets the twin this frame (null: nothing), and what a press there would do (goal_verdict.js;
+   * without one, every hit is floor and a press places a goal). A press places a goal only where the verdict is
+   * `goal`; while placing, the hit only turns the heading.
+   * @param {MapPoint | null} hit @param {import('./goal_verdict.js').GoalVerdict | null} [verdict]
+   */
+  aim(hit, verdict = null) {
     this.hover = hit;
+    this.verdict = hit ? verdict : null;
     if (this.state === 'placing') {
       if (hit && this.anchor) {
         const dx = hit.x - this.anchor.x;
@@ -43,6 +51,7 @@ export class GoalPointer {
   /** Trigger or mouse down. @returns {boolean} whether the press started a goal */
   press() {
     if (this.state !== 'aiming' || !this.hover) return false;
+    if (this.verdict && this.verdict.kind !== 'goal') return false;
     this.anchor = { ...this.hover };
     this.yaw = null;
     this.state = 'placing';

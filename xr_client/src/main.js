@@ -49,6 +49,8 @@ app.start();
   mapToPage: (x, y, z) => mapToPage(app, x, y, z),
   /** @param {number} x @param {number} y @param {number} [z] map point -> scene (glTF) point */
   mapToScene: (x, y, z) => mapToScene(app.fleet.scene.mapToScene, x, y, z),
+  /** @param {number} x @param {number} y map point -> where it is on VR's overview table (world) */
+  overviewPoint: (x, y) => app.hud.miniature.worldPoint(x, y, app.fleet.scene.mapToScene),
   /** @param {[number, number] | null} [pixel] the VR finding card's buttons (and a pixel of its capture) -> scene points */
   cardPoints: (pixel) => app.findingCard.points(pixel ?? null),
   version: 1,

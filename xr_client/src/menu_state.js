@@ -53,6 +53,8 @@ export class MenuState {
     this.live = false;
     this.seated = false;
     this.smooth = false;
+    /** VR's overview table (a miniature of the twin) in front of the operator. */
+    this.overview = true;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -212,6 +214,7 @@ export class MenuState {
         : []),
       { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
       { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
+      { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -245,6 +248,7 @@ export class MenuState {
       effects = [{ type: 'stream', robot: this.selected, fps: this.live ? MAX_STREAM_FPS : 0 }];
     } else if (id === 'opt:seated') this.seated = !this.seated;
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
+    else if (id === 'opt:overview') this.overview = !this.overview;
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];

@@ -7,6 +7,7 @@
 import { ERROR_CODES, parseIdentifier } from './protocol.js';
 import { PoseSmoother } from './pose_smoother.js';
 import { InspectionModel } from './inspection_model.js';
+import { Freshness, LINK_STALE_MS } from './freshness.js';
 
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
@@ -27,7 +28,8 @@ import { InspectionModel } from './inspection_model.js';
  *   | {type: 'estop_state', latched: string[]}
  *   | {type: 'sensor_warning', robot: string}
  *   | {type: 'offer_takeover', robot: string, text: string}
- *   | {type: 'inspection'}} RouterEffect
+ *   | {type: 'inspection'}
+ *   | {type: 'nav', robot: string, text: string, kind: NoticeKind, mine: boolean}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
  *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender,
  *   inspection?: InspectionModel}} RouterModels
@@ -38,6 +40,13 @@ export class MessageRouter {
   playback = null;
   /** Pose smoothing per robot, fed here and sampled by the frame loop. @type {Map<string, PoseSmoother>} */
   smoothers = new Map();
+  /** When each robot's pose and each sensor (`robot/sensor`) last came, against their usual rates. */
+  freshness = new Freshness();
+  /** When the relay last said anything (page ms), and how many hellos it sent (a second one is a reconnect). */
+  lastMessage = -Infinity;
+  hellos = 0;
+  /** Each robot's planned path (map frame), while it has one. @type {Map<string, number[][]>} */
+  paths = new Map();
   /** Who latched each robot's estop, from the `estop` messages (a reset forgets it). @type {Map<string, string | null>} */
   estopBy = new Map();
   /** The fleet description of the last `hello`, to rebuild robot views only when it changed. */
@@ -58,6 +67,7 @@ export class MessageRouter {
    * @returns {RouterEffect[]}
    */
   route(message, now) {
+    this.lastMessage = now;
     const { robot, kind } = parseIdentifier(message.identifier);
     if (robot === null) return this.#global(/** @type {GlobalMessage} */ (message), now);
     switch (kind) {
@@ -67,11 +77,21 @@ export class MessageRouter {
         return this.#model(robot, /** @type {import('./protocol.js').ModelMessage} */ (message));
       case 'scan':
         return this.fleet.robots.has(robot) ? [{ type: 'scan', robot, scan: /** @type {import('./protocol.js').ScanMessage} */ (message) }] : [];
+      case 'path': {
+        const points = /** @type {import('./protocol.js').PathMessage} */ (message).points;
+        if (!this.fleet.robots.has(robot)) return [];
+        if (points.length > 1) this.paths.set(robot, points);
+        else this.paths.delete(robot);
+        return [];
+      }
+      case 'nav':
+        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message));
     }
     if (!this.fleet.apply(message)) return [];
     if (kind === 'pose') {
       const pose = /** @type {import('./protocol.js').PoseMessage} */ (message);
       this.smoother(robot).push(pose.x, pose.y, pose.yaw, now);
+      this.freshness.seen(robot, now);
     } else if (kind === 'status') {
       const status = /** @type {import('./protocol.js').StatusMessage} */ (message);
       this.goals.status(robot, status.goal, now);
@@ -81,6 +101,7 @@ export class MessageRouter {
       ];
     } else if (kind === 'sensor') {
       const reading = /** @type {import('./protocol.js').SensorMessage} */ (message);
+      this.freshness.seen(`${robot}/${reading.name}`, now);
       if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
         const text = `WARNING ${robot}: ${reading.name} ${reading.value.toFixed(1)} ${reading.unit}`;
         return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
@@ -139,6 +160,9 @@ export class MessageRouter {
     this.fleet.apply(hello);
     this.playback = hello.playback ?? null;
     this.goals.reset();
+    this.paths.clear();
+    this.freshness.reset();
+    this.hellos++;
     this.commands.reset();
     this.inspection.reset(); // the relay sends the targets, missions and findings again right after hello
     // Robot views are rebuilt only when the fleet description changed (a reconnect to the same relay
@@ -151,7 +175,19 @@ export class MessageRouter {
       if (entry.pose) this.smoother(name).push(entry.pose.x, entry.pose.y, entry.pose.yaw, now);
       if (entry.status) this.goals.status(name, entry.status.goal, now);
     }
-    return [{ type: 'fleet', rebuild }, { type: 'estop_state', latched: this.latched() }];
+    /** @type {RouterEffect[]} */
+    const effects = [{ type: 'fleet', rebuild }, { type: 'estop_state', latched: this.latched() }];
+    // A second hello is a reconnect: robots may have moved meanwhile; say so rather than let them jump unexplained.
+    if (this.hellos > 1) effects.push(notice('Reconnected: showing the fleet as the relay sees it now', 'info'));
+    return effects;
+  }
+
+  /**
+   * Whether the relay has gone quiet (no message, not even a pong, for LINK_STALE_MS) or the link is down: then
+   * everything shown is old. @param {boolean} connected @param {number} now
+   */
+  linkStale(connected, now) {
+    return !connected || now - this.lastMessage > LINK_STALE_MS;
   }
 
   /** The robots whose emergency stop is latched (their status says so until an operator resets it). */
@@ -185,6 +221,22 @@ export class MessageRouter {
     }
     if (lease.previous === me && lease.reason === 'expired') return [notice(`your control of ${robot} expired (idle)`, 'info')];
     return [];
+  }
+
+  /**
+   * How a goal went: reached, aborted with the reason, cancelled (nothing for `started`: the path says it). The app
+   * tells the operator about the selected robot and the robots it sent.
+   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @returns {RouterEffect[]}
+   */
+  #nav(robot, nav) {
+    if (!this.fleet.robots.has(robot) || nav.outcome === 'started') return [];
+    this.paths.delete(robot);
+    const at = nav.goal ? ` (${nav.goal.x.toFixed(1)}, ${nav.goal.y.toFixed(1)})` : '';
+    const why = nav.message && nav.message !== nav.outcome ? `: ${nav.message}` : '';
+    const mine = this.fleet.robot(robot)?.status?.controller === this.fleet.clientId;
+    if (nav.outcome === 'reached') return [{ type: 'nav', robot, text: `${robot} reached its goal${at}`, kind: 'info', mine }];
+    if (nav.outcome === 'failed') return [{ type: 'nav', robot, text: `${robot} aborted its goal${at}${why}`, kind: 'error', mine }];
+    return [{ type: 'nav', robot, text: `${robot}'s goal${at} cancelled${why}`, kind: 'warning', mine }];
   }
 
   /** The relay built this robot's model from its robot_description. @param {string} robot @param {import('./protocol.js').ModelMessage} model */

@@ -5,14 +5,15 @@
 export const PROTOCOL_VERSION = 1;
 export const MAX_TEXT_BYTES = 65536;
 export const MAX_STREAM_FPS = 60.0;
+export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
-export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
+export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add"]);
-export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "lease", "model"]);
+export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
 export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region"]);
 
-/** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
+/** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
 /** @typedef {'operator' | 'viewer'} Role */
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
@@ -29,11 +30,14 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits}} RobotDescription */
 /** @typedef {{x: number, y: number, z: number, yaw: number}} Transform2D */
 /** @typedef {{url: string | null, map_to_scene: Transform2D}} SceneDescription */
+/** @typedef {{x: number, y: number, yaw: number}} VantageDescription */
 /** @typedef {{x: number, y: number, yaw: number | null}} GoalDescription */
 /** @typedef {{identifier: string, stamp: number, frame: string, x: number, y: number, z: number, qx: number, qy: number, qz: number, qw: number, yaw: number}} PoseMessage */
 /** @typedef {{identifier: string, name: string, value: number, unit: string, warning: boolean, stamp: number}} SensorMessage */
 /** @typedef {{identifier: string, online: boolean, age: number | null, mode: Mode, goal: GoalDescription | null, controller: string | null, estopped: boolean}} StatusMessage */
 /** @typedef {{identifier: string, stamp: number, frame: string, angle_min: number, angle_increment: number, range_max: number, ranges: (number | null)[]}} ScanMessage */
+/** @typedef {{identifier: string, outcome: 'started' | 'reached' | 'failed' | 'cancelled', goal: GoalDescription | null, message: string}} NavMessage */
+/** @typedef {{identifier: string, points: number[][]}} PathMessage */
 /** @typedef {{pose: PoseMessage | null, sensors: Object<string, SensorMessage>, status: StatusMessage}} RobotState */
 /** @typedef {{name: string, version: string}} ServerInfo */
 /** @typedef {{identifier: 'ack', id: RequestId}} AckMessage */
@@ -45,7 +49,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'playback', position: number, duration: number, rate: number, paused: boolean, loop: boolean}} PlaybackMessage */
 /** @typedef {{identifier: string, holder: string | null, previous: string | null, reason: LeaseReason}} LeaseMessage */
 /** @typedef {{identifier: 'estop', robots: string[], by: string | null, latched: boolean}} EstopMessage */
-/** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
+/** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, vantage: VantageDescription | null, robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
 /** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null}} FrameHeader */
 /** @typedef {{id: string, name: string, kind: string, x: number, y: number, facing: number | null}} TargetDescription */
 /** @typedef {{identifier: 'targets', targets: TargetDescription[]}} TargetsMessage */
@@ -55,7 +59,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | MissionMessage | FindingMessage | RegionMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | MissionMessage | FindingMessage | RegionMessage} ServerMessage
  */
 
 // Client to server

@@ -51,7 +51,7 @@ export class SensorHistory {
    */
   sparkline(robot, sensor, now, width, height) {
     const { t, v } = this.values(robot, sensor);
-    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0 };
+    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0, breaks: /** @type {number[]} */ ([]) };
     let min = Infinity;
     let max = -Infinity;
     for (const x of v) {
@@ -64,7 +64,12 @@ export class SensorHistory {
       width * (1 - Math.min(1, Math.max(0, (now - t[i]) / this.window))),
       height * (1 - (value - min) / span),
     ]);
-    return { points, min, max };
+    return { points, min, max, breaks: gaps(t) };
+  }
+
+  /** The indices of a sensor's readings that come after a gap (gaps(): no line is drawn across them). @param {string} robot @param {string} sensor */
+  breaks(robot, sensor) {
+    return gaps(this.values(robot, sensor).t);
   }
 
   /** Whether any sensor of the robot is in warning now. @param {string} robot */
@@ -77,4 +82,25 @@ export class SensorHistory {
     this.series.clear();
     this.warning.clear();
   }
+}
+
+/** A pause between readings longer than this many usual intervals (and GAP_MIN_MS) is a gap in the data. */
+const GAP_INTERVALS = 4;
+export const GAP_MIN_MS = 2000;
+
+/**
+ * The indices that follow a gap: a pause longer than GAP_INTERVALS times the usual (median) interval and GAP_MIN_MS.
+ * @param {number[]} t reading times, ms, ascending
+ */
+export function gaps(t) {
+  if (t.length < 3) return [];
+  const intervals = t.slice(1).map((x, i) => x - t[i]);
+  const usual = [...intervals].sort((a, b) => a - b)[Math.floor(intervals.length / 2)];
+  const limit = Math.max(GAP_MIN_MS, GAP_INTERVALS * usual);
+  /** @type {number[]} */
+  const out = [];
+  intervals.forEach((d, i) => {
+    if (d > limit) out.push(i + 1);
+  });
+  return out;
 }

@@ -5,6 +5,8 @@
  * view/sensor_drawing.js's.
  */
 
+import { formatSilence } from './freshness.js';
+
 /** @typedef {import('./fleet_model.js').FleetModel} FleetModel */
 /** @typedef {import('./sensor_history.js').SensorHistory} SensorHistory */
 
@@ -13,9 +15,11 @@
  * @param {FleetModel} fleet @param {string | null} selected @param {SensorHistory} history
  * @param {{text: string, ok: boolean}} link @param {number} now
  * @param {string} [mission] the robot's mission progress ("mission: step 2 of 3 (inspect spill)"), '' for none
+ * @param {{freshness: import('./freshness.js').Freshness, linkStale: boolean} | null} [age] what is old: a reading
+ *   silent past its usual rate, or everything when the relay went quiet (drawn grey, with its age)
  * @returns {import('./view/sensor_drawing.js').SensorPanelData}
  */
-export function sensorPanel(fleet, selected, history, link, now, mission = '') {
+export function sensorPanel(fleet, selected, history, link, now, mission = '', age = null) {
   const entry = fleet.robot(selected);
   const status = entry?.status;
   return {
@@ -26,7 +30,11 @@ export function sensorPanel(fleet, selected, history, link, now, mission = '') {
     linkOk: link.ok,
     sensors: (entry?.description.sensors ?? []).map((s) => {
       const reading = entry?.sensors.get(s.name);
-      return { name: s.name, unit: reading?.unit ?? s.unit, value: reading?.value ?? null, warning: reading?.warning ?? false };
+      const key = `${entry?.description.name}/${s.name}`;
+      const silent = age?.freshness.age(key, now) ?? null;
+      const old = reading !== undefined && age !== null && silent !== null && (age.linkStale || age.freshness.stale(key, now));
+      const stale = old ? `${formatSilence(/** @type {number} */ (silent))} ago` : null;
+      return { name: s.name, unit: reading?.unit ?? s.unit, value: reading?.value ?? null, warning: reading?.warning ?? false, stale };
     }),
     history: history,
     now,

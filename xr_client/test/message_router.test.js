@@ -152,3 +152,23 @@ test('commands carry the generated identifiers; nothing is queued while disconne
   commands.twist({ robot: 'robot1', linear: 0.2, angular: 0 });
   assert.equal(commands.counts.cmdVel, 0);
 });
+
+test('a plan is kept while the goal lasts; the outcome is told in words, and only the operator who cares hears it', () => {
+  const { router } = setUp();
+  router.route(HELLO, 0);
+  assert.deepEqual(router.route({ identifier: 'robot1/path', points: [[3, 1.5], [3, 6]] }, 1), []);
+  assert.deepEqual(router.paths.get('robot1'), [[3, 1.5], [3, 6]]);
+  assert.deepEqual(router.route({ identifier: 'robot1/nav', outcome: 'started', goal: { x: 3, y: 6, yaw: null }, message: '' }, 2), []);
+  const reached = router.route({ identifier: 'robot1/nav', outcome: 'reached', goal: { x: 3, y: 6, yaw: null }, message: '' }, 3);
+  assert.deepEqual(reached, [{ type: 'nav', robot: 'robot1', text: 'robot1 reached its goal (3.0, 6.0)', kind: 'info', mine: false }]);
+  assert.equal(router.paths.has('robot1'), false, 'the path goes with the goal');
+  const failed = router.route({ identifier: 'robot1/nav', outcome: 'failed', goal: { x: 3, y: 6, yaw: null }, message: 'blocked for 30 s' }, 4);
+  assert.equal(/** @type {any} */ (failed[0]).text, 'robot1 aborted its goal (3.0, 6.0): blocked for 30 s');
+  const cancelled = router.route({ identifier: 'robot1/nav', outcome: 'cancelled', goal: null, message: 'cancelled' }, 5);
+  assert.deepEqual(cancelled, [{ type: 'nav', robot: 'robot1', text: "robot1's goal cancelled", kind: 'warning', mine: false }]);
+  assert.deepEqual(router.route({ identifier: 'robot9/path', points: [[0, 0], [1, 1]] }, 6), []);
+  assert.equal(router.paths.has('robot9'), false, 'an unknown robot has no path');
+  router.route({ identifier: 'robot2/path', points: [[9, 1.5], [9, 6]] }, 7);
+  router.route(HELLO, 8);
+  assert.equal(router.paths.size, 0, 'a new relay: paths come again with the next plans');
+});

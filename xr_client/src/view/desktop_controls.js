@@ -11,6 +11,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { keysToStick } from '../teleop.js';
 import { mapToScene } from '../frames.js';
+import { verdictText } from '../goal_verdict.js';
 
 const FLY_SPEED = 4; // m/s
 const PICK_RADIUS = 24; // px: a click this close to a robot selects it
@@ -45,6 +46,10 @@ export class DesktopControls {
     this.goalPointerId = null;
     /** @type {{x: number, y: number, id: number} | null} */
     this.down = null;
+    /** The robot a press in Goal mode landed on: the click selects it. @type {string | null} */
+    this.selectOnUp = null;
+    /** What a click would do, beside the cursor in Goal mode. */
+    this.tip = document.getElementById('cursor-tip');
     this.povLook = { yaw: 0, pitch: 0, fov: 100 };
     /** @type {{x: number, y: number, yaw: number, pitch: number} | null} */
     this.povDrag = null;
@@ -120,15 +125,41 @@ export class DesktopControls {
     return hit?.floor ? this.host.picking.sceneToMapPoint(hit.point) : null;
   }
 
+  /**
+   * Aim the goal pointer where the mouse meets the twin: the point, and what a press there would do (a goal, a
+   * robot's selection, or a refusal with its reason), so the cursor can say it before the click.
+   * @param {PointerEvent} e @returns {import('../goal_verdict.js').GoalVerdict}
+   */
+  #aimGoal(e) {
+    const { point, verdict } = this.host.picking.verdictAt(this.host.picking.pickTwin(this.#ndc(e)), this.host.menu.selected);
+    const robot = this.#robotUnder(e);
+    const outcome = robot ? /** @type {const} */ ({ kind: 'select', robot }) : verdict;
+    this.host.goalPointer.aim(point, outcome);
+    // The same words beside the cursor: the marker's label is small seen from above the whole site.
+    const tip = this.tip;
+    if (tip) {
+      const text = outcome.kind === 'goal' ? `goal for ${this.host.menu.selected}` : outcome.kind === 'none' ? outcome.reason : verdictText(outcome);
+      tip.textContent = text;
+      tip.dataset.kind = outcome.kind;
+      tip.style.left = `${e.clientX + 16}px`;
+      tip.style.top = `${e.clientY + 16}px`;
+      tip.hidden = !text;
+    }
+    return outcome;
+  }
+
   /** @param {PointerEvent} e */
   #pointerDown(e) {
     if (e.button !== 0 || e.target !== this.host.canvas || this.host.presenting()) return;
     this.down = { x: e.clientX, y: e.clientY, id: e.pointerId };
+    this.selectOnUp = null;
     const menu = this.host.menu;
     if (menu.tool === 'goal' && menu.mode === 'free_roam') {
-      const hit = this.#floorHit(e);
-      this.host.goalPointer.aim(hit);
-      if (this.host.goalPointer.press()) {
+      const verdict = this.#aimGoal(e);
+      // A press on a robot selects it, in Goal mode too (it never becomes a goal into that robot).
+      if (verdict.kind === 'select') this.selectOnUp = verdict.robot;
+      else if (verdict.kind !== 'goal') this.host.actions.say(`No goal here: ${verdict.reason}`);
+      else if (this.host.goalPointer.press()) {
         // The drag is the goal's heading, not an orbit.
         this.goalPointerId = e.pointerId;
         this.orbit.enabled = false;
@@ -140,16 +171,14 @@ export class DesktopControls {
   #pointerMove(e) {
     if (this.host.presenting()) return;
     const menu = this.host.menu;
-    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.host.canvas || this.goalPointerId !== null)) {
-      this.host.goalPointer.aim(this.#floorHit(e));
-    }
+    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.host.canvas || this.goalPointerId !== null)) this.#aimGoal(e);
   }
 
   /** @param {PointerEvent} e */
   #pointerUp(e) {
     if (this.host.presenting()) return;
     if (this.goalPointerId === e.pointerId) {
-      this.host.goalPointer.aim(this.#floorHit(e));
+      this.#aimGoal(e);
       const goal = this.host.goalPointer.release();
       this.goalPointerId = null;
       this.orbit.enabled = true;
@@ -166,18 +195,27 @@ export class DesktopControls {
         this.down = null;
         return;
       }
-      const robot = this.#robotAt(e);
+      // In Goal mode the press decided (a robot under it, or nothing: a refused spot near a robot selects nothing).
+      const goalMode = this.host.menu.tool === 'goal' && this.host.menu.mode === 'free_roam';
+      const robot = goalMode ? this.selectOnUp : this.#robotAt(e);
       if (robot) this.host.actions.selectRobot(robot);
     }
     this.down = null;
   }
 
-  /** The robot under the pointer, else the nearest one within PICK_RADIUS pixels. @param {PointerEvent} e */
-  #robotAt(e) {
+  /** The robot whose model or label is under the pointer, if any. @param {PointerEvent} e */
+  #robotUnder(e) {
     const hit = this.#ndc(e).intersectObjects(this.host.picking.robotTargets(true), true)[0];
     for (let o = /** @type {THREE.Object3D | null} */ (hit?.object ?? null); o; o = o.parent) {
       if (typeof o.userData.robot === 'string') return /** @type {string} */ (o.userData.robot);
     }
+    return null;
+  }
+
+  /** The robot under the pointer, else the nearest one within PICK_RADIUS pixels. @param {PointerEvent} e */
+  #robotAt(e) {
+    const under = this.#robotUnder(e);
+    if (under) return under;
     const rect = this.host.canvas.getBoundingClientRect();
     let best = null;
     let bestDistance = PICK_RADIUS;
@@ -225,6 +263,7 @@ export class DesktopControls {
 
   /** @param {number} dt s */
   update(dt) {
+    if (this.tip && !this.tip.hidden && (this.host.menu.tool !== 'goal' || this.host.menu.mode !== 'free_roam')) this.tip.hidden = true;
     const flying = new Set([...this.keys].filter((k) => !this.driving.has(k)));
     if (this.host.menu.tool !== 'teleop' && flying.size > 0) {
       // Fly: move the camera and its orbit target together, along the ground.

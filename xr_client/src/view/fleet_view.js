@@ -6,6 +6,7 @@
 import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView } from './robot_view.js';
+import { formatSilence } from '../freshness.js';
 
 export class FleetView {
   /** By robot name; the same Map for the life of the page (picking and the desktop controls hold it). @type {Map<string, RobotView>} */
@@ -42,9 +43,10 @@ export class FleetView {
    * Place and label every robot for this frame.
    * @param {number} now
    * @param {{fleet: import('../fleet_model.js').FleetModel, smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
-   *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3}} state
+   *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
+   *   freshness: import('../freshness.js').Freshness, linkStale: boolean}} state
    */
-  update(now, { fleet, smoothers, history, selected, eye }) {
+  update(now, { fleet, smoothers, history, selected, eye, freshness, linkStale }) {
     const t = fleet.scene.mapToScene;
     for (const [name, view] of this.views) {
       const entry = fleet.robots.get(name);
@@ -57,6 +59,9 @@ export class FleetView {
       }
       const status = entry.status;
       const controller = status?.controller ? (status.controller === fleet.clientId ? 'you' : status.controller) : '';
+      // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
+      const silent = freshness.age(name, now);
+      const stale = linkStale ? `connection lost${silent !== null ? ` · ${formatSilence(silent)}` : ''}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
       view.setStatus({
         name,
         mode: status?.mode ?? 'unknown',
@@ -65,6 +70,7 @@ export class FleetView {
         age: status?.age ?? null,
         selected: name === selected,
         warning: history.robotWarning(name),
+        stale,
       });
     }
   }

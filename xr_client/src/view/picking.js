@@ -6,6 +6,7 @@
 import * as THREE from 'three';
 import { arcPoints } from '../arc.js';
 import { sceneToMap } from '../frames.js';
+import { goalVerdict, robotSpots } from '../goal_verdict.js';
 
 export class Picking {
   /**
@@ -54,7 +55,8 @@ export class Picking {
    * The pointer arc from a hand to the floor (the twin's `floor` node, or the drawn floor); the arc ends at
    * whatever it meets first, and has no hit when that is not floor.
    * @param {THREE.Vector3} origin @param {THREE.Vector3} direction
-   * @returns {{points: [number, number, number][], hit: THREE.Vector3 | null}}
+   * @returns {{points: [number, number, number][], hit: THREE.Vector3 | null, surface: {point: THREE.Vector3, floor: boolean} | null}}
+   *   `hit` the floor it lands on, `surface` whatever it meets first (a wall too: the pointer says why not)
    */
   arcToFloor(origin, direction) {
     const floorY = this.twin.box.isEmpty() ? 0 : this.twin.box.min.y;
@@ -68,9 +70,31 @@ export class Picking {
       this.raycaster.set(a, b.sub(a).normalize());
       this.raycaster.far = length;
       const hit = this.pickTwin(this.raycaster);
-      if (hit) return { points: [...points.slice(0, i), /** @type {[number, number, number]} */ (hit.point.toArray())], hit: hit.floor ? hit.point : null };
+      if (hit) return { points: [...points.slice(0, i), /** @type {[number, number, number]} */ (hit.point.toArray())], hit: hit.floor ? hit.point : null, surface: hit };
     }
-    return { points, hit: null };
+    return { points, hit: null, surface: null };
+  }
+
+  /**
+   * What a goal press would do where a pointer meets the twin (goal_verdict.js), and the map point it meets.
+   * @param {{point: THREE.Vector3, floor: boolean} | null} surface @param {string | null} selected
+   * @returns {{point: {x: number, y: number} | null, verdict: import('../goal_verdict.js').GoalVerdict}}
+   */
+  verdictAt(surface, selected) {
+    const point = surface ? this.sceneToMapPoint(surface.point) : null;
+    const verdict = goalVerdict(point && surface ? { point, floor: surface.floor } : null, { robots: robotSpots(this.fleet), selected, bounds: this.fleet.bounds });
+    return { point, verdict };
+  }
+
+  /**
+   * Whether a scene point (x, z) is open floor in the twin: what a ray straight down over it meets first is floor.
+   * @param {THREE.Vector3} p
+   */
+  isFloorAt(p) {
+    const top = this.twin.box.isEmpty() ? 10 : this.twin.box.max.y + 10;
+    this.raycaster.set(new THREE.Vector3(p.x, top, p.z), new THREE.Vector3(0, -1, 0));
+    this.raycaster.far = Infinity;
+    return this.pickTwin(this.raycaster)?.floor ?? false;
   }
 
   /** @param {THREE.Vector3} p a scene point @returns {{x: number, y: number}} */

@@ -68,6 +68,8 @@ export class RobotView {
     this.geometries.push(scanGeometry);
     this.materials.push(scanMaterial);
     this.offline = false;
+    /** Why what this view shows is old (the link, the pose), or null while it is live. @type {string | null} */
+    this.stale = null;
   }
 
   /** @param {boolean} hasCamera */
@@ -164,14 +166,19 @@ export class RobotView {
 
   /**
    * @param {{name: string, mode: string, controller: string, offline: boolean, age: number | null,
-   *   selected: boolean, warning: boolean}} state
+   *   selected: boolean, warning: boolean, stale?: string | null}} state `stale`: why what is shown is old
+   *   (the connection, the robot's pose), drawn grey like an offline robot
    */
   setStatus(state) {
-    this.setOffline(state.offline);
-    const second = state.offline
-      ? `offline${state.age !== null ? ` · ${formatAge(state.age)}` : ''}`
-      : `${state.mode}${state.controller ? ` · ${state.controller}` : ''}`;
-    this.label.set([state.name, second], { accent: `#${this.colour.getHexString()}`, dim: state.offline });
+    const old = state.offline || Boolean(state.stale);
+    this.setOffline(old);
+    this.stale = state.stale ?? null;
+    const second = state.stale
+      ? `${state.stale} · was ${state.mode}`
+      : state.offline
+        ? `offline${state.age !== null ? ` · ${formatAge(state.age)}` : ''}`
+        : `${state.mode}${state.controller ? ` · ${state.controller}` : ''}`;
+    this.label.set([state.name, second], { accent: `#${this.colour.getHexString()}`, dim: old });
     this.ring.visible = state.selected;
     this.warning.sprite.visible = state.warning;
   }

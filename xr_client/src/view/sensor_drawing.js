@@ -7,7 +7,7 @@ import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
 
 /**
  * @typedef {{robot: string | null, colour: string, status: string, link: string, linkOk: boolean,
- *   sensors: {name: string, value: number | null, unit: string, warning: boolean}[],
+ *   sensors: {name: string, value: number | null, unit: string, warning: boolean, stale?: string | null}[],
  *   history: import('../sensor_history.js').SensorHistory, now: number}} SensorPanelData
  */
 
@@ -48,9 +48,14 @@ export function drawSensorPanel(ctx, width, height, data) {
     }
     ctx.fillStyle = '#c8d0dc';
     fitText(ctx, s.name, 20 * u, y + rowHeight * 0.3, 150 * u, 20 * u);
-    ctx.fillStyle = s.warning ? '#ff6b6b' : '#fff';
+    // An old reading is grey with its age: never drawn as if it were live.
+    ctx.fillStyle = s.stale ? '#7a8294' : s.warning ? '#ff6b6b' : '#fff';
     const value = s.value === null ? '–' : formatValue(s.value);
     fitText(ctx, `${value} ${s.unit}`, 20 * u, y + rowHeight * 0.68, 170 * u, 26 * u, 700);
+    if (s.stale) {
+      ctx.fillStyle = '#ffb020';
+      fitText(ctx, s.stale, 120 * u, y + rowHeight * 0.3, 90 * u, 15 * u, 600);
+    }
     if (s.warning) {
       warningIcon(ctx, 205 * u, y + rowHeight * 0.3, 22 * u);
       ctx.textAlign = 'left';
@@ -64,11 +69,12 @@ export function drawSensorPanel(ctx, width, height, data) {
     const sh = rowHeight * 0.4;
     const sy = y + rowHeight * 0.45;
     if (data.robot) {
-      const { points, min, max } = data.history.sparkline(data.robot, s.name, data.now, sw, sh);
-      ctx.strokeStyle = s.warning ? '#ff6b6b' : '#7fd3ff';
+      const { points, min, max, breaks } = data.history.sparkline(data.robot, s.name, data.now, sw, sh);
+      ctx.strokeStyle = s.stale ? '#7a8294' : s.warning ? '#ff6b6b' : '#7fd3ff';
       ctx.lineWidth = 2.5 * u;
       ctx.beginPath();
-      points.forEach(([px, py], k) => (k === 0 ? ctx.moveTo(sx + px, sy + py) : ctx.lineTo(sx + px, sy + py)));
+      // A gap in the data is a gap in the line, never a straight stroke across it.
+      points.forEach(([px, py], k) => (k === 0 || breaks.includes(k) ? ctx.moveTo(sx + px, sy + py) : ctx.lineTo(sx + px, sy + py)));
       ctx.stroke();
       if (points.length) {
         ctx.fillStyle = '#6f7a8e';

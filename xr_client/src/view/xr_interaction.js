@@ -10,6 +10,7 @@
 import * as THREE from 'three';
 import { ButtonEdge } from '../menu_state.js';
 import { SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../locomotion.js';
+import { goalVerdict, robotSpots } from '../goal_verdict.js';
 
 /** xr-standard index of the upper face button (Y on the left controller, B on the right). */
 export const MENU_BUTTON = 5;
@@ -26,7 +27,7 @@ export class XRInteraction {
    *   fleet: import('../fleet_model.js').FleetModel, picking: import('./picking.js').Picking,
    *   locomotion: import('./xr_session.js').XRSessionController, actions: import('../app.js').OperatorActions,
    *   inspect: import('./xr_inspection.js').XRInspection, estop: import('./estop_view.js').EstopView,
-   *   link: () => string}} host what the headset's interaction reads and drives, and nothing more
+   *   miniature: import('./miniature_view.js').MiniatureView, link: () => string}} host what the headset's interaction reads and drives, and nothing more
    */
   constructor(host) {
     this.host = host;
@@ -51,6 +52,13 @@ export class XRInteraction {
     this.lastRigYaw = 0;
     this.head = new THREE.Vector3();
     this.headYaw = 0;
+    /** Each slot's ray on the overview table this frame. @type {Map<number, THREE.Intersection>} */
+    this.wimHits = new Map();
+    /** The goal being placed was pressed on the overview table: it is dragged there too. */
+    this.goalViaWim = false;
+    /** Where the pointing hand meets the table, and what a press there would do (the table's cursor).
+     * @type {{point: {x: number, y: number}, verdict: import('../goal_verdict.js').GoalVerdict} | null} */
+    this.wimCursor = null;
   }
 
   /** @param {number} now ms @param {number} dt s */
@@ -90,6 +98,8 @@ export class XRInteraction {
     const robotsPickable = !menu.open && menu.mode === 'free_roam' && menu.tool !== 'goal';
     if (robotsPickable) targets.push(...host.picking.robotTargets());
     targets.push(...host.inspect.pickables());
+    if (!menu.open) targets.push(...host.miniature.pickables());
+    this.wimHits.clear();
     if (host.estop.button.mesh.parent) targets.push(host.estop.button.mesh);
     // A transient pointer (Vision Pro's gaze-and-pinch) disconnects right after its selectend: its slot
     // still has that event to hand over, at its last pose.
@@ -104,6 +114,10 @@ export class XRInteraction {
       if (first?.object === panel.mesh && first.uv) id = panel.buttonAtUv(first.uv);
       else if (first?.object === panel.tab) id = 'menu:tab';
       else if (first?.object === host.estop.button.mesh) id = 'estop';
+      else if (first && host.miniature.owns(first.object)) {
+        id = 'wim';
+        this.wimHits.set(slot.index, first);
+      }
       else if (first) id = robotOf(first.object) ?? host.inspect.idOf(first);
       if (!first) {
         const floor = host.inspect.floorAt(this.raycaster);
@@ -118,6 +132,9 @@ export class XRInteraction {
       this.#select(slot, id, hit);
     }
     host.inspect.setHover([...this.hover.values()]);
+    const onTable = input.active().find((slot) => this.wimHits.has(slot.index));
+    const at = onTable ? this.#wimAt(onTable) : null;
+    this.wimCursor = at ? { point: at.point, verdict: at.verdict } : null;
     host.estop.hover([...this.hover.values()].includes('estop'));
     const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && !h.startsWith('insp:') && h !== 'menu:tab') ?? null;
     panel.setTabHover([...this.hover.values()].includes('menu:tab'));
@@ -137,6 +154,7 @@ export class XRInteraction {
         this.lastPointer = slot;
         if (id === 'menu:tab') host.actions.toggleMenu();
         else if (id?.startsWith('pick:')) host.actions.selectRobot(id.slice(5));
+        else if (id === 'wim') this.#wimSelect(slot);
         else if (id?.startsWith('insp:')) {
           input.pulse(slot, 0.6, 30);
           host.inspect.select(id, hit);
@@ -145,12 +163,17 @@ export class XRInteraction {
           host.actions.pressMenu(id);
         } else if (this.#goalActive()) {
           this.#aimGoal(slot);
-          if (host.goalPointer.press()) this.goalSlot = slot;
+          // The arc on a robot selects it (it never becomes a goal into that robot); a refusal says why.
+          const verdict = host.goalPointer.verdict;
+          if (verdict?.kind === 'select') host.actions.selectRobot(verdict.robot);
+          else if (host.goalPointer.press()) this.goalSlot = slot;
+          else if (verdict?.kind === 'refused') input.pulse(slot, 0.3, 60);
         }
       } else if (slot === this.goalSlot) {
         this.#aimGoal(slot);
         const goal = host.goalPointer.release();
         this.goalSlot = null;
+        this.goalViaWim = false;
         if (goal) host.actions.sendGoal(goal);
       }
     }
@@ -169,9 +192,9 @@ export class XRInteraction {
       if (slot) this.#aimGoal(slot);
       else host.goalPointer.aim(null);
       const arc = slot ? this.lastArc : null;
-      host.goalView.setPointer(host.fleet.scene.mapToScene, host.goalPointer.marker, arc);
+      host.goalView.setPointer(host.fleet.scene.mapToScene, host.goalPointer.marker, arc, host.goalPointer.verdict);
     } else {
-      if (this.goalSlot) this.goalSlot = null;
+      if (this.goalSlot) [this.goalSlot, this.goalViaWim] = [null, false];
       host.goalPointer.cancel();
       host.goalPointer.aim(null);
       host.goalView.setPointer(host.fleet.scene.mapToScene, null, null);
@@ -250,12 +273,56 @@ export class XRInteraction {
   /** @type {[number, number, number][] | null} */
   lastArc = null;
 
+  /**
+   * What a slot's ray on the overview table means: the full-size map point and what a press would do there.
+   * @param {import('./xr_input.js').InputSlot} slot
+   */
+  #wimAt(slot) {
+    const host = this.host;
+    if (!this.wimHits.has(slot.index)) return null;
+    const { origin, direction } = host.xrInput.ray(slot);
+    const at = host.miniature.toTwin(origin, direction, host.fleet.scene.mapToScene);
+    if (!at) return null;
+    const floor = host.picking.isFloorAt(at.scene);
+    const verdict = goalVerdict({ point: at.point, floor }, { robots: robotSpots(host.fleet), selected: host.menu.selected, bounds: host.fleet.bounds });
+    return { ...at, floor, verdict };
+  }
+
+  /**
+   * A select on the overview table: a robot there is selected; with Goal on, a goal is placed (dragged on the
+   * table for its heading); otherwise the operator teleports there, into the full-size twin.
+   * @param {import('./xr_input.js').InputSlot} slot
+   */
+  #wimSelect(slot) {
+    const host = this.host;
+    const at = this.#wimAt(slot);
+    if (!at) return;
+    if (at.verdict.kind === 'select') host.actions.selectRobot(at.verdict.robot);
+    else if (this.#goalActive()) {
+      host.goalPointer.aim(at.point, at.verdict);
+      if (host.goalPointer.press()) [this.goalSlot, this.goalViaWim] = [slot, true];
+      else host.xrInput.pulse(slot, 0.3, 60);
+    } else if (at.floor) {
+      host.locomotion.teleportTo(at.scene, this.head);
+      host.rig.updateMatrixWorld(true);
+      host.miniature.place(host.camera);
+    } else host.xrInput.pulse(slot, 0.3, 60);
+  }
+
   /** @param {import('./xr_input.js').InputSlot} slot */
   #aimGoal(slot) {
+    const wim = this.#wimAt(slot);
+    if (wim || (this.goalViaWim && slot === this.goalSlot)) {
+      // On the table (or dragged off it while placing: the last point there holds).
+      if (wim) this.host.goalPointer.aim(wim.point, wim.verdict);
+      this.lastArc = null;
+      return;
+    }
     const { origin, direction } = this.host.xrInput.ray(slot);
-    const { points, hit } = this.host.picking.arcToFloor(origin, direction);
+    const { points, surface } = this.host.picking.arcToFloor(origin, direction);
     this.lastArc = points;
-    this.host.goalPointer.aim(hit ? this.host.picking.sceneToMapPoint(hit) : null);
+    const { point, verdict } = this.host.picking.verdictAt(surface, this.host.menu.selected);
+    this.host.goalPointer.aim(point, verdict);
   }
 
   #goalActive() {
@@ -308,7 +375,7 @@ function edgeOf(edges, index) {
 }
 
 /** Hovering these gives no haptic tick: robots, the twin's floor and the image (a tick per pixel would buzz). */
-const QUIET_HOVER = ['pick:', 'insp:floor', 'insp:image'];
+const QUIET_HOVER = ['pick:', 'insp:floor', 'insp:image', 'wim'];
 
 /** @param {THREE.Object3D | null} object */
 function robotOf(object) {

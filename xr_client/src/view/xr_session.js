@@ -65,14 +65,19 @@ export class XRSessionController {
     }
   }
 
-  /** Start standing at the south edge of the map, facing north (map +y), so the fleet is in front. */
+  /**
+   * Start where the relay says the most robots are in view (hello.vantage: a line of sight over the map, room to
+   * stand), facing them; without one (no map, no robot yet), at the south edge of the map facing north.
+   */
   placeAtStart() {
     const t = this.fleet.scene.mapToScene;
     const [minX, minY, maxX] = this.fleet.bounds ?? [-2, -2, 2];
-    const [x, , z] = mapToScene(t, (minX + maxX) / 2, minY + 0.3);
+    const start = this.fleet.vantage ?? { x: (minX + maxX) / 2, y: minY + 0.3, yaw: Math.PI / 2 };
+    const [x, , z] = mapToScene(t, start.x, start.y);
     this.appliedSeat = this.menu.seated ? SEATED_HEIGHT_OFFSET : 0;
     this.rig.position.set(x, this.appliedSeat + this.floorOffset, z);
-    this.rig.rotation.y = mapYawToScene(t, Math.PI / 2) - Math.PI / 2;
+    // The camera looks down its -z; a map yaw turns into the scene's yaw about +y, less the quarter turn between.
+    this.rig.rotation.y = mapYawToScene(t, start.yaw) - Math.PI / 2;
     this.camera.position.set(0, 0, 0);
     this.camera.quaternion.identity();
   }

@@ -1,0 +1,189 @@
+// @ts-check
+/**
+ * The overview in VR: a tabletop miniature of the twin (a world in miniature) in front of the operator, with the
+ * live robots on it as small arrows in their colours, and a cursor where a ray meets it. Pointing at it selects
+ * robots, sets goals and teleports into the full-size twin (XRInteraction carries those out); this view maps a
+ * ray's hit on it back to the map frame. The model shares the twin's geometry and materials (a clone of the
+ * node tree, not of its buffers), so it costs draw calls, not memory; robots are moved in place every frame,
+ * nothing is allocated per frame.
+ */
+import * as THREE from 'three';
+import { mapToScene, sceneToMap } from '../frames.js';
+import { verdictColour } from '../goal_verdict.js';
+
+/** The miniature's longest side, metres: a table the operator reaches across standing still. */
+const TABLE_SIZE = 0.8;
+/** Where the table stands: its near edge this far from the head, its top this far below the eyes (a standing
+ * operator's waist), and this far to the left of straight ahead. Straight ahead it stood in the way of every ray
+ * aimed at the floor within a few metres (the e2e test of the goal arc caught it): front-left, the right hand
+ * points past it at the full-size twin, and a turn of the head brings it into view. */
+const AHEAD = 0.45;
+const BELOW_EYES = 0.8;
+const LEFT = (45 * Math.PI) / 180;
+
+export class MiniatureView {
+  constructor() {
+    this.group = new THREE.Group();
+    this.group.name = 'miniature';
+    this.group.visible = false;
+    /** The twin at scale, centred on the table's origin. */
+    this.model = new THREE.Group();
+    this.group.add(this.model);
+    this.tableGeometry = new THREE.CylinderGeometry(1, 1, 1, 48);
+    this.tableMaterial = new THREE.MeshBasicMaterial({ color: '#10151f', transparent: true, opacity: 0.85 });
+    this.table = new THREE.Mesh(this.tableGeometry, this.tableMaterial);
+    this.table.name = 'miniature-table';
+    this.group.add(this.table);
+    this.arrowGeometry = new THREE.ConeGeometry(0.5, 1.4, 12).rotateZ(-Math.PI / 2); // points along +x
+    /** @type {Map<string, THREE.Mesh>} */
+    this.robots = new Map();
+    this.cursorGeometry = new THREE.RingGeometry(0.6, 1, 24).rotateX(-Math.PI / 2);
+    this.cursorMaterial = new THREE.MeshBasicMaterial({ color: '#ffffff', side: THREE.DoubleSide, depthTest: false });
+    this.cursor = new THREE.Mesh(this.cursorGeometry, this.cursorMaterial);
+    this.cursor.renderOrder = 25;
+    this.cursor.visible = false;
+    this.cursor.raycast = () => {};
+    this.model.add(this.cursor);
+    /** Scene units per miniature unit's inverse: model = (scene - centre) * scale. */
+    this.scale = 1;
+    this.centre = new THREE.Vector3();
+    /** The twin content the model was cloned from (rebuilt when the twin changes). @type {THREE.Object3D | null} */
+    this.source = null;
+    /** @type {THREE.Object3D | null} */
+    this.copy = null;
+    this.floorY = 0;
+    this.inverse = new THREE.Matrix4();
+  }
+
+  /**
+   * Follow the twin: a new scene (or the first one) is cloned at table scale.
+   * @param {import('./twin_view.js').TwinView} twin
+   */
+  setTwin(twin) {
+    if (twin.content === this.source) return;
+    this.source = twin.content;
+    this.copy?.removeFromParent();
+    this.copy = null;
+    if (!twin.content) return;
+    const box = new THREE.Box3().setFromObject(twin.content);
+    if (box.isEmpty()) return;
+    const size = box.getSize(new THREE.Vector3());
+    this.scale = TABLE_SIZE / Math.max(size.x, size.z, 1);
+    box.getCenter(this.centre);
+    this.floorY = twin.box.isEmpty() ? box.min.y : twin.box.min.y;
+    this.centre.y = this.floorY;
+    this.copy = twin.content.clone(true);
+    // The twin's own placement (its parent's is the identity) is kept: the copy sits where the twin does, scaled.
+    this.copy.matrixAutoUpdate = true;
+    this.model.add(this.copy);
+    this.model.scale.setScalar(this.scale);
+    this.model.position.copy(this.centre).multiplyScalar(-this.scale);
+    const radius = Math.hypot(size.x, size.z) * this.scale * 0.55;
+    this.table.scale.set(radius, 0.02, radius);
+    this.table.position.set(0, -0.011, 0);
+  }
+
+  /**
+   * Move the robots' arrows to where the full-size robots are drawn (their smoothed poses) and show the cursor.
+   * @param {Map<string, import('./robot_view.js').RobotView>} views
+   * @param {{x: number, y: number} | null} cursor a map point the pointer aims at on the table, or none
+   * @param {import('../goal_verdict.js').GoalVerdict | null} verdict what a press there would do
+   * @param {import('../frames.js').MapToScene} transform
+   */
+  update(views, cursor, verdict, transform) {
+    if (!this.group.visible) return;
+    for (const [name, view] of views) {
+      let arrow = this.robots.get(name);
+      if (!arrow) {
+        arrow = new THREE.Mesh(this.arrowGeometry, new THREE.MeshBasicMaterial({ color: view.colour }));
+        arrow.name = `miniature:${name}`;
+        // An arrow a robot's size would vanish at table scale: 0.8 m long in the twin's metres, 4 cm on the table.
+        arrow.scale.setScalar(0.6);
+        this.robots.set(name, arrow);
+        this.model.add(arrow);
+      }
+      arrow.visible = view.group.visible;
+      arrow.position.copy(view.group.position);
+      arrow.position.y = this.floorY + 0.3;
+      arrow.rotation.set(0, view.group.rotation.y, 0);
+    }
+    for (const [name, arrow] of this.robots) {
+      if (!views.has(name)) {
+        arrow.removeFromParent();
+        /** @type {THREE.Material} */ (arrow.material).dispose();
+        this.robots.delete(name);
+      }
+    }
+    this.cursor.visible = cursor !== null;
+    if (cursor) {
+      const [x, y, z] = mapToScene(transform, cursor.x, cursor.y, 0);
+      this.cursor.position.set(x, y + 0.15, z);
+      this.cursor.scale.setScalar(0.5);
+      this.cursorMaterial.color.set(verdictColour(verdict));
+    }
+  }
+
+  /** Put the table front-left of the operator, level, its north the twin's north. @param {THREE.Camera} camera */
+  place(camera) {
+    const head = camera.getWorldPosition(new THREE.Vector3());
+    const forward = camera.getWorldDirection(new THREE.Vector3());
+    forward.y = 0;
+    if (forward.lengthSq() < 1e-6) forward.set(0, 0, -1);
+    forward.normalize().applyAxisAngle(new THREE.Vector3(0, 1, 0), LEFT);
+    this.group.position.copy(head).addScaledVector(forward, AHEAD + TABLE_SIZE / 2);
+    this.group.position.y = head.y - BELOW_EYES;
+    this.group.updateMatrixWorld(true);
+  }
+
+  /** What a ray may meet on the table (the model's meshes; the table top counts as off the map). */
+  pickables() {
+    return this.group.visible && this.copy ? [this.copy] : [];
+  }
+
+  /** Whether a hit object is part of the miniature. @param {THREE.Object3D} object */
+  owns(object) {
+    for (let o = /** @type {THREE.Object3D | null} */ (object); o; o = o.parent) if (o === this.group) return true;
+    return false;
+  }
+
+  /**
+   * Where a ray pointing at the table points in the full-size twin: the ray meets the miniature's floor plane (not
+   * the first wall it grazes: the table is read as a map, and a robot just behind a miniature wall is still
+   * pointed at), taken back to the twin's scene and the map frame.
+   * @param {THREE.Vector3} origin @param {THREE.Vector3} direction the ray, world frame
+   * @param {import('../frames.js').MapToScene} transform
+   * @returns {{point: {x: number, y: number}, scene: THREE.Vector3} | null} null when it points away from it
+   */
+  toTwin(origin, direction, transform) {
+    this.model.updateWorldMatrix(true, false);
+    this.inverse.copy(this.model.matrixWorld).invert();
+    const o = origin.clone().applyMatrix4(this.inverse);
+    const d = direction.clone().transformDirection(this.inverse);
+    if (d.y >= -1e-6) return null;
+    const t = (this.floorY - o.y) / d.y;
+    if (t <= 0) return null;
+    const scene = o.addScaledVector(d, t);
+    const [x, y] = sceneToMap(transform, scene.x, scene.y, scene.z);
+    return { point: { x, y }, scene };
+  }
+
+  /**
+   * Where a map point is on the table, in the world (tests aim the emulated controllers there).
+   * @param {number} x @param {number} y @param {import('../frames.js').MapToScene} transform
+   */
+  worldPoint(x, y, transform) {
+    this.model.updateWorldMatrix(true, false);
+    const [sx, sy, sz] = mapToScene(transform, x, y, 0);
+    return this.model.localToWorld(new THREE.Vector3(sx, sy, sz)).toArray();
+  }
+
+  dispose() {
+    this.group.removeFromParent();
+    this.tableGeometry.dispose();
+    this.tableMaterial.dispose();
+    this.arrowGeometry.dispose();
+    for (const arrow of this.robots.values()) /** @type {THREE.Material} */ (arrow.material).dispose();
+    this.cursorGeometry.dispose();
+    this.cursorMaterial.dispose();
+  }
+}
