@@ -161,12 +161,13 @@ def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
 
 
 async def relay_process(
-    *args: str, stderr: int = asyncio.subprocess.DEVNULL, **options: Any
+    *args: str, stderr: int = asyncio.subprocess.DEVNULL, port: int = 0, **options: Any
 ) -> tuple[asyncio.subprocess.Process, str]:
-    """``python -m relay ARGS --port 0`` in a process of its own (this environment, so this test's ROS domain);
-    returns it and the base URL it printed (``http://127.0.0.1:P``). ``options`` go to create_subprocess_exec."""
+    """``python -m relay ARGS --port PORT`` (default 0: any free one) in a process of its own (this environment, so
+    this test's ROS domain); returns it and the base URL it printed (``http://127.0.0.1:P``). ``options`` go to
+    create_subprocess_exec."""
     process = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", *args, "--port", "0", cwd=ROOT, stdout=asyncio.subprocess.PIPE,
+        sys.executable, "-m", "relay", *args, "--port", str(port), cwd=ROOT, stdout=asyncio.subprocess.PIPE,
         stderr=stderr, env=dict(os.environ), **options,
     )  # fmt: skip
     assert process.stdout is not None

@@ -4,10 +4,18 @@ relay's side. Screenshots go to test-artifacts/ (and docs/img with XR_RELAY_DOC_
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import signal
 import time
+from pathlib import Path
 
-from .conftest import OpenClient, Station, wait_until
+from playwright.async_api import Browser
+
+from tests.conftest import relay_process
+
+from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
 from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu
 
@@ -245,3 +253,53 @@ async def test_vr_starts_seeing_the_fleet_and_sends_robot1_to_chemical_storage_f
     await client.frames(4)
     await client.shot("12-goal-from-the-overview", "vr-overview-goal.png")
     assert client.errors == [], client.errors
+
+
+async def test_a_frozen_relay_shows_old_data_as_old_and_a_restart_says_reconnected(
+    browser: Browser, tmp_path: Path
+) -> None:
+    args = ("--token", "t", "--audit-log", "", "--database", str(tmp_path / "inspection.sqlite"))
+    relay, base = await relay_process(*args)
+    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+    client = Client(page, "stale")
+    try:
+        await page.goto(f"{base}/?{SOFTWARE_GL}#token=t")
+        await client.wait("s.connected && Object.keys(s.robots).length === 3 && s.twin.state !== 'loading'", 30)
+        await page.click('#menu button[data-button="robot:robot1"]')
+        await client.wait("s.panel.sensors.length === 3 && s.panel.sensors.every((x) => x.value !== null)", 20)
+        live = await client.state()
+        assert not any(r["stale"] for r in live["robots"].values())
+
+        # Frozen: the link stays open, nothing comes. Robots and readings turn grey with their age, not "live".
+        os.kill(relay.pid, signal.SIGSTOP)
+        s = await client.wait(
+            "Object.values(s.robots).every((r) => r.stale) && s.panel.sensors.every((x) => x.stale) && s", 10
+        )
+        await client.wait("document.querySelector('#link-status').textContent.includes('no answer for')", 10)
+        label = s["robots"]["robot1"]["label"]
+        assert "was idle" in label and ("no pose for" in label or "relay silent" in label), label
+        await client.drawn(2)
+        await client.shot("01-frozen-relay", "stale.png")
+        # The page gives up on the silent socket (no pong in 6 s) and says the connection is lost.
+        await client.wait(
+            "!s.connected && Object.values(s.robots).every((r) => r.stale.startsWith('connection lost'))", 20
+        )
+        relay.kill()
+        await relay.wait()
+
+        # A relay on the same address again: the page reconnects, says so, and shows the fleet live again; the
+        # sparklines keep the hole where nothing came.
+        relay, _ = await relay_process(*args, port=int(base.rsplit(":", 1)[1]))
+        await client.wait("s.connected && Object.values(s.robots).every((r) => !r.stale)", 40)
+        await client.wait("document.querySelector('#message').textContent.startsWith('Reconnected')", 10)
+        s = await client.wait("s.panel.sensors.every((x) => !x.stale && x.gaps >= 1) && s", 20)
+        await client.shot("02-reconnected")
+        # The browser logs the attempts made while nothing listened; nothing else went wrong.
+        assert [e for e in client.errors if "ERR_CONNECTION_REFUSED" not in e] == [], client.errors
+    finally:
+        await page.close()
+        if relay.returncode is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(relay.pid, signal.SIGCONT)
+            relay.kill()
+            await relay.wait()

@@ -35,6 +35,7 @@ import { XRInspection } from './view/xr_inspection.js';
 import { FindingCard } from './view/finding_card.js';
 import { VRHud } from './view/vr_hud.js';
 import { estopBanner } from './estop_banner.js';
+import { formatSilence } from './freshness.js';
 import { XRSessionController } from './view/xr_session.js';
 import { Picking } from './view/picking.js';
 import { DesktopControls } from './view/desktop_controls.js';
@@ -505,8 +506,8 @@ export class App {
     const dt = Math.min(0.1, (start - this.lastFrame) / 1000);
     this.lastFrame = start;
     const eye = this.camera.getWorldPosition(new THREE.Vector3());
-    const linkStale = this.router.linkStale(this.linkOk, start);
-    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, linkStale });
+    const link = !this.linkOk ? 'lost' : this.router.linkStale(true, start) ? 'quiet' : 'live';
+    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, link });
     this.goalView.update(this.fleet, this.goals, start, this.router.paths);
     if (this.presenting) {
       this.interaction.update(start, dt);
@@ -540,7 +541,9 @@ export class App {
   /** What the wrist and corner sensor panels show. @param {number} now */
   sensorPanelData(now) {
     const age = { freshness: this.router.freshness, linkStale: this.router.linkStale(this.linkOk, now) };
-    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText, ok: this.linkOk }, now, this.inspectionUi.progress(this.menu.selected), age);
+    // An open socket that brings nothing is not a working link: say how long the relay has been silent.
+    const quiet = age.linkStale && this.linkOk ? ` · no answer for ${formatSilence(now - this.router.lastMessage)}` : '';
+    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText + quiet, ok: this.linkOk && !quiet }, now, this.inspectionUi.progress(this.menu.selected), age);
   }
 
   /** The POV panel's caption. */

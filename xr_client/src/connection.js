@@ -115,22 +115,7 @@ export class RelayConnection extends EventTarget {
     });
     let opened = false;
     socket.addEventListener('open', () => { opened = true; });
-    socket.addEventListener('close', async () => {
-      if (socket !== this.socket) return;
-      this.socket = null;
-      if (this.disposed) return;
-      const delay = this.policy.closed(this.now());
-      this.#status();
-      // A handshake that failed may have been refused (a stale token): ask why before knocking again.
-      const reason = opened ? null : await this.refusal();
-      if (this.disposed || this.socket !== null) return;
-      if (reason) {
-        this.policy.refused(reason);
-        this.#status();
-        return;
-      }
-      this.retryTimer = setTimeout(() => this.connect(), delay);
-    });
+    socket.addEventListener('close', () => this.#lost(socket, opened));
     if (this.pingTimer === undefined) {
       this.pingTimer = setInterval(() => this.#ping(), PING_PERIOD_MS);
     }
@@ -142,12 +127,36 @@ export class RelayConnection extends EventTarget {
       this.#status(); // the countdown moves
       return;
     }
-    if (this.policy.stale(this.now())) {
-      // The relay went silent without a close (Wi-Fi dropped): give up on this socket and reconnect.
-      this.socket?.close();
+    if (this.policy.stale(this.now()) && this.socket) {
+      // The relay went silent without a close (Wi-Fi dropped, a frozen relay): give up on this socket and reconnect
+      // now. Its close handshake cannot finish while the other side is silent: the link is lost from this moment.
+      const socket = this.socket;
+      socket.close();
+      this.#lost(socket, true);
       return;
     }
     this.send({ identifier: 'ping', t: this.now() }, false);
+  }
+
+  /**
+   * A socket is gone (closed, or given up on): the link is down, and a new one is tried after the policy's delay.
+   * @param {WebSocket} socket @param {boolean} opened whether its handshake had succeeded
+   */
+  async #lost(socket, opened) {
+    if (socket !== this.socket) return;
+    this.socket = null;
+    if (this.disposed) return;
+    const delay = this.policy.closed(this.now());
+    this.#status();
+    // A handshake that failed may have been refused (a stale token): ask why before knocking again.
+    const reason = opened ? null : await this.refusal();
+    if (this.disposed || this.socket !== null) return;
+    if (reason) {
+      this.policy.refused(reason);
+      this.#status();
+      return;
+    }
+    this.retryTimer = setTimeout(() => this.connect(), delay);
   }
 
   #status() {

@@ -44,9 +44,10 @@ export class FleetView {
    * @param {number} now
    * @param {{fleet: import('../fleet_model.js').FleetModel, smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
-   *   freshness: import('../freshness.js').Freshness, linkStale: boolean}} state
+   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost'}} state `link`: the relay
+   *   answers, is silent on an open socket, or the socket is gone
    */
-  update(now, { fleet, smoothers, history, selected, eye, freshness, linkStale }) {
+  update(now, { fleet, smoothers, history, selected, eye, freshness, link }) {
     const t = fleet.scene.mapToScene;
     for (const [name, view] of this.views) {
       const entry = fleet.robots.get(name);
@@ -61,7 +62,8 @@ export class FleetView {
       const controller = status?.controller ? (status.controller === fleet.clientId ? 'you' : status.controller) : '';
       // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
       const silent = freshness.age(name, now);
-      const stale = linkStale ? `connection lost${silent !== null ? ` · ${formatSilence(silent)}` : ''}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
+      const since = silent !== null ? ` · ${formatSilence(silent)}` : '';
+      const stale = link === 'lost' ? `connection lost${since}` : link === 'quiet' ? `relay silent${since}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
       view.setStatus({
         name,
         mode: status?.mode ?? 'unknown',

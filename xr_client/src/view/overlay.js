@@ -124,6 +124,7 @@ export class Overlay {
       this.povPanel.hidden = menu.mode !== 'pov';
     }
     const data = this.host.sensorPanelData(now);
+    if (data.link !== this.status.textContent) this.setLink(data.link, data.linkOk);
     const sensorKey = `${data.robot}|${data.status}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
     if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
       this.sensorKey = sensorKey;

@@ -54,9 +54,9 @@ export function drawSensorPanel(ctx, width, height, data) {
     fitText(ctx, `${value} ${s.unit}`, 20 * u, y + rowHeight * 0.68, 170 * u, 26 * u, 700);
     if (s.stale) {
       ctx.fillStyle = '#ffb020';
-      fitText(ctx, s.stale, 120 * u, y + rowHeight * 0.3, 90 * u, 15 * u, 600);
+      fitText(ctx, `no reading · ${s.stale}`, 222 * u, y + rowHeight * 0.3, 160 * u, 15 * u, 600);
     }
-    if (s.warning) {
+    if (s.warning && !s.stale) {
       warningIcon(ctx, 205 * u, y + rowHeight * 0.3, 22 * u);
       ctx.textAlign = 'left';
       ctx.textBaseline = 'middle';

@@ -51,6 +51,7 @@ export function snapshotState(app) {
       points: app.presenting && app.hud.estop.button.mesh.parent ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() } : {},
     },
     camera: app.camera.position.toArray(),
+    panel: panelState(app),
     overview: { visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale },
     paths: Object.fromEntries([...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0])),
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
@@ -82,6 +83,16 @@ export function snapshotState(app) {
     timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles },
+  };
+}
+
+/** What the sensor panels show: each reading, whether it is old (and how old), and the gaps in its sparkline. @param {import('../app.js').App} app */
+function panelState(app) {
+  const data = app.sensorPanelData(performance.now());
+  const robot = data.robot;
+  return {
+    robot,
+    sensors: data.sensors.map((x) => ({ name: x.name, value: x.value, stale: x.stale ?? null, gaps: robot ? app.history.breaks(robot, x.name).length : 0 })),
   };
 }
 
