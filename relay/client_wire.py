@@ -69,6 +69,12 @@ class EstopCommand(TypedDict):
     action: NotRequired[Literal["stop", "reset"]]
 
 
+class NameCommand(TypedDict):
+    identifier: Literal["name"]
+    id: RequestId
+    name: str
+
+
 class PingCommand(TypedDict):
     identifier: Literal["ping"]
     t: float
@@ -100,6 +106,7 @@ ClientMessage: TypeAlias = (
     | LeaseCommand
     | EstopCommand
     | PingCommand
+    | NameCommand
     | PlaybackCommand
     | PlaybackSeekCommand
     | PlaybackRateCommand

@@ -30,6 +30,8 @@ class Client:
     channel: Channel
     allowance: TokenBucket
     address: str | None = None
+    #: The name the client gave (``name``), shown to other operators instead of its id; None until it gives one.
+    name: str | None = None
     #: Commands that outlive their frame (snapshots), cancelled when the client goes.
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
     #: The client's clock as its ``cmd_vel.t`` stamps show it: how long each command took to reach the relay.

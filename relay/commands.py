@@ -39,6 +39,7 @@ from .protocol import (
     GoalPose,
     InspectionCommands,
     Lease,
+    Name,
     Ping,
     Playback,
     RequestId,
@@ -69,6 +70,8 @@ class CommandHandler:
     wall_clock: Callable[[], float] = time.time
     snapshots: SnapshotBudget = field(default_factory=SnapshotBudget)
     inspection: Inspection | None = None  # relay.core sets it
+    #: Every connected client by id (relay.core's own dict): the names of the ``operators`` roster.
+    clients: Mapping[str, Client] = field(default_factory=dict)
 
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
@@ -184,6 +187,14 @@ class CommandHandler:
         elif isinstance(command, Lease):
             await self.control.lease(client, command, now)
             self.outbox.ack(client, command.id)
+        elif isinstance(command, Name):
+            client.name = command.name
+            self.outbox.ack(client, command.id)
+            self.outbox.operators(self.roster())
+
+    def roster(self) -> dict[str, str]:
+        """Client id -> name, of the connected clients that gave one."""
+        return {cid: c.name for cid, c in self.clients.items() if c.name is not None}
 
     def _require_record(self, identifier: str, request_id: RequestId | None) -> None:
         """A relay that cannot keep its record moves no robot (stops, estop included, still go through)."""

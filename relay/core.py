@@ -55,6 +55,7 @@ from .messages import (
     backend_message,
     encode,
     nav_message,
+    operators_message,
     path_message,
     playback_message,
     scan_message,
@@ -122,6 +123,7 @@ class Relay:
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
         self.started_at = clock()
         self._clients: dict[str, Client] = {}
+        self.commands.clients = self._clients
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
         self._playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
@@ -181,6 +183,7 @@ class Relay:
         client = Client(client_id, role, channel, allowance, address)
         self._clients[client_id] = client
         channel.put_priority(encode(self.hello(client)))
+        channel.put_priority(encode(operators_message(self.commands.roster())))
         self.inspection.on_connect(client)
         logger.info("client %s connected as %s", client_id, role)
         return client
@@ -195,6 +198,8 @@ class Relay:
 
     async def _drop_client(self, client: Client) -> None:
         self._clients.pop(client.client_id, None)
+        if client.name is not None:
+            self.outbox.operators(self.commands.roster())
         client.cancel_tasks()
         self.commands.snapshots.forget(client.client_id)
         self.audit.forget(client.client_id)

@@ -137,6 +137,11 @@ class PathMessage(TypedDict):
     points: list[list[float]]
 
 
+class OperatorsMessage(TypedDict):
+    identifier: Literal["operators"]
+    names: dict[str, str]
+
+
 class RobotState(TypedDict):
     pose: PoseMessage | None
     sensors: dict[str, SensorMessage]
@@ -258,6 +263,7 @@ ServerMessage = (
     | MissionMessage
     | FindingMessage
     | RegionMessage
+    | OperatorsMessage
 )
 
 #: The messages of a client's state lane (relay/hub.py): a slow client gets only the newest of each coalescing key.
@@ -373,6 +379,11 @@ def path_message(robot: str, points: Sequence[tuple[float, float]]) -> PathMessa
         step = (len(points) - 1) / (MAX_PATH_POINTS - 1)
         points = [points[round(i * step)] for i in range(MAX_PATH_POINTS)]
     return {"identifier": robot_identifier(robot, "path"), "points": [[round(x, 2), round(y, 2)] for x, y in points]}
+
+
+def operators_message(names: Mapping[str, str]) -> OperatorsMessage:
+    """Who is connected by name: client id -> the name it gave (clients without one are left out)."""
+    return {"identifier": "operators", "names": dict(sorted(names.items()))}
 
 
 def scan_message(

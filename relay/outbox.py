@@ -9,6 +9,7 @@ are latest-value state.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 
 from .clients import Client
 from .fleet import FleetState
@@ -22,6 +23,7 @@ from .messages import (
     error_message,
     estop_message,
     lease_message,
+    operators_message,
     state_key,
 )
 from .protocol import RequestId
@@ -66,6 +68,9 @@ class Outbox:
 
     def estop(self, robots: list[str], by: str | None, *, latched: bool = True) -> None:
         self.hub.broadcast_priority(encode(estop_message(robots, by, latched=latched)))
+
+    def operators(self, names: Mapping[str, str]) -> None:
+        self.hub.broadcast_priority(encode(operators_message(names)))
 
     def backend(self, name: str, failure: str | None) -> None:
         self.hub.broadcast_priority(encode(backend_message(name, failure)))

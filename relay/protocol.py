@@ -92,6 +92,7 @@ CLIENT_ROBOT_KINDS: Final = ("goal_pose", "cmd_vel", "cancel", "snapshot", "stre
 CLIENT_GLOBAL_KINDS: Final = (
     "estop",
     "ping",
+    "name",
     "playback/pause",
     "playback/resume",
     "playback/seek",
@@ -128,7 +129,13 @@ MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
 SERVER_GLOBAL_KINDS: Final = (
     "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region",
+    "operators",
 )  # fmt: skip
+#: Longest operator name (``name``): a person's name or a call sign.
+MAX_NAME_LENGTH: Final = 40
+#: Letters of any script, digits, spaces and . _ - ': nothing that could pass for markup or a control character
+#: in another operator's label.
+NAME_PATTERN: Final = re.compile(r"^[^\W][\w .'-]*$")
 
 Role = Literal["operator", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
@@ -223,6 +230,14 @@ class EStop:
 @dataclass(frozen=True, slots=True)
 class Ping:
     t: float
+
+
+@dataclass(frozen=True, slots=True)
+class Name:
+    """The name this client goes by, shown to other operators instead of its connection id."""
+
+    id: RequestId
+    name: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -382,6 +397,8 @@ def command_identifier(command: Command) -> str:
         return "ping"
     if isinstance(command, EStop):
         return "estop"
+    if isinstance(command, Name):
+        return "name"
     if isinstance(command, Playback):
         return f"playback/{command.action}"
     if isinstance(command, InspectionCommands):
@@ -421,6 +438,19 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
             )
         return EStop(id=rid, robot=robot, action=action)
 
+    if identifier == "name":
+        rid = _request_id(obj, required=True)
+        assert rid is not None
+        raw = _string(obj, "name", identifier, required=True)
+        name = " ".join((raw or "").split())
+        if not name or len(name) > MAX_NAME_LENGTH or not NAME_PATTERN.match(name):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST,
+                f"name: {_show(raw)} cannot be a name: letters, digits, spaces and . _ - ' only, "
+                f"1 to {MAX_NAME_LENGTH} characters",
+                rid,
+            )
+        return Name(id=rid, name=name)
     if identifier in ("playback/pause", "playback/resume", "playback/seek", "playback/rate"):
         rid = _request_id(obj, required=True)
         assert rid is not None
@@ -506,6 +536,6 @@ from .inspection.wire import (  # noqa: E402
 
 InspectionCommands: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
 Command: TypeAlias = (
-    GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Playback | Lease
+    GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Name | Playback | Lease
     | MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
 )  # fmt: skip

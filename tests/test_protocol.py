@@ -20,6 +20,7 @@ from relay.messages import (
     lease_message,
     model_message,
     nav_message,
+    operators_message,
     path_message,
     playback_message,
     pong_message,
@@ -35,6 +36,7 @@ from relay.protocol import (
     CmdVel,
     EStop,
     GoalPose,
+    Name,
     Ping,
     Playback,
     Snapshot,
@@ -147,6 +149,17 @@ def test_nav_and_path_bytes() -> None:
     assert (
         len(long["points"]) == MAX_PATH_POINTS and long["points"][0] == [0.0, 0.0] and long["points"][-1] == [50.0, 0.0]
     )
+
+
+def test_operators_bytes_and_the_name_rule() -> None:
+    assert encode(operators_message({"c2-77b01e": "Ben", "c1-3f2a9c": "Zoë O'Neil"})) == (
+        '{"identifier":"operators","names":{"c1-3f2a9c":"Zoë O\'Neil","c2-77b01e":"Ben"}}'.encode()
+    )
+    assert parse_command('{"identifier":"name","id":1,"name":"  Ana   Lopez "}', ROBOTS) == Name(id=1, name="Ana Lopez")
+    for bad in ('"<b>Ana</b>"', '""', '"   "', '"' + "a" * 41 + '"', '"Ops (night)"', "7", '"\\u0007bell"'):
+        with pytest.raises(ProtocolError) as info:
+            parse_command('{"identifier":"name","id":2,"name":' + bad + "}", ROBOTS)
+        assert info.value.code == "bad_request" and info.value.request_id == 2, bad
 
 
 def test_lease_model_backend_bytes() -> None:

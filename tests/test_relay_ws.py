@@ -465,3 +465,23 @@ async def test_an_invalid_utf8_text_frame_closes_with_1007_as_rfc6455_and_the_do
     await other.send({"identifier": "ping", "t": 2.0})
     assert (await other.wait_for(lambda m: m["identifier"] == "pong"))["t"] == 2.0
     await other.close()
+
+
+async def test_operators_are_named_for_everyone_and_forgotten_when_they_leave(relay_server: RunningRelay) -> None:
+    ana = await client_of(relay_server)
+    ben = await client_of(relay_server)
+    ana_id = (await ana.hello())["client_id"]
+    reply = await ana.request({"identifier": "name", "name": "Ana"})
+    assert reply["identifier"] == "ack"
+    roster = await ben.wait_for(lambda m: m["identifier"] == "operators" and m["names"])
+    assert roster["names"] == {ana_id: "Ana"}
+    refused = await ben.request({"identifier": "name", "name": "<script>"})
+    assert refused["code"] == "bad_request" and "cannot be a name" in refused["message"]
+    # A client that connects now learns the names right after its hello.
+    carl = await client_of(relay_server)
+    await carl.wait_for(lambda m: m["identifier"] == "operators" and m["names"] == {ana_id: "Ana"})
+    start = len(ben.messages)
+    await ana.close()
+    await ben.wait_for(lambda m: m["identifier"] == "operators" and m["names"] == {}, start=start)
+    await ben.close()
+    await carl.close()

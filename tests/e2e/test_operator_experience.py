@@ -303,3 +303,53 @@ async def test_a_frozen_relay_shows_old_data_as_old_and_a_restart_says_reconnect
                 os.kill(relay.pid, signal.SIGCONT)
             relay.kill()
             await relay.wait()
+
+
+async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent(
+    station: Station, open_client: OpenClient
+) -> None:
+    ana = await open_client(f"{station.url}/?name=Ana", "lease-ana")
+    ben = await open_client(station.url, "lease-ben")
+    # Ben is asked once, in the page (not modal: the station stays usable meanwhile), and remembered.
+    await ben.page.wait_for_selector("#name-dialog[open]")
+    assert not await ana.page.is_visible("#name-dialog"), "a name from the address is not asked again"
+    await ben.page.fill("#name-dialog input", "Ben")
+    await ben.page.click("#name-dialog button[value=ok]")
+    await wait_until(
+        lambda: sorted(station.running.relay.commands.roster().values()) == ["Ana", "Ben"], 10, "both named"
+    )
+    assert await ben.page.evaluate("() => localStorage.getItem('xr-relay-operator-name')") == "Ben"
+
+    # Ana sends robot1 down the corridor: Ben reads "Ana" on it, Teleop is off for him, Take over is offered.
+    for page, robot in ((ana.page, "robot1"), (ben.page, "robot1")):
+        await page.click(f'#menu button[data-button="robot:{robot}"]')
+    await ana.page.click('#menu button[data-button="tool:goal"]')
+    px, py = await ana.page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [6.0, 2.0])
+    await ana.page.mouse.click(px, py)
+    await wait_until(lambda: station.status("robot1")["mode"] == "navigating", 10, "robot1 navigating for Ana")
+    await ben.wait("s.robots.robot1.label.includes('navigating · Ana')", 10)
+    s = await ben.wait("s.menu.buttons.some((b) => b.id === 'lease:take') && s", 10)
+    teleop = next(b for b in s["menu"]["buttons"] if b["id"] == "tool:teleop")
+    assert teleop["label"] == "Teleop (held by Ana)" and teleop["enabled"] is False
+    assert next(b for b in s["menu"]["buttons"] if b["id"] == "lease:take")["label"] == "Take over from Ana"
+
+    # Ben's Goal click on the floor says what it will do, and the in-page dialog takes over and sends the goal.
+    await ben.page.click('#menu button[data-button="tool:goal"]')
+    px, py = await ben.page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [3.0, 6.0])
+    await ben.page.mouse.move(px, py)
+    goal = await ben.wait("s.goal.verdict && s.goal.verdict.kind === 'takeover' && s.goal", 10)
+    assert goal["verdict"]["holder"] == "Ana" and goal["colour"] == "#ffb020"
+    await ben.page.mouse.click(px, py)
+    await ben.page.wait_for_selector("#takeover-dialog[open]")
+    text = await ben.page.inner_text("#takeover-dialog p")
+    assert text.startswith("robot1 is controlled by Ana. Take it over? It stops first"), text
+    await ben.shot("01-take-over-dialog", "takeover.png")
+    await ben.page.click('#takeover-dialog button[value="take"]')
+    ben_id = (await ben.state())["clientId"]
+    await wait_until(lambda: station.status("robot1")["controller"] == ben_id, 10, "robot1 held by Ben")
+    await wait_until(
+        lambda: (g := station.status("robot1")["goal"]) is not None and abs(g["y"] - 6.0) < 0.3, 10, "Ben's goal"
+    )
+    await ana.wait("document.querySelector('#message').textContent === 'robot1 was taken over by Ben'", 10)
+    await ana.wait("s.robots.robot1.label.includes('Ben')", 10)
+    assert ana.errors == [] and ben.errors == [], (ana.errors, ben.errors)

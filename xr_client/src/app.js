@@ -13,7 +13,6 @@ import * as THREE from 'three';
 import { operatorToken, pageConnection } from './connection.js';
 import { InspectionUi } from './view/inspection_ui.js';
 import { FleetModel } from './fleet_model.js';
-import { sensorPanel } from './sensor_panel.js';
 import { MenuState } from './menu_state.js';
 import { MessageRouter } from './message_router.js';
 import { CommandSender } from './command_sender.js';
@@ -34,13 +33,15 @@ import { XRInteraction } from './view/xr_interaction.js';
 import { XRInspection } from './view/xr_inspection.js';
 import { FindingCard } from './view/finding_card.js';
 import { VRHud } from './view/vr_hud.js';
+import { OperatorUi } from './view/operator_ui.js';
+import { displayName } from './operator_names.js';
 import { estopBanner } from './estop_banner.js';
-import { formatSilence } from './freshness.js';
 import { XRSessionController } from './view/xr_session.js';
 import { Picking } from './view/picking.js';
 import { DesktopControls } from './view/desktop_controls.js';
 import { Overlay } from './view/overlay.js';
 import { snapshotState } from './view/state_snapshot.js';
+import { povCaption, sensorPanelData } from './view/captions.js';
 import { FrameTimer } from './frame_timer.js';
 
 const TIMING_SAMPLES = 1200;
@@ -51,7 +52,8 @@ const UNBUILT = /** @type {any} */ (null);
  * What the operator can do, as the views call it: the only way a view acts on the station.
  * @typedef {{toggleMenu: () => void, pressMenu: (id: string) => void, selectRobot: (name: string) => void,
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
- *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string) => void}} OperatorActions
+ *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string) => void,
+ *   offerTakeOver: (goal: import('./command_sender.js').Goal) => void}} OperatorActions
  */
 
 export class App {
@@ -93,6 +95,7 @@ export class App {
   /** @type {FindingCard} */ findingCard = UNBUILT;
   /** @type {XRInspection} */ xrInspection = UNBUILT;
   /** @type {VRHud} */ hud = UNBUILT;
+  /** @type {OperatorUi} */ operatorUi = UNBUILT;
   /** @type {Overlay} */ overlay = UNBUILT;
   /** @type {DesktopControls} */ desktop = UNBUILT;
 
@@ -125,6 +128,7 @@ export class App {
       driveStick: (source, x, y) => this.#driveStick(source, x, y),
       enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
       say: (text) => this.#notify(text, 'info', false),
+      offerTakeOver: (goal) => this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
     };
     this.#buildScene(options);
     this.#buildViews(container);
@@ -185,6 +189,7 @@ export class App {
     this.menuPanel = new MenuPanel();
     this.scene.add(this.menuPanel.mesh, this.menuPanel.tab);
     this.hud = new VRHud(this.camera, this.scene);
+    this.operatorUi = new OperatorUi({ sender: this.sender, storage: window.localStorage, params: new URLSearchParams(location.search), presenting: () => this.presenting, sendGoal: (robot, goal) => this.#goalFor(robot, goal) });
     this.hemisphere = new HemisphereScreen(640, 640);
     this.scene.add(this.hemisphere.group);
     this.decoder = new FrameDecoder(
@@ -202,7 +207,7 @@ export class App {
       locomotion: this.xrSession,
       link: () => this.linkText,
     });
-    this.overlay = new Overlay({ menu, actions, sensorPanelData: (now) => this.sensorPanelData(now), povText: () => this.povText() });
+    this.overlay = new Overlay({ menu, actions, sensorPanelData: (now) => this.sensorPanelData(now), povText: () => povCaption(this) });
     const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting };
     this.desktop = new DesktopControls(host, container, this.overlay.povPanel);
   }
@@ -292,6 +297,9 @@ export class App {
         break;
       case 'goal_state':
         if (effect.robot === this.menu.selected) this.menu.setGoalActive(effect.active);
+      // falls through: a status may also say who holds the robot now
+      case 'names':
+        this.#syncHolder();
         break;
       case 'estop_state': {
         this.menu.setLatched(effect.latched);
@@ -304,9 +312,11 @@ export class App {
         // A strong pulse on the wrist that carries the panel.
         this.xrInput.pulse(this.xrInput.side('left'), 0.9, 250);
         break;
-      case 'offer_takeover':
-        queueMicrotask(() => this.#offerTakeOver(effect.robot, effect.text));
+      case 'offer_takeover': {
+        const holder = displayName(this.fleet.robot(effect.robot)?.status?.controller, this.fleet.names, this.fleet.clientId);
+        this.operatorUi.offer(effect.robot, holder || 'another operator', effect.goal);
         break;
+      }
       case 'inspection':
         this.inspectionUi.update(this.menu);
         break;
@@ -329,16 +339,13 @@ export class App {
     const robots = [...this.fleet.robots.values()].map((r) => ({ name: r.description.name, hasCamera: (r.description.cameras ?? []).length > 0 }));
     this.#apply(this.menu.setFleet(robots, operator));
     this.#syncSelection();
+    this.operatorUi.hello(operator);
   }
 
-  /**
-   * A command refused because another operator holds the robot: offer to take it over (an explicit,
-   * visible act: the relay stops the robot first and tells the holder). Outside VR only: a browser dialog.
-   * @param {string} robot @param {string} text
-   */
-  #offerTakeOver(robot, text) {
-    if (this.presenting) return;
-    if (globalThis.confirm?.(`${text}\n\nTake over ${robot}? It will be stopped first.`)) this.sender.takeOver(robot);
+  /** Who holds the selected robot, when not this operator: the menu turns Teleop off for it and offers Take over. */
+  #syncHolder() {
+    const controller = this.fleet.robot(this.menu.selected)?.status?.controller;
+    this.menu.setHolder(controller && controller !== this.fleet.clientId ? displayName(controller, this.fleet.names, this.fleet.clientId) : null);
   }
 
   /**
@@ -354,8 +361,11 @@ export class App {
 
   /** @param {import('./command_sender.js').Goal} goal */
   #sendGoal(goal) {
-    const robot = this.menu.selected;
-    if (!robot || this.menu.tool !== 'goal') return;
+    if (this.menu.selected && this.menu.tool === 'goal') this.#goalFor(this.menu.selected, goal);
+  }
+
+  /** @param {string} robot @param {import('./command_sender.js').Goal} goal */
+  #goalFor(robot, goal) {
     const id = this.sender.goal(robot, goal);
     if (id) this.goals.sent(robot, goal, id, performance.now());
   }
@@ -415,6 +425,9 @@ export class App {
         case 'cancel':
           this.sender.cancel(effect.robot);
           break;
+        case 'takeover':
+          this.operatorUi.offer(effect.robot, effect.holder, null);
+          break;
         case 'estop':
           this.teleop.stop(performance.now());
           this.sender.estop(effect.robot);
@@ -432,6 +445,7 @@ export class App {
   /** The selected robot's camera feeds the POV screen; its teleop limits apply. */
   #syncSelection() {
     this.menu.setGoalActive(Boolean(this.fleet.robot(this.menu.selected)?.status?.goal));
+    this.#syncHolder();
     this.inspectionUi.update(this.menu);
     const camera = this.fleet.camera(this.menu.selected);
     const identifier = camera?.identifier ?? '';
@@ -540,18 +554,7 @@ export class App {
 
   /** What the wrist and corner sensor panels show. @param {number} now */
   sensorPanelData(now) {
-    const age = { freshness: this.router.freshness, linkStale: this.router.linkStale(this.linkOk, now) };
-    // An open socket that brings nothing is not a working link: say how long the relay has been silent.
-    const quiet = age.linkStale && this.linkOk ? ` · no answer for ${formatSilence(now - this.router.lastMessage)}` : '';
-    return sensorPanel(this.fleet, this.menu.selected, this.history, { text: this.linkText + quiet, ok: this.linkOk && !quiet }, now, this.inspectionUi.progress(this.menu.selected), age);
-  }
-
-  /** The POV panel's caption. */
-  povText() {
-    const s = this.hemisphere;
-    const robot = this.menu.selected ?? '–';
-    const live = this.menu.live ? 'live' : 'snapshot';
-    return s.lastIdentifier ? `${robot} · ${live} · frame ${s.lastSeq}` : `${robot} · ${this.sender.noImageYet ? 'no image yet (no_camera)' : 'waiting for an image'}`;
+    return sensorPanelData(this, now);
   }
 
   #resize() {

@@ -98,6 +98,11 @@ export class CommandSender {
     return this.#send({ identifier: robotIdentifier(robot, 'cancel') });
   }
 
+  /** The name this operator goes by (the relay tells every client: `operators`). @param {string} name */
+  name(name) {
+    return this.#send({ identifier: 'name', name });
+  }
+
   /** Take a robot over from the operator who holds it (the relay stops it first). @param {string} robot */
   takeOver(robot) {
     return this.#send({ identifier: robotIdentifier(robot, 'lease'), action: 'acquire', force: true });

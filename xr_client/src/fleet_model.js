@@ -29,6 +29,8 @@ export class FleetModel {
      * @type {import('./protocol.js').VantageDescription | null} */
     this.vantage = null;
     this.clientId = '';
+    /** Connected clients by id -> the name each gave (the relay's `operators`). @type {Map<string, string>} */
+    this.names = new Map();
     /** @type {import('./protocol.js').Role} */
     this.role = 'operator';
     /** @type {Scene} */

@@ -12,7 +12,9 @@ import { GOAL_CLEARANCE } from './protocol.js';
 export const SELECT_RADIUS = 0.4;
 
 /**
- * @typedef {{kind: 'goal'} | {kind: 'select', robot: string} | {kind: 'refused', reason: string} | {kind: 'none', reason: string}} GoalVerdict
+ * @typedef {{kind: 'goal'} | {kind: 'select', robot: string} | {kind: 'refused', reason: string} | {kind: 'none', reason: string}
+ *   | {kind: 'takeover', holder: string}} GoalVerdict `takeover`: a good goal for a robot another operator (or a
+ *   mission) holds: the click offers to take it over and send it there
  * @typedef {{point: {x: number, y: number}, floor: boolean} | null} PointerHit where the pointer meets the twin
  *   (map frame) and whether it is floor, or null when it meets nothing
  * @typedef {{name: string, x: number, y: number}} RobotSpot
@@ -20,8 +22,9 @@ export const SELECT_RADIUS = 0.4;
 
 /**
  * @param {PointerHit} hit
- * @param {{robots: RobotSpot[], selected: string | null, bounds: number[] | null}} context robots with a pose,
- *   the robot the goal would be for, the map's bounds (min x, min y, max x, max y) when known
+ * @param {{robots: RobotSpot[], selected: string | null, bounds: number[] | null, holder?: string | null}} context
+ *   robots with a pose, the robot the goal would be for, the map's bounds (min x, min y, max x, max y) when known,
+ *   who holds that robot when it is not this operator
  * @returns {GoalVerdict}
  */
 export function goalVerdict(hit, context) {
@@ -43,7 +46,7 @@ export function goalVerdict(hit, context) {
       return { kind: 'refused', reason: `too close to ${robot.name} (${d.toFixed(1)} m; goals keep ${GOAL_CLEARANCE} m from other robots)` };
     }
   }
-  return { kind: 'goal' };
+  return context.holder ? { kind: 'takeover', holder: context.holder } : { kind: 'goal' };
 }
 
 /** The robots with a pose, where they stand. @param {import('./fleet_model.js').FleetModel} fleet @returns {RobotSpot[]} */
@@ -55,6 +58,7 @@ export function robotSpots(fleet) {
 export function verdictText(verdict) {
   if (!verdict || verdict.kind === 'goal') return null;
   if (verdict.kind === 'select') return `select ${verdict.robot}`;
+  if (verdict.kind === 'takeover') return `held by ${verdict.holder}: click to take over and send it here`;
   return verdict.kind === 'refused' ? `can't go there: ${verdict.reason}` : null;
 }
 
@@ -67,6 +71,8 @@ export function verdictColour(verdict) {
       return '#ffffff';
     case 'refused':
       return '#e02424';
+    case 'takeover':
+      return '#ffb020';
     default:
       return '#8a93a3';
   }

@@ -34,6 +34,7 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'estop_reset'}
  *   | {type: 'select', robot: string | null}
  *   | {type: 'cancel', robot: string}
+ *   | {type: 'takeover', robot: string, holder: string}
  *   | {type: 'tool', tool: Tool}
  *   | {type: 'mission', action: 'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
  */
@@ -67,6 +68,9 @@ export class MenuState {
     /** The selected robot's mission, if it is on one (`Pause`/`Resume` and `Abort mission` are offered).
      * @type {'running' | 'paused' | null} */
     this.mission = null;
+    /** Who holds the selected robot when it is not this operator ("Ana", "a mission"), or null: Teleop is off
+     * for it and `Take over` is offered (Goal stays: its click offers the take-over). @type {string | null} */
+    this.holder = null;
     /** How many targets are picked for a new mission (from the inspection review). */
     this.picked = 0;
     /** Increments on every change, so that views redraw only when something changed. */
@@ -138,6 +142,14 @@ export class MenuState {
     }
   }
 
+  /** Who holds the selected robot, if not this operator (its status and the operators' names). @param {string | null} holder */
+  setHolder(holder) {
+    if (holder === this.holder) return;
+    this.holder = holder;
+    if (holder !== null && this.tool === 'teleop') this.tool = 'none'; // the relay already stopped this teleop
+    this.#changed();
+  }
+
   /** How many targets are picked, in order, for a new mission. @param {number} count */
   setPicked(count) {
     if (count !== this.picked) {
@@ -174,6 +186,7 @@ export class MenuState {
     const latched = selected !== null && this.latched.includes(selected.name);
     const command = this.canCommand && selected !== null && !latched;
     const why = !this.operator ? ' (viewer)' : !this.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '';
+    const held = this.holder !== null && !latched;
     /** @type {MenuButton[]} */
     const list = [
       { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
@@ -189,7 +202,7 @@ export class MenuState {
       list.push({ id: `robot:${robot.name}`, label: robot.name, group: 'robots', active: robot.name === this.selected, enabled: true });
     }
     list.push(
-      { id: 'tool:teleop', label: `Teleop${why}`, group: 'tools', active: this.tool === 'teleop', enabled: command },
+      { id: 'tool:teleop', label: held ? `Teleop (held by ${this.holder})` : `Teleop${why}`, group: 'tools', active: this.tool === 'teleop', enabled: command && !held },
       {
         id: 'tool:goal',
         label: pov ? 'Goal (free roam only)' : `Goal${why}`,
@@ -198,7 +211,8 @@ export class MenuState {
         enabled: command && !pov,
       },
       { id: 'tool:inspect', label: pov ? 'Inspect (free roam only)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: !pov },
-      { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive },
+      { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive && !held },
+      ...(held && selected ? [{ id: 'lease:take', label: `Take over from ${this.holder}`, group: 'tools', active: false, enabled: command }] : []),
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
       { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
       { id: 'mission:demo', label: 'Run demo mission', group: 'mission', active: false, enabled: this.operator && this.connected },
@@ -242,6 +256,7 @@ export class MenuState {
     else if (kind === 'robot') effects = this.#select(this.selected === arg ? null : arg);
     else if (kind === 'tool') effects = this.#setTool(this.tool === arg ? 'none' : /** @type {Tool} */ (arg));
     else if (id === 'goal:cancel' && this.selected) effects = [{ type: 'cancel', robot: this.selected }];
+    else if (id === 'lease:take' && this.selected && this.holder) effects = [{ type: 'takeover', robot: this.selected, holder: this.holder }];
     else if (id === 'camera:snapshot' && this.selected) effects = [{ type: 'snapshot', robot: this.selected }];
     else if (id === 'camera:live' && this.selected) {
       this.live = !this.live;
@@ -293,6 +308,7 @@ export class MenuState {
     const effects = [...this.#stopDriving(), ...this.#stopLive()];
     this.selected = name;
     this.goalActive = false; // until the new robot's status says otherwise
+    this.holder = null; // likewise
     effects.push({ type: 'select', robot: name });
     if (name === null && this.#moves()) {
       this.tool = 'none';

@@ -8,13 +8,14 @@ import { ERROR_CODES, parseIdentifier } from './protocol.js';
 import { PoseSmoother } from './pose_smoother.js';
 import { InspectionModel } from './inspection_model.js';
 import { Freshness, LINK_STALE_MS } from './freshness.js';
+import { displayName } from './operator_names.js';
 
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
  * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
  *   | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage | import('./protocol.js').PlaybackMessage
  *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
- *   | import('./protocol.js').MissionMessage | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage} GlobalMessage the messages whose
+ *   | import('./protocol.js').MissionMessage | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage | import('./protocol.js').OperatorsMessage} GlobalMessage the messages whose
  *   identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
@@ -27,7 +28,8 @@ import { Freshness, LINK_STALE_MS } from './freshness.js';
  *   | {type: 'goal_state', robot: string, active: boolean}
  *   | {type: 'estop_state', latched: string[]}
  *   | {type: 'sensor_warning', robot: string}
- *   | {type: 'offer_takeover', robot: string, text: string}
+ *   | {type: 'offer_takeover', robot: string, text: string, goal: import('./protocol.js').GoalDescription | null}
+ *   | {type: 'names'}
  *   | {type: 'inspection'}
  *   | {type: 'nav', robot: string, text: string, kind: NoticeKind, mine: boolean}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
@@ -103,7 +105,10 @@ export class MessageRouter {
       const reading = /** @type {import('./protocol.js').SensorMessage} */ (message);
       this.freshness.seen(`${robot}/${reading.name}`, now);
       if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
-        const text = `WARNING ${robot}: ${reading.name} ${reading.value.toFixed(1)} ${reading.unit}`;
+        // An event, with the value that crossed: the panel goes on showing the live reading, and the two agree.
+        const sensor = this.fleet.robot(robot)?.description.sensors?.find((s) => s.name === reading.name);
+        const limit = sensor?.warn_above != null && reading.value > sensor.warn_above ? `over ${sensor.warn_above}` : sensor?.warn_below != null ? `under ${sensor.warn_below}` : 'past its limit';
+        const text = `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${reading.value.toFixed(1)} ${reading.unit} then)`;
         return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
       }
     }
@@ -143,6 +148,9 @@ export class MessageRouter {
         return [{ type: 'link' }];
       case 'backend':
         return [notice(message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`, message.ok ? 'info' : 'error')];
+      case 'operators':
+        this.fleet.names = new Map(Object.entries(message.names));
+        return [{ type: 'names' }];
       case 'targets':
       case 'mission':
       case 'finding':
@@ -202,7 +210,10 @@ export class MessageRouter {
     if (error.code === ERROR_CODES.LEASED && error.id !== null) {
       // The message names the refused command first (`robot1/goal_pose: robot1 is controlled by ...`).
       const { robot } = parseIdentifier(error.message.split(':')[0]);
-      if (robot !== null && this.fleet.robots.has(robot)) effects.push({ type: 'offer_takeover', robot, text: error.message });
+      // A refused goal is offered again with the take-over: accepting sends it once the robot is taken.
+      const refused = robot === null ? null : this.goals.goals.get(robot);
+      const goal = refused?.id === String(error.id) ? refused.goal : null;
+      if (robot !== null && this.fleet.robots.has(robot)) effects.push({ type: 'offer_takeover', robot, text: error.message, goal });
     }
     this.commands.failed(error);
     const shownAtMarker = this.goals.failed(error.id === null ? null : String(error.id), error.code, error.message, now);
@@ -217,9 +228,9 @@ export class MessageRouter {
   #lease(robot, lease) {
     const me = this.fleet.clientId;
     if (lease.previous === me && lease.holder && lease.holder !== me) {
-      return [{ type: 'stop_teleop' }, notice(`${robot} was taken over by ${lease.holder}`, 'error')];
+      return [{ type: 'stop_teleop' }, notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error')];
     }
-    if (lease.previous === me && lease.reason === 'expired') return [notice(`your control of ${robot} expired (idle)`, 'info')];
+    if (lease.previous === me && lease.reason === 'expired') return [notice(`${robot} is free again: you had not commanded it for a while`, 'info')];
     return [];
   }
 

@@ -9,9 +9,9 @@ export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
-export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add"]);
+export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region", "operators"]);
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
@@ -38,6 +38,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, stamp: number, frame: string, angle_min: number, angle_increment: number, range_max: number, ranges: (number | null)[]}} ScanMessage */
 /** @typedef {{identifier: string, outcome: 'started' | 'reached' | 'failed' | 'cancelled', goal: GoalDescription | null, message: string}} NavMessage */
 /** @typedef {{identifier: string, points: number[][]}} PathMessage */
+/** @typedef {{identifier: 'operators', names: Object<string, string>}} OperatorsMessage */
 /** @typedef {{pose: PoseMessage | null, sensors: Object<string, SensorMessage>, status: StatusMessage}} RobotState */
 /** @typedef {{name: string, version: string}} ServerInfo */
 /** @typedef {{identifier: 'ack', id: RequestId}} AckMessage */
@@ -59,7 +60,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | MissionMessage | FindingMessage | RegionMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | MissionMessage | FindingMessage | RegionMessage | OperatorsMessage} ServerMessage
  */
 
 // Client to server
@@ -70,6 +71,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, id: RequestId, camera: string, fps: number}} StreamCommand */
 /** @typedef {{identifier: string, id: RequestId, action?: 'acquire' | 'release', force?: boolean}} LeaseCommand */
 /** @typedef {{identifier: 'estop', id: RequestId, robot?: string, action?: 'stop' | 'reset'}} EstopCommand */
+/** @typedef {{identifier: 'name', id: RequestId, name: string}} NameCommand */
 /** @typedef {{identifier: 'ping', t: number}} PingCommand */
 /** @typedef {{identifier: 'playback/pause' | 'playback/resume', id: RequestId}} PlaybackCommand */
 /** @typedef {{identifier: 'playback/seek', id: RequestId, t: number}} PlaybackSeekCommand */
@@ -85,7 +87,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, capture: string, u: number, v: number, name?: string, kind?: string}} TargetFromPixelCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand | TargetFromPixelCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand | TargetFromPixelCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

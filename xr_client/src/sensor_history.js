@@ -46,25 +46,41 @@ export class SensorHistory {
   }
 
   /**
-   * The sparkline of the last minute as points in a width x height box (y down), with the range shown.
+   * The sparkline of the last minute as points in a width x height box (y down), with the range shown. The range
+   * takes in the sensor's warning thresholds, so that noise far below a threshold draws flat, and the threshold
+   * has a height to be drawn at (`lines`); without thresholds it is never narrower than 10 % of the level, so
+   * ±2 ppm of noise on a quiet sensor does not fill the box like an alarm.
    * @param {string} robot @param {string} sensor @param {number} now @param {number} width @param {number} height
+   * @param {{above?: number | null, below?: number | null}} [thresholds]
    */
-  sparkline(robot, sensor, now, width, height) {
+  sparkline(robot, sensor, now, width, height, thresholds = {}) {
     const { t, v } = this.values(robot, sensor);
-    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0, breaks: /** @type {number[]} */ ([]) };
+    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0, breaks: /** @type {number[]} */ ([]), lines: /** @type {number[]} */ ([]) };
     let min = Infinity;
     let max = -Infinity;
     for (const x of v) {
       if (x < min) min = x;
       if (x > max) max = x;
     }
+    const marks = [thresholds.above, thresholds.below].filter((x) => typeof x === 'number' && Number.isFinite(x));
+    for (const x of /** @type {number[]} */ (marks)) {
+      min = Math.min(min, x);
+      max = Math.max(max, x);
+    }
+    const least = 0.1 * Math.max(Math.abs(max), Math.abs(min), 1e-6);
+    if (max - min < least) {
+      const middle = (max + min) / 2;
+      [min, max] = [middle - least / 2, middle + least / 2];
+    }
+    if (marks.length) max += 0.1 * (max - min); // the threshold line below the top edge
     const span = max - min || 1;
+    const lines = /** @type {number[]} */ (marks).map((x) => height * (1 - (x - min) / span));
     /** @type {[number, number][]} */
     const points = v.map((value, i) => [
       width * (1 - Math.min(1, Math.max(0, (now - t[i]) / this.window))),
       height * (1 - (value - min) / span),
     ]);
-    return { points, min, max, breaks: gaps(t) };
+    return { points, min, max, breaks: gaps(t), lines };
   }
 
   /** The indices of a sensor's readings that come after a gap (gaps(): no line is drawn across them). @param {string} robot @param {string} sensor */

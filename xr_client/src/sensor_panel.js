@@ -34,7 +34,7 @@ export function sensorPanel(fleet, selected, history, link, now, mission = '', a
       const silent = age?.freshness.age(key, now) ?? null;
       const old = reading !== undefined && age !== null && silent !== null && (age.linkStale || age.freshness.stale(key, now));
       const stale = old ? `${formatSilence(/** @type {number} */ (silent))} ago` : null;
-      return { name: s.name, unit: reading?.unit ?? s.unit, value: reading?.value ?? null, warning: reading?.warning ?? false, stale };
+      return { name: s.name, unit: reading?.unit ?? s.unit, value: reading?.value ?? null, warning: reading?.warning ?? false, stale, above: s.warn_above ?? null, below: s.warn_below ?? null };
     }),
     history: history,
     now,

@@ -66,3 +66,17 @@ test('a quiet relay makes the panel say every reading is old, with its age; a re
   assert.equal(panel(2000 + 3100).sensors.find((s) => s.name === 'gas')?.stale, '3 s ago');
   assert.deepEqual(router.route(hello, 9000).at(-1), { type: 'notify', text: 'Reconnected: showing the fleet as the relay sees it now', kind: 'info', toast: true });
 });
+
+test('a sparkline spans its warning threshold, so noise far below it draws flat, and the line has a height', async () => {
+  const { SensorHistory } = await import('../src/sensor_history.js');
+  const h = new SensorHistory();
+  [5, 3, 7, 4, 6].forEach((v, i) => h.add('robot1', 'gas', v, false, i * 200));
+  const scaled = h.sparkline('robot1', 'gas', 1000, 100, 40, { above: 400 });
+  const ys = scaled.points.map((p) => p[1]);
+  assert.ok(Math.max(...ys) - Math.min(...ys) < 1, '±2 ppm under a 400 ppm threshold is flat');
+  assert.equal(scaled.lines.length, 1);
+  assert.ok(scaled.lines[0] > 0 && scaled.lines[0] < 10, 'the threshold near the top, inside the box');
+  const bare = h.sparkline('robot1', 'gas', 1000, 100, 40);
+  const spread = Math.max(...bare.points.map((p) => p[1])) - Math.min(...bare.points.map((p) => p[1]));
+  assert.ok(spread > 30, 'without a threshold the noise fills the box (10 % of the level is less than 4 ppm)');
+});

@@ -53,7 +53,7 @@ test('poses, statuses and sensors update the models; a warning notifies once', (
   const gas = { identifier: 'robot1/sensor', name: 'gas', value: 512.3, unit: 'ppm', warning: true, stamp: 3 };
   const effects = router.route(gas, 200);
   assert.deepEqual(effects[1], { type: 'sensor_warning', robot: 'robot1' });
-  assert.equal(effects[0].type === 'notify' && effects[0].text, 'WARNING robot1: gas 512.3 ppm');
+  assert.equal(effects[0].type === 'notify' && effects[0].text, 'WARNING robot1: gas crossed over 400 ppm (512.3 ppm then)');
   assert.deepEqual(router.route({ ...gas, value: 530 }, 300), [], 'a warning that holds does not notify again');
   assert.equal(history.robotWarning('robot1'), true);
   assert.deepEqual(router.route({ ...pose, identifier: 'robot9/pose' }, 300), [], 'unknown robots are ignored');
@@ -117,7 +117,15 @@ test('a leased refusal offers a take-over; snapshot replies settle their request
   assert.equal(commands.noImageYet, true);
 
   const leased = { identifier: /** @type {const} */ ('error'), id: 'r7', code: 'leased', message: 'robot2/goal_pose: robot2 is controlled by c9-ffffff; send robot2/lease with force: true to take over' };
-  assert.deepEqual(router.route(leased, 2)[0], { type: 'offer_takeover', robot: 'robot2', text: leased.message });
+  assert.deepEqual(router.route(leased, 2)[0], { type: 'offer_takeover', robot: 'robot2', text: leased.message, goal: null });
+  // A refused goal comes back with the offer: accepting sends it once the robot is taken.
+  const goal = { x: 4, y: 6, yaw: null };
+  router.goals.sent('robot2', goal, 'r8', 3);
+  assert.deepEqual(router.route({ ...leased, id: 'r8' }, 4)[0], { type: 'offer_takeover', robot: 'robot2', text: leased.message, goal });
+  // Names: the roster replaces ids in what the operator reads.
+  assert.deepEqual(router.route({ identifier: 'operators', names: { 'c9-ffffff': 'Ana' } }, 5), [{ type: 'names' }]);
+  const taken = { identifier: 'robot1/lease', holder: 'c9-ffffff', previous: 'c1-abc123', reason: /** @type {const} */ ('taken_over') };
+  assert.equal(/** @type {any} */ (router.route(taken, 6)[1]).text, 'robot1 was taken over by Ana');
   commands.takeOver('robot2');
   assert.deepEqual(sent.at(-1), { identifier: 'robot2/lease', action: 'acquire', force: true });
 });

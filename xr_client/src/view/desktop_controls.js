@@ -131,7 +131,7 @@ export class DesktopControls {
    * @param {PointerEvent} e @returns {import('../goal_verdict.js').GoalVerdict}
    */
   #aimGoal(e) {
-    const { point, verdict } = this.host.picking.verdictAt(this.host.picking.pickTwin(this.#ndc(e)), this.host.menu.selected);
+    const { point, verdict } = this.host.picking.verdictAt(this.host.picking.pickTwin(this.#ndc(e)), this.host.menu.selected, this.host.menu.holder);
     const robot = this.#robotUnder(e);
     const outcome = robot ? /** @type {const} */ ({ kind: 'select', robot }) : verdict;
     this.host.goalPointer.aim(point, outcome);
@@ -158,7 +158,9 @@ export class DesktopControls {
       const verdict = this.#aimGoal(e);
       // A press on a robot selects it, in Goal mode too (it never becomes a goal into that robot).
       if (verdict.kind === 'select') this.selectOnUp = verdict.robot;
-      else if (verdict.kind !== 'goal') this.host.actions.say(`No goal here: ${verdict.reason}`);
+      else if (verdict.kind === 'takeover') {
+        if (this.host.goalPointer.hover) this.host.actions.offerTakeOver({ ...this.host.goalPointer.hover, yaw: null });
+      } else if (verdict.kind !== 'goal') this.host.actions.say(`No goal here: ${verdict.reason}`);
       else if (this.host.goalPointer.press()) {
         // The drag is the goal's heading, not an orbit.
         this.goalPointerId = e.pointerId;
@@ -237,7 +239,8 @@ export class DesktopControls {
     const target = /** @type {HTMLElement} */ (e.target);
     if (target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')) return;
     const code = e.code;
-    if (code === 'Space' || code === 'Escape') {
+    // With a dialog open (take over, a name) Space and Esc are the dialog's: Esc closes it, and stops nothing.
+    if ((code === 'Space' || code === 'Escape') && !document.querySelector('dialog[open]:modal')) {
       // E-STOP from anywhere on the page (a focused button would take Space as a click: not this one).
       e.preventDefault();
       if (down && !e.repeat && !this.host.presenting()) this.host.actions.pressMenu('estop');

@@ -7,6 +7,7 @@ import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView } from './robot_view.js';
 import { formatSilence } from '../freshness.js';
+import { displayName } from '../operator_names.js';
 
 export class FleetView {
   /** By robot name; the same Map for the life of the page (picking and the desktop controls hold it). @type {Map<string, RobotView>} */
@@ -59,7 +60,7 @@ export class FleetView {
         view.scaleLabel(eye.distanceTo(view.group.position));
       }
       const status = entry.status;
-      const controller = status?.controller ? (status.controller === fleet.clientId ? 'you' : status.controller) : '';
+      const controller = displayName(status?.controller, fleet.names, fleet.clientId);
       // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
       const silent = freshness.age(name, now);
       const since = silent !== null ? ` · ${formatSilence(silent)}` : '';

@@ -146,12 +146,13 @@ export class MenuPanel {
 /** The sensor panel on the left wrist: a small canvas-textured plane on the left grip. */
 export class WristPanel {
   constructor() {
-    this.plane = new CanvasPlane([512, 400], [0.13, 0.1], 'wrist-panel');
+    // 18 cm wide: at a forearm's length (~35 cm) its 26 px readings are about 1 degree tall, readable on a Quest 3.
+    this.plane = new CanvasPlane([512, 400], [0.18, 0.14], 'wrist-panel');
     this.canvas = this.plane.canvas;
     this.texture = this.plane.texture;
     this.mesh = this.plane.mesh;
     // Over the back of the left hand, tilted towards the face like a watch.
-    this.mesh.position.set(0, 0.07, 0.07);
+    this.mesh.position.set(0, 0.09, 0.08);
     this.mesh.rotation.set(-Math.PI / 3.5, 0, 0);
     this.mesh.raycast = () => {};
     this.lastDraw = -Infinity;

@@ -78,11 +78,12 @@ export class Picking {
   /**
    * What a goal press would do where a pointer meets the twin (goal_verdict.js), and the map point it meets.
    * @param {{point: THREE.Vector3, floor: boolean} | null} surface @param {string | null} selected
+   * @param {string | null} [holder] who holds the selected robot, when not this operator
    * @returns {{point: {x: number, y: number} | null, verdict: import('../goal_verdict.js').GoalVerdict}}
    */
-  verdictAt(surface, selected) {
+  verdictAt(surface, selected, holder = null) {
     const point = surface ? this.sceneToMapPoint(surface.point) : null;
-    const verdict = goalVerdict(point && surface ? { point, floor: surface.floor } : null, { robots: robotSpots(this.fleet), selected, bounds: this.fleet.bounds });
+    const verdict = goalVerdict(point && surface ? { point, floor: surface.floor } : null, { robots: robotSpots(this.fleet), selected, bounds: this.fleet.bounds, holder });
     return { point, verdict };
   }
 

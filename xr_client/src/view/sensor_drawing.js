@@ -7,7 +7,8 @@ import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
 
 /**
  * @typedef {{robot: string | null, colour: string, status: string, link: string, linkOk: boolean,
- *   sensors: {name: string, value: number | null, unit: string, warning: boolean, stale?: string | null}[],
+ *   sensors: {name: string, value: number | null, unit: string, warning: boolean, stale?: string | null,
+ *     above?: number | null, below?: number | null}[],
  *   history: import('../sensor_history.js').SensorHistory, now: number}} SensorPanelData
  */
 
@@ -69,7 +70,18 @@ export function drawSensorPanel(ctx, width, height, data) {
     const sh = rowHeight * 0.4;
     const sy = y + rowHeight * 0.45;
     if (data.robot) {
-      const { points, min, max, breaks } = data.history.sparkline(data.robot, s.name, data.now, sw, sh);
+      const { points, min, max, breaks, lines } = data.history.sparkline(data.robot, s.name, data.now, sw, sh, { above: s.above, below: s.below });
+      // The warning threshold, dashed: how far the reading is from it is what the operator reads.
+      ctx.strokeStyle = 'rgba(255,107,107,0.7)';
+      ctx.lineWidth = 1.5 * u;
+      ctx.setLineDash([5 * u, 4 * u]);
+      for (const ly of lines) {
+        ctx.beginPath();
+        ctx.moveTo(sx, sy + ly);
+        ctx.lineTo(sx + sw, sy + ly);
+        ctx.stroke();
+      }
+      ctx.setLineDash([]);
       ctx.strokeStyle = s.stale ? '#7a8294' : s.warning ? '#ff6b6b' : '#7fd3ff';
       ctx.lineWidth = 2.5 * u;
       ctx.beginPath();

@@ -166,6 +166,7 @@ export class XRInteraction {
           // The arc on a robot selects it (it never becomes a goal into that robot); a refusal says why.
           const verdict = host.goalPointer.verdict;
           if (verdict?.kind === 'select') host.actions.selectRobot(verdict.robot);
+          else if (verdict?.kind === 'takeover' && host.goalPointer.hover) host.actions.offerTakeOver({ ...host.goalPointer.hover, yaw: null });
           else if (host.goalPointer.press()) this.goalSlot = slot;
           else if (verdict?.kind === 'refused') input.pulse(slot, 0.3, 60);
         }
@@ -284,7 +285,7 @@ export class XRInteraction {
     const at = host.miniature.toTwin(origin, direction, host.fleet.scene.mapToScene);
     if (!at) return null;
     const floor = host.picking.isFloorAt(at.scene);
-    const verdict = goalVerdict({ point: at.point, floor }, { robots: robotSpots(host.fleet), selected: host.menu.selected, bounds: host.fleet.bounds });
+    const verdict = goalVerdict({ point: at.point, floor }, { robots: robotSpots(host.fleet), selected: host.menu.selected, bounds: host.fleet.bounds, holder: host.menu.holder });
     return { ...at, floor, verdict };
   }
 
@@ -298,6 +299,7 @@ export class XRInteraction {
     const at = this.#wimAt(slot);
     if (!at) return;
     if (at.verdict.kind === 'select') host.actions.selectRobot(at.verdict.robot);
+    else if (at.verdict.kind === 'takeover' && this.#goalActive()) host.actions.offerTakeOver({ ...at.point, yaw: null });
     else if (this.#goalActive()) {
       host.goalPointer.aim(at.point, at.verdict);
       if (host.goalPointer.press()) [this.goalSlot, this.goalViaWim] = [slot, true];
@@ -321,7 +323,7 @@ export class XRInteraction {
     const { origin, direction } = this.host.xrInput.ray(slot);
     const { points, surface } = this.host.picking.arcToFloor(origin, direction);
     this.lastArc = points;
-    const { point, verdict } = this.host.picking.verdictAt(surface, this.host.menu.selected);
+    const { point, verdict } = this.host.picking.verdictAt(surface, this.host.menu.selected, this.host.menu.holder);
     this.host.goalPointer.aim(point, verdict);
   }
 

@@ -1,0 +1,25 @@
+// @ts-check
+/**
+ * The words the panels show, built from the app's state each time they redraw: the sensor panels' data (the
+ * selected robot, its readings and their age, the link, with how long the relay has been silent) and the Robot
+ * POV panel's caption. Building them changes nothing.
+ */
+import { sensorPanel } from '../sensor_panel.js';
+import { formatSilence } from '../freshness.js';
+
+/** What the wrist and corner sensor panels show. @param {import('../app.js').App} app @param {number} now */
+export function sensorPanelData(app, now) {
+  const age = { freshness: app.router.freshness, linkStale: app.router.linkStale(app.linkOk, now) };
+  // An open socket that brings nothing is not a working link: say how long the relay has been silent.
+  const quiet = age.linkStale && app.linkOk ? ` · no answer for ${formatSilence(now - app.router.lastMessage)}` : '';
+  const link = { text: app.linkText + quiet, ok: app.linkOk && !quiet };
+  return sensorPanel(app.fleet, app.menu.selected, app.history, link, now, app.inspectionUi.progress(app.menu.selected), age);
+}
+
+/** The POV panel's caption. @param {import('../app.js').App} app */
+export function povCaption(app) {
+  const s = app.hemisphere;
+  const robot = app.menu.selected ?? '–';
+  const live = app.menu.live ? 'live' : 'snapshot';
+  return s.lastIdentifier ? `${robot} · ${live} · frame ${s.lastSeq}` : `${robot} · ${app.sender.noImageYet ? 'no image yet (no_camera)' : 'waiting for an image'}`;
+}
