@@ -542,6 +542,17 @@ def test_follower_without_final_yaw_and_trivial_path(grid: OccupancyGrid) -> Non
 # -- hazards -----------------------------------------------------------------
 
 
+def test_concentrations_and_humidity_never_read_negative_temperature_may() -> None:
+    fields = SimWorld(load_config(Path(__file__).resolve().parent.parent / "robots.yaml"), lambda *_: None).fields
+    rng = np.random.default_rng(7)
+    # The corridor's gas is 5 ppm with 2 ppm of noise: unclipped, one reading in 160 would be below zero.
+    gas = [fields["gas"].value(3.0, 1.5, rng) for _ in range(5000)]
+    assert min(gas) == 0.0 and sum(g == 0.0 for g in gas) < 50
+    assert fields["humidity"].minimum == 0.0 and fields["temperature"].minimum is None
+    cold = SensorField("temperature", baseline=-5.0, noise=1.0)
+    assert min(cold.value(0.0, 0.0, rng) for _ in range(100)) < -5.0
+
+
 def test_hazard_fields_of_the_demo_fleet() -> None:
     # The demo fleet's fields: baselines from robots.yaml, hazard sources from scenes/facility.yaml.
     fields = SimWorld(load_config(Path(__file__).resolve().parent.parent / "robots.yaml"), lambda *_: None).fields

@@ -49,6 +49,9 @@ class SensorField:
     noise: float
     sources: tuple[HazardSource, ...] = ()
     unit: str = ""
+    #: The lowest value the quantity can take (0 for a concentration or a relative humidity): noise is clipped at
+    #: it, so a gas sensor never reports negative ppm. None: no floor (a temperature).
+    minimum: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.noise) and self.noise >= 0.0):
@@ -69,4 +72,5 @@ class SensorField:
         robots independent). Exactly one normal draw is consumed per call,
         even when ``noise`` is 0, so streams stay aligned across configs.
         """
-        return self.mean(x, y) + self.noise * float(rng.standard_normal())
+        value = self.mean(x, y) + self.noise * float(rng.standard_normal())
+        return value if self.minimum is None else max(self.minimum, value)

@@ -55,6 +55,10 @@ class SimRobot:
     goal: Goal | None = None
 
 
+#: Units of quantities that cannot be negative: a field read in one of them has a floor at 0.
+NON_NEGATIVE_UNITS = frozenset({"ppm", "ppb", "%", "lx", "Pa", "mg/m3", "ug/m3", "µg/m3", "uSv/h", "µSv/h", "Bq/m3"})
+
+
 def build_fields(config: FleetConfig, scene_hazards: tuple[HazardSource, ...] = ()) -> dict[str, SensorField]:
     """The sensor fields of robots.yaml's ``sim`` section, keyed by kind.
 
@@ -70,11 +74,13 @@ def build_fields(config: FleetConfig, scene_hazards: tuple[HazardSource, ...] = 
     for kind in sorted(kinds):
         spec = next((f for f in config.sim.fields if f.kind == kind), None)
         sources = tuple(h for h in hazards if h.kind == kind)
+        units = {s.unit for r in config.robots for s in r.sensors if s.hazard == kind}
         fields[kind] = SensorField(
             kind=kind,
             baseline=spec.baseline if spec else 0.0,
             noise=spec.noise if spec else 0.0,
             sources=sources,
+            minimum=0.0 if units and units <= NON_NEGATIVE_UNITS else None,
         )
     return fields
 

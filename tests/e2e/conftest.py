@@ -280,10 +280,16 @@ OpenClient = Callable[..., Awaitable[Client]]
 async def open_client(browser: Browser) -> AsyncIterator[OpenClient]:
     pages: list[Page] = []
 
-    async def open_(url: str, name: str, width: int = 1280, height: int = 760) -> Client:
+    async def open_(
+        url: str, name: str, width: int = 1280, height: int = 760, *, operator: str | None = "Tess"
+    ) -> Client:
+        """A page of the station; ``operator`` is the name it goes by (``?name=``), None: the page asks for one."""
         page = await browser.new_page(viewport={"width": width, "height": height})
         pages.append(page)
         client = Client(page, name)
+        if operator is not None and "name=" not in url:
+            base, _, fragment = url.partition("#")
+            url = f"{base}{'&' if '?' in base else '?'}name={operator}" + (f"#{fragment}" if fragment else "")
         await page.goto(url)
         await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
         return client

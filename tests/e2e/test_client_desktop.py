@@ -28,7 +28,7 @@ async def page_point(client: Client, x: float, y: float) -> tuple[float, float]:
 async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) -> None:
     client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "desktop", 1280, 760)
     page = client.page
-    await client.frames(3)
+    await client.drawn(2)  # frames run at every tick; with ?maxfps=2 a drawn one may lag them
     await client.shot("01-overview", "desktop-overview.png")
 
     # Click robot2 in the twin to select it.

@@ -309,7 +309,7 @@ async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent
     station: Station, open_client: OpenClient
 ) -> None:
     ana = await open_client(f"{station.url}/?name=Ana", "lease-ana")
-    ben = await open_client(station.url, "lease-ben")
+    ben = await open_client(station.url, "lease-ben", operator=None)
     # Ben is asked once, in the page (not modal: the station stays usable meanwhile), and remembered.
     await ben.page.wait_for_selector("#name-dialog[open]")
     assert not await ana.page.is_visible("#name-dialog"), "a name from the address is not asked again"
@@ -353,3 +353,22 @@ async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent
     await ana.wait("document.querySelector('#message').textContent === 'robot1 was taken over by Ben'", 10)
     await ana.wait("s.robots.robot1.label.includes('Ben')", 10)
     assert ana.errors == [] and ben.errors == [], (ana.errors, ben.errors)
+
+
+async def test_the_sensor_panel_reads_against_thresholds_and_gas_is_never_negative(
+    station: Station, open_client: OpenClient
+) -> None:
+    client = await open_client(station.url, "sensors")
+    await client.page.click('#menu button[data-button="robot:robot1"]')
+    # Half a minute of 5 Hz readings in the corridor: 5 ppm of gas with 2 ppm of noise, 400 ppm to warn.
+    s = await client.wait("s.panel.sensors.length === 3 && s.panel.sensors.every((x) => x.value !== null) && s", 20)
+    started = time.monotonic()
+    await wait_until(lambda: time.monotonic() - started > 8, 10, "readings to gather")
+    s = await client.state()
+    gas = next(x for x in s["panel"]["sensors"] if x["name"] == "gas")
+    assert gas["lowest"] >= 0.0, gas
+    # Each sparkline spans its threshold (drawn dashed): the noise stays a thin band, not a box-filling alarm.
+    assert all(x["thresholds"] == 1 for x in s["panel"]["sensors"]), s["panel"]
+    assert gas["spread"] < 4.0, gas  # of a 40 px box
+    await client.shot("01-sensor-panel", "sensor-panel.png")
+    assert client.errors == [], client.errors

@@ -24,6 +24,7 @@ export class OperatorUi {
     /** @type {string | null} */
     this.name = cleanName(host.storage?.getItem(NAME_KEY) ?? '');
     this.nameDialog?.addEventListener('submit', (event) => {
+      if (/** @type {SubmitEvent} */ (event).submitter?.getAttribute('value') === 'later') return; // asked again next visit
       const input = /** @type {HTMLInputElement | null} */ (this.nameDialog?.querySelector('input'));
       const name = cleanName(input?.value ?? '');
       if (!name) {

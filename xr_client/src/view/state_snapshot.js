@@ -92,7 +92,11 @@ function panelState(app) {
   const robot = data.robot;
   return {
     robot,
-    sensors: data.sensors.map((x) => ({ name: x.name, value: x.value, stale: x.stale ?? null, gaps: robot ? app.history.breaks(robot, x.name).length : 0 })),
+    sensors: data.sensors.map((x) => {
+      const values = robot ? app.history.values(robot, x.name).v : [];
+      const line = robot ? app.history.sparkline(robot, x.name, data.now, 100, 40, { above: x.above, below: x.below }) : null;
+      return { name: x.name, value: x.value, stale: x.stale ?? null, gaps: robot ? app.history.breaks(robot, x.name).length : 0, lowest: values.length ? Math.min(...values) : null, thresholds: line?.lines.length ?? 0, spread: line && line.points.length ? Math.max(...line.points.map((p) => p[1])) - Math.min(...line.points.map((p) => p[1])) : 0 };
+    }),
   };
 }
 
