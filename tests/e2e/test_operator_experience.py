@@ -22,6 +22,13 @@ from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu
 ROBOTS = ("robot1", "robot2", "robot3")
 
 
+async def choose(client: Client, robot: str, tool: str) -> None:
+    """Select a robot and a tool in the desktop menu."""
+    await client.page.click(f'#menu button[data-button="robot:{robot}"]')
+    await client.page.click(f'#menu button[data-button="tool:{tool}"]')
+    await client.wait("s.menu.selected === arg[0] && s.menu.tool === arg[1]", 10, [robot, tool])
+
+
 def latched(station: Station) -> list[str]:
     return [r for r in ROBOTS if station.status(r)["estopped"]]
 
@@ -31,9 +38,7 @@ async def test_estop_by_key_while_driving_holds_view_and_robot_and_stays_until_r
 ) -> None:
     client = await open_client(station.url, "estop")
     page = client.page
-    await page.click('#menu button[data-button="robot:robot1"]')
-    await page.click('#menu button[data-button="tool:teleop"]')
-    await client.wait("s.menu.tool === 'teleop'")
+    await choose(client, "robot1", "teleop")
     await page.locator("#viewport canvas").focus()
     pushed = time.monotonic()
     await page.keyboard.down("KeyW")
@@ -108,9 +113,7 @@ async def test_goal_mode_says_what_a_click_would_do_and_a_click_on_a_robot_selec
 ) -> None:
     client = await open_client(station.url, "goal-verdict")
     page = client.page
-    await page.click('#menu button[data-button="robot:robot1"]')
-    await page.click('#menu button[data-button="tool:goal"]')
-    await client.wait("s.menu.tool === 'goal'")
+    await choose(client, "robot1", "goal")
 
     async def hover(x: float, y: float) -> dict[str, object]:
         px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [x, y])
@@ -185,8 +188,7 @@ async def test_vr_arc_on_a_robot_selects_it_and_a_wall_is_refused(station: Stati
 async def test_the_plan_is_drawn_and_the_outcome_said(station: Station, open_client: OpenClient) -> None:
     client = await open_client(station.url, "path")
     page = client.page
-    await page.click('#menu button[data-button="robot:robot2"]')
-    await page.click('#menu button[data-button="tool:goal"]')
+    await choose(client, "robot2", "goal")
     px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [9.0, 6.0])
     await page.mouse.move(px, py)
     await client.wait("s.goal.verdict && s.goal.verdict.kind === 'goal'", 10)
