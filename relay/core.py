@@ -52,12 +52,14 @@ from .messages import (
     GoalDescription,
     HelloMessage,
     PlaybackMessage,
+    RoomDescription,
     backend_message,
     encode,
     nav_message,
     operators_message,
     path_message,
     playback_message,
+    room_descriptions,
     scan_message,
 )
 from .occupancy import OccupancyGrid, from_map_yaml
@@ -67,6 +69,7 @@ from .protocol import PROTOCOL_VERSION, Role
 from .ratelimit import TokenBucket
 from .streams import CameraStreams
 from .supervision import Supervisor
+from .twin.facility import load_facility
 from .vantage import vantage
 
 logger = logging.getLogger(__name__)
@@ -127,6 +130,8 @@ class Relay:
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self._live_map: OccupancyGrid | None = None  # from the backend's /map
         self._playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
+        #: The rooms of robots.yaml's scene file (``sim.world``), named in every hello.
+        self.rooms: list[RoomDescription] = []
 
     # -- lifecycle --------------------------------------------------------------------------------
 
@@ -134,8 +139,14 @@ class Relay:
         if self.config.map is not None:
             # Reading and thresholding a large PGM is milliseconds of numpy work: off the loop.
             self._map = await asyncio.to_thread(from_map_yaml, self.config.map)
+        facility = None
+        if self.config.sim.world is not None:
+            # The scene file names the rooms (shown to operators) and the hazards (inspection targets), whatever
+            # the backend; parsing it is ~13 ms for the demo facility: off the loop too.
+            facility = await asyncio.to_thread(load_facility, self.config.sim.world)
+            self.rooms = room_descriptions(facility.rooms)
         await self.backend.start()
-        await self.inspection.start()
+        await self.inspection.start(facility)
         self.audit.started(f"{self.options.host}:{self.options.port}")
         self.supervisor.start()
         logger.info("backend %s started with %d robots", self.backend.name, len(self.robots))
@@ -220,6 +231,7 @@ class Relay:
             "scene": {"url": self.assets.scene_url, "map_to_scene": self.assets.map_to_scene()},
             "bounds": list(grid.bounds) if grid is not None else None,
             "vantage": None if seen is None else {"x": seen.x, "y": seen.y, "yaw": seen.yaw},
+            "rooms": self.rooms,
             "robots": [describe_robot(r, self.assets.model_urls.get(r.name)) for r in self.config.robots],
             "state": self.fleet.snapshot(now),
             "playback": self._playback,

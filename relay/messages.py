@@ -9,14 +9,17 @@ types are generated from it (``tools/gen_protocol_js.py`` -> ``xr_client/src/pro
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from typing import Any, Final, Literal, NotRequired, TypeAlias, TypedDict, cast
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Final, Literal, NotRequired, TypeAlias, TypedDict, cast
 
 import orjson
 
 from .errors import ProtocolError
 from .inspection.messages import FindingMessage, MissionMessage, RegionMessage, TargetsMessage
 from .protocol import FRAME_PREFIX, ErrorCode, Mode, RequestId, Role, robot_identifier, sensor_key
+
+if TYPE_CHECKING:
+    from .sim.floorplan import Room
 
 
 class Lens(TypedDict):
@@ -65,6 +68,12 @@ class Transform2D(TypedDict):
 class SceneDescription(TypedDict):
     url: str | None
     map_to_scene: Transform2D
+
+
+class RoomDescription(TypedDict):
+    name: str
+    title: str
+    bounds: list[float]
 
 
 class VantageDescription(TypedDict):
@@ -224,6 +233,7 @@ class HelloMessage(TypedDict):
     scene: SceneDescription
     bounds: list[float] | None
     vantage: VantageDescription | None
+    rooms: list[RoomDescription]
     robots: list[RobotDescription]
     state: dict[str, RobotState]
     playback: PlaybackMessage | None
@@ -428,6 +438,11 @@ def backend_message(name: str, failure: str | None) -> BackendMessage:
 def model_message(robot: str, url: str) -> ModelMessage:
     """A new glTF model for ``robot`` (built from its robot_description); replaces hello's ``model``."""
     return {"identifier": robot_identifier(robot, "model"), "url": url}
+
+
+def room_descriptions(rooms: Iterable[Room]) -> list[RoomDescription]:
+    """The rooms of a scene file as ``hello.rooms`` names them."""
+    return [{"name": r.name, "title": r.title, "bounds": [r.min_x, r.min_y, r.max_x, r.max_y]} for r in rooms]
 
 
 def scene_message(url: str | None, map_to_scene: Transform2D) -> SceneMessage:

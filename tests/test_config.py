@@ -109,6 +109,10 @@ def test_topic_overrides_and_root_namespace() -> None:
             """,
             "robots.yaml:3: robots[0].colr: unknown field; expected one of name, namespace, colour",
         ),
+        (
+            "sim: {scan_rate: 40}\nrobots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n",
+            "robots.yaml:1: sim.scan_rate: at most 10 Hz (the relay sends no more scans), got 40",
+        ),
         ("scene: {}\n", "robots.yaml:1: robots: is required"),
         ("robots: []\n", "robots.yaml:1: robots: expected at least one robot"),
         ("robots: {a: 1}\n", "robots.yaml:1: robots: expected a list, got a mapping"),

@@ -485,3 +485,32 @@ async def test_operators_are_named_for_everyone_and_forgotten_when_they_leave(re
     await ben.wait_for(lambda m: m["identifier"] == "operators" and m["names"] == {}, start=start)
     await ben.close()
     await carl.close()
+
+
+async def test_the_sim_scans_the_walls_around_each_robot_and_hello_names_the_rooms(relay_server: RunningRelay) -> None:
+    client = await TestClient.open(relay_server.ws_url)
+    hello = await client.hello()
+    rooms = {r["name"]: r for r in hello["rooms"]}
+    chemical_storage = {"name": "chemical_storage", "title": "Chemical storage", "bounds": [0.0, 3.0, 6.0, 10.0]}
+    assert rooms["chemical_storage"] == chemical_storage
+    assert set(rooms) == {"corridor", "chemical_storage", "power_distribution", "plumbing"}
+    start = time.monotonic()
+    await asyncio.sleep(1.2)
+    scans = [m for t, m in client.messages if m["identifier"] == "robot1/scan" and t >= start + 0.2]
+    assert 3 <= len(scans) <= 7, len(scans)  # sim.scan_rate: 5 Hz
+    scan = scans[-1]
+    assert scan["frame"] == "robot1/base_scan" and len(scan["ranges"]) == 360
+    assert scan["angle_min"] == pytest.approx(-math.pi, abs=1e-5)
+    assert scan["angle_increment"] == pytest.approx(2 * math.pi / 360, abs=1e-5)
+
+    def beam(bearing: float) -> float | None:
+        """The range of the beam ``bearing`` rad counter-clockwise from the robot's heading."""
+        i = round((bearing - scan["angle_min"]) / scan["angle_increment"]) % 360
+        r: float | None = scan["ranges"][i]
+        return r
+
+    # robot1 stands at (3.0, 1.5) facing north in the corridor, whose outer walls are 0.2 m thick.
+    assert beam(math.pi) == pytest.approx(1.3, abs=0.06)  # behind it: the south wall at y = 0.2
+    assert beam(math.pi / 2) == pytest.approx(2.8, abs=0.06)  # to its left: the west wall at x = 0.2
+    assert beam(-math.pi / 2) is None  # to its right the corridor runs 15 m east: no return within 8 m
+    await client.close()

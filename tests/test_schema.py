@@ -205,6 +205,7 @@ async def test_the_clients_hello_fixture_has_the_shape_the_relay_sends(fleet_con
     """xr_client/test/fixtures/hello.json drives the router's node tests: it must stay what the relay sends."""
     from relay.core import Relay
     from relay.events import PoseEvent
+    from relay.twin.facility import load_facility
 
     class Quiet:
         async def send_text(self, data: bytes) -> None: ...
@@ -212,6 +213,7 @@ async def test_the_clients_hello_fixture_has_the_shape_the_relay_sends(fleet_con
         async def close(self, code: int, reason: str) -> None: ...
 
     relay = Relay(fleet_config)
+    relay.rooms = messages.room_descriptions(load_facility(ROOT / "scenes/facility.yaml").rooms)  # as start() does
     pose = PoseEvent(robot="robot1", stamp=1.0, frame="map", x=3.0, y=1.5, z=0.0, qx=0.0, qy=0.0, qz=0.7, qw=0.7)
     relay.on_event(pose)
     client = relay.connect(Quiet())

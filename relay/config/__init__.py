@@ -19,6 +19,7 @@ from yaml.nodes import MappingNode, Node
 
 from ..errors import ConfigError
 from ..inspection.kml import Georeference
+from ..protocol import MAX_SCAN_RATE
 from .model import (
     LENS_MODELS,
     POSE_SOURCES,
@@ -154,7 +155,8 @@ def _scene(reader: _Reader, node: Node) -> Scene:
 
 def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
     path = "sim"
-    f = reader.mapping(node, path, ("world", "physics_rate", "pose_rate", "sensor_rate", "hazards", "fields"))
+    keys = ("world", "physics_rate", "pose_rate", "sensor_rate", "scan_rate", "hazards", "fields")
+    f = reader.mapping(node, path, keys)
     world: Path | None = None
     if "world" in f and reader.value(f["world"]) is not None:
         world = Path(reader.string(f["world"], "sim.world", expected="a path to a facility.yaml"))
@@ -165,6 +167,12 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
 
     def rate(n: Node, p: str) -> float:
         return reader.number(n, p, positive=True)
+
+    def scan_rate(n: Node, p: str) -> float:
+        value = rate(n, p)
+        if value > MAX_SCAN_RATE:
+            raise reader.fail(n, p, f"at most {MAX_SCAN_RATE:g} Hz (the relay sends no more scans), got {value:g}")
+        return value
 
     hazards: list[Hazard] = []
     if "hazards" in f:
@@ -201,6 +209,7 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
         physics_rate=reader.get(f, "physics_rate", path, rate, 50.0),
         pose_rate=reader.get(f, "pose_rate", path, rate, 30.0),
         sensor_rate=reader.get(f, "sensor_rate", path, rate, 5.0),
+        scan_rate=reader.get(f, "scan_rate", path, scan_rate, 5.0),
         hazards=tuple(hazards),
         fields=tuple(fields),
     )

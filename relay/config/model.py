@@ -143,6 +143,7 @@ class Sim:
     physics_rate: float = 50.0
     pose_rate: float = 30.0
     sensor_rate: float = 5.0
+    scan_rate: float = 5.0  # Hz, for robots with a `scan` (at most protocol.MAX_SCAN_RATE)
     hazards: tuple[Hazard, ...] = ()
     fields: tuple[Field, ...] = ()
 

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
     from ..hub import Hub
     from ..occupancy import OccupancyGrid
     from ..options import Options
+    from ..twin.facility import Facility
     from .store import Store
 
 logger = logging.getLogger(__name__)
@@ -87,7 +88,8 @@ class Inspection:
 
     # -- lifecycle --------------------------------------------------------------------------------
 
-    async def start(self) -> None:
+    async def start(self, facility: Facility | None = None) -> None:
+        """``facility``: the scene file (robots.yaml's ``sim.world``), whose hazards become targets."""
         from .store import Store
 
         database, images = self.options.database, self.options.images
@@ -97,11 +99,7 @@ class Inspection:
         if images is None:
             images = str(Path(database).with_name(Path(database).stem + "-images")) if "://" not in database else "."
         self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
-        world = self.config.sim.world
-        if world is not None and world.exists():
-            from ..twin.facility import load_facility
-
-            facility = await asyncio.to_thread(load_facility, world)
+        if facility is not None:
             self.targets.update((t.id, t) for t in facility_targets(facility))
         if self.options.targets is not None:
             self.targets.update(

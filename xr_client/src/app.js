@@ -208,7 +208,7 @@ export class App {
       link: () => this.linkText,
     });
     this.overlay = new Overlay({ menu, actions, sensorPanelData: (now) => this.sensorPanelData(now), povText: () => povCaption(this) });
-    const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting };
+    const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting, fleet };
     this.desktop = new DesktopControls(host, container, this.overlay.povPanel);
   }
 
@@ -332,7 +332,7 @@ export class App {
     this.twin.setScene(this.fleet.scene, this.fleet.bounds);
     if (!this.framed) {
       // Frame the fleet once; a reconnect leaves the operator's view alone.
-      this.desktop.frameFleet(this.fleet);
+      this.desktop.frameFleet();
       this.framed = true;
     }
     const operator = this.fleet.role === 'operator';
@@ -521,7 +521,7 @@ export class App {
     this.lastFrame = start;
     const eye = this.camera.getWorldPosition(new THREE.Vector3());
     const link = !this.linkOk ? 'lost' : this.router.linkStale(true, start) ? 'quiet' : 'live';
-    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, link });
+    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, link, scans: this.menu.scans });
     this.goalView.update(this.fleet, this.goals, start, this.router.paths);
     if (this.presenting) {
       this.interaction.update(start, dt);

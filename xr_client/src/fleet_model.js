@@ -28,6 +28,8 @@ export class FleetModel {
     /** Where an operator sees the most robots from (the relay's hello.vantage; map frame), if known.
      * @type {import('./protocol.js').VantageDescription | null} */
     this.vantage = null;
+    /** The scene file's named areas (hello.rooms), written on the twin's floor. @type {import('./protocol.js').RoomDescription[]} */
+    this.rooms = [];
     this.clientId = '';
     /** Connected clients by id -> the name each gave (the relay's `operators`). @type {Map<string, string>} */
     this.names = new Map();
@@ -70,6 +72,7 @@ export class FleetModel {
     this.robots.clear();
     this.bounds = hello.bounds ?? null;
     this.vantage = hello.vantage ?? null;
+    this.rooms = Array.isArray(hello.rooms) ? hello.rooms : [];
     this.clientId = hello.client_id;
     this.role = hello.role === 'viewer' ? 'viewer' : 'operator';
     this.#setScene(hello.scene);

@@ -11,7 +11,7 @@ export const MENU_ROWS = Object.freeze([
   ['tools', 'Tool'],
   ['camera', 'Camera'],
   ['mission', 'Mission'],
-  ['options', 'Comfort'],
+  ['options', 'Options'],
   ['estop', ''],
 ]);
 

@@ -56,6 +56,8 @@ export class MenuState {
     this.smooth = false;
     /** VR's overview table (a miniature of the twin) in front of the operator. */
     this.overview = true;
+    /** Laser scans drawn around the robots that have one (an RViz user expects them). */
+    this.scans = true;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -229,6 +231,7 @@ export class MenuState {
       { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
       { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
       { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
+      { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -264,6 +267,7 @@ export class MenuState {
     } else if (id === 'opt:seated') this.seated = !this.seated;
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
     else if (id === 'opt:overview') this.overview = !this.overview;
+    else if (id === 'opt:scans') this.scans = !this.scans;
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];

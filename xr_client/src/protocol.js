@@ -30,6 +30,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits}} RobotDescription */
 /** @typedef {{x: number, y: number, z: number, yaw: number}} Transform2D */
 /** @typedef {{url: string | null, map_to_scene: Transform2D}} SceneDescription */
+/** @typedef {{name: string, title: string, bounds: number[]}} RoomDescription */
 /** @typedef {{x: number, y: number, yaw: number}} VantageDescription */
 /** @typedef {{x: number, y: number, yaw: number | null}} GoalDescription */
 /** @typedef {{identifier: string, stamp: number, frame: string, x: number, y: number, z: number, qx: number, qy: number, qz: number, qw: number, yaw: number}} PoseMessage */
@@ -50,7 +51,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'playback', position: number, duration: number, rate: number, paused: boolean, loop: boolean}} PlaybackMessage */
 /** @typedef {{identifier: string, holder: string | null, previous: string | null, reason: LeaseReason}} LeaseMessage */
 /** @typedef {{identifier: 'estop', robots: string[], by: string | null, latched: boolean}} EstopMessage */
-/** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, vantage: VantageDescription | null, robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
+/** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, vantage: VantageDescription | null, rooms: RoomDescription[], robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
 /** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null}} FrameHeader */
 /** @typedef {{id: string, name: string, kind: string, x: number, y: number, facing: number | null}} TargetDescription */
 /** @typedef {{identifier: 'targets', targets: TargetDescription[]}} TargetsMessage */

@@ -1,6 +1,7 @@
 // @ts-check
 /**
- * The desktop fallback's hands: orbit with the mouse (left drag rotates, right drag pans, wheel zooms),
+ * The desktop fallback's hands: orbit with the mouse (left drag rotates, right drag pans, the wheel zooms toward
+ * the cursor), views by key (H frame the fleet, T top-down, F follow the selected robot: view/desktop_views.js),
  * fly with WASD/QE or the arrow keys when Teleop is off; click a robot to select it; with Goal on, press on
  * the floor for the position, drag for the heading, release to send; with Teleop on, WASD/arrows or a
  * gamepad's left stick drive the selected robot through the same 20 Hz loop, dead-zone and release rules.
@@ -10,8 +11,8 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { keysToStick } from '../teleop.js';
-import { mapToScene } from '../frames.js';
 import { verdictText } from '../goal_verdict.js';
+import { DesktopViews } from './desktop_views.js';
 
 const FLY_SPEED = 4; // m/s
 const PICK_RADIUS = 24; // px: a click this close to a robot selects it
@@ -21,7 +22,8 @@ export class DesktopControls {
    * @param {{camera: THREE.PerspectiveCamera, canvas: HTMLCanvasElement, menu: import('../menu_state.js').MenuState,
    *   goalPointer: import('../goal_pointer.js').GoalPointer, picking: import('./picking.js').Picking,
    *   robotViews: Map<string, import('./robot_view.js').RobotView>, actions: import('../app.js').OperatorActions,
-   *   presenting: () => boolean}} host what the desktop controls read and drive, and nothing more
+   *   presenting: () => boolean, fleet: import('../fleet_model.js').FleetModel}} host what the desktop controls read
+   *   and drive, and nothing more
    * @param {HTMLElement} element the canvas' container (listens in the capture phase, before OrbitControls)
    * @param {HTMLElement} povPanel
    */
@@ -35,6 +37,9 @@ export class DesktopControls {
     this.orbit.enableDamping = true;
     this.orbit.maxPolarAngle = Math.PI * 0.49;
     this.orbit.screenSpacePanning = false;
+    // The wheel zooms toward what is under the cursor, not the orbit centre (as in RViz, Foxglove, any map).
+    this.orbit.zoomToCursor = true;
+    this.views = new DesktopViews({ camera: host.camera, orbit: this.orbit, canvas: host.canvas, fleet: host.fleet, robotViews: host.robotViews, menu: host.menu });
     /** @type {Set<string>} */
     this.keys = new Set();
     /** Keys pressed while Teleop was on: they drove the robot, and never fly the camera (an E-STOP that turns
@@ -87,6 +92,7 @@ export class DesktopControls {
     const camera = this.host.camera;
     this.saved = { position: camera.position.clone(), quaternion: camera.quaternion.clone(), target: this.orbit.target.clone() };
     this.orbit.enabled = false;
+    this.views.suspend();
   }
 
   /** Leaving VR: the desktop view as it was before. */
@@ -98,17 +104,12 @@ export class DesktopControls {
       this.saved = null;
     }
     this.orbit.enabled = true;
+    this.views.layout(performance.now());
   }
 
-  /** Frame the fleet's floor (its map bounds, or around the robots) from the south-east, above. @param {import('../fleet_model.js').FleetModel} fleet */
-  frameFleet(fleet) {
-    const box = fleetBox(fleet);
-    const centre = box.getCenter(new THREE.Vector3());
-    const size = box.getSize(new THREE.Vector3());
-    const span = Math.max(size.x, size.z, 6);
-    this.orbit.target.copy(centre);
-    this.host.camera.position.set(centre.x, centre.y + span * 0.85, centre.z + span * 0.5);
-    this.orbit.update();
+  /** Frame the fleet (its map bounds, or around the robots) in the part of the window no panel covers. */
+  frameFleet() {
+    this.views.frame();
   }
 
   /** @param {PointerEvent} e */
@@ -246,6 +247,11 @@ export class DesktopControls {
       if (down && !e.repeat && !this.host.presenting()) this.host.actions.pressMenu('estop');
       return;
     }
+    const view = { KeyH: 'frame', Home: 'frame', KeyT: 'top', KeyF: 'follow' }[code];
+    if (view && !e.ctrlKey && !e.metaKey && !e.altKey) {
+      if (down && !e.repeat && !this.host.presenting()) this.views.choose(view);
+      return;
+    }
     if (!['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(code)) return;
     e.preventDefault();
     if (down) this.keys.add(code);
@@ -284,29 +290,17 @@ export class DesktopControls {
         .multiplyScalar(FLY_SPEED * dt);
       this.host.camera.position.add(step);
       this.orbit.target.add(step);
+      this.views.auto = null;
     }
+    this.views.update(performance.now());
     this.orbit.update();
   }
 
   dispose() {
     for (const off of this.unlisten) off();
     this.unlisten = [];
+    this.views.dispose();
     this.orbit.dispose();
   }
 }
 
-/**
- * The floor of the bounds, or around the robots: what the desktop camera frames first.
- * @param {import('../fleet_model.js').FleetModel} fleet
- */
-export function fleetBox(fleet) {
-  const box = new THREE.Box3();
-  const t = fleet.scene.mapToScene;
-  if (fleet.bounds) {
-    const [a, b, c, d] = fleet.bounds;
-    box.expandByPoint(new THREE.Vector3(...mapToScene(t, a, b))).expandByPoint(new THREE.Vector3(...mapToScene(t, c, d)));
-  }
-  for (const r of fleet.robots.values()) if (r.pose) box.expandByPoint(new THREE.Vector3(...mapToScene(t, r.pose.x, r.pose.y)));
-  if (box.isEmpty()) box.set(new THREE.Vector3(-5, 0, -5), new THREE.Vector3(5, 0, 5));
-  return box;
-}

@@ -1,11 +1,13 @@
 // @ts-check
 /**
  * The robots in the twin: one RobotView per robot of the fleet, placed every frame from the smoothed poses
- * and labelled with their status. Views are rebuilt only when the fleet (or a robot's model) changes.
+ * and labelled with their status. Views are rebuilt only when the fleet (or a robot's model) changes. The map's
+ * annotations (room names, grid, north arrow) come with the fleet's hello and live here too.
  */
 import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView } from './robot_view.js';
+import { MapAnnotations } from './map_annotations.js';
 import { formatSilence } from '../freshness.js';
 import { displayName } from '../operator_names.js';
 
@@ -17,6 +19,8 @@ export class FleetView {
   constructor(world, loader) {
     this.world = world;
     this.loader = loader;
+    this.annotations = new MapAnnotations();
+    world.add(this.annotations.group);
   }
 
   /** A new fleet: every view is rebuilt. @param {import('../fleet_model.js').FleetModel} fleet */
@@ -45,10 +49,11 @@ export class FleetView {
    * @param {number} now
    * @param {{fleet: import('../fleet_model.js').FleetModel, smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
-   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost'}} state `link`: the relay
-   *   answers, is silent on an open socket, or the socket is gone
+   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean}} state `link`: the
+   *   relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans switch
    */
-  update(now, { fleet, smoothers, history, selected, eye, freshness, link }) {
+  update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans }) {
+    this.annotations.update(fleet);
     const t = fleet.scene.mapToScene;
     for (const [name, view] of this.views) {
       const entry = fleet.robots.get(name);
@@ -59,6 +64,7 @@ export class FleetView {
         view.place(x, y, z, mapYawToScene(t, pose.yaw));
         view.scaleLabel(eye.distanceTo(view.group.position));
       }
+      view.showScan(scans);
       const status = entry.status;
       const controller = displayName(status?.controller, fleet.names, fleet.clientId);
       // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
@@ -81,5 +87,6 @@ export class FleetView {
   dispose() {
     for (const view of this.views.values()) view.dispose();
     this.views.clear();
+    this.annotations.dispose();
   }
 }

@@ -5,6 +5,7 @@
  * Robot POV panel and a message line. Reads what its host gives it; clicks go back through the host's actions.
  */
 import { drawSensorPanel } from './sensor_drawing.js';
+import { PagePanels } from './page_panels.js';
 
 /** @param {string} id */
 function el(id) {
@@ -29,6 +30,8 @@ export class Overlay {
     this.povInfo = el('pov-info');
     this.sensorCanvas = /** @type {HTMLCanvasElement} */ (el('sensor-canvas'));
     this.estopBanner = el('estop-banner');
+    /** Which panels are open (menu, sensors, help), compact in small windows. */
+    this.panels = new PagePanels(window.localStorage, { width: window.innerWidth, height: window.innerHeight });
     /** The latched-estop banner shown now (estop_banner.js), or null. @type {import('../estop_banner.js').EstopBanner | null} */
     this.banner = null;
     this.bannerKey = '';
@@ -166,6 +169,7 @@ export class Overlay {
 
   dispose() {
     clearTimeout(this.messageTimer);
+    this.panels.dispose();
     for (const off of this.unlisten) off();
   }
 }

@@ -1,9 +1,11 @@
 // @ts-check
 /**
  * One robot in the twin: its model (the glTF from `hello`, or a built-in shape when the model is ""),
- * tinted with its colour through the material named `body`; a label (name, mode, controller); a red
- * warning icon visible from anywhere; a selection ring; laser scan points in the robot frame. Offline,
- * the robot is greyed and its label shows the age of its data. The view only reads the fleet model.
+ * tinted with its colour through the material named `body`; a footprint on the floor with a heading arrow (the
+ * robot's +x, readable from above at any distance); a label (name, mode, controller) that keeps about the same
+ * size on screen within limits; a red warning icon visible from anywhere; a selection ring; laser scan points in
+ * the robot frame (shown unless the operator turns scans off). Offline, the robot is greyed and its label shows
+ * the age of its data. The view only reads the fleet model.
  */
 import * as THREE from 'three';
 import { adoptMaterials } from './model_materials.js';
@@ -11,6 +13,16 @@ import { LabelSprite, WarningSprite } from './label_sprite.js';
 import { MAX_SCAN_POINTS, scanToPoints } from '../scan.js';
 
 const GREY = new THREE.Color('#777777');
+/** A label's height on screen, as an angle (rad): ~2 degrees, 27 px in a 60-degree desktop view 800 px high,
+ * ~40 px on a Quest 3. Within LABEL_MIN..LABEL_MAX metres: not a wall of text up close (it was 0.26 m whatever
+ * the distance under 5 m, larger than the robot), not a billboard across the site. */
+export const LABEL_ANGLE = 0.035;
+export const LABEL_MIN = 0.07;
+export const LABEL_MAX = 1.5;
+/** Where labels hang from: the top of a TurtleBot-sized robot (m). */
+const LABEL_ANCHOR = 0.45;
+/** The footprint's radius (m): a TurtleBot-sized base, the built-in shape's 0.2 m and a margin. */
+const FOOTPRINT = 0.26;
 
 export class RobotView {
   /**
@@ -37,13 +49,25 @@ export class RobotView {
 
     // On top of walls: the operator keeps track of every robot (an x-ray view of the twin).
     this.label = new LabelSprite({ width: 512, height: 150, worldHeight: 0.26, onTop: true });
-    this.label.sprite.position.set(0, 0.75, 0);
+    // Anchored at the robot's top and drawn above that point on screen (sprite centre below the label): seen from
+    // above, the label sits beside the robot instead of on it, and its footprint and heading stay visible.
+    this.label.sprite.position.set(0, LABEL_ANCHOR, 0);
+    this.label.sprite.center.set(0.5, -0.35);
     this.label.sprite.userData.robot = description.name;
     this.group.add(this.label.sprite);
     this.warning = new WarningSprite();
-    this.warning.sprite.position.set(0, 1.1, 0);
+    // Above the label: the icon is 0.05 of the view high (sizeAttenuation off), the label LABEL_ANGLE, ~1.4 times
+    // less; a centre 1.05 icons below it clears the label's top (0.35 + 1 label heights up).
+    this.warning.sprite.position.set(0, LABEL_ANCHOR, 0);
+    this.warning.sprite.center.set(0.5, -1.05);
     this.warning.sprite.visible = false;
     this.group.add(this.warning.sprite);
+
+    /** The footprint and heading arrow, turned with the robot. */
+    this.heading = new THREE.Group();
+    /** @type {THREE.MeshBasicMaterial[]} */
+    this.footprintMaterials = [];
+    this.#footprint();
 
     const ringGeometry = new THREE.RingGeometry(0.32, 0.38, 48).rotateX(-Math.PI / 2);
     const ringMaterial = new THREE.MeshBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.85 });
@@ -60,7 +84,8 @@ export class RobotView {
     const scanGeometry = new THREE.BufferGeometry();
     scanGeometry.setAttribute('position', new THREE.BufferAttribute(this.scanPositions, 3).setUsage(THREE.DynamicDrawUsage));
     scanGeometry.setDrawRange(0, 0);
-    const scanMaterial = new THREE.PointsMaterial({ color: this.colour, size: 0.05 });
+    // A few pixels whatever the distance (as RViz draws points): 6 cm dots were invisible from across the site.
+    const scanMaterial = new THREE.PointsMaterial({ color: this.colour, size: 3.5, sizeAttenuation: false });
     this.scan = new THREE.Points(scanGeometry, scanMaterial);
     this.scan.frustumCulled = false;
     this.scan.raycast = () => {};
@@ -70,6 +95,35 @@ export class RobotView {
     this.offline = false;
     /** Why what this view shows is old (the link, the pose), or null while it is live. @type {string | null} */
     this.stale = null;
+  }
+
+  /** The footprint and the heading arrow: flat on the floor, turned with the robot (see place()). */
+  #footprint() {
+    this.heading.name = `footprint:${this.name}`;
+    const discGeometry = new THREE.CircleGeometry(FOOTPRINT, 40).rotateX(-Math.PI / 2);
+    const edgeGeometry = new THREE.RingGeometry(FOOTPRINT - 0.025, FOOTPRINT, 40).rotateX(-Math.PI / 2);
+    // The arrow points along +x (the robot's forward) from the footprint's edge: 0.45 m long, so that the heading
+    // reads from 20 m away, where the robot itself is a dozen pixels.
+    const arrow = new THREE.Shape();
+    arrow.moveTo(FOOTPRINT + 0.45, 0);
+    arrow.lineTo(FOOTPRINT - 0.02, 0.16);
+    arrow.lineTo(FOOTPRINT + 0.08, 0);
+    arrow.lineTo(FOOTPRINT - 0.02, -0.16);
+    arrow.closePath();
+    const arrowGeometry = new THREE.ShapeGeometry(arrow).rotateX(-Math.PI / 2);
+    const fill = new THREE.MeshBasicMaterial({ color: this.colour, transparent: true, opacity: 0.28, depthWrite: false });
+    const solid = new THREE.MeshBasicMaterial({ color: this.colour, transparent: true, opacity: 0.95, depthWrite: false });
+    const parts = [new THREE.Mesh(discGeometry, fill), new THREE.Mesh(edgeGeometry, solid), new THREE.Mesh(arrowGeometry, solid)];
+    parts.forEach((mesh, i) => {
+      mesh.position.y = 0.012 + i * 0.002; // above the floor, below the selection ring
+      mesh.raycast = () => {};
+      mesh.renderOrder = 2;
+      this.heading.add(mesh);
+    });
+    this.footprintMaterials = [fill, solid];
+    this.group.add(this.heading);
+    this.geometries.push(discGeometry, edgeGeometry, arrowGeometry);
+    this.materials.push(fill, solid);
   }
 
   /** @param {boolean} hasCamera */
@@ -118,14 +172,17 @@ export class RobotView {
   }
 
   /**
-   * Keep the label readable from afar: beyond 5 m it grows with the distance (a minimum angular size).
+   * The label keeps about the same size on screen (LABEL_ANGLE), within LABEL_MIN..LABEL_MAX metres.
    * @param {number} distance from the viewer, metres
    */
   scaleLabel(distance) {
-    const k = Math.max(1, distance / 5);
-    const h = 0.26 * k;
+    const h = Math.min(LABEL_MAX, Math.max(LABEL_MIN, LABEL_ANGLE * distance));
     this.label.sprite.scale.set((h * this.label.canvas.width) / this.label.canvas.height, h, 1);
-    this.label.sprite.position.y = 0.62 + h / 2;
+  }
+
+  /** Show or hide the laser scan (the operator's Scans switch). @param {boolean} on */
+  showScan(on) {
+    this.scan.visible = on;
   }
 
   /**
@@ -137,6 +194,7 @@ export class RobotView {
     this.group.position.set(x, y, z);
     this.body.rotation.y = yaw;
     this.scan.rotation.y = yaw;
+    this.heading.rotation.y = yaw;
   }
 
   /** @param {boolean} offline */
@@ -162,6 +220,7 @@ export class RobotView {
         material.opacity = offline ? 0.55 : 1;
       }
     });
+    for (const material of this.footprintMaterials) material.color.copy(this.colour).lerp(GREY, offline ? 0.8 : 0);
   }
 
   /**

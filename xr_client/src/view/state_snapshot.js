@@ -5,7 +5,7 @@
  * reads in a console. Building it changes nothing.
  */
 import * as THREE from 'three';
-import { mapToScene } from '../frames.js';
+import { mapToScene, sceneYawToMap } from '../frames.js';
 
 /** @param {import('../app.js').App} app */
 export function snapshotState(app) {
@@ -51,16 +51,26 @@ export function snapshotState(app) {
       points: app.presenting && app.hud.estop.button.mesh.parent ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() } : {},
     },
     camera: app.camera.position.toArray(),
+    eye: app.camera.getWorldPosition(new THREE.Vector3()).toArray(),
+    view: viewState(app),
     panel: panelState(app),
     overview: { visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale },
     paths: Object.fromEntries([...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0])),
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
     rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
     world: app.world.visible,
+    map: { rooms: app.fleetView.annotations.rooms, grid: app.fleetView.annotations.gridLines, north: app.fleetView.annotations.north },
     robots: Object.fromEntries(
       [...app.robotViews].map(([name, v]) => [
         name,
-        { position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible },
+        {
+          position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
+          scan: { points: v.scan.geometry.drawRange.count, visible: v.scan.visible },
+          // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
+          heading: headingOf(app, v),
+          labelHeight: v.label.sprite.scale.y,
+          labelPixels: app.presenting ? null : labelPixels(app, v),
+        },
       ]),
     ),
     goal: { pointer: app.goalPointer.state, hover: app.goalPointer.hover, marker: app.goalPointer.marker, verdict: app.goalPointer.verdict, colour: `#${app.goalView.pointer.material.color.getHexString()}`, sent: app.sender.counts.goals },
@@ -109,4 +119,37 @@ export function mapToPage(app, x, y, z = 0) {
   const v = new THREE.Vector3(...mapToScene(app.fleet.scene.mapToScene, x, y, z)).project(app.camera);
   const rect = app.renderer.domElement.getBoundingClientRect();
   return [rect.left + ((v.x + 1) / 2) * rect.width, rect.top + ((1 - v.y) / 2) * rect.height];
+}
+
+/** The footprint arrow's direction in the map frame (rad, CCW from east). @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view */
+function headingOf(app, view) {
+  const d = new THREE.Vector3(1, 0, 0).transformDirection(view.heading.matrixWorld);
+  return sceneYawToMap(app.fleet.scene.mapToScene, Math.atan2(-d.z, d.x));
+}
+
+/** How tall a robot's label is on the desktop page (px): the sprite faces the camera. @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view */
+function labelPixels(app, view) {
+  const sprite = view.label.sprite;
+  const anchor = sprite.getWorldPosition(new THREE.Vector3());
+  const up = new THREE.Vector3(0, sprite.scale.y, 0).applyQuaternion(app.camera.getWorldQuaternion(new THREE.Quaternion()));
+  const a = anchor.clone().project(app.camera);
+  const b = anchor.clone().add(up).project(app.camera);
+  const rect = app.renderer.domElement.getBoundingClientRect();
+  return Math.hypot(((b.x - a.x) / 2) * rect.width, ((b.y - a.y) / 2) * rect.height);
+}
+
+/** The desktop view: its mode, the free part of the window, the compass and scale bar, the panels. @param {import('../app.js').App} app */
+function viewState(app) {
+  const views = app.desktop.views;
+  return {
+    mode: views.mode,
+    free: views.free,
+    target: views.host.orbit.target.toArray(),
+    distance: app.camera.position.distanceTo(views.host.orbit.target),
+    polar: views.host.orbit.getPolarAngle(),
+    compass: views.compass,
+    scale: { text: views.scale.text, px: views.scale.px },
+    panels: { ...app.overlay.panels.open },
+    compact: document.body.classList.contains('compact'),
+  };
 }
