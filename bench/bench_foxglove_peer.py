@@ -17,6 +17,8 @@ from .bench_pose_fanout import cells as fanout_cells
 from .common import JsonDict, Report, Settings, fmt, target
 
 NAME = "foxglove_peer"
+#: The second cell the peer is compared at: 300 robots to 5 clients.
+PEER_CELL = (300, 5)
 TITLE = "Peer: Foxglove SDK WebSocket server"
 
 
@@ -39,25 +41,34 @@ async def run(settings: Settings, report: Report) -> JsonDict:
         return {"skipped": reason, "targets": [target("Foxglove peer", "reference", "n/a", None, reason)]}
     window = settings.pick(4.0, 1.5)
     warmup = settings.pick(1.0, 0.4)
-    # Quick: the target cell only (benchmark 1 covers a small one).
-    grid = [TARGET_CELL] if settings.quick else fanout_cells(settings)
+    # Quick: the target cell and a larger fleet to fewer clients (issue #15: 100x20 and 300x5).
+    grid = [TARGET_CELL, PEER_CELL] if settings.quick else sorted({*fanout_cells(settings), PEER_CELL})
     results: list[JsonDict] = []
     for robots, clients in grid:
         # Alternate which server goes first: the machine's load drifts over a run.
         order = ("foxglove", "xr") if (robots + clients) % 2 else ("xr", "foxglove")
         for server in order:
             results.append(await fanout_cell(server, robots, clients, window=window, warmup=warmup, report=report))
-    xr = find(results, "xr", *TARGET_CELL)
-    fox = find(results, "foxglove", *TARGET_CELL)
     targets = []
-    if xr and fox:
+    for cell in (TARGET_CELL, PEER_CELL):
+        xr = find(results, "xr", *cell)
+        fox = find(results, "foxglove", *cell)
+        if not (xr and fox):
+            continue
+        p99, fox_p99 = xr["latency_ms"]["p99"], fox["latency_ms"]["p99"]
+        cpu, fox_cpu = xr["cpu"]["server"], fox["cpu"]["server"]
+        ahead = p99 is not None and fox_p99 is not None and p99 < fox_p99 and cpu < fox_cpu
         targets.append(
             target(
-                "p99 latency, 100 robots x 20 clients, xr-relay vs Foxglove",
-                "reference (no target)",
-                f"xr-relay {fmt(xr['latency_ms']['p99'], 2)} ms, Foxglove {fmt(fox['latency_ms']['p99'], 2)} ms",
-                None,
-                baseline=f"CPU xr-relay {100 * xr['cpu']['server']:.0f} %, Foxglove {100 * fox['cpu']['server']:.0f} %",
+                f"xr-relay ahead of Foxglove, {cell[0]} robots x {cell[1]} clients",
+                "p99 and CPU both below the peer's",
+                f"p99 {fmt(p99, 2)} ms vs {fmt(fox_p99, 2)} ms ({fox_p99 / p99:.1f}x), CPU {100 * cpu:.0f} % vs "
+                f"{100 * fox_cpu:.0f} % ({fox_cpu / cpu:.1f}x)"
+                if p99 and cpu
+                else "n/a",
+                ahead,
+                "" if ahead else "see the cells: the relay's p99 or CPU is not below the peer's in this run",
+                baseline="Foxglove SDK server, same producer and clients, same run",
             )
         )
     return {

@@ -267,20 +267,26 @@ def relay_options(backend: str, token: str | None) -> Options:
 
 
 async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | None) -> None:
-    import relay.core
     from relay.server import RELAY_KEY, create_app, open_runner
 
     synthetic: SyntheticBackend | None = None
+    factory = None
     if args.backend == "synthetic":
-        # The relay builds its backend by name; the benchmark's own backend is not one of them, so the
-        # factory is swapped in this process only (nothing else runs here).
-        def factory(cfg: FleetConfig, sink: EventSink, options: Options) -> Backend:
+        # The benchmark's own backend, handed to the relay as its backend factory (it is not one the relay builds
+        # by name). Before 2026-11-23 it was swapped in as relay.core.create_backend, which Relay's default
+        # argument had already bound: the xr cells measured the sim backend (time.time() stamps, physics of every
+        # robot) instead.
+        def synthetic_backend(cfg: FleetConfig, sink: EventSink, options: Options) -> Backend:
             nonlocal synthetic
             synthetic = SyntheticBackend(cfg, sink, args.rate, jpeg)
             return synthetic
 
-        setattr(relay.core, "create_backend", factory)  # noqa: B010 - a module attribute, swapped on purpose
-    app = create_app(config, relay_options("sim" if args.backend == "synthetic" else args.backend, args.token))
+        factory = synthetic_backend
+    app = create_app(
+        config,
+        relay_options("sim" if args.backend == "synthetic" else args.backend, args.token),
+        backend_factory=factory,
+    )
     the_relay = app[RELAY_KEY]
     backend = the_relay.backend
     counter = Counter(backend.sink)

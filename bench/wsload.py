@@ -29,6 +29,7 @@ import orjson
 FOXGLOVE_SUBPROTOCOL = "foxglove.sdk.v1"
 _STAMP = b'"stamp":'
 _POSE = b'/pose"'
+_MESSAGE = b'{"identifier":'
 
 
 def handshake_request(host: str, port: int, path: str, subprotocol: str | None = None) -> bytes:
@@ -215,11 +216,22 @@ class WsClient(asyncio.Protocol):
         if payload.startswith(b'{"identifier"') and payload.find(b'"hello"', 0, 40) > 0:
             self._hello(now)
             return
-        if self.recorder.active:
-            stamp = read_stamp(payload)
-            if stamp is not None:
-                self.poses += 1
-                self.recorder.pose_latency.append(now - stamp)
+        if not self.recorder.active:
+            return
+        if payload[:1] == b"[":
+            # A batch (xr-relay with batch=1): every message in it arrived now.
+            start = payload.find(_MESSAGE)
+            while start >= 0:
+                stamp = read_stamp(payload, start)
+                if stamp is not None:
+                    self.poses += 1
+                    self.recorder.pose_latency.append(now - stamp)
+                start = payload.find(_MESSAGE, start + len(_MESSAGE))
+            return
+        stamp = read_stamp(payload)
+        if stamp is not None:
+            self.poses += 1
+            self.recorder.pose_latency.append(now - stamp)
 
     def _binary(self, payload: bytes, now: float) -> None:
         if self.kind == "foxglove":

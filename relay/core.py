@@ -187,9 +187,12 @@ class Relay:
 
     # -- connections ------------------------------------------------------------------------------
 
-    def connect(self, transport: Transport, role: Role = "operator", address: str | None = None) -> Client:
+    def connect(
+        self, transport: Transport, role: Role = "operator", address: str | None = None, *, batch: bool = False
+    ) -> Client:
+        """``batch``: the client takes state messages in batches (``/ws?batch=1``, relay.hub)."""
         client_id = new_client_id()
-        channel = self.hub.add(client_id, transport)
+        channel = self.hub.add(client_id, transport, batch=batch)
         allowance = TokenBucket.full(self.options.max_message_rate, self.clock())
         client = Client(client_id, role, channel, allowance, address)
         self._clients[client_id] = client

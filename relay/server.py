@@ -22,7 +22,7 @@ from . import __version__
 from .access import Access, Refused
 from .clients import Client
 from .config import FleetConfig
-from .core import Relay
+from .core import BackendFactory, Relay
 from .guard import ConnectionGuard
 from .options import Options
 from .tls import fingerprint, server_context
@@ -156,7 +156,8 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     await ws.prepare(request)
     request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)
-    client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address)
+    batch = request.query.get("batch") == "1"  # the client reads JSON arrays of state messages (relay.hub)
+    client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch)
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
@@ -362,10 +363,15 @@ def own_host_names(options: Options) -> frozenset[str]:
     return frozenset(n for n in names if n)
 
 
-def create_app(config: FleetConfig, options: Options | None = None) -> web.Application:
+def create_app(
+    config: FleetConfig, options: Options | None = None, *, backend_factory: BackendFactory | None = None
+) -> web.Application:
+    """``backend_factory``: a backend of the caller's (the benchmarks' synthetic fleet), else the one options name."""
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
-    app[RELAY_KEY] = Relay(config, options)
+    app[RELAY_KEY] = (
+        Relay(config, options) if backend_factory is None else Relay(config, options, backend_factory=backend_factory)
+    )
     app[ACCESS_KEY] = Access(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
     )

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import asyncio
+from pathlib import Path
 
 from relay.hub import CLOSE_NOT_READING, Hub
+
+DOC_PROTOCOL = (Path(__file__).parent.parent / "docs/protocol.md").read_text()
 
 
 class RecordingTransport:
@@ -131,3 +134,68 @@ async def test_remove_stops_the_writer() -> None:
     assert len(hub) == 0
     hub.publish_state("k", b"w")
     assert channel.queued == 0
+
+
+async def test_a_batching_client_gets_what_waits_in_one_json_array_and_a_lone_message_as_itself() -> None:
+    from relay import messages
+
+    def pose(robot: str, x: float) -> bytes:
+        q = 0.707107
+        o = 0.0
+        message = messages.pose_message(robot, stamp=1.7e9 + 0.5, frame="map", x=x, y=1.5, z=o, qx=o, qy=o, qz=q, qw=q)
+        return messages.encode(message)
+
+    reading = messages.sensor_message("robot1", name="gas", value=5.2, unit="ppm", warning=False, stamp=1.0)
+    gas = messages.encode(reading)
+    hub = Hub()
+    batching, plain = RecordingTransport(), RecordingTransport()
+    hub.add("batching", batching, batch=True)
+    hub.add("plain", plain)
+    await settle()
+    # Idle: one message goes out alone, as itself (no array, no added wait).
+    hub.publish_state("robot1/pose", pose("robot1", 2.0))
+    await settle()
+    assert batching.sent == [("text", pose("robot1", 2.0))]
+    # Busy: what was published before the writer ran goes out as one array, in the order first queued (robot1's
+    # pose updated in place), the bytes joined as they were encoded once. Pinned, as docs/protocol.md shows it.
+    batching.sent.clear()
+    plain.sent.clear()
+    hub.publish_state("robot1/pose", pose("robot1", 2.5))
+    hub.publish_state("robot2/pose", pose("robot2", 9.0))
+    hub.publish_state("robot1/sensor/gas", gas)
+    hub.publish_state("robot1/pose", pose("robot1", 3.0))
+    await settle()
+    assert batching.sent == [
+        (
+            "text",
+            b'[{"identifier":"robot1/pose","stamp":1700000000.5,"frame":"map","x":3.0,"y":1.5,"z":0.0,"qx":0.0,'
+            b'"qy":0.0,"qz":0.707107,"qw":0.707107,"yaw":1.570797},{"identifier":"robot2/pose","stamp":1700000000.5,'
+            b'"frame":"map","x":9.0,"y":1.5,"z":0.0,"qx":0.0,"qy":0.0,"qz":0.707107,"qw":0.707107,"yaw":1.570797},'
+            b'{"identifier":"robot1/sensor","name":"gas","value":5.2,"unit":"ppm","warning":false,"stamp":1.0}]',
+        )
+    ]
+    assert batching.sent[0][1].decode() in DOC_PROTOCOL.replace("\n", "")
+    # A client that did not ask gets the same messages one per frame, never an array.
+    assert [data[:1] for _, data in plain.sent] == [b"{"] * 3
+    assert hub.counters.batches == 1 and hub.counters.state_batched == 3
+
+
+async def test_batches_are_bounded_and_priority_and_frames_are_never_batched() -> None:
+    from relay.hub import MAX_BATCH_MESSAGES
+
+    hub = Hub()
+    transport = RecordingTransport(paused=True)
+    channel = hub.add("c", transport, batch=True)
+    await settle()
+    for i in range(MAX_BATCH_MESSAGES + 10):
+        channel.put_state(f"robot{i}/pose", b"{}")
+    channel.put_priority(b'{"identifier":"ack","id":1}')
+    channel.put_frame(b"frame")
+    transport.gate.set()
+    await settle()
+    kinds = [(kind, data[:1]) for kind, data in transport.sent]
+    # The ack first, alone; then a full batch, the frame (state and frames alternate), and the rest.
+    assert kinds == [("text", b"{"), ("text", b"["), ("binary", b"f"), ("text", b"[")]
+    assert transport.sent[1][1].count(b"{}") == MAX_BATCH_MESSAGES
+    assert transport.sent[3][1] == b"[" + b",".join([b"{}"] * 10) + b"]"
+    assert hub.counters.messages_out == 1 + MAX_BATCH_MESSAGES + 1 + 10

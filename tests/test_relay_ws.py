@@ -514,3 +514,30 @@ async def test_the_sim_scans_the_walls_around_each_robot_and_hello_names_the_roo
     assert beam(math.pi / 2) == pytest.approx(2.8, abs=0.06)  # to its left: the west wall at x = 0.2
     assert beam(-math.pi / 2) is None  # to its right the corridor runs 15 m east: no return within 8 m
     await client.close()
+
+
+async def test_a_client_that_asks_gets_state_in_batches_and_the_same_messages(relay_server: RunningRelay) -> None:
+    plain = await client_of(relay_server)
+    batching = await TestClient.open(relay_server.ws_url + "?batch=1")
+    await batching.hello()
+    start = time.monotonic()
+    await asyncio.sleep(1.5)
+    # The sim publishes the three robots' poses in one tick: they reach the batching client together, as one frame.
+    assert plain.batches == [] and len(batching.batches) > 10 and max(batching.batches) >= 3, batching.batches
+
+    def kinds(client: TestClient) -> dict[str, int]:
+        counted: dict[str, int] = {}
+        for t, m in client.messages:
+            if t >= start + 0.2 and t < start + 1.2:
+                counted[m["identifier"]] = counted.get(m["identifier"], 0) + 1
+        return counted
+
+    a, b = kinds(plain), kinds(batching)
+    assert set(a) == set(b) and {f"robot{i}/pose" for i in (1, 2, 3)} <= set(b)
+    for robot in ("robot1", "robot2", "robot3"):  # 30 Hz each, in both (coalescing may merge a few)
+        assert 20 <= b[f"{robot}/pose"] <= 33 and abs(a[f"{robot}/pose"] - b[f"{robot}/pose"]) <= 6
+    # Commands and their replies work as for any client.
+    reply = await batching.request({"identifier": "robot1/cmd_vel", "linear": 0.0, "angular": 0.0})
+    assert reply["identifier"] == "ack"
+    await plain.close()
+    await batching.close()

@@ -27,6 +27,8 @@ class TestClient:
         self.messages: list[tuple[float, dict[str, Any]]] = []
         self.frames: list[tuple[float, dict[str, Any], bytes]] = []
         self.latest: dict[str, dict[str, Any]] = {}
+        #: The size of every batch received (text frames that were JSON arrays).
+        self.batches: list[int] = []
         self._changed = asyncio.Event()
         self._ids = itertools.count(1)
         self._reader = asyncio.get_running_loop().create_task(self._read())
@@ -45,12 +47,15 @@ class TestClient:
                     header, payload = decode_frame(data)
                     self.frames.append((now, header, payload))
                 else:
-                    message = orjson.loads(data)
-                    self.messages.append((now, message))
-                    key = message["identifier"]
-                    if key.endswith("/sensor"):
-                        key = f"{key}/{message['name']}"
-                    self.latest[key] = message
+                    parsed = orjson.loads(data)
+                    if isinstance(parsed, list):  # a batch (the client connected with batch=1)
+                        self.batches.append(len(parsed))
+                    for message in parsed if isinstance(parsed, list) else [parsed]:
+                        self.messages.append((now, message))
+                        key = message["identifier"]
+                        if key.endswith("/sensor"):
+                            key = f"{key}/{message['name']}"
+                        self.latest[key] = message
                 self._changed.set()
         except ConnectionClosed:
             pass  # the relay went away without a closing handshake (killed): closed_code says so

@@ -233,3 +233,24 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     # Each robot inspects its target again (it stands next to it since the demo): two new findings.
     await client.wait("s.inspection.findings.length === 5", 60)
     assert not client.errors, client.errors
+
+
+async def test_a_software_renderer_is_detected_and_quality_lowered_by_itself(
+    station: Station, open_client: OpenClient
+) -> None:
+    # No ?quality or ?maxfps: Debian's Chromium here draws with SwiftShader, and the page notices by itself.
+    client = await open_client(station.url, "quality", 1280, 760)
+    quality = await client.page.evaluate("window.__xrRelay.quality")
+    assert quality["software"] is True and quality["lowQuality"] is True and quality["maxFps"] == 10, quality
+    message = await client.page.inner_text("#message")
+    assert message.startswith("software rendering (") and "?quality=high" in message, message
+    # Drawn at most 10 times a second while the behaviour keeps running every frame.
+    before = await client.drawn(3)
+    after = (await client.state())["timing"]
+    assert after["renders"] <= after["frames"]
+    assert before["renders"] < after["renders"]
+    # ?quality=high: the operator asked for full quality; nothing is lowered or said.
+    full = await open_client(f"{station.url}/?quality=high", "quality-high", 640, 400)
+    quality = await full.page.evaluate("window.__xrRelay.quality")
+    assert quality == {"lowQuality": False, "maxFps": None, "software": True, "reason": ""}, quality
+    assert client.errors == [] and full.errors == [], (client.errors, full.errors)

@@ -11,12 +11,13 @@ import { PROTOCOL_VERSION } from './protocol.js';
 import { PING_PERIOD_MS, ReconnectPolicy } from './reconnect.js';
 
 /**
- * The WebSocket address of the relay that served this page, with the operator token when there is one.
+ * The WebSocket address of the relay that served this page, with the operator token when there is one. `batch=1`:
+ * this page reads a text frame that is a JSON array of messages (the relay batches state when it is busy).
  * @param {Location | URL} location @param {string | null} [token]
  */
 export function relayUrl(location, token = null) {
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
-  return `${scheme}//${location.host}/ws${token ? `?token=${encodeURIComponent(token)}` : ''}`;
+  return `${scheme}//${location.host}/ws?batch=1${token ? `&token=${encodeURIComponent(token)}` : ''}`;
 }
 
 /**
@@ -97,21 +98,25 @@ export class RelayConnection extends EventTarget {
         this.dispatchEvent(new CustomEvent('frame', { detail: event.data }));
         return;
       }
-      let message;
+      let parsed;
       try {
-        message = JSON.parse(event.data);
+        parsed = JSON.parse(event.data);
       } catch {
         console.warn('relay sent a text frame that is not JSON; ignored');
         return;
       }
-      this.messagesIn++;
-      if (message.identifier === 'pong') {
-        this.policy.pong(message.t, this.now());
-        this.#status();
-      } else if (message.identifier === 'hello' && message.protocol !== PROTOCOL_VERSION) {
-        console.warn(`relay speaks protocol ${message.protocol}, this page ${PROTOCOL_VERSION}`);
+      // A batch (an array: state messages the relay had waiting for this page) is its messages in order.
+      for (const message of Array.isArray(parsed) ? parsed : [parsed]) {
+        if (message === null || typeof message !== 'object') continue;
+        this.messagesIn++;
+        if (message.identifier === 'pong') {
+          this.policy.pong(message.t, this.now());
+          this.#status();
+        } else if (message.identifier === 'hello' && message.protocol !== PROTOCOL_VERSION) {
+          console.warn(`relay speaks protocol ${message.protocol}, this page ${PROTOCOL_VERSION}`);
+        }
+        this.dispatchEvent(new CustomEvent('message', { detail: message }));
       }
-      this.dispatchEvent(new CustomEvent('message', { detail: message }));
     });
     let opened = false;
     socket.addEventListener('open', () => { opened = true; });

@@ -35,12 +35,17 @@ await Promise.race([
 const { App } = await import('./app.js');
 const { mapToScene } = await import('./frames.js');
 const { mapToPage } = await import('./view/state_snapshot.js');
+const { renderQuality } = await import('./render_quality.js');
 const container = /** @type {HTMLElement} */ (document.getElementById('viewport'));
-// ?maxfps=N caps the drawing rate (a software-rendered browser in CI; a laptop on battery).
-const maxFps = Number(params.get('maxfps')) || undefined;
-// ?quality=low: no multisampling, a lower resolution.
-const app = new App(container, { maxFps, lowQuality: params.get('quality') === 'low' });
+// ?maxfps=N caps the drawing rate (a laptop on battery); ?quality=low: no multisampling, a lower resolution. A
+// software renderer gets both by itself (render_quality.js), unless ?quality=high.
+const quality = renderQuality(webglRenderer(), params);
+const app = new App(container, { maxFps: quality.maxFps ?? undefined, lowQuality: quality.lowQuality });
 app.start();
+if (quality.reason) {
+  console.info(quality.reason);
+  app.overlay.say(quality.reason, 'info', 8000);
+}
 /** @type {any} */ (window).__xrRelay = Object.freeze({
   get state() {
     return app.testState();
@@ -53,5 +58,21 @@ app.start();
   overviewPoint: (x, y) => app.hud.miniature.worldPoint(x, y, app.fleet.scene.mapToScene),
   /** @param {[number, number] | null} [pixel] the VR finding card's buttons (and a pixel of its capture) -> scene points */
   cardPoints: (pixel) => app.findingCard.points(pixel ?? null),
+  /** How this browser draws and what the station asks of it (render_quality.js). */
+  quality,
   version: 1,
 });
+
+/** The WebGL renderer's name (a GPU's, or SwiftShader's), or null when the browser will not say. */
+function webglRenderer() {
+  try {
+    const gl = document.createElement('canvas').getContext('webgl2') ?? document.createElement('canvas').getContext('webgl');
+    if (!gl) return null;
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+    gl.getExtension('WEBGL_lose_context')?.loseContext(); // one probe context, released at once
+    return name;
+  } catch {
+    return null;
+  }
+}

@@ -6,9 +6,9 @@ import { accessRefusal } from '../src/connection.js';
 import { operatorToken, relayUrl } from '../src/connection.js';
 
 test('the relay address comes from the page origin, ws or wss to match', () => {
-  assert.equal(relayUrl(new URL('http://127.0.0.1:8090/index.html')), 'ws://127.0.0.1:8090/ws');
-  assert.equal(relayUrl(new URL('https://relay.example:8443/?emulate=quest3')), 'wss://relay.example:8443/ws');
-  assert.equal(relayUrl(new URL('http://127.0.0.1:8080/'), 'a b+c'), 'ws://127.0.0.1:8080/ws?token=a%20b%2Bc');
+  assert.equal(relayUrl(new URL('http://127.0.0.1:8090/index.html')), 'ws://127.0.0.1:8090/ws?batch=1');
+  assert.equal(relayUrl(new URL('https://relay.example:8443/?emulate=quest3')), 'wss://relay.example:8443/ws?batch=1');
+  assert.equal(relayUrl(new URL('http://127.0.0.1:8080/'), 'a b+c'), 'ws://127.0.0.1:8080/ws?batch=1&token=a%20b%2Bc');
 });
 
 test('the operator token comes from the #token= fragment and is kept for the tab', () => {
