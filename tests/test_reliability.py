@@ -103,30 +103,34 @@ class StalledClient:
 async def test_a_client_that_stops_reading_costs_bounded_memory(relay_server: RunningRelay) -> None:
     relay = relay_server.relay
     stalled = await asyncio.to_thread(StalledClient, relay_server.ws_url)
-    # It asks for the camera stream, then reads nothing: its socket buffers fill, then its lanes.
-    stalled.send_text('{"identifier":"robot1/stream","id":"s","camera":"front","fps":15}')
-    clients = [await TestClient.open(relay_server.ws_url) for _ in range(5)]
-    for client in clients:
-        await client.hello()
-        await client.request({"identifier": "robot1/stream", "camera": "front", "fps": 5})
-    channel = next(
-        c.channel for c in relay._clients.values() if c.channel.streams.get("robot1/camera/front", (0,))[0] != 5
-    )
-    started = time.monotonic()
-    counters = relay.hub.counters
-    while time.monotonic() - started < 30 and not (counters.frames_dropped and counters.state_coalesced):  # noqa: ASYNC110
-        await asyncio.sleep(0.5)
-    elapsed = time.monotonic() - started
-    # It is stalled (values were replaced and frames dropped for it), and its lanes hold at most one value
-    # per state key and two frames however long it lasts.
-    assert counters.frames_dropped > 0 and counters.state_coalesced > 0
-    state_keys = 3 * (1 + 3 + 1)  # per robot: pose, three sensors, status
-    assert channel.queued <= state_keys + 2
-    # Meanwhile the others keep receiving the 30 Hz poses and their stream.
-    for client in clients:
-        poses = [t for t, m in client.messages if m["identifier"] == "robot2/pose" and t >= started]
-        assert len(poses) / elapsed >= 20, len(poses) / elapsed
-        assert sum(1 for _, h, _ in client.frames if h["identifier"] == "robot1/camera/front") >= 3
-    for client in clients:
-        await client.close()
-    stalled.close()
+    clients: list[TestClient] = []
+    # Closed however the test ends: a stalled socket left open would hold the relay's shutdown (and the suite).
+    try:
+        # It asks for the camera stream, then reads nothing: its socket buffers fill, then its lanes.
+        stalled.send_text('{"identifier":"robot1/stream","id":"s","camera":"front","fps":15}')
+        clients.extend([await TestClient.open(relay_server.ws_url) for _ in range(5)])
+        for client in clients:
+            await client.hello()
+            await client.request({"identifier": "robot1/stream", "camera": "front", "fps": 5})
+        channel = next(
+            c.channel for c in relay._clients.values() if c.channel.streams.get("robot1/camera/front", (0,))[0] != 5
+        )
+        started = time.monotonic()
+        counters = relay.hub.counters
+        while time.monotonic() - started < 30 and not (counters.frames_dropped and counters.state_coalesced):  # noqa: ASYNC110
+            await asyncio.sleep(0.5)
+        elapsed = time.monotonic() - started
+        # It is stalled (values were replaced and frames dropped for it), and its lanes hold at most one value
+        # per state key and two frames however long it lasts.
+        assert counters.frames_dropped > 0 and counters.state_coalesced > 0
+        state_keys = 3 * (1 + 3 + 1 + 1)  # per robot: pose, three sensors, status, laser scan
+        assert channel.queued <= state_keys + 2
+        # Meanwhile the others keep receiving the 30 Hz poses and their stream.
+        for client in clients:
+            poses = [t for t, m in client.messages if m["identifier"] == "robot2/pose" and t >= started]
+            assert len(poses) / elapsed >= 20, len(poses) / elapsed
+            assert sum(1 for _, h, _ in client.frames if h["identifier"] == "robot1/camera/front") >= 3
+    finally:
+        for client in clients:
+            await client.close()
+        stalled.close()
