@@ -267,30 +267,31 @@ def relay_options(backend: str, token: str | None) -> Options:
 
 
 async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | None) -> None:
+    from relay.backends import create_backend
     from relay.server import RELAY_KEY, create_app, open_runner
 
     synthetic: SyntheticBackend | None = None
-    factory = None
-    if args.backend == "synthetic":
-        # The benchmark's own backend, handed to the relay as its backend factory (it is not one the relay builds
-        # by name). Before 2026-11-23 it was swapped in as relay.core.create_backend, which Relay's default
-        # argument had already bound: the xr cells measured the sim backend (time.time() stamps, physics of every
-        # robot) instead.
-        def synthetic_backend(cfg: FleetConfig, sink: EventSink, options: Options) -> Backend:
-            nonlocal synthetic
-            synthetic = SyntheticBackend(cfg, sink, args.rate, jpeg)
-            return synthetic
+    counter: Counter | None = None
 
-        factory = synthetic_backend
-    app = create_app(
-        config,
-        relay_options("sim" if args.backend == "synthetic" else args.backend, args.token),
-        backend_factory=factory,
-    )
+    def counting_backend(cfg: FleetConfig, sink: EventSink, options: Options) -> Backend:
+        """The backend, built around a counting sink: parts of a backend keep the sink they were built with (the
+        ros backend's camera encoders), so it is wrapped before, never swapped after. The benchmark's own synthetic
+        backend is built here too (the relay does not build it by name). Until 2026-11-23 it was swapped in as
+        relay.core.create_backend, which Relay's default argument had already bound: the xr cells measured the sim
+        backend, and frames of the ros backend's cameras went past the swapped-in counter."""
+        nonlocal synthetic, counter
+        counter = Counter(sink)
+        if args.backend == "synthetic":
+            synthetic = SyntheticBackend(cfg, counter, args.rate, jpeg)
+            return synthetic
+        return create_backend(cfg, counter, options)
+
+    options = relay_options("sim" if args.backend == "synthetic" else args.backend, args.token)
+    app = create_app(config, options, backend_factory=counting_backend)
     the_relay = app[RELAY_KEY]
     backend = the_relay.backend
-    counter = Counter(backend.sink)
-    backend.sink = counter
+    assert counter is not None
+    counted: Counter = counter
     if args.backend == "sim" and jpeg is not None:
         install_jpeg_camera(backend, config, jpeg)
     images = count_images(backend)
@@ -304,7 +305,7 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
             if synthetic is not None:
                 producer = synthetic.producer
                 return {"events": producer.emitted if producer else 0, "frames": synthetic.frames}
-            return {"events": counter.poses, "frames": counter.frames, "other": counter.other, "images": images[0]}
+            return {"events": counted.poses, "frames": counted.frames, "other": counted.other, "images": images[0]}
 
         def start() -> None:
             if synthetic is not None and synthetic.producer is not None:
@@ -318,19 +319,23 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
 
 def count_images(backend: Backend) -> list[int]:
     """Count the images DDS hands the ros backend (before its own rate limit and encoder), so the camera
-    benchmark can tell frames lost in DDS from frames the backend skipped. Its callback is looked up on the
-    instance at every message, so wrapping the instance attribute sees them all; another backend, or a
-    ros backend without that method, reports 0."""
+    benchmark can tell frames lost in DDS from frames the backend skipped. The backend's cameras
+    (relay.backends.ros_cameras) subscribe on demand through the function they were given: wrapping it here, before
+    any stream starts, counts every image each subscription's callback gets. Another backend reports 0."""
     seen = [0]
-    original = getattr(backend, "_on_image", None)
-    if original is None:
+    cameras = getattr(backend, "_cameras", None)
+    subscribe = getattr(cameras, "_subscribe", None)
+    if cameras is None or subscribe is None:
         return seen
 
-    def on_image(*args: Any, **kwargs: Any) -> Any:
-        seen[0] += 1  # the executor thread is the only writer
-        return original(*args, **kwargs)
+    def counting_subscribe(spec: Any, callback: Callable[[Any], None]) -> Any:
+        def counted(message: Any) -> None:
+            seen[0] += 1  # the executor thread is the only writer
+            callback(message)
 
-    setattr(backend, "_on_image", on_image)  # noqa: B010 - an instance attribute, wrapped on purpose
+        return subscribe(spec, counted)
+
+    setattr(cameras, "_subscribe", counting_subscribe)  # noqa: B010 - an instance attribute, wrapped on purpose
     return seen
 
 
