@@ -218,20 +218,14 @@ class WsClient(asyncio.Protocol):
             return
         if not self.recorder.active:
             return
-        if payload[:1] == b"[":
-            # A batch (xr-relay with batch=1): every message in it arrived now.
-            start = payload.find(_MESSAGE)
-            while start >= 0:
-                stamp = read_stamp(payload, start)
-                if stamp is not None:
-                    self.poses += 1
-                    self.recorder.pose_latency.append(now - stamp)
-                start = payload.find(_MESSAGE, start + len(_MESSAGE))
-            return
-        stamp = read_stamp(payload)
-        if stamp is not None:
-            self.poses += 1
-            self.recorder.pose_latency.append(now - stamp)
+        # A batch (xr-relay with batch=1, a JSON array) holds several messages, every one of them arrived now.
+        start = payload.find(_MESSAGE) if payload[:1] == b"[" else 0
+        while start >= 0:
+            stamp = read_stamp(payload, start)
+            if stamp is not None:
+                self.poses += 1
+                self.recorder.pose_latency.append(now - stamp)
+            start = payload.find(_MESSAGE, start + len(_MESSAGE)) if payload[:1] == b"[" else -1
 
     def _binary(self, payload: bytes, now: float) -> None:
         if self.kind == "foxglove":

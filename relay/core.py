@@ -85,7 +85,7 @@ class Relay:
         config: FleetConfig,
         options: Options | None = None,
         *,
-        backend_factory: BackendFactory = create_backend,
+        backend_factory: BackendFactory | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         options = options or Options()
@@ -95,7 +95,8 @@ class Relay:
         self.hub = Hub()
         self.fleet = FleetState(config, config.safety.offline_after)
         self.robots = {r.name: r for r in config.robots}
-        self.backend: Backend = backend_factory(config, self.on_event, options)
+        # Looked up here, not bound as a default: a default would keep the function of import time.
+        self.backend: Backend = (backend_factory or create_backend)(config, self.on_event, options)
         self.outbox = Outbox(self.hub, self.fleet)
         self.control = Control(
             config.names,

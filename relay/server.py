@@ -369,9 +369,7 @@ def create_app(
     """``backend_factory``: a backend of the caller's (the benchmarks' synthetic fleet), else the one options name."""
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
-    app[RELAY_KEY] = (
-        Relay(config, options) if backend_factory is None else Relay(config, options, backend_factory=backend_factory)
-    )
+    app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory)
     app[ACCESS_KEY] = Access(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
     )

@@ -22,9 +22,6 @@ import time
 from collections.abc import Callable
 from functools import partial
 
-import numpy as np
-from numpy.typing import NDArray
-
 from ..budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
@@ -226,10 +223,8 @@ class SimBackend(Backend):
             stamp = time.time()
             with contextlib.suppress(Busy):
                 for name, ranges in await self._scanning.run(partial(_sweep, scanner, poses)):
-                    kept, _ = decimate_ranges(ranges, scanner.range_min, scanner.range_max)
-                    ranges_m = tuple(float(r) for r in kept)
                     frame, increment = f"{name}/base_scan", scanner.angle_increment
-                    self.sink(ScanEvent(name, stamp, frame, scanner.angle_min, increment, scanner.range_max, ranges_m))
+                    self.sink(ScanEvent(name, stamp, frame, scanner.angle_min, increment, scanner.range_max, ranges))
             await asyncio.sleep(max(0.0, period - (loop.time() - started)))
 
     def _pose_of(self, robot: str) -> tuple[float, float, float]:
@@ -247,8 +242,10 @@ class SimBackend(Backend):
                 self.sink(SensorEvent(name, sensor, value, stamp))
 
 
-Sweep = list[tuple[str, NDArray[np.float32]]]
-
-
-def _sweep(scanner: LaserScanner, poses: list[tuple[str, float, float, float]]) -> Sweep:
-    return [(name, scanner.scan(x, y, yaw)) for name, x, y, yaw in poses]
+def _sweep(scanner: LaserScanner, poses: list[tuple[str, float, float, float]]) -> list[tuple[str, tuple[float, ...]]]:
+    """Each robot's ranges as ScanEvent carries them (no return: NaN), all of it in the worker thread."""
+    sweep = []
+    for name, x, y, yaw in poses:
+        ranges, _ = decimate_ranges(scanner.scan(x, y, yaw), scanner.range_min, scanner.range_max)
+        sweep.append((name, tuple(ranges.tolist())))
+    return sweep

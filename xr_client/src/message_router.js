@@ -10,9 +10,6 @@ import { InspectionModel } from './inspection_model.js';
 import { Freshness, LINK_STALE_MS } from './freshness.js';
 import { displayName } from './operator_names.js';
 
-/** A goal cancelled this soon after its robot was taken from this operator is the one lost with it (ms). */
-const TAKEN_OVER_MS = 3000;
-
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
  * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
@@ -64,8 +61,8 @@ export class MessageRouter {
     this.history = models.history;
     this.commands = models.commands;
     this.inspection = models.inspection ?? new InspectionModel();
-    /** When this operator last lost each robot to a take-over (page ms). @type {Map<string, number>} */
-    this.takenOver = new Map();
+    /** Robots this operator lost to a take-over whose cancelled goal has not been reported yet. @type {Set<string>} */
+    this.takenOver = new Set();
   }
 
   /**
@@ -79,7 +76,7 @@ export class MessageRouter {
     if (robot === null) return this.#global(/** @type {GlobalMessage} */ (message), now);
     switch (kind) {
       case 'lease':
-        return this.#lease(robot, /** @type {import('./protocol.js').LeaseMessage} */ (message), now);
+        return this.#lease(robot, /** @type {import('./protocol.js').LeaseMessage} */ (message));
       case 'model':
         return this.#model(robot, /** @type {import('./protocol.js').ModelMessage} */ (message));
       case 'scan':
@@ -92,7 +89,7 @@ export class MessageRouter {
         return [];
       }
       case 'nav':
-        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message), now);
+        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message));
     }
     if (!this.fleet.apply(message)) return [];
     if (kind === 'pose') {
@@ -228,12 +225,12 @@ export class MessageRouter {
 
   /**
    * Who controls a robot changed. The operator who lost one is told at once (and its teleop stops sending).
-   * @param {string} robot @param {import('./protocol.js').LeaseMessage} lease @param {number} now @returns {RouterEffect[]}
+   * @param {string} robot @param {import('./protocol.js').LeaseMessage} lease @returns {RouterEffect[]}
    */
-  #lease(robot, lease, now) {
+  #lease(robot, lease) {
     const me = this.fleet.clientId;
     if (lease.previous === me && lease.holder && lease.holder !== me) {
-      this.takenOver.set(robot, now);
+      this.takenOver.add(robot);
       return [{ type: 'stop_teleop' }, notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error')];
     }
     if (lease.previous === me && lease.reason === 'expired') return [notice(`${robot} is free again: you had not commanded it for a while`, 'info')];
@@ -243,15 +240,16 @@ export class MessageRouter {
   /**
    * How a goal went: reached, aborted with the reason, cancelled (nothing for `started`: the path says it). The app
    * tells the operator about the selected robot and the robots it sent.
-   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @param {number} now @returns {RouterEffect[]}
+   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @returns {RouterEffect[]}
    */
-  #nav(robot, nav, now) {
-    if (!this.fleet.robots.has(robot) || nav.outcome === 'started') return [];
-    this.paths.delete(robot);
+  #nav(robot, nav) {
+    if (!this.fleet.robots.has(robot)) return [];
     // The goal this operator lost with the robot: "taken over by Ben" already said it (a second notice, arriving
-    // a moment later, would replace the one that says who and why).
-    const lost = this.takenOver.get(robot);
-    if (nav.outcome === 'cancelled' && lost !== undefined && now - lost < TAKEN_OVER_MS) return [];
+    // a moment later, would replace the one that says who and why). The next goal to start ends that.
+    const lost = this.takenOver.delete(robot);
+    if (nav.outcome === 'started') return [];
+    this.paths.delete(robot);
+    if (nav.outcome === 'cancelled' && lost) return [];
     const at = nav.goal ? ` (${nav.goal.x.toFixed(1)}, ${nav.goal.y.toFixed(1)})` : '';
     const why = nav.message && nav.message !== nav.outcome ? `: ${nav.message}` : '';
     const mine = this.fleet.robot(robot)?.status?.controller === this.fleet.clientId;

@@ -102,12 +102,13 @@ test('losing a robot to another operator stops teleop; an expiry only informs', 
   assert.equal(router.route(expired, 2)[0].type, 'notify');
   const others = { identifier: 'robot2/lease', holder: 'c9-ffffff', previous: null, reason: /** @type {const} */ ('acquired') };
   assert.deepEqual(router.route(others, 3), []);
-  // The goal lost with the robot is not told again a moment later (it would replace "taken over by ..."); a goal
-  // cancelled later, or of a robot not taken, is.
+  // The goal lost with the robot is not told again a moment later (it would replace "taken over by ..."); once the
+  // next goal has started, a cancellation is told again; a robot not taken is told at once.
   const cancelled = { identifier: 'robot1/nav', outcome: /** @type {const} */ ('cancelled'), goal: { x: 6, y: 2, yaw: null }, message: '' };
   assert.deepEqual(router.route(cancelled, 40), []);
-  assert.equal(router.route(cancelled, 1 + 3100)[0].type, 'nav');
-  assert.equal(router.route({ ...cancelled, identifier: 'robot2/nav' }, 41)[0].type, 'nav');
+  assert.deepEqual(router.route({ ...cancelled, outcome: 'started' }, 41), []);
+  assert.equal(router.route(cancelled, 42)[0].type, 'nav');
+  assert.equal(router.route({ ...cancelled, identifier: 'robot2/nav' }, 43)[0].type, 'nav');
 });
 
 test('a leased refusal offers a take-over; snapshot replies settle their requests', () => {
