@@ -90,7 +90,7 @@ def _message_class(msgtype: str) -> Any:
     return getattr(importlib.import_module(package.replace("/", ".")), name)
 
 
-def _typestore() -> Any:
+def typestore() -> Any:
     """rosbags' type store of the running ROS distribution (``ROS_DISTRO``), else the latest LTS."""
     from rosbags.typesys import Stores, get_typestore
 
@@ -165,7 +165,7 @@ class Recorder:
         executors = importlib.import_module("rclpy.executors")
         signals = importlib.import_module("rclpy.signals")
         context_mod = importlib.import_module("rclpy.context")
-        store = _typestore()
+        store = typestore()
         context = context_mod.Context()
         # The recorder handles SIGINT and SIGTERM itself, so that the bag is always closed.
         rclpy.init(context=context, signal_handler_options=signals.SignalHandlerOptions.NO)

@@ -172,6 +172,10 @@ def test_topic_overrides_and_root_namespace() -> None:
             MINIMAL + "sim:\n  hazards:\n    - {kind: gas, x: 1}\n",
             "robots.yaml:6: sim.hazards[0].y: is required",
         ),
+        (
+            MINIMAL + "ros: {executor: multi}\n",
+            "robots.yaml:4: ros.executor: expected one of events, single, got \"multi\"",
+        ),
     ],
 )
 def test_errors_name_file_line_and_field(text: str, expected: str) -> None:

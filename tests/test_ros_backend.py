@@ -353,8 +353,9 @@ async def test_a_dead_executor_is_reported_and_rebuilt(ros_relay: RunningRelay, 
     try:
         await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
         backend = ros_relay.relay.backend
-        # The executor dies under the relay (as when rclpy fails inside it): spin() returns.
-        await asyncio.to_thread(backend._executor.shutdown, 1.0)  # type: ignore[attr-defined]
+        # ROS is shut down under the relay (as a signal handler of rclpy's does, or rclpy failing): spin ends.
+        context = backend._context  # type: ignore[attr-defined]
+        await asyncio.to_thread(backend._rclpy.shutdown, context=context)  # type: ignore[attr-defined]
         down = await client.wait_for(lambda m: m["identifier"] == "backend" and not m["ok"], timeout=10)
         assert "executor stopped" in down["message"]
         async with aiohttp.ClientSession() as http, http.get(f"{ros_relay.url}/healthz") as response:

@@ -5,23 +5,16 @@ backends; without it, this backend refuses to start with one line saying how to 
 
 **The thread boundary.** One executor thread spins the node. Callbacks run there, turn a message into an
 immutable event (``relay.events``) and cross to the asyncio loop in exactly one place, :meth:`RosBackend._post`
-(``loop.call_soon_threadsafe``; :meth:`RosBackend._hop` is the same crossing for a finished camera frame).
+(the :class:`~relay.backends.ros_ingest.Inbox`: one loop wake-up per batch; :meth:`RosBackend._hop` is the
+same crossing for a finished camera frame).
 Nothing else is shared between the threads, except each camera's ``relay.frame_encoder.LatestFrameEncoder``,
 which guards its own state. Image conversion and JPEG encoding run in a small worker pool, never on the
 loop and never on the executor thread (which must keep draining DDS).
 
-Executor and decoding (``bench/bench_ros_ingest.py``, 2 cores, Kilted PyPI wheels, nav_msgs/Odometry published
-flat out from another process; messages a bare subscriber receives per second, 2026-11-22 under load 8):
-
-    SingleThreadedExecutor: plain 1564, raw=True 2350, raw + hand CDR decode 1829
-    EventsExecutor:         plain 3281, raw=True 8143, raw + hand CDR decode 7886
-
-The backend keeps the SingleThreadedExecutor: with Kilted's experimental EventsExecutor its tests hung
-(camera subscriptions created and destroyed while spinning, shutdown from the loop thread), and a relay that
-hangs is worse than one that ingests 1.3k poses a second (it needs 30 Hz x robots). Odometry poses, the
-high-rate topic, are taken raw and decoded by hand (``relay/cdr.py``, checked against rclpy's serializer in
-tests/test_imaging_tf.py), the fastest correct option with this executor; the other topics use rclpy's
-messages. Switching executors is the next step once EventsExecutor is stable.
+Executor and decoding: every high-rate topic raw, poses decoded by hand, TF, scans and images by rosbags,
+the EventsExecutor spun from its thread until a future is done (relay/backends/ros_ingest.py says why, with
+the figures; bench/bench_ros_ingest.py measures it against bare subscribers every run). Low-rate topics
+(sensors, paths, the map, robot descriptions) keep rclpy's messages.
 """
 
 from __future__ import annotations
@@ -32,15 +25,11 @@ import contextlib
 import importlib
 import logging
 import os
-import struct
-import threading
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from types import ModuleType
 from typing import Any
 
-from ..cdr import odometry_pose
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
 from ..events import Event, EventSink, FrameEvent, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
@@ -48,12 +37,21 @@ from ..geometry import yaw_to_quaternion
 from ..maps import map_event
 from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
-from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, header_stamp, message_stamp, pose_event, transform_of
+from ..rosmsg import (
+    POSE_MESSAGES,
+    POSE_TYPES,
+    SCAN_TYPE,
+    SENSOR_TYPES,
+    header_stamp,
+    message_stamp,
+    transform_of,
+)
 from ..scan import scan_event
 from ..tf import TfPose
 from .base import Backend
 from .goal_watch import GoalWatch
 from .ros_cameras import RosCameras
+from .ros_ingest import Inbox, RawDecoder, Spinner, pose_reader
 
 logger = logging.getLogger(__name__)
 
@@ -132,14 +130,17 @@ class RosBackend(Backend):
         self._loop: asyncio.AbstractEventLoop | None = None
         self._context: Any = None
         self._node: Any = None
-        self._executor: Any = None
-        self._thread: threading.Thread | None = None
+        self._spinner: Spinner | None = None
+        self._inbox: Inbox | None = None
+        self._decode: RawDecoder | None = None
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="jpeg")
         self._cmd_pubs: dict[str, Any] = {}
         self._goal_pubs: dict[str, Any] = {}
         self._tf: dict[str, TfPose] = {}
         self._last_scan: dict[str, float] = {}
-        self._cameras = RosCameras(config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy)
+        self._cameras = RosCameras(
+            config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy, self._decode_raw
+        )
         self._goals = GoalWatch()
         self._grid: OccupancyGrid | None = None
         self._heartbeat_pub: Any = None
@@ -152,19 +153,23 @@ class RosBackend(Backend):
 
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
+        self._inbox = Inbox(self._loop, self._deliver)
         await asyncio.to_thread(self._start_node)
         if self._heartbeat_pub is not None:
             self._heartbeat_task = asyncio.create_task(self._beat(), name="ros-heartbeat")
         logger.info(
-            "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots",
+            "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots, %s executor",
             os.environ.get("ROS_DOMAIN_ID", "0"),
             len(self.config.robots),
+            self._spinner.kind if self._spinner is not None else "no",
         )
 
     def _start_node(self) -> None:
         """Worker thread: import ROS, check every message package, create the node and start spinning."""
         self._rclpy = rclpy = load_rclpy()
         self._messages = check_messages(self.config)
+        if self._decode is None:
+            self._decode = RawDecoder()
         context_mod = importlib.import_module("rclpy.context")
         executors = importlib.import_module("rclpy.executors")
         self._context = context_mod.Context()
@@ -180,35 +185,26 @@ class RosBackend(Backend):
             self._heartbeat_pub = self._node.create_publisher(
                 self._msg("std_msgs.msg", "Header"), self.config.ros.heartbeat_topic, self._qos("commands")
             )
-        self._executor = self._new_executor(executors)
-        self._executor.add_node(self._node)
-        self._thread = threading.Thread(target=self._spin, name="ros-executor", daemon=True)
-        self._thread.start()
+        self._spinner = Spinner(executors, self._context, self.config.ros.executor, self._executor_failed)
+        self._spinner.start(self._node)
 
-    def _new_executor(self, executors: Any) -> Any:
-        # Not the EventsExecutor, for all its speed (see the module docstring): under it, this backend's
-        # tests hung (subscriptions created and destroyed while spinning, shutdown from another thread).
-        return executors.SingleThreadedExecutor(context=self._context)
-
-    def _spin(self) -> None:
-        try:
-            self._executor.spin()
-        except Exception as exc:  # the context was shut down under it, or rclpy failed
-            if self._node is not None:
-                logger.exception("ROS executor stopped: %s", exc)
-                self.failure = f"the ROS executor stopped: {exc}"
-            return
+    def _executor_failed(self, why: str) -> None:
         if self._node is not None:
-            # spin() returned although nobody stopped us: the executor was shut down under the relay.
-            self.failure = "the ROS executor stopped"
+            self.failure = why
+
+    def ingest_stats(self) -> dict[str, int]:
+        """Messages taken from DDS into the relay, poses replaced by newer ones before the loop got to them,
+        events dropped over the inbox's bound (bench/bench_ros_ingest.py reads these)."""
+        return self._inbox.stats() if self._inbox is not None else {"received": 0, "coalesced": 0, "dropped": 0}
 
     async def recover(self) -> None:
         """Re-create the node, its subscriptions and publishers, and the executor thread."""
-        old_executor, old_node, old_context = self._executor, self._node, self._context
+        old_spinner, old_node, old_context = self._spinner, self._node, self._context
 
         def rebuild() -> None:
             with contextlib.suppress(Exception):  # the old node is already half gone: best effort
-                old_executor.shutdown(timeout_sec=1.0)
+                if old_spinner is not None:
+                    old_spinner.stop()
                 old_node.destroy_node()
                 if old_context.ok():
                     self._rclpy.shutdown(context=old_context)
@@ -240,18 +236,17 @@ class RosBackend(Backend):
             self._heartbeat_task.cancel()
         for robot in self.config.robots:
             await self.stop_robot(robot.name)
-        executor, node, context = self._executor, self._node, self._context
+        spinner, node, context = self._spinner, self._node, self._context
         self._node = None
 
         def shutdown() -> None:
-            executor.shutdown(timeout_sec=1.0)
+            if spinner is not None:
+                spinner.stop()
             node.destroy_node()
             if context.ok():
                 self._rclpy.shutdown(context=context)
 
         await asyncio.to_thread(shutdown)
-        if self._thread is not None:
-            await asyncio.to_thread(self._thread.join, 2.0)
         self._pool.shutdown(wait=False, cancel_futures=True)
 
     def _qos(self, kind: str) -> Any:
@@ -270,20 +265,14 @@ class RosBackend(Backend):
         name = robot.name
         source = robot.pose.source
         pose_cls = self._msg(*POSE_MESSAGES[source])
+        # raw=True: bytes, decoded here as far as the relay needs (relay/backends/ros_ingest.py has the figures).
         if source == "tf":
             self._tf[name] = TfPose(robot.pose.map_frame, robot.pose.odom_frame, robot.pose.base_frame)
-            node.create_subscription(pose_cls, robot.pose.topic, lambda m, r=name: self._on_tf(r, m), self._qos("pose"))
-            static_topic = robot.pose.topic + "_static"
-            node.create_subscription(pose_cls, static_topic, lambda m, r=name: self._on_tf(r, m), self._qos("map"))
-        elif source == "odom":
-            # raw=True: bytes, decoded by relay/cdr.py (see the module docstring for the figures).
-            node.create_subscription(
-                pose_cls, robot.pose.topic, lambda m, r=name: self._on_odometry_bytes(r, m), self._qos("pose"), raw=True
-            )
+            for topic, qos in ((robot.pose.topic, "pose"), (robot.pose.topic + "_static", "map")):
+                node.create_subscription(pose_cls, topic, lambda m, r=name: self._on_tf(r, m), self._qos(qos), raw=True)
         else:
-            node.create_subscription(
-                pose_cls, robot.pose.topic, lambda m, r=name: self._on_pose(r, m), self._qos("pose")
-            )
+            on_pose = pose_reader(name, child_frame=source == "odom", put=self._post)
+            node.create_subscription(pose_cls, robot.pose.topic, on_pose, self._qos("pose"), raw=True)
         for sensor in robot.sensors:
             kind = SENSOR_TYPES[sensor.type]
             node.create_subscription(
@@ -298,6 +287,7 @@ class RosBackend(Backend):
                 robot.scan_topic,
                 lambda m, r=name: self._on_scan(r, m),
                 self._qos("scan"),
+                raw=True,
             )
         if robot.plan_topic is not None:
             # The planner's path (Nav2's global plan, in the map frame): drawn in the twin ahead of the robot.
@@ -332,12 +322,8 @@ class RosBackend(Backend):
 
     def _post(self, event: Event) -> None:
         """THE crossing from the executor (or worker) thread to the loop; ``event`` is immutable."""
-        loop = self._loop
-        if loop is None or loop.is_closed():
-            return
-        # The loop may close between the check and the call (shutdown): then the event has nowhere to go.
-        with contextlib.suppress(RuntimeError):
-            loop.call_soon_threadsafe(self._deliver, event)
+        if self._inbox is not None:
+            self._inbox.put(event)
 
     def _hop(self, call: Callable[[], None]) -> None:
         """The same crossing for the camera encoders' results (a worker thread's finished frame)."""
@@ -354,19 +340,18 @@ class RosBackend(Backend):
 
     # -- callbacks (executor thread) --------------------------------------------------------------
 
-    def _on_odometry_bytes(self, robot: str, data: bytes) -> None:
+    def _decode_raw(self, data: bytes, type_name: str) -> Any:
+        """A raw message decoded whole (rosbags); ValueError naming the type when the bytes are not one."""
+        if self._decode is None:
+            self._decode = RawDecoder()
+        return self._decode(data, type_name)
+
+    def _on_tf(self, robot: str, data: bytes) -> None:
         try:
-            pose = odometry_pose(data, robot)
-        except (ValueError, struct.error, UnicodeDecodeError) as exc:
-            logger.warning("%s: undecodable Odometry (%d bytes): %s", robot, len(data), exc)
+            message = self._decode_raw(data, POSE_TYPES["tf"])
+        except ValueError as exc:
+            logger.warning("%s: %s", robot, exc)
             return
-        # A publisher that leaves the stamp or the frame unset gets the receive time and the map frame.
-        self._post(replace(pose, stamp=pose.stamp if pose.stamp > 0 else time.time(), frame=pose.frame or "map"))
-
-    def _on_pose(self, robot: str, message: Any) -> None:
-        self._post(pose_event(robot, message, header_stamp(message.header)))
-
-    def _on_tf(self, robot: str, message: Any) -> None:
         tracker = self._tf[robot]
         latest = None
         for t in message.transforms:
@@ -380,9 +365,14 @@ class RosBackend(Backend):
             (x, y, z), (qx, qy, qz, qw) = pose.translation, pose.rotation
             self._post(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
 
-    def _on_scan(self, robot: str, message: Any) -> None:
+    def _on_scan(self, robot: str, data: bytes) -> None:
         now = time.monotonic()
         if now - self._last_scan.get(robot, 0.0) < 1.0 / MAX_SCAN_RATE:
+            return  # over the wire's rate: not even decoded
+        try:
+            message = self._decode_raw(data, SCAN_TYPE)
+        except ValueError as exc:
+            logger.warning("%s: %s", robot, exc)
             return
         self._last_scan[robot] = now
         self._post(scan_event(robot, header_stamp(message.header), message))
@@ -449,7 +439,8 @@ class RosBackend(Backend):
         if self._node is None:
             return None
         cls = self._msg("sensor_msgs.msg", "CompressedImage" if camera.compressed else "Image")
-        return self._node.create_subscription(cls, camera.topic, callback, self._qos("images"))
+        # Raw: the executor thread only reads the stamp; a worker decodes the image it will encode.
+        return self._node.create_subscription(cls, camera.topic, callback, self._qos("images"), raw=True)
 
     def _destroy(self, subscription: Any) -> None:
         if self._node is not None:

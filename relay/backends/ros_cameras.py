@@ -1,22 +1,25 @@
 """The live graph's cameras (``ros`` backend): subscribed only while a client streams one or waits for a snapshot.
 
 An image topic costs DDS bandwidth and a JPEG encode per frame, so a camera nobody watches is not subscribed.
-Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the executor thread;
-the encoded frames reach the loop through the backend's thread crossing. rclpy is not imported here: the
-backend passes in how to subscribe.
+Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the executor thread as the
+raw CDR bytes and their stamp (read in place); a worker decodes the image it encodes (``decode``: rosbags, the
+pixels a view of the bytes) and the encoded frames reach the loop through the backend's thread crossing. rclpy is
+not imported here: the backend passes in how to subscribe.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from typing import Any
 
+from ..cdr import cdr_stamp
 from ..config import Camera, FleetConfig
 from ..events import FrameEvent
 from ..frame_encoder import LatestFrameEncoder
-from ..rosmsg import header_stamp, image_to_frame
+from ..rosmsg import image_to_frame, image_type
 
 #: A snapshot may be answered with the last frame when it is younger than this (seconds).
 SNAPSHOT_MAX_AGE = 1.0
@@ -27,12 +30,14 @@ SNAPSHOT_TIMEOUT = 5.0
 #: ``unsubscribe(handle)`` destroys it.
 Subscribe = Callable[[Camera, Callable[[Any], None]], Any]
 Unsubscribe = Callable[[Any], None]
+#: ``decode(raw, type_name)``: the message (ValueError when the bytes are not one).
+Decode = Callable[[bytes, str], Any]
 
 
 @dataclass
 class _Camera:
     spec: Camera
-    frames: LatestFrameEncoder[tuple[Any, float]]
+    frames: LatestFrameEncoder[tuple[bytes, float]]
     subscription: Any = None
 
 
@@ -45,10 +50,11 @@ class RosCameras:
         deliver: Callable[[FrameEvent], None],
         subscribe: Subscribe,
         unsubscribe: Unsubscribe,
+        decode: Decode,
     ) -> None:
         self._subscribe, self._unsubscribe = subscribe, unsubscribe
         self._cameras = {
-            (robot.name, camera.name): _Camera(camera, _encoder(robot.name, camera, pool, hop, deliver))
+            (robot.name, camera.name): _Camera(camera, _encoder(robot.name, camera, pool, hop, deliver, decode))
             for robot in config.robots
             for camera in robot.cameras
         }
@@ -87,8 +93,8 @@ class RosCameras:
             # Executor thread: the image with its stamp, encoded only if a stream or a snapshot wants it.
             frames = state.frames
 
-            def on_image(message: Any) -> None:
-                frames.offer((message, header_stamp(message.header)))
+            def on_image(data: bytes) -> None:
+                frames.offer((data, cdr_stamp(data, fallback=time.time())))
 
             state.subscription = self._subscribe(state.spec, on_image)
 
@@ -105,8 +111,12 @@ def _encoder(
     pool: Executor,
     hop: Callable[[Callable[[], None]], object],
     deliver: Callable[[FrameEvent], None],
-) -> LatestFrameEncoder[tuple[Any, float]]:
-    def convert(image: tuple[Any, float]) -> FrameEvent:
-        return image_to_frame(robot, camera.name, image[1], image[0], camera.compressed)
+    decode: Decode,
+) -> LatestFrameEncoder[tuple[bytes, float]]:
+    type_name = image_type(camera.compressed)
+
+    def convert(image: tuple[bytes, float]) -> FrameEvent:
+        message = decode(image[0], type_name)
+        return image_to_frame(robot, camera.name, image[1], message, camera.compressed)
 
     return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, pool, hop, deliver)

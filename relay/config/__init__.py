@@ -228,7 +228,7 @@ def _safety(reader: _Reader, node: Node) -> Safety:
 
 
 def _ros(reader: _Reader, node: Node) -> Ros:
-    f = reader.mapping(node, "ros", ("map_topic", "heartbeat_topic", "qos"))
+    f = reader.mapping(node, "ros", ("map_topic", "heartbeat_topic", "qos", "executor"))
     map_topic = Ros.map_topic
     if "map_topic" in f:
         map_topic = _topic(reader, f["map_topic"], "ros.map_topic", "")
@@ -240,4 +240,7 @@ def _ros(reader: _Reader, node: Node) -> Ros:
         q = reader.mapping(f["qos"], "ros.qos", QOS_NAMES)
         for key, value in q.items():
             qos[key] = reader.choice(value, f"ros.qos.{key}", ("reliable", "best_effort"))  # type: ignore[assignment]
-    return Ros(map_topic=map_topic, heartbeat_topic=heartbeat_topic, qos=tuple(qos.items()))
+    executor = Ros.executor
+    if "executor" in f:
+        executor = reader.choice(f["executor"], "ros.executor", ("events", "single"))
+    return Ros(map_topic=map_topic, heartbeat_topic=heartbeat_topic, qos=tuple(qos.items()), executor=executor)
