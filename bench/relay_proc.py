@@ -305,7 +305,16 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
             if synthetic is not None:
                 producer = synthetic.producer
                 return {"events": producer.emitted if producer else 0, "frames": synthetic.frames}
-            return {"events": counted.poses, "frames": counted.frames, "other": counted.other, "images": images[0]}
+            # The ros backend also says how many messages it took from DDS (poses of one robot that arrive while
+            # the loop is busy are coalesced before the sink: "events" counts what reached the relay's core).
+            ingest = getattr(backend, "ingest_stats", dict)()
+            return {
+                "events": counted.poses,
+                "frames": counted.frames,
+                "other": counted.other,
+                "images": images[0],
+                **ingest,
+            }
 
         def start() -> None:
             if synthetic is not None and synthetic.producer is not None:

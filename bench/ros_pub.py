@@ -1,6 +1,7 @@
 """A robot on the other side of DDS for the ROS benchmarks: publishes, in its own process, for a bounded time.
 
     python -m bench.ros_pub odom --topic /r1/odom --rate 1000 [--duration 60]   # --rate 0: flat out
+    python -m bench.ros_pub fleet --robots 100 --rate 30 --scan-rate 10   # /rNNN/odom and /rNNN/scan each
     python -m bench.ros_pub images --spec '[{"topic": ..., "width": 640, "height": 480,
                                              "compressed": false, "photo": ".../front.jpg"}]' --rate 30
 
@@ -14,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import struct
 import sys
 import threading
 import time
@@ -53,6 +55,84 @@ def odometry_messages(topic: str) -> tuple[Any, Any]:
     return Odometry, message
 
 
+class FleetMessages:
+    """Every robot's Odometry and LaserScan (360 beams), serialized once and published as bytes with the stamp
+    and the position written in place: rclpy's message conversion would cost this process more than the relay
+    spends on the same messages, and the subject is the relay."""
+
+    def __init__(self, robots: int) -> None:
+        from rclpy.serialization import serialize_message
+        from sensor_msgs.msg import LaserScan
+
+        _, odom = odometry_messages("")
+        odom.pose.pose.position.x = 12345.678
+        self.odom = bytearray(serialize_message(odom))
+        self.odom_x = bytes(self.odom).find(struct.pack("<d", 12345.678))
+        assert self.odom_x > 0
+        scan = LaserScan()
+        scan.header.frame_id = "laser"
+        scan.angle_min, scan.angle_max, scan.angle_increment = -math.pi, math.pi, 2 * math.pi / 360
+        scan.range_min, scan.range_max = 0.1, 8.0
+        scan.ranges = [2.0 + math.sin(k / 9.0) for k in range(360)]
+        self.scan = bytearray(serialize_message(scan))
+        self.robots = robots
+
+    def odometry(self, index: int, t: float) -> bytes:
+        set_raw_stamp(self.odom, t)
+        struct.pack_into("<dd", self.odom, self.odom_x, index + math.cos(0.5 * t), math.sin(0.5 * t))
+        return bytes(self.odom)
+
+    def laser(self, t: float) -> bytes:
+        set_raw_stamp(self.scan, t)
+        return bytes(self.scan)
+
+
+def set_raw_stamp(data: bytearray, t: float) -> None:
+    sec = int(t)
+    struct.pack_into("<iI", data, 4, sec, int((t - sec) * 1e9))  # after the 4-byte CDR header (little-endian)
+
+
+def fleet_topics(robots: int) -> list[str]:
+    return [f"/r{i:03d}" for i in range(robots)]
+
+
+def run_fleet(node: Any, args: argparse.Namespace, qos: QoSProfile, stop: threading.Event) -> int:
+    """Every robot at ``--rate`` Odometry and ``--scan-rate`` LaserScan, spread evenly over each period."""
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import LaserScan
+
+    messages = FleetMessages(args.robots)
+    names = fleet_topics(args.robots)
+    odoms = [node.create_publisher(Odometry, f"{n}/odom", qos) for n in names]
+    scans = [node.create_publisher(LaserScan, f"{n}/scan", qos) for n in names]
+    emit({"ready": True})
+    # One tick per odometry message of any robot; each robot's scan goes out every rate/scan_rate of its ticks.
+    tick = 1.0 / (args.rate * args.robots)
+    every = max(1, round(args.rate / args.scan_rate)) if args.scan_rate > 0 else 0
+    published = 0
+    start = time.monotonic()
+    deadline, next_report, due, n = start + args.duration, start, start, 0
+    while not stop.is_set():
+        now = time.monotonic()
+        if now >= deadline:
+            break
+        if now >= next_report:
+            emit({"published": published, "t": now})
+            next_report = now + 0.25
+        if due > now:
+            time.sleep(due - now)
+        due = max(due + tick, time.monotonic() - 0.1)  # at most 0.1 s of catching up after a stall
+        robot, cycle = n % args.robots, n // args.robots
+        t = time.monotonic()
+        odoms[robot].publish(messages.odometry(robot, t))
+        published += 1
+        if every and cycle % every == robot % every:
+            scans[robot].publish(messages.laser(t))
+            published += 1
+        n += 1
+    return published
+
+
 def image_messages(spec: dict[str, Any]) -> tuple[Any, Any]:
     import cv2
     from sensor_msgs.msg import CompressedImage, Image
@@ -78,7 +158,9 @@ def image_messages(spec: dict[str, Any]) -> tuple[Any, Any]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("kind", choices=("odom", "images"))
+    parser.add_argument("kind", choices=("odom", "images", "fleet"))
+    parser.add_argument("--robots", type=int, default=100, help="fleet: robots /r000 ... each with odom and scan")
+    parser.add_argument("--scan-rate", type=float, default=10.0, help="fleet: LaserScans per robot per second")
     parser.add_argument("--topic", default="/r1/odom")
     parser.add_argument("--spec", default="[]", help="images: JSON list of streams")
     parser.add_argument("--rate", type=float, default=30.0, help="messages (per stream) per second; 0: flat out")
@@ -99,6 +181,13 @@ def main() -> int:
             streams.append((node.create_publisher(cls, spec["topic"], qos), message))
     stop = threading.Event()
     threading.Thread(target=watch_stdin, args=(stop,), daemon=True).start()
+    if args.kind == "fleet":
+        try:
+            emit({"published": run_fleet(node, args, qos, stop), "t": time.monotonic(), "final": True})
+        finally:
+            node.destroy_node()
+            rclpy.try_shutdown()
+        return 0
     emit({"ready": True})
 
     published = 0

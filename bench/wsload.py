@@ -29,6 +29,7 @@ import orjson
 FOXGLOVE_SUBPROTOCOL = "foxglove.sdk.v1"
 _STAMP = b'"stamp":'
 _POSE = b'/pose"'
+_SCAN = b'/scan"'
 _MESSAGE = b'{"identifier":'
 
 
@@ -119,6 +120,7 @@ class WsClient(asyncio.Protocol):
         self.started = time.monotonic()
         # Counted only while the recorder is active.
         self.poses = 0
+        self.scans = 0
         self.frames = 0
         self.bytes = 0
         self.frames_by_id: dict[str, int] = {}
@@ -225,6 +227,8 @@ class WsClient(asyncio.Protocol):
             if stamp is not None:
                 self.poses += 1
                 self.recorder.pose_latency.append(now - stamp)
+            elif payload.find(_SCAN, start, start + 64) >= 0:
+                self.scans += 1
             start = payload.find(_MESSAGE, start + len(_MESSAGE)) if payload[:1] == b"[" else -1
 
     def _binary(self, payload: bytes, now: float) -> None:
@@ -260,7 +264,7 @@ class WsClient(asyncio.Protocol):
             self.transport.write(masked_frame(payload))
 
     def reset_counts(self) -> None:
-        self.poses = self.frames = self.bytes = 0
+        self.poses = self.scans = self.frames = self.bytes = 0
         self.frames_by_id = {}
 
     def close(self) -> None:

@@ -293,7 +293,16 @@ class Relay:
         elif isinstance(event, PathEvent):
             self.outbox.state(path_message(event.robot, event.points))
         elif isinstance(event, ScanEvent):
-            scan = scan_message(**dataclasses.asdict(event))
+            # Not dataclasses.asdict: it deep-copies the ranges (a third of the relay's time at 1000 scans/s).
+            scan = scan_message(
+                event.robot,
+                stamp=event.stamp,
+                frame=event.frame,
+                angle_min=event.angle_min,
+                angle_increment=event.angle_increment,
+                range_max=event.range_max,
+                ranges=event.ranges,
+            )
             self.outbox.state(scan)
         elif isinstance(event, FrameEvent):
             self.streams.on_frame(event, now)

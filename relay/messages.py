@@ -12,6 +12,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Final, Literal, NotRequired, TypeAlias, TypedDict, cast
 
+import numpy as np
 import orjson
 
 from .errors import ProtocolError
@@ -406,7 +407,9 @@ def scan_message(
     range_max: float,
     ranges: tuple[float, ...] | list[float],
 ) -> ScanMessage:
-    # Centimetres are plenty for drawing obstacles; null marks a beam with no valid return.
+    # Centimetres are plenty for drawing obstacles; null marks a beam with no valid return: NaN and infinities
+    # stay floats here and orjson writes them as null. Rounded by numpy: 360 beams took ~70 us as a Python loop,
+    # 12 us so; at 100 robots x 10 Hz the loop was a quarter of the relay's core (bench/bench_ros_ingest.py).
     return {
         "identifier": robot_identifier(robot, "scan"),
         "stamp": round(stamp, 6),
@@ -414,7 +417,7 @@ def scan_message(
         "angle_min": round(angle_min, 6),
         "angle_increment": round(angle_increment, 6),
         "range_max": round(range_max, 3),
-        "ranges": [round(r, 2) if math.isfinite(r) else None for r in ranges],
+        "ranges": np.round(np.asarray(ranges, dtype=np.float64), 2).tolist(),
     }
 
 

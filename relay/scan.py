@@ -4,7 +4,8 @@ A sensor_msgs/LaserScan (an rclpy message or a rosbags one: the fields are the s
 :class:`~relay.events.ScanEvent`: invalid returns become NaN, and a scan of more than
 :data:`~relay.protocol.MAX_SCAN_POINTS` beams is decimated keeping the nearest return of each bin, so that
 no obstacle disappears. Pure numpy, no I/O: callers run it on their own thread (the ROS executor, a bag
-reader), never on the event loop. The rate limit (:data:`~relay.protocol.MAX_SCAN_RATE`) is the caller's.
+reader), never on the event loop. The rate limit (:data:`~relay.protocol.MAX_SCAN_RATE`) is the caller's, with
+:class:`RateCap`.
 """
 
 from __future__ import annotations
@@ -55,5 +56,28 @@ def scan_event(robot: str, stamp: float, message: Any) -> ScanEvent:
         float(message.angle_min),
         float(message.angle_increment) * step,
         float(message.range_max),
-        tuple(float(r) for r in ranges),
+        tuple(ranges.tolist()),  # Python floats (the wire rounds them), in C rather than one by one
     )
+
+
+class RateCap:
+    """At most ``rate`` messages a second per key on average, without losing a stream that arrives at about that
+    rate with jitter. "Not within 1/rate of the last one" dropped every scan of a 10 Hz laser that came a little
+    early: 560 of 1000 a second reached the clients of 100 robots (bench/bench_ros_ingest.py). Here a message is
+    let through when it is at most half a period before its due time, and the due time advances one period per
+    message let through (never falling more than a period behind ``now``), so the long-run rate stays ``rate``.
+    Pure: the caller passes its clock."""
+
+    def __init__(self, rate: float) -> None:
+        self.period = 1.0 / rate
+        self._due: dict[str, float] = {}
+
+    def allow(self, key: str, now: float) -> bool:
+        due = self._due.get(key)
+        if due is not None and now < due - 0.5 * self.period:
+            return False
+        self._due[key] = max(due if due is not None else now, now - self.period) + self.period
+        return True
+
+    def clear(self) -> None:
+        self._due.clear()

@@ -5,6 +5,7 @@ while it spun. Real threads, a real asyncio loop, real rclpy where the test need
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 import threading
 import time
@@ -13,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from relay.backends.ros_ingest import INBOX_LIMIT, Inbox, RawDecoder, Spinner, pose_reader
+from relay.backends.ros_ingest import BATCH_INTERVAL, INBOX_LIMIT, Inbox, RawDecoder, Spinner, pose_reader
 from relay.config import parse_config
 from relay.events import Event, PoseEvent, ScanEvent, SensorEvent
 from relay.tf import TfPose
@@ -57,6 +58,39 @@ async def test_the_inbox_wakes_the_loop_once_per_batch_and_keeps_each_robots_new
     inbox.put(_pose("r1", 7.0))
     await asyncio.sleep(0.02)
     assert wakeups == 2 and delivered[-1] == _pose("r1", 7.0)
+
+
+async def test_a_busy_inbox_delivers_at_most_once_per_batch_interval() -> None:
+    loop = asyncio.get_running_loop()
+    delivered: list[Event] = []
+    inbox = Inbox(loop, delivered.append)
+    drains: list[float] = []
+    drain = inbox._drain
+
+    def timed_drain() -> None:
+        drains.append(loop.time())
+        drain()
+
+    inbox._drain = timed_drain  # type: ignore[method-assign]
+    stop = threading.Event()
+
+    def executor_thread() -> None:  # 100 robots, a pose every 0.1 ms
+        i = 0
+        while not stop.is_set():
+            inbox.put(_pose(f"r{i % 100}", float(i)))
+            i += 1
+            time.sleep(0.0001)
+
+    thread = threading.Thread(target=executor_thread)
+    thread.start()
+    await asyncio.sleep(0.3)
+    stop.set()
+    thread.join()
+    await asyncio.sleep(0.02)
+    gaps = [b - a for a, b in itertools.pairwise(drains)]
+    assert len(drains) > 10 and min(gaps) >= BATCH_INTERVAL - 1e-6
+    newest = {p.robot: p.x for p in delivered if isinstance(p, PoseEvent)}
+    assert len(newest) == 100 and max(newest.values()) == inbox.stats()["received"] - 1  # the last one arrived
 
 
 async def test_the_inbox_is_bounded_while_the_loop_is_stalled() -> None:
@@ -225,3 +259,20 @@ def test_the_executor_spins_from_a_thread_takes_late_subscriptions_and_stops(kin
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def test_the_scan_cap_passes_a_jittery_stream_at_its_rate_and_caps_a_faster_one() -> None:
+    from relay.scan import RateCap
+
+    rng = __import__("random").Random(5)
+    cap = RateCap(10.0)
+    # A 10 Hz laser whose scans arrive up to 30 ms early or late: every one passes.
+    times = [0.1 * k + rng.uniform(-0.03, 0.03) for k in range(200)]
+    assert sum(cap.allow("r1", t) for t in times) == 200
+    # A 30 Hz laser: 10 a second pass, evenly.
+    passed = [t for t in (k / 30 for k in range(600)) if cap.allow("r2", t)]
+    assert 199 <= len(passed) <= 201
+    assert max(b - a for a, b in itertools.pairwise(passed)) < 0.11
+    # A burst after a silence builds no backlog: at most the one period of slack, then the rate again.
+    burst = [100.0 + 0.001 * k for k in range(50)]
+    assert sum(cap.allow("r1", t) for t in burst) <= 2

@@ -46,7 +46,7 @@ from ..rosmsg import (
     message_stamp,
     transform_of,
 )
-from ..scan import scan_event
+from ..scan import RateCap, scan_event
 from ..tf import TfPose
 from .base import Backend
 from .goal_watch import GoalWatch
@@ -137,7 +137,7 @@ class RosBackend(Backend):
         self._cmd_pubs: dict[str, Any] = {}
         self._goal_pubs: dict[str, Any] = {}
         self._tf: dict[str, TfPose] = {}
-        self._last_scan: dict[str, float] = {}
+        self._scan_cap = RateCap(MAX_SCAN_RATE)
         self._cameras = RosCameras(
             config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy, self._decode_raw
         )
@@ -366,15 +366,13 @@ class RosBackend(Backend):
             self._post(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
 
     def _on_scan(self, robot: str, data: bytes) -> None:
-        now = time.monotonic()
-        if now - self._last_scan.get(robot, 0.0) < 1.0 / MAX_SCAN_RATE:
+        if not self._scan_cap.allow(robot, time.monotonic()):
             return  # over the wire's rate: not even decoded
         try:
             message = self._decode_raw(data, SCAN_TYPE)
         except ValueError as exc:
             logger.warning("%s: %s", robot, exc)
             return
-        self._last_scan[robot] = now
         self._post(scan_event(robot, header_stamp(message.header), message))
 
     def _on_map(self, message: Any) -> None:

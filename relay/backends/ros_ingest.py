@@ -12,19 +12,22 @@ unchanged; an image's pixels stay a view of the received bytes). Per message, 2 
     sensor_msgs/LaserScan (360)  rclpy 14 us    rosbags 7.6 us
     sensor_msgs/Image 640x480    rclpy 242 us   rosbags 79 us (the pixels not copied)
 
-**Batches.** ``loop.call_soon_threadsafe`` per message costs a wake-up of the loop (a write to its self-pipe and
-a pass through the selector) for each: at thousands of poses a second that was most of the relay's ingest.
-:class:`Inbox` takes events from the executor thread and wakes the loop once for everything that arrived until
-the loop gets to it. While it waits, a robot's newer pose replaces its older one (the hub would send only the
-newest anyway: a pose is state); every other event is kept in order, up to :data:`INBOX_LIMIT`, past which the
-oldest are dropped and counted (a loop stalled that long has bigger problems, and memory must stay bounded).
+**Batches.** ``loop.call_soon_threadsafe`` per message costs a wake-up of the loop (a write to its self-pipe and a
+pass through the selector) for each: at thousands of poses a second that was most of the relay's ingest.
+:class:`Inbox` takes events from the executor thread and wakes the loop once for everything that arrived until the
+loop gets to it, and at most once every :data:`BATCH_INTERVAL` (an idle relay still delivers a lone message at
+once; a busy one every 2 ms: without the floor, a loop quicker than the messages woke for each of them, 4000
+wake-ups a second for 100 robots at 30 Hz + 10 Hz scans). While it waits, a robot's newer pose replaces its older
+one (the hub would send only the newest anyway: a pose is state); every other event is kept in order, up to
+:data:`INBOX_LIMIT`, past which the oldest are dropped and counted (a loop stalled that long has bigger problems,
+and memory must stay bounded).
 
 **The executor.** rclpy's EventsExecutor dispatches from C++ and reaches 3.5x the SingleThreadedExecutor's
 rate on raw Odometry (bench/bench_ros_ingest.py: 8.1k vs 2.35k a second). In this rclpy (9.1.2, PyPI wheels)
 its ``spin()`` dispatches nothing from a thread other than the main one and its ``shutdown()`` then blocks for
 ever; ``spin_until_future_complete`` works from a thread, subscriptions made and destroyed while it spins work
-(bench/ros_sub.py checks both every run; tests/test_ros_backend.py creates and destroys camera subscriptions
-while spinning and shuts down), so :class:`Spinner` spins it that way, until a future it owns is done.
+(bench/ros_sub.py checks both every run; tests/test_ros_ingest.py creates and destroys subscriptions while
+spinning and stops it), so :class:`Spinner` spins it that way, until a future it owns is done.
 ``ros.executor: single`` in robots.yaml keeps the SingleThreadedExecutor.
 """
 
@@ -38,7 +41,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from concurrent.futures import Future
+from importlib import import_module
 from typing import Any
 
 from ..cdr import stamped_pose
@@ -48,6 +51,8 @@ logger = logging.getLogger(__name__)
 
 #: Events other than poses that may wait for the loop; past it the oldest go (counted in ``dropped``).
 INBOX_LIMIT = 10_000
+#: Seconds between two deliveries at least (what a pose may wait for others to join its batch).
+BATCH_INTERVAL = 0.002
 
 
 class Inbox:
@@ -63,6 +68,7 @@ class Inbox:
         self._poses: dict[str, PoseEvent] = {}
         self._other: deque[Event] = deque()
         self._scheduled = False
+        self._last_drain = -1.0
         #: Messages handed in, poses replaced while waiting, other events dropped over the limit.
         self.received = 0
         self.coalesced = 0
@@ -87,9 +93,18 @@ class Inbox:
             return
         # The loop may close between the check and the call (shutdown): then the event has nowhere to go.
         with contextlib.suppress(RuntimeError):
-            self._loop.call_soon_threadsafe(self._drain)
+            self._loop.call_soon_threadsafe(self._arm)
+
+    def _arm(self) -> None:
+        """On the loop: deliver now, or once BATCH_INTERVAL has passed since the last delivery."""
+        delay = self._last_drain + BATCH_INTERVAL - self._loop.time()
+        if delay > 0:
+            self._loop.call_later(delay, self._drain)
+        else:
+            self._drain()
 
     def _drain(self) -> None:
+        self._last_drain = self._loop.time()
         with self._lock:
             other, self._other = self._other, deque()
             poses, self._poses = self._poses, {}
@@ -142,7 +157,9 @@ class Spinner:
         self.kind = kind
         self._context = context
         self._on_failure = on_failure
-        self._stop: Future[None] = Future()
+        # rclpy's Future: the EventsExecutor waits on its done callback (with concurrent.futures' Future it
+        # dispatched some callbacks and missed most: 426 of 1000 Odometry a second, bench/bench_ros_ingest.py).
+        self._stop: Any = import_module("rclpy.task").Future()
         self.executor = self._create(executors, context, kind)
         self._thread: threading.Thread | None = None
 
@@ -150,8 +167,6 @@ class Spinner:
     def _create(executors: Any, context: Any, kind: str) -> Any:
         if kind == "events":
             try:
-                from importlib import import_module
-
                 events = import_module("rclpy.experimental.events_executor")
                 return events.EventsExecutor(context=context)
             except (ImportError, AttributeError) as exc:  # an rclpy before Jazzy has none

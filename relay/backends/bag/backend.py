@@ -24,6 +24,7 @@ from ...protocol import MAX_PLAYBACK_RATE, MAX_SCAN_RATE, MIN_PLAYBACK_RATE, Err
 from ...rosmsg import (
     image_to_frame,
 )
+from ...scan import RateCap
 from ..base import Backend
 from .binding import BagContents, BagPlan, BagSpec, _lookup, bind_bags, parse_bag_specs
 from .clock import PlaybackClock
@@ -79,7 +80,7 @@ class BagBackend(Backend):
         self._tasks: list[asyncio.Task[None]] = []
         self._ticker_wake = asyncio.Event()
         self._last_pose: dict[str, PoseEvent] = {}
-        self._last_scan: dict[str, float] = {}
+        self._scan_cap = RateCap(MAX_SCAN_RATE)
         self._cameras: dict[tuple[str, str], LatestFrameEncoder[_Image]] = {}
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="bag-jpeg")
 
@@ -221,7 +222,7 @@ class BagBackend(Backend):
     def _restart(self, position: float) -> None:
         clock = self._require_clock()
         clock.seek(position)
-        self._last_scan.clear()
+        self._scan_cap.clear()
         self._last_pose.clear()  # the paused re-report must not resend a pose from before the seek
         for frames in self._cameras.values():
             frames.forget_latest()  # an image from another time must not answer a snapshot
@@ -289,12 +290,10 @@ class BagBackend(Backend):
             return
         if isinstance(payload, PoseEvent):
             self._last_pose[payload.robot] = payload
-        elif isinstance(payload, ScanEvent):
-            # At most MAX_SCAN_RATE scans a second of wall time, whatever the replay rate.
-            now = asyncio.get_running_loop().time()
-            if now - self._last_scan.get(payload.robot, -math.inf) < 1.0 / MAX_SCAN_RATE:
-                return
-            self._last_scan[payload.robot] = now
+        elif isinstance(payload, ScanEvent) and not self._scan_cap.allow(
+            payload.robot, asyncio.get_running_loop().time()
+        ):
+            return  # at most MAX_SCAN_RATE scans a second of wall time, whatever the replay rate
         self.sink(payload)
 
     async def _tick(self) -> None:
