@@ -1,11 +1,16 @@
-"""One camera's images to JPEG frames, for every backend: one encode in flight, newest wins, throttled, snapshots.
+"""One camera's images to JPEG frames, for every backend: two encodes in flight, newest wins, throttled, snapshots.
 
 A camera delivers images faster than anyone may look at them, and a JPEG encode of a 720p image costs
-milliseconds of a worker thread. So per camera:
+milliseconds of a worker thread. So per camera, whatever the number of viewers (the hub fans the one frame out):
 
-- an image is encoded only when a client streams the camera (at most at the stream's rate) or a snapshot waits;
-- one encode runs at a time; an image that arrives meanwhile replaces any other waiting one (newest wins), so a
-  slow encoder never builds a backlog;
+- an image is encoded only when a client streams the camera (at most at the stream's rate,
+  :func:`relay.protocol.take_frame`) or a snapshot waits;
+- up to :data:`IN_FLIGHT` encodes run at a time, on different workers of the pool: with one, an image that came
+  while the previous one was still being encoded waited for it, and when the pool was shared by three 720p cameras
+  the next image often replaced it, so a camera lost frames that the two cores had time for. An image that arrives
+  while both are busy replaces any other waiting one (newest wins only when the pool is behind), so a slow
+  encoder never builds a backlog; a frame finished after a newer one of the same camera is dropped, never sent
+  out of order;
 - a snapshot takes the last frame when it is recent enough (or made from the newest image), else waits for the
   next one.
 
@@ -26,9 +31,12 @@ from typing import Generic, TypeVar
 
 from .events import FrameEvent
 from .imaging import ImageError
-from .protocol import frame_due
+from .protocol import take_frame
 
 logger = logging.getLogger(__name__)
+
+#: Encodes of one camera that may run at once.
+IN_FLIGHT = 2
 
 Image = TypeVar("Image")
 
@@ -53,8 +61,10 @@ class LatestFrameEncoder(Generic[Image]):
         self._lock = threading.Lock()
         #: The stream rate clients ask for (0: nobody streams this camera).
         self.fps = 0.0
-        self._last_accepted = -float("inf")
-        self._encoding = False
+        self._due = -float("inf")  # when the stream's next frame is due
+        self._in_flight = 0  # encodes submitted and not finished
+        self._submitted = 0  # sequence number of the last image submitted
+        self._delivered = 0  # ... and of the last frame delivered (the loop's; older results are dropped)
         self._in_transit = 0  # results handed to ``hop`` that ``done`` has not received yet
         self._pending: Image | None = None
         #: The newest image offered, with ``keep_latest`` (a recording: a snapshot of a paused replay encodes it;
@@ -68,7 +78,7 @@ class LatestFrameEncoder(Generic[Image]):
     @property
     def encoding(self) -> bool:
         """An encode is in flight (or its result is still on its way to the loop)."""
-        return self._encoding or self._in_transit > 0
+        return self._in_flight > 0 or self._in_transit > 0
 
     @property
     def waiting(self) -> bool:
@@ -80,16 +90,18 @@ class LatestFrameEncoder(Generic[Image]):
         with self._lock:
             if self._keep_latest:
                 self.latest = image
-            now = self._clock()
-            if not self._waiters and not frame_due(now, self._last_accepted, self.fps):
+            after = take_frame(self._clock(), self._due, self.fps)
+            if after is not None:
+                self._due = after
+            elif not self._waiters:
                 return  # faster than anyone asked for: do not spend a JPEG encode on it
-            self._start(image, now)
+            self._start(image)
 
     def encode_latest(self) -> None:
         """Encode the newest image now (a snapshot of a camera that is not streaming)."""
         with self._lock:
             if self.latest is not None:
-                self._start(self.latest, self._clock())
+                self._start(self.latest)
 
     def forget_latest(self) -> None:
         """The newest image is no longer current (a replay jumped): it must not answer a snapshot."""
@@ -97,16 +109,16 @@ class LatestFrameEncoder(Generic[Image]):
             self.latest = None
             self._pending = None
 
-    def _start(self, image: Image, now: float) -> None:
-        """Under the lock: encode ``image``, or keep it for when the encode in flight is done."""
-        if self._encoding:
+    def _start(self, image: Image) -> None:
+        """Under the lock: encode ``image``, or keep it for when an encode in flight is done."""
+        if self._in_flight >= IN_FLIGHT:
             self._pending = image
             return
-        self._encoding = True
-        self._last_accepted = now
-        self._pool.submit(self._work, image)
+        self._in_flight += 1
+        self._submitted += 1
+        self._pool.submit(self._work, image, self._submitted)
 
-    def _work(self, image: Image) -> None:
+    def _work(self, image: Image, sequence: int) -> None:
         """Worker thread: convert, hand the result to the loop, then take the newest pending image."""
         while True:
             frame: FrameEvent | None = None
@@ -116,18 +128,24 @@ class LatestFrameEncoder(Generic[Image]):
                 logger.warning("%s: %s", self.name, exc)
             with self._lock:
                 self._in_transit += 1
-            self._hop(lambda f=frame, i=image: self.done(f, i))  # type: ignore[misc]
+            self._hop(lambda f=frame, i=image, n=sequence: self.done(f, i, n))  # type: ignore[misc]
             with self._lock:
                 if self._pending is None:
-                    self._encoding = False
+                    self._in_flight -= 1
                     return
                 image, self._pending = self._pending, None
-                self._last_accepted = self._clock()
+                self._submitted += 1
+                sequence = self._submitted
 
-    def done(self, frame: FrameEvent | None, image: Image) -> None:
-        """On the loop: a frame (or None: the image could not be read) is ready."""
+    def done(self, frame: FrameEvent | None, image: Image, sequence: int | None = None) -> None:
+        """On the loop: a frame (or None: the image could not be read) is ready; ``sequence`` orders the images
+        submitted (a frame older than one already delivered is dropped)."""
         with self._lock:
             self._in_transit = max(0, self._in_transit - 1)
+        if frame is not None and sequence is not None:
+            if sequence < self._delivered:
+                return  # a newer frame of this camera went out first: never send one out of order
+            self._delivered = sequence
         if frame is not None:
             self.last, self._last_of, self._last_time = frame, image, self._clock()
             self._deliver(frame)

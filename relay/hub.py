@@ -26,12 +26,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
-from .protocol import frame_due
+from .protocol import take_frame
 
 logger = logging.getLogger(__name__)
 
@@ -269,9 +270,10 @@ class Hub:
             stream = channel.streams.get(identifier)
             if stream is None:
                 continue
-            fps, last = stream
-            if frame_due(now, last, fps):
-                channel.streams[identifier] = (fps, now)
+            fps, due = stream
+            after = take_frame(now, due, fps)
+            if after is not None:
+                channel.streams[identifier] = (fps, after)
                 channel.put_frame(data)
                 taken += 1
         return taken
@@ -280,7 +282,7 @@ class Hub:
         if fps <= 0:
             channel.streams.pop(identifier, None)
         else:
-            channel.streams[identifier] = (fps, -1e9)
+            channel.streams[identifier] = (fps, -math.inf)  # (rate, when its next frame is due)
 
     def stream_demand(self, identifier: str) -> float:
         """The highest rate any client wants ``identifier`` at (0 when nobody streams it)."""

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .events import ScanEvent
-from .protocol import MAX_SCAN_POINTS
+from .protocol import MAX_SCAN_POINTS, take_frame
 
 
 def decimate_ranges(
@@ -62,21 +62,19 @@ def scan_event(robot: str, stamp: float, message: Any) -> ScanEvent:
 
 class RateCap:
     """At most ``rate`` messages a second per key on average, without losing a stream that arrives at about that
-    rate with jitter. "Not within 1/rate of the last one" dropped every scan of a 10 Hz laser that came a little
-    early: 560 of 1000 a second reached the clients of 100 robots (bench/bench_ros_ingest.py). Here a message is
-    let through when it is at most half a period before its due time, and the due time advances one period per
-    message let through (never falling more than a period behind ``now``), so the long-run rate stays ``rate``.
-    Pure: the caller passes its clock."""
+    rate with jitter: :func:`relay.protocol.take_frame`'s rule, per key. "Not within 1/rate of the last one"
+    dropped every scan of a 10 Hz laser that came a little early: 560 of 1000 a second reached the clients of 100
+    robots (bench/bench_ros_ingest.py). Pure: the caller passes its clock."""
 
     def __init__(self, rate: float) -> None:
-        self.period = 1.0 / rate
+        self.rate = rate
         self._due: dict[str, float] = {}
 
     def allow(self, key: str, now: float) -> bool:
-        due = self._due.get(key)
-        if due is not None and now < due - 0.5 * self.period:
+        after = take_frame(now, self._due.get(key, -math.inf), self.rate)
+        if after is None:
             return False
-        self._due[key] = max(due if due is not None else now, now - self.period) + self.period
+        self._due[key] = after
         return True
 
     def clear(self) -> None:

@@ -1,4 +1,5 @@
-"""One camera's frames: one encode in flight, the newest image wins, the stream rate is kept, snapshots wait.
+"""One camera's frames: two encodes in flight, the newest image wins, in order, the stream rate is kept even with
+jitter, snapshots wait.
 
 The encoder runs its conversions in a real thread pool and hands results back through the loop, as both
 backends do; the clock that decides whether a stream is due a frame is a number the test moves.
@@ -27,15 +28,18 @@ class Clock:
 
 
 class Images:
-    """A converter that blocks on a gate, so a test decides when an encode finishes."""
+    """A converter that blocks on a gate, so a test decides when an encode finishes (``gates``: per image)."""
 
     def __init__(self) -> None:
         self.gate = threading.Event()
         self.gate.set()
+        self.gates: dict[int, threading.Event] = {}
         self.converted: list[int] = []
 
     def convert(self, image: int) -> FrameEvent:
         self.gate.wait(5.0)
+        if image in self.gates:
+            self.gates[image].wait(5.0)
         if image < 0:
             raise ImageError(f"image {image} is not an image")
         self.converted.append(image)
@@ -75,28 +79,63 @@ async def test_nobody_watching_costs_no_encode(setup: Any) -> None:
 
 
 async def test_a_stream_gets_frames_at_its_rate_not_the_cameras(setup: Any) -> None:
-    encoder, images, clock, delivered = setup
-    encoder.fps = 10.0  # one frame per 0.1 s (0.09 s with the slack)
-    for i in range(30):  # a 100 fps camera for 0.3 s
+    encoder, images, clock, _delivered = setup
+    encoder.fps = 10.0
+    for i in range(100):  # a 100 fps camera for 1 s
         encoder.offer(i)
         await settle(encoder)
-        clock.now += 0.01
-    assert images.converted == [0, 9, 18, 27]
-    assert [f.stamp for f in delivered] == [0.0, 9.0, 18.0, 27.0]
+        clock.now = 100.0 + 0.01 * (i + 1)
+    gaps = [b - a for a, b in zip(images.converted, images.converted[1:], strict=False)]
+    assert gaps == [5] + [10] * (len(gaps) - 1) and len(gaps) == 10, gaps  # half a period early once, then evenly
 
 
-async def test_the_newest_image_wins_while_an_encode_is_in_flight(setup: Any) -> None:
+async def test_a_jittery_camera_keeps_every_frame_at_its_own_rate(setup: Any) -> None:
+    """30 fps asked of a 30 fps camera whose images come up to 8 ms early or late: all 90 of 3 s are encoded (the
+    old rule, 0.9 of a period since the last one, dropped each image that came 4 ms early)."""
+    encoder, _images, clock, delivered = setup
+    encoder.fps = 30.0
+    jitter = [0.008, -0.008, 0.0, -0.006, 0.007, -0.002]
+    for i in range(90):
+        clock.now = 100.0 + i / 30 + jitter[i % len(jitter)]
+        encoder.offer(i)
+        await settle(encoder)
+    assert len(delivered) == 90
+
+
+async def test_two_encodes_run_at_once_and_the_newest_waits_while_both_are_busy(setup: Any) -> None:
     encoder, images, clock, delivered = setup
     encoder.fps = 1000.0
-    images.gate.clear()  # the first encode takes "long"
+    images.gate.clear()  # the first encodes take "long"
     encoder.offer(1)
-    for i in range(2, 8):
+    clock.now += 0.01
+    encoder.offer(2)  # a second worker takes it at once
+    for i in range(3, 8):
         clock.now += 0.01
         encoder.offer(i)
+    await asyncio.sleep(0.05)
+    assert images.converted == [], "both encodes wait on the gate"
     images.gate.set()
     await settle(encoder)
-    assert images.converted == [1, 7], "the images that arrived during the encode were dropped but the newest"
-    assert [f.stamp for f in delivered] == [1.0, 7.0]
+    assert sorted(images.converted) == [1, 2, 7], "the images that arrived while both were busy: only the newest"
+    stamps = [f.stamp for f in delivered]
+    assert stamps == sorted(set(stamps)) and stamps[-1] == 7.0, "in order; a frame finished after a newer one: dropped"
+
+
+async def test_a_frame_finished_after_a_newer_one_is_not_sent(setup: Any) -> None:
+    encoder, images, clock, delivered = setup
+    encoder.fps = 1000.0
+    images.gates[1] = threading.Event()  # image 1 is slow to encode, image 2 quick
+    encoder.offer(1)
+    clock.now += 0.01
+    encoder.offer(2)
+    for _ in range(200):
+        if delivered:
+            break
+        await asyncio.sleep(0.005)
+    images.gates[1].set()
+    await settle(encoder)
+    assert sorted(images.converted) == [1, 2]
+    assert [f.stamp for f in delivered] == [2.0], "image 1 finished last: dropped, never after image 2"
 
 
 async def test_a_snapshot_takes_a_fresh_frame_or_waits_for_the_next(setup: Any) -> None:

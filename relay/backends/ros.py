@@ -58,6 +58,8 @@ logger = logging.getLogger(__name__)
 #: Seconds between heartbeats (std_msgs/Header on ``ros.heartbeat_topic``) while the event loop runs; the
 #: watchdog's timeout (the deadman's, 0.5 s by default) spans five of them.
 HEARTBEAT_PERIOD = 0.1
+#: History depth of image subscriptions (see ``_qos``).
+IMAGE_DEPTH = 5
 
 INSTALL_HINT = (
     "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
@@ -258,7 +260,11 @@ class RosBackend(Backend):
         )
         if kind == "map":
             return qos.QoSProfile(depth=1, reliability=reliability, durability=qos.DurabilityPolicy.TRANSIENT_LOCAL)
-        return qos.QoSProfile(depth=1 if kind == "images" else 10, reliability=reliability)
+        # Images: depth 5. Reliable with depth 1 or 2, Fast DDS delivered 5-7 of 30 fps of each of three 720p
+        # cameras to a bare subscriber, with 5 or 10 about 24 (same run, load 7; bench/bench_camera.py): a large
+        # sample still being reassembled is lost when the next one claims the only slot. The encoder takes the
+        # newest anyway, so a deeper queue costs memory (5 x 2.7 MB at 720p), not latency.
+        return qos.QoSProfile(depth=IMAGE_DEPTH if kind == "images" else 10, reliability=reliability)
 
     def _create_robot(self, robot: Robot) -> None:
         node = self._node
