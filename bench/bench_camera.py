@@ -9,8 +9,8 @@ client's receive time minus the publication time. One relay process serves every
 are subscribed on demand, so an unstreamed camera costs nothing); each configuration has its own publisher.
 
 Limits, same run: OpenCV's encode of the same frames on one core (the relay's own raw_to_bgr +
-encode_jpeg, cv2.setNumThreads(1)), and the raw RGB size. Targets: 30 fps per camera with p50 <= 15 ms at
-640x480; 3 x 1280x720 at 30 fps sustained on 2 cores; bytes per frame <= 1/10 of raw.
+encode_jpeg, cv2.setNumThreads(1)), and the raw RGB size. Targets (#15): 640x480 delivered at >= 29 fps
+with p50 <= 15 ms; 3 x 1280x720 at >= 28.5 fps each on 2 cores; bytes per frame <= 1/10 of raw.
 """
 
 from __future__ import annotations
@@ -52,7 +52,8 @@ PHOTOS = os.path.relpath(FISHEYE, ROOT)
 NAME = "camera"
 TITLE = "Camera path"
 FPS = 30.0
-#: "30 fps" counts as met at 95 % of it: a 2-second window has whole frames only, and DDS timing jitters.
+#: The targets of #15: 640x480 delivered at >= 29 fps (p50 <= 15 ms); each of three 1280x720 at >= 28.5 fps.
+TARGET_VGA_FPS = 29.0
 SUSTAINED = 0.95 * FPS
 TARGET_P50_MS = 15.0
 
@@ -250,11 +251,11 @@ def targets(results: dict[str, JsonDict], limits: dict[str, JsonDict]) -> list[J
         vga = results.get(f"{qos}/640x480 rgb8")
         if vga is not None and "error" not in vga:
             p50 = vga["latency_ms"]["p50"]
-            ok = vga["fps_min"] >= SUSTAINED and p50 is not None and p50 <= TARGET_P50_MS
+            ok = vga["fps_min"] >= TARGET_VGA_FPS and p50 is not None and p50 <= TARGET_P50_MS
             out.append(
                 target(
                     f"640x480 rgb8: fps and latency p50 {label}",
-                    f"30 fps, p50 <= {TARGET_P50_MS:g} ms",
+                    f">= {TARGET_VGA_FPS:g} fps, p50 <= {TARGET_P50_MS:g} ms",
                     f"{vga['fps_min']:.1f} fps, p50 {fmt(p50)} ms",
                     ok,
                     "" if ok else explain(vga),
@@ -323,8 +324,8 @@ def explain(result: JsonDict) -> str:
         )
     if received is not None and encoded < 0.9 * received:
         reasons.append(
-            f"the ros backend encoded {encoded:.1f} of the {received:.1f} fps it received: it skips an image that "
-            "arrives sooner than 0.9/fps after the last one it took, or while the previous one is being encoded"
+            f"the ros backend encoded {encoded:.1f} of the {received:.1f} fps it received: an image that arrives while "
+            "two of the camera's encodes are in flight waits, and a newer one replaces it (the pool was behind)"
         )
     if delivered < 0.9 * encoded:
         reasons.append(

@@ -161,6 +161,7 @@ class Relay:
         for client in list(self._clients.values()):
             await self._drop_client(client)
         await self.backend.stop()
+        self.streams.close()
         self.audit.close()
 
     async def stop_all_robots(self, reason: str) -> None:

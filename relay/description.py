@@ -31,6 +31,8 @@ def describe_robot(robot: Robot, model_url: str | None = None) -> RobotDescripti
                 "lens": lens_description(robot, c.name),
                 "width": c.width,
                 "height": c.height,
+                # H.264 (4:2:0) needs an even width and height.
+                "codecs": ["jpeg", "h264"] if c.width % 2 == 0 and c.height % 2 == 0 else ["jpeg"],
             }
             for c in robot.cameras
         ],

@@ -7,8 +7,8 @@ as is (see ``relay.backends.ros``), so nothing mutable is shared between threads
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,7 +59,8 @@ class PathEvent:
 
 @dataclass(frozen=True, slots=True)
 class FrameEvent:
-    """An encoded camera image (JPEG) for one robot camera."""
+    """An encoded camera image (JPEG) for one robot camera; ``pixels``: the BGR image it was encoded from, when the
+    backend had one (the H.264 encoder takes it rather than decoding the JPEG again)."""
 
     robot: str
     camera: str
@@ -67,6 +68,7 @@ class FrameEvent:
     width: int
     height: int
     jpeg: bytes
+    pixels: Any = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True)

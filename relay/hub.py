@@ -8,7 +8,12 @@ client. Per client there are three lanes, drained by one writer task:
   and is disconnected (close code 1008) rather than buffered without bound.
 - **state**: latest-value coalescing keyed by what the value describes (``robot1/pose``,
   ``robot1/sensor/gas``, ``robot1/status``): a slow client gets the newest value, never a backlog.
-- **frames**: camera frames, at most ``max_frames`` queued; the oldest is dropped first.
+- **frames**: camera frames, at most ``max_frames`` queued; the oldest is dropped first. JPEG frames stand
+  alone, so dropping one costs nothing but itself.
+- **video**: H.264 packets, at most ``max_video`` queued (a second at 30 fps; a P-frame is a few kB). A packet
+  needs every one before it back to a keyframe, so nothing is dropped from the middle: when the lane is full,
+  the new packet is dropped and that stream takes nothing more until its next keyframe (the caller asks its
+  encoder for one). A client that starts a video stream also waits for a keyframe. JPEG and video take turns.
 
 The writer awaits each send, so a client that stops reading blocks only its own writer (aiohttp waits for
 the socket to drain past its high-water mark) while the lanes above keep its memory bounded.
@@ -65,6 +70,7 @@ class Counters:
     state_batched: int = 0  # state messages that went out in a batch of more than one
     batches: int = 0  # text frames that carried more than one message
     frames_dropped: int = 0  # camera frames dropped because a client's frame lane was full
+    video_dropped: int = 0  # video packets not queued: a full video lane, or waiting for a keyframe after one
     clients_total: int = 0
     clients_dropped: int = 0  # clients disconnected for not reading
 
@@ -80,6 +86,7 @@ class Channel:
         *,
         max_frames: int,
         max_priority: int,
+        max_video: int = 30,
         batch: bool = False,
     ) -> None:
         self.client_id = client_id
@@ -91,12 +98,19 @@ class Channel:
         self._priority: deque[tuple[bool, bytes]] = deque()
         self._state: dict[str, bytes] = {}
         self._frames: deque[bytes] = deque(maxlen=max_frames)
+        self._video: deque[bytes] = deque()
+        self._max_video = max_video
+        #: Video streams that take nothing until their next keyframe (just started, or a packet was dropped).
+        self._broken: set[str] = set()
         self._wake = asyncio.Event()
         self._frames_next = False  # alternate state and frames so neither starves the other
+        self._video_next = False  # and, within the frames' turn, JPEG and video
         self._task: asyncio.Task[None] | None = None
         self.closed = False
-        #: camera identifier -> (requested fps, loop time of the last frame queued to this client)
+        #: camera identifier -> (requested fps, loop time its next JPEG frame is due)
         self.streams: dict[str, tuple[float, float]] = {}
+        #: camera identifier -> codec of this client's stream of it ("jpeg" or "h264")
+        self.codecs: dict[str, str] = {}
 
     # -- lanes ------------------------------------------------------------------------------------
 
@@ -110,6 +124,7 @@ class Channel:
             self._priority.clear()
             self._state.clear()
             self._frames.clear()
+            self._video.clear()
             asyncio.get_running_loop().create_task(
                 self.transport.close(CLOSE_NOT_READING, "client is not reading its replies")
             )
@@ -135,19 +150,42 @@ class Channel:
         self._frames.append(data)
         self._wake.set()
 
+    def put_video(self, identifier: str, data: bytes, keyframe: bool) -> bool:
+        """One packet of video stream ``identifier``; False when the stream waits for a keyframe (ask for one)."""
+        if self.closed:
+            return True
+        if identifier in self._broken:
+            if not keyframe:
+                self._counters.video_dropped += 1
+                return False
+            self._broken.discard(identifier)
+        if len(self._video) >= self._max_video:
+            self._counters.video_dropped += 1
+            self._broken.add(identifier)
+            return False
+        self._video.append(data)
+        self._wake.set()
+        return True
+
+    def start_video(self, identifier: str) -> None:
+        """A video stream starts (or restarts): a decoder needs a keyframe first."""
+        self._broken.add(identifier)
+
     @property
     def queued(self) -> int:
-        return len(self._priority) + len(self._state) + len(self._frames)
+        return len(self._priority) + len(self._state) + len(self._frames) + len(self._video)
 
     def _next(self) -> tuple[bool, bytes, int] | None:
         """The next frame to send: (binary, bytes, how many messages it carries)."""
         if self._priority:
             binary, data = self._priority.popleft()
             return binary, data, 1
-        take_frame = bool(self._frames) and (self._frames_next or not self._state)
+        take_frame = bool(self._frames or self._video) and (self._frames_next or not self._state)
         if take_frame:
             self._frames_next = False
-            return True, self._frames.popleft(), 1
+            self._video_next = not self._video_next
+            lane = self._video if self._video and (self._video_next or not self._frames) else self._frames
+            return True, lane.popleft(), 1
         if self._state:
             self._frames_next = True
             if self.batch and len(self._state) > 1:
@@ -220,10 +258,11 @@ class Channel:
 class Hub:
     """Routes encoded messages to client channels."""
 
-    def __init__(self, *, max_frames: int = 2, max_priority: int = 1024) -> None:
+    def __init__(self, *, max_frames: int = 2, max_priority: int = 1024, max_video: int = 30) -> None:
         self.counters = Counters()
         self._channels: dict[str, Channel] = {}
         self._max_frames = max_frames
+        self._max_video = max_video
         self._max_priority = max_priority
 
     def __len__(self) -> int:
@@ -239,6 +278,7 @@ class Hub:
             self.counters,
             max_frames=self._max_frames,
             max_priority=self._max_priority,
+            max_video=self._max_video,
             batch=batch,
         )
         self._channels[client_id] = channel
@@ -261,14 +301,14 @@ class Hub:
             channel.put_priority(data)
 
     def publish_frame(self, identifier: str, data: bytes, now: float) -> int:
-        """A camera frame to every client streaming ``identifier``, throttled to each client's rate.
+        """A JPEG camera frame to every client streaming ``identifier`` as JPEG, throttled to each client's rate.
 
         Returns how many clients took it.
         """
         taken = 0
         for channel in self._channels.values():
             stream = channel.streams.get(identifier)
-            if stream is None:
+            if stream is None or channel.codecs.get(identifier, "jpeg") != "jpeg":
                 continue
             fps, due = stream
             after = take_frame(now, due, fps)
@@ -278,12 +318,33 @@ class Hub:
                 taken += 1
         return taken
 
-    def set_stream(self, channel: Channel, identifier: str, fps: float) -> None:
+    def publish_video(self, identifier: str, data: bytes, keyframe: bool) -> tuple[int, int]:
+        """A video packet to every client streaming ``identifier`` as H.264 (every packet: a video's frames cannot
+        be skipped one by one). Returns how many clients stream it so, and how many of them wait for a keyframe."""
+        viewers = waiting = 0
+        for channel in self._channels.values():
+            if channel.codecs.get(identifier) == "h264" and identifier in channel.streams:
+                viewers += 1
+                waiting += not channel.put_video(identifier, data, keyframe)
+        return viewers, waiting
+
+    def set_stream(self, channel: Channel, identifier: str, fps: float, codec: str = "jpeg") -> None:
         if fps <= 0:
             channel.streams.pop(identifier, None)
+            channel.codecs.pop(identifier, None)
         else:
+            if codec == "h264" and channel.codecs.get(identifier) != "h264":
+                channel.start_video(identifier)
             channel.streams[identifier] = (fps, -math.inf)  # (rate, when its next frame is due)
+            channel.codecs[identifier] = codec
 
-    def stream_demand(self, identifier: str) -> float:
-        """The highest rate any client wants ``identifier`` at (0 when nobody streams it)."""
-        return max((c.streams[identifier][0] for c in self._channels.values() if identifier in c.streams), default=0.0)
+    def stream_demand(self, identifier: str, codec: str | None = None) -> float:
+        """The highest rate any client wants ``identifier`` at, in ``codec`` or any (0 when nobody streams it)."""
+        return max(
+            (
+                c.streams[identifier][0]
+                for c in self._channels.values()
+                if identifier in c.streams and (codec is None or c.codecs.get(identifier, "jpeg") == codec)
+            ),
+            default=0.0,
+        )

@@ -36,6 +36,7 @@ class CameraDescription(TypedDict):
     lens: Lens
     width: int
     height: int
+    codecs: list[str]  # what ``<robot>/stream`` may ask for: "jpeg", and "h264" when the size allows it
 
 
 class SensorDescription(TypedDict):
@@ -245,11 +246,13 @@ class FrameHeader(TypedDict):
     identifier: str
     seq: int
     stamp: float
-    encoding: str
+    encoding: str  # "jpeg" (a picture) or "h264" (an Annex B packet of the camera's video)
     width: int
     height: int
     lens: Lens
     request_id: RequestId | None
+    keyframe: NotRequired[bool]  # h264: a decoder may start here
+    codec: NotRequired[str]  # h264: the WebCodecs codec string, e.g. "avc1.42C01F"
 
 
 #: Every message the server sends as a text frame (the browser's ``ServerMessage`` is generated from this).

@@ -31,6 +31,8 @@ MAX_TEXT_BYTES: Final = 64 * 1024
 MAX_ID_LENGTH: Final = 128
 #: Highest camera stream rate a client may ask for.
 MAX_STREAM_FPS: Final = 60.0
+#: How a camera may be streamed (``<robot>/stream`` ``codec``): JPEG frames, or H.264 video (relay/video.py).
+STREAM_CODECS: Final = ("jpeg", "h264")
 #: A stream at ``fps`` takes a frame up to ``FRAME_SLACK`` of a period before the frame is due (:func:`take_frame`):
 #: a 30 fps source whose frames come up to 8 ms early or late keeps all of them against a 30 fps request, and a
 #: 60 fps one gives every other frame, evenly. The rule it
@@ -226,6 +228,7 @@ class Stream:
     id: RequestId
     camera: str
     fps: float
+    codec: str = "jpeg"
 
 
 @dataclass(frozen=True, slots=True)
@@ -528,8 +531,15 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
     # kind == "stream"
     camera = _string(obj, "camera", identifier, required=True)
     fps = _number(obj, "fps", identifier, low=0.0, high=MAX_STREAM_FPS)
+    codec = _string(obj, "codec", identifier, required=False) or "jpeg"
     assert camera is not None and fps is not None
-    return Stream(robot=robot, id=rid, camera=camera, fps=fps)
+    if codec not in STREAM_CODECS:
+        raise ProtocolError(
+            ErrorCode.UNSUPPORTED,
+            f"{identifier}: codec {_show(codec)} is not offered; cameras stream as " + " or ".join(STREAM_CODECS),
+            rid,
+        )
+    return Stream(robot=robot, id=rid, camera=camera, fps=fps, codec=codec)
 
 
 # The inspection commands (missions, findings, regions, targets) use the parser's helpers above.

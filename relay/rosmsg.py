@@ -114,6 +114,7 @@ def image_to_frame(robot: str, camera: str, stamp: float, message: Any, compress
 
     Raises :class:`~relay.imaging.ImageError` or ``ValueError`` for an image it cannot read.
     """
+    pixels: Any = None
     if compressed:
         jpeg, width, height = compressed_to_jpeg(bytes(message.data), message.format)
     else:
@@ -128,5 +129,5 @@ def image_to_frame(robot: str, camera: str, stamp: float, message: Any, compress
             int(message.step),
             bool(message.is_bigendian),
         )
-        jpeg, width, height = encode_jpeg(bgr), int(message.width), int(message.height)
-    return FrameEvent(robot, camera, stamp, width, height, jpeg)
+        jpeg, width, height, pixels = encode_jpeg(bgr), int(message.width), int(message.height), bgr
+    return FrameEvent(robot, camera, stamp, width, height, jpeg, pixels)

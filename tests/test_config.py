@@ -174,7 +174,7 @@ def test_topic_overrides_and_root_namespace() -> None:
         ),
         (
             MINIMAL + "ros: {executor: multi}\n",
-            "robots.yaml:4: ros.executor: expected one of events, single, got \"multi\"",
+            'robots.yaml:4: ros.executor: expected one of events, single, got "multi"',
         ),
     ],
 )

@@ -200,6 +200,38 @@ def test_binary_frame_layout() -> None:
     assert decoded == header and body == payload
 
 
+def test_h264_frame_header_bytes() -> None:
+    """The header the relay puts on a video packet (relay/streams.py), pinned: what the browser's decoder reads."""
+    from relay.config import parse_config
+    from relay.events import FrameEvent
+    from relay.hub import Hub
+    from relay.streams import CameraStreams
+    from relay.video import Packet
+
+    config = parse_config(
+        "robots:\n  - name: robot1\n    limits: {linear: 0.5, angular: 1.0}\n"
+        "    cameras: [{name: front, width: 640, height: 480}]\n",
+        "robots.yaml",
+    )
+    hub = Hub()
+    sent: list[bytes] = []
+
+    def publish_video(identifier: str, data: bytes, keyframe: bool) -> tuple[int, int]:
+        sent.append(data)
+        return 1, 0
+
+    hub.publish_video = publish_video  # type: ignore[method-assign]
+    streams = CameraStreams({r.name: r for r in config.robots}, hub, backend=None)  # type: ignore[arg-type]
+    frame = FrameEvent("robot1", "front", 1.5, 640, 480, b"")
+    streams._publish_video("robot1/camera/front", frame, Packet(b"\x00\x00\x00\x01\x65", True, "avc1.42C01E", 640, 480))
+    head = (
+        b'{"identifier":"robot1/camera/front","seq":1,"stamp":1.5,"encoding":"h264","width":640,"height":480,'
+        b'"lens":{"model":"equidistant","fov":180.0},"request_id":null,"keyframe":true,"codec":"avc1.42C01E"}'
+    )
+    assert sent == [len(head).to_bytes(4, "big") + head + b"\x00\x00\x00\x01\x65"]
+    streams.close()
+
+
 @pytest.mark.parametrize("data", [b"", b"\x00\x00\x00\x10{}", b"\x00\x00\x00\x02[]"])
 def test_bad_binary_frames(data: bytes) -> None:
     with pytest.raises(ProtocolError):

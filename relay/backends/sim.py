@@ -21,6 +21,7 @@ import logging
 import time
 from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 from ..budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..config import FleetConfig
@@ -153,11 +154,16 @@ class SimBackend(Backend):
         # Plain floats cross to the worker thread: the world keeps moving on the loop meanwhile.
         (x, y, yaw), stamp = self._pose_of(robot), time.time()
         render = self.camera.render
+
+        def work() -> tuple[bytes, Any]:
+            rgb = render(x, y, yaw, lens)
+            return rgb_to_jpeg(rgb), rgb[:, :, ::-1]  # BGR, a view: the H.264 encoder takes it as it is
+
         try:
-            jpeg = await self._rendering.run(lambda: rgb_to_jpeg(render(x, y, yaw, lens)))
+            jpeg, bgr = await self._rendering.run(work)
         except Busy as exc:
             raise CommandRejected(ErrorCode.BUSY, f"{robot}/snapshot: {exc}; try again shortly") from None
-        return FrameEvent(robot, camera, stamp, lens.width, lens.height, jpeg)
+        return FrameEvent(robot, camera, stamp, lens.width, lens.height, jpeg, bgr)
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
         key = (robot, camera)

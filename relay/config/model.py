@@ -28,6 +28,8 @@ class Camera:
     width: int
     height: int
     rate: float  # highest rate the relay streams this camera at, frames per second
+    #: H.264 target bits per second (None: relay.video.default_bitrate, 2.5 Mbit/s at 720p30, scaled by pixels)
+    bitrate: int | None = None
 
 
 @dataclass(frozen=True)

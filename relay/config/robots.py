@@ -246,7 +246,10 @@ def _pose_source(reader: _Reader, node: Node | None, path: str, namespace: str) 
 
 def _camera(reader: _Reader, node: Node, path: str, namespace: str) -> Camera:
     f = reader.mapping(
-        node, path, ("name", "topic", "compressed", "lens", "width", "height", "rate"), required=("name",)
+        node,
+        path,
+        ("name", "topic", "compressed", "lens", "width", "height", "rate", "bitrate"),
+        required=("name",),
     )
     name = reader.string(f["name"], f"{path}.name", pattern=ROBOT_NAME_PATTERN, expected="a camera name")
     compressed = reader.get(f, "compressed", path, reader.boolean, False)
@@ -276,6 +279,7 @@ def _camera(reader: _Reader, node: Node, path: str, namespace: str) -> Camera:
         width=reader.get(f, "width", path, reader.integer, 640),
         height=reader.get(f, "height", path, reader.integer, 640),
         rate=reader.get(f, "rate", path, lambda n, p: reader.number(n, p, positive=True), 30.0),
+        bitrate=reader.get(f, "bitrate", path, reader.integer, None),
     )
 
 

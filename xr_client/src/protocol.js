@@ -24,7 +24,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 
 // Server to client
 /** @typedef {{model: string, fov: number, K?: number[], D?: number[]}} Lens */
-/** @typedef {{name: string, identifier: string, lens: Lens, width: number, height: number}} CameraDescription */
+/** @typedef {{name: string, identifier: string, lens: Lens, width: number, height: number, codecs: string[]}} CameraDescription */
 /** @typedef {{name: string, unit: string, warn_above: number | null, warn_below: number | null}} SensorDescription */
 /** @typedef {{linear: number, angular: number}} Limits */
 /** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits}} RobotDescription */
@@ -52,7 +52,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, holder: string | null, previous: string | null, reason: LeaseReason}} LeaseMessage */
 /** @typedef {{identifier: 'estop', robots: string[], by: string | null, latched: boolean}} EstopMessage */
 /** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, vantage: VantageDescription | null, rooms: RoomDescription[], robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
-/** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null}} FrameHeader */
+/** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null, keyframe?: boolean, codec?: string}} FrameHeader */
 /** @typedef {{id: string, name: string, kind: string, x: number, y: number, facing: number | null}} TargetDescription */
 /** @typedef {{identifier: 'targets', targets: TargetDescription[]}} TargetsMessage */
 /** @typedef {{kind: StepKind, target: string | null, x: number | null, y: number | null, yaw: number | null, seconds: number | null}} StepDescription */
