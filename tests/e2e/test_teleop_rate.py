@@ -13,7 +13,10 @@ import asyncio
 import itertools
 import time
 
+from playwright.async_api import Browser
+
 from .conftest import SOFTWARE_GL, Client, OpenClient, Station, record_timing, wait_until
+from .test_client_vr import measure_rate
 
 #: Busy time added to each animation frame (ms): 2-4 frames a second.
 SLOW_FRAME_MS = 300
@@ -136,3 +139,29 @@ async def test_a_frozen_page_has_its_robot_stopped_by_the_worker(station: Statio
     await wait_until(lambda: any(lin > 0.5 for _, lin, _ in station.velocities_of("robot2", again)), 5, "driving again")
     await client.page.keyboard.up("KeyW")
     assert client.errors == [], client.errors
+
+
+async def test_a_worker_that_cannot_start_leaves_the_socket_and_teleop_to_the_page(
+    station: Station, browser: Browser
+) -> None:
+    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+    # The worker's script never arrives (a proxy that blocks it, a browser without module workers in workers).
+    await page.route("**/src/socket_worker.js", lambda route: route.abort())
+    client = Client(page, "teleop-no-worker")
+    try:
+        await page.goto(f"{station.url}/?{SOFTWARE_GL}&name=Tess")
+        await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
+        assert not (await client.state())["teleop"]["worker"]
+        await drive_robot2(station, client)
+        rate = await measure_rate(station, "robot2", 2.0)
+        assert 2 <= rate <= 24, f"{rate:.1f} cmd_vel per second from the page's own 20 Hz loop"
+        released = time.monotonic()
+        await page.keyboard.up("KeyW")
+        await wait_until(
+            lambda: any(lin == 0 and ang == 0 for _, lin, ang in station.velocities_of("robot2", released)),
+            5,
+            "the zero on release",
+        )
+        assert client.errors == [], client.errors
+    finally:
+        await page.close()
