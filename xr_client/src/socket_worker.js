@@ -12,6 +12,7 @@
  * Worker -> page: {type: 'open', id}, {type: 'message', id, data}, {type: 'close', id, code, reason, wasClean},
  *   {type: 'error', id}, {type: 'sent', zero} (one per cmd_vel this clock sent), {type: 'expired', ...Expiry}.
  */
+// Relative imports only: the page's import map does not reach a worker.
 import { TeleopHold, stampedText } from './teleop_hold.js';
 
 /**
