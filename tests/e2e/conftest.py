@@ -48,7 +48,8 @@ CHROMIUM_ARGS = [
 #: The client's options for a software-rendered browser (xr_client/src/main.js): no multisampling, a lower
 #: resolution, at most a few drawn frames a second. With --disable-gpu, Chromium reads every WebGL frame
 #: back for its software compositor and holds the page meanwhile; drawing less leaves the page's own
-#: timers (the 20 Hz teleop clock) and IWER's input frames their time.
+#: timers (input, pings) and IWER's input frames their time. Teleop's 20 Hz runs in the socket worker, whatever
+#: the frames do (tests/e2e/test_teleop_rate.py).
 SOFTWARE_GL = "quality=low&maxfps=2"
 SYNTHETIC_CAMERA = "front"
 SYNTHETIC_SIZE = 512

@@ -16,7 +16,8 @@ import { FleetModel } from './fleet_model.js';
 import { MenuState } from './menu_state.js';
 import { MessageRouter } from './message_router.js';
 import { CommandSender } from './command_sender.js';
-import { TeleopLoop, shapeStick } from './teleop.js';
+import { TeleopLoop } from './teleop.js';
+import { TeleopDriver } from './teleop_driver.js';
 import { GoalPointer, GoalTracker } from './goal_pointer.js';
 import { SensorHistory } from './sensor_history.js';
 import { pageVrAvailability, vrAvailability } from './security.js';
@@ -119,6 +120,7 @@ export class App {
     this.connection = pageConnection(window.location, window.sessionStorage);
     this.sender = new CommandSender(this.connection, (text) => this.#notify(text, 'error'));
     this.router = new MessageRouter({ fleet: this.fleet, goals: this.goals, history: this.history, commands: this.sender });
+    this.driver = new TeleopDriver(this.teleop, this.sender, this.connection, (text) => this.#notify(text, 'warning'));
     /** @type {OperatorActions} */
     this.actions = {
       toggleMenu: () => this.#apply(this.menu.toggle()),
@@ -136,8 +138,8 @@ export class App {
     this.lastFrame = performance.now();
     this.vr = vrAvailability({ secure: window.isSecureContext, hostname: location.hostname, port: location.port, hasXR: 'xr' in navigator, vrSupported: null });
     this.#listen();
-    // Teleop runs on its own 100 Hz clock, not the frame rate: commands keep a fixed 20 Hz even when
-    // frames are slow (SwiftShader in CI, a loaded desktop).
+    // Input and teleop's state on a 100 Hz clock, not the frame rate; the 20 Hz commands go out from the socket
+    // worker's clock (teleop_driver.js), which neither slow frames nor this thread's timers hold back.
     this.teleopTimer = setInterval(() => this.#teleopTick(), 10);
   }
 
@@ -284,7 +286,7 @@ export class App {
         this.#notify(effect.text, effect.kind, effect.toast);
         break;
       case 'stop_teleop':
-        this.teleop.stop(performance.now());
+        this.driver.stop(performance.now(), true);
         break;
       case 'link':
         this.#onLink();
@@ -376,20 +378,16 @@ export class App {
    */
   #driveStick(source, x, y) {
     const robot = this.fleet.robot(this.menu.selected);
-    if (!robot || this.menu.tool !== 'teleop') return;
-    const now = performance.now();
-    this.teleop.setRobot(robot.description.name, robot.description.limits, now).forEach((c) => this.sender.twist(c));
-    const { linear, angular } = shapeStick(x, y, robot.description.limits);
-    this.teleop.input(source, linear, angular, now).forEach((c) => this.sender.twist(c));
+    if (robot && this.menu.tool === 'teleop') this.driver.stick(source, x, y, robot.description, performance.now());
   }
 
   #teleopTick() {
     this.desktop.pollTeleop();
-    this.teleop.tick(performance.now()).forEach((c) => this.sender.twist(c));
+    this.driver.tick(performance.now());
   }
 
   #stopDriving() {
-    this.teleop.stop(performance.now()).forEach((c) => this.sender.twist(c));
+    this.driver.stop(performance.now());
   }
 
   // -- the menu ----------------------------------------------------------------------------------
@@ -429,7 +427,7 @@ export class App {
           this.operatorUi.offer(effect.robot, effect.holder, null);
           break;
         case 'estop':
-          this.teleop.stop(performance.now());
+          this.driver.stop(performance.now(), true);
           this.sender.estop(effect.robot);
           break;
         case 'estop_reset':
@@ -457,7 +455,7 @@ export class App {
       if (camera) this.hemisphere.setLens(camera.lens, camera.width, camera.height);
     }
     const robot = this.fleet.robot(this.menu.selected);
-    this.teleop.setRobot(robot?.description.name ?? null, robot?.description.limits ?? { linear: 0, angular: 0 }, performance.now()).forEach((c) => this.sender.twist(c));
+    this.driver.setRobot(robot?.description.name ?? null, robot?.description.limits ?? { linear: 0, angular: 0 }, performance.now());
   }
 
   /** @param {import('./menu_state.js').Mode} mode */
@@ -519,6 +517,7 @@ export class App {
     const start = performance.now();
     const dt = Math.min(0.1, (start - this.lastFrame) / 1000);
     this.lastFrame = start;
+    this.driver.tick(start); // confirms the held command to the socket worker once a frame, however slow
     const eye = this.camera.getWorldPosition(new THREE.Vector3());
     const link = !this.linkOk ? 'lost' : this.router.linkStale(true, start) ? 'quiet' : 'live';
     this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, link, scans: this.menu.scans });
@@ -574,6 +573,7 @@ export class App {
     this.renderer.setAnimationLoop(null);
     clearInterval(this.teleopTimer);
     this.#stopDriving();
+    this.driver.dispose();
     for (const off of this.unlisten) off();
     this.unlisten = [];
     this.xrSession.dispose();

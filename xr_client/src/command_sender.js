@@ -23,6 +23,16 @@ export function round(v) {
   return Math.round(v * 1e4) / 1e4 + 0;
 }
 
+/**
+ * A teleop command's cmd_vel without its stamp `t`: what `twist` sends, and what the socket worker repeats at 20 Hz
+ * (stamping each on the page's clock), so that both send the same bytes.
+ * @param {import('./teleop.js').TeleopCommand} command
+ * @returns {import('./teleop_hold.js').HeldCommand}
+ */
+export function twistFields(command) {
+  return { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular) };
+}
+
 export class CommandSender {
   /** How many commands went out, by kind (tests and the developer console read them). */
   counts = { goals: 0, cmdVel: 0, zeros: 0, estops: 0 };
@@ -70,7 +80,7 @@ export class CommandSender {
   twist(command) {
     /** @type {import('./protocol.js').CmdVelCommand} */
     // `t` lets the relay drop a command that waited (in a frozen relay, a stalled network) past the deadman's timeout.
-    const message = { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular), t: Math.round(this.clock()) };
+    const message = { ...twistFields(command), t: Math.round(this.clock()) };
     // Silently dropped while disconnected: the relay's deadman stops the robot on its side.
     if (this.link.send(/** @type {Record<string, unknown>} */ (message), false) === null) return;
     this.counts.cmdVel++;

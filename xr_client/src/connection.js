@@ -6,9 +6,14 @@
  *
  * Events: `status` (the link changed: `detail` is the ReconnectPolicy), `message` (a parsed JSON object),
  * `frame` (a binary camera frame: `detail` is its ArrayBuffer).
+ *
+ * The socket itself lives in a worker when the browser has one (worker_link.js): sending then never waits for the
+ * main thread, and the worker repeats the held teleop command at 20 Hz (`hold`) however slow the frames are. The
+ * policy here is the same either way; without a worker the socket is a plain WebSocket on this thread.
  */
 import { PROTOCOL_VERSION } from './protocol.js';
 import { PING_PERIOD_MS, ReconnectPolicy } from './reconnect.js';
+import { WorkerSocket, startWorkerLink } from './worker_link.js';
 
 /**
  * The WebSocket address of the relay that served this page, with the operator token when there is one. `batch=1`:
@@ -55,16 +60,18 @@ export async function accessRefusal(location, token, fetcher = fetch) {
 export class RelayConnection extends EventTarget {
   /**
    * @param {string} url
-   * @param {{now?: () => number, refusal?: () => Promise<string | null>}} [options] `refusal` asks why a handshake
-   *   failed (accessRefusal); a reason stops the retries.
+   * @param {{now?: () => number, refusal?: () => Promise<string | null>, link?: import('./worker_link.js').WorkerLink | null}} [options]
+   *   `refusal` asks why a handshake failed (accessRefusal); a reason stops the retries. `link`: the socket worker
+   *   (null: sockets on this thread).
    */
   constructor(url, options = {}) {
     super();
     this.url = url;
     this.now = options.now ?? (() => performance.now());
     this.refusal = options.refusal ?? (async () => null);
+    this.link = options.link ?? null;
     this.policy = new ReconnectPolicy();
-    /** @type {WebSocket | null} */
+    /** @type {WebSocket | WorkerSocket | null} */
     this.socket = null;
     this.nextId = 1;
     /** @type {ReturnType<typeof setTimeout> | undefined} */
@@ -83,7 +90,7 @@ export class RelayConnection extends EventTarget {
   connect() {
     if (this.disposed) return;
     this.policy.connecting(this.now());
-    const socket = new WebSocket(this.url);
+    const socket = this.link && !this.link.failed ? this.link.socket(this.url) : new WebSocket(this.url);
     socket.binaryType = 'arraybuffer';
     this.socket = socket;
     socket.addEventListener('open', () => {
@@ -91,7 +98,8 @@ export class RelayConnection extends EventTarget {
       this.policy.opened(this.now());
       this.#status();
     });
-    socket.addEventListener('message', (event) => {
+    socket.addEventListener('message', (e) => {
+      const event = /** @type {MessageEvent} */ (e);
       if (socket !== this.socket) return;
       if (typeof event.data !== 'string') {
         this.framesIn++;
@@ -145,7 +153,7 @@ export class RelayConnection extends EventTarget {
 
   /**
    * A socket is gone (closed, or given up on): the link is down, and a new one is tried after the policy's delay.
-   * @param {WebSocket} socket @param {boolean} opened whether its handshake had succeeded
+   * @param {WebSocket | WorkerSocket} socket @param {boolean} opened whether its handshake had succeeded
    */
   async #lost(socket, opened) {
     if (socket !== this.socket) return;
@@ -181,12 +189,29 @@ export class RelayConnection extends EventTarget {
     return id;
   }
 
+  /**
+   * Have the socket worker repeat this cmd_vel at 20 Hz (null: stop repeating), confirmed now (teleop_hold.js).
+   * Returns whether a worker's clock repeats it: false without a worker or an open socket in one, and then the
+   * page's own loop sends every command. A null always reaches the worker.
+   * @param {import('./teleop_hold.js').HeldCommand | null} command @param {number} epoch
+   */
+  hold(command, epoch) {
+    if (this.link === null) return false;
+    // Whichever socket it repeats onto, also one given up on (a silent relay): stopping never waits for a close.
+    if (command === null) this.link.hold(-1, null, epoch);
+    const socket = this.socket;
+    if (command === null || !(socket instanceof WorkerSocket) || socket.readyState !== WorkerSocket.OPEN) return false;
+    this.link.hold(socket.id, command, epoch);
+    return true;
+  }
+
   dispose() {
     this.disposed = true;
     clearTimeout(this.retryTimer);
     clearInterval(this.pingTimer);
     this.socket?.close();
     this.socket = null;
+    this.link?.dispose();
   }
 }
 
@@ -197,5 +222,5 @@ export class RelayConnection extends EventTarget {
  */
 export function pageConnection(location, storage) {
   const token = operatorToken(location, storage);
-  return new RelayConnection(relayUrl(location, token), { refusal: () => accessRefusal(location, token) });
+  return new RelayConnection(relayUrl(location, token), { refusal: () => accessRefusal(location, token), link: startWorkerLink() });
 }

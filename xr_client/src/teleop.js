@@ -45,6 +45,17 @@ export function shapeStick(x, y, limits, options = {}) {
   };
 }
 
+/**
+ * When the command after one due at `due` and sent at `now` is due: a fixed cadence, and after a stall (or at the
+ * start of a drive) it restarts from now, never bursting. The page's loop and the socket worker's clock
+ * (teleop_hold.js) both keep time with it.
+ * @param {number} due @param {number} now @param {number} period ms
+ */
+export function nextDue(due, now, period) {
+  const scheduled = due + period;
+  return scheduled > now ? scheduled : now + period;
+}
+
 /** @param {number} v @param {number} limit */
 function clamp(v, limit) {
   return Math.max(-limit, Math.min(limit, v));
@@ -148,9 +159,7 @@ export class TeleopLoop {
 
   /** @param {number} now */
   #emit(now) {
-    // A fixed cadence; after a stall (or at the start of a drive) it restarts from now, never bursting.
-    const scheduled = this.nextDue + this.period;
-    this.nextDue = scheduled > now ? scheduled : now + this.period;
+    this.nextDue = nextDue(this.nextDue, now, this.period);
     this.driving = true;
     return this.#record({ robot: /** @type {string} */ (this.robot), ...this.command });
   }

@@ -74,7 +74,11 @@ export function snapshotState(app) {
       ]),
     ),
     goal: { pointer: app.goalPointer.state, hover: app.goalPointer.hover, marker: app.goalPointer.marker, verdict: app.goalPointer.verdict, colour: `#${app.goalView.pointer.material.color.getHexString()}`, sent: app.sender.counts.goals },
-    teleop: { robot: app.teleop.robot, source: app.teleop.source, driving: app.teleop.driving, sent: app.teleop.sent, last: app.teleop.lastCommand },
+    teleop: {
+      robot: app.teleop.robot, source: app.teleop.source, driving: app.teleop.driving, sent: app.teleop.sent, last: app.teleop.lastCommand,
+      // Where the socket and the 20 Hz clock run (a worker, or this page without one); stops the worker made.
+      worker: app.connection.link !== null && !app.connection.link.failed, workerClock: app.driver.workerClock, expiries: app.driver.expiries,
+    },
     commands: { ...app.sender.counts },
     twin: { state: app.twin.state, url: app.twin.url ?? null, floor: app.twin.floorTargets.map((o) => o.name) },
     pov: {
