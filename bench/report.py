@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 
 from .common import JsonDict, Settings, fmt
 
-ORDER = ("pose_fanout", "ros_ingest", "camera", "slow_clients", "client_frame", "foxglove_peer")
+ORDER = ("pose_fanout", "ros_ingest", "camera", "video", "slow_clients", "client_frame", "foxglove_peer")
 COLOURS = {"xr": "#1f77b4", "xr-single": "#9467bd", "naive": "#d62728", "foxglove": "#2ca02c"}
 LABELS = {
     "xr": "xr-relay (batched)",
@@ -699,8 +699,90 @@ def client_section(page: Page, r: JsonDict) -> None:
         page.image(fig, "client_frame", "the app's JS time per frame per configuration")
 
 
+VIDEO_DOC = """H.264 from the relay's encoder (relay/video.py: libx264 through PyAV, constrained baseline, zerolatency,
+preset veryfast, one thread, the camera's default bitrate) beside the JPEG path, on the real fisheye photo panned 6
+pixels a frame at 1280x720 and 30 fps. Encoder part (one process, no network): bytes per second, SSIM of the luma
+against the source frames (H.264 decoded by FFmpeg's own decoder through PyAV), encoder CPU per frame. Relay part:
+the ros backend with a panning publisher in another process over DDS (bench/ros_pub.py `pan`), one camera streamed
+as H.264 to 1 and then 10 WebSocket clients (relay CPU of each, same run), then three cameras to one client.
+Latency: the publisher's stamp to the client's receipt of the packet.
+"""
+
+
+def video_section(page: Page, r: JsonDict) -> None:
+    if not section(page, r, VIDEO_DOC):
+        return
+    enc = r["encoder"]
+    h, j = enc["h264"], enc["jpeg"]
+    raw = enc["raw_bytes_per_s"]
+    page.add(
+        table(
+            ["1280x720 at 30 fps", "kB/s", "share of raw RGB", "SSIM mean (min)", "encode ms/frame p50"],
+            [
+                [
+                    "H.264 " + f"({h['bitrate_target'] / 1e6:.1f} Mbit/s target)",
+                    f"{h['bytes_per_s'] / 1000:.0f}",
+                    f"1/{raw / h['bytes_per_s']:.0f}",
+                    f"{h['ssim_mean']} ({h['ssim_min']})",
+                    fmt(h["encode_ms"]["p50"], 1),
+                ],
+                [
+                    f"JPEG q{j['quality']}",
+                    f"{j['bytes_per_s'] / 1000:.0f}",
+                    f"1/{raw / j['bytes_per_s']:.0f}",
+                    f"{j['ssim_mean']} ({j['ssim_min']})",
+                    "see the camera benchmark",
+                ],
+            ],
+        )
+    )
+    rows = []
+    for label, part in (("1 camera", r["one_camera"]), ("3 cameras", r["three_cameras"])):
+        for run in part.get("runs", []):
+            if "error" in run:
+                rows.append([label, run["viewers"], "failed: " + run["error"], "", "", ""])
+                continue
+            rows.append(
+                [
+                    label,
+                    run["viewers"],
+                    ", ".join(f"{v:.1f}" for v in run["fps"].values()),
+                    f"{run['kbytes_per_s_per_viewer']:.0f}",
+                    f"{fmt(run['latency_ms']['p50'])} / {fmt(run['latency_ms']['p99'])}",
+                    pct(run["cpu"]["relay"]),
+                ]
+            )
+        if "error" in part:
+            rows.append([label, "", "failed: " + part["error"], "", "", ""])
+    page.add(
+        table(
+            [
+                "through the relay",
+                "viewers",
+                "fps per camera",
+                "kB/s per viewer per camera",
+                "latency p50 / p99 ms",
+                "relay CPU",
+            ],
+            rows,
+        )
+    )
+    fig, ax = plt.subplots(figsize=(7, 3))
+    ax.bar(["H.264", f"JPEG q{j['quality']}"], [h["bytes_per_s"] / 1000, j["bytes_per_s"] / 1000],
+           color=["#1f77b4", "#ff7f0e"])  # fmt: skip
+    ax.axhline(raw / 50 / 1000, color="grey", linestyle="--", linewidth=0.8, label="target: 1/50 of raw")
+    for i, value in enumerate((h["ssim_mean"], j["ssim_mean"])):
+        ax.annotate(f"SSIM {value}", (i, 0), xytext=(0, 5), textcoords="offset points", ha="center", fontsize=8)
+    ax.set_ylabel("kB per second")
+    ax.set_yscale("log")
+    ax.set_title("1280x720 at 30 fps, panning fisheye photo")
+    ax.legend(fontsize=8)
+    page.image(fig, "video", "bytes per second of H.264 and JPEG at 720p30")
+
+
 SECTIONS = {
     "pose_fanout": fanout_section,
+    "video": video_section,
     "ros_ingest": ingest_section,
     "camera": camera_section,
     "slow_clients": slow_section,

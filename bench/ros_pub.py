@@ -133,10 +133,47 @@ def run_fleet(node: Any, args: argparse.Namespace, qos: QoSProfile, stop: thread
     return published
 
 
+#: Frames of a panning camera (``"pan": true`` in a stream's spec): 6 pixels a frame, back and forth.
+PAN_FRAMES, PAN_STEP = 60, 6
+
+
+class PanningImages:
+    """A raw rgb8 camera panning across the photo: every frame serialized once and published as bytes with its stamp
+    written in place (building a 2.7 MB rclpy Image per frame would cost the publisher more than the relay)."""
+
+    def __init__(self, spec: dict[str, Any]) -> None:
+        import cv2
+        from rclpy.serialization import serialize_message
+        from sensor_msgs.msg import Image
+
+        original = cv2.imread(spec["photo"])
+        if original is None:
+            raise SystemExit(f"cannot read {spec['photo']}")
+        width, height = spec["width"], spec["height"]
+        wide = cv2.resize(original, (width + PAN_STEP * PAN_FRAMES, height), interpolation=cv2.INTER_AREA)
+        self.frames: list[bytearray] = []
+        for i in list(range(PAN_FRAMES)) + list(range(PAN_FRAMES - 1, 0, -1)):
+            raw = Image()
+            raw.header.frame_id = "camera"
+            raw.height, raw.width, raw.encoding, raw.step = height, width, "rgb8", width * 3
+            crop = wide[:, PAN_STEP * i : PAN_STEP * i + width]
+            raw.data = cv2.cvtColor(crop, cv2.COLOR_BGR2RGB).tobytes()
+            self.frames.append(bytearray(serialize_message(raw)))
+        self.index = 0
+
+    def next(self, t: float) -> bytes:
+        data = self.frames[self.index % len(self.frames)]
+        self.index += 1
+        set_raw_stamp(data, t)
+        return bytes(data)
+
+
 def image_messages(spec: dict[str, Any]) -> tuple[Any, Any]:
     import cv2
     from sensor_msgs.msg import CompressedImage, Image
 
+    if spec.get("pan"):
+        return Image, PanningImages(spec)
     original = cv2.imread(spec["photo"])
     if original is None:
         raise SystemExit(f"cannot read {spec['photo']}")
@@ -212,6 +249,10 @@ def main() -> int:
                 due = max(due + period, time.monotonic() - period)
             for publisher, message in streams:
                 t = time.monotonic()
+                if isinstance(message, PanningImages):
+                    publisher.publish(message.next(t))
+                    published += 1
+                    continue
                 set_stamp(message.header, t)
                 if args.kind == "odom":
                     pose = message.pose.pose

@@ -26,6 +26,7 @@ from . import (
     bench_pose_fanout,
     bench_ros_ingest,
     bench_slow_clients,
+    bench_video,
     report,
 )
 from .common import JsonDict, Report, Settings, machine, versions, write_result
@@ -37,6 +38,7 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_slow_clients,
     bench_client_frame,
     bench_foxglove_peer,
+    bench_video,
 )
 
 

@@ -1,0 +1,329 @@
+"""Benchmark 7: live video (#16). H.264 from the relay's encoder (relay/video.py) beside the JPEG path, on the real
+fisheye photo of shared/data panned across 6 pixels a frame (bench/ros_pub.py ``"pan": true``), so the encoder has
+motion to code.
+
+Two parts:
+
+- **Encoder** (this process, no network): 1280x720 at 30 fps for 3 s. Bytes per second of H.264 at the camera's
+  default bitrate and of JPEG at the relay's quality; SSIM of each against the source frames (H.264 decoded by
+  FFmpeg's own decoder through PyAV; SSIM of the luma, Gaussian window 11 / sigma 1.5, Wang et al. 2004); the
+  encoder's CPU per frame (process time), as a share of one core at 30 fps.
+- **Through the relay** (bench/relay_proc.py, ros backend, a publisher in another process over real DDS): one camera
+  at 1280x720 30 fps streamed as H.264 to 1 and then to 10 WebSocket clients, relay CPU for each in the same run;
+  then three such cameras to one client, each camera's delivered rate. Latency is the publisher's stamp to the
+  client's receipt of the packet (the browser's decode is measured by the client frame benchmark when the web
+  client decodes video).
+
+Targets (#16): bytes <= 1/50 of raw RGB (<= 553 kB/s at 720p30) with SSIM >= 0.95; one 720p30 stream encoded at
+<= 25 % of a core; ten viewers cost <= 10 % more relay CPU than one; three 720p cameras >= 28.5 fps each.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from relay.imaging import JPEG_QUALITY, encode_jpeg
+from relay.video import H264Encoder, default_bitrate
+
+from .common import FISHEYE, TOKEN, Child, CpuWindow, JsonDict, Report, Settings, fmt, new_ros_domain, ros_env, summary
+from .common import target as make_target
+from .wsload import Recorder, close_all, connect
+
+NAME = "video"
+TITLE = "Live video (H.264)"
+WIDTH, HEIGHT, FPS = 1280, 720, 30.0
+PHOTO = FISHEYE / "front.jpg"
+PAN_STEP = 6
+TARGET_RATIO = 1 / 50
+TARGET_SSIM = 0.95
+TARGET_ENCODE_CORE = 0.25
+TARGET_VIEWERS_EXTRA = 0.10
+TARGET_FPS = 28.5
+
+
+def ssim(a: np.ndarray, b: np.ndarray) -> float:
+    """Mean SSIM of two grey images (Wang et al. 2004: Gaussian window 11, sigma 1.5, K1 0.01, K2 0.03)."""
+    x, y = a.astype(np.float64), b.astype(np.float64)
+    c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
+
+    def blur(img: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(img, (11, 11), 1.5)
+
+    mx, my = blur(x), blur(y)
+    sxx, syy, sxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
+    value = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+    return float(value.mean())
+
+
+def panning_frames(count: int) -> list[np.ndarray]:
+    photo = cv2.imread(str(PHOTO))
+    if photo is None:
+        raise FileNotFoundError(PHOTO)
+    wide = cv2.resize(photo, (WIDTH + PAN_STEP * count, HEIGHT), interpolation=cv2.INTER_AREA)
+    return [np.ascontiguousarray(wide[:, PAN_STEP * i : PAN_STEP * i + WIDTH]) for i in range(count)]
+
+
+def encoder_part(seconds: float) -> JsonDict:
+    import av
+
+    frames = panning_frames(int(seconds * FPS))
+    grey = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames]
+    encoder = H264Encoder(WIDTH, HEIGHT, FPS)
+    decoder: Any = av.CodecContext.create("h264", "r")
+    h264_bytes, h264_ssim, cpu = 0, [], []
+    errors = 0
+    for i, frame in enumerate(frames):
+        t0 = time.process_time()
+        packets = encoder.encode(frame, i / FPS)
+        cpu.append(time.process_time() - t0)
+        for packet in packets:
+            h264_bytes += len(packet.data)
+            try:
+                for picture in decoder.decode(av.Packet(packet.data)):
+                    h264_ssim.append(
+                        ssim(cv2.cvtColor(picture.to_ndarray(format="bgr24"), cv2.COLOR_BGR2GRAY), grey[i])
+                    )
+            except av.error.FFmpegError:
+                errors += 1
+    jpeg_bytes, jpeg_ssim = 0, []
+    for i, frame in enumerate(frames):
+        data = encode_jpeg(frame)
+        jpeg_bytes += len(data)
+        decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+        jpeg_ssim.append(ssim(decoded, grey[i]))
+    duration = len(frames) / FPS
+    return {
+        "frames": len(frames),
+        "raw_bytes_per_s": WIDTH * HEIGHT * 3 * FPS,
+        "h264": {
+            "bitrate_target": default_bitrate(WIDTH, HEIGHT, FPS),
+            "bytes_per_s": round(h264_bytes / duration),
+            "ssim_mean": round(float(np.mean(h264_ssim)), 4) if h264_ssim else None,
+            "ssim_min": round(float(np.min(h264_ssim)), 4) if h264_ssim else None,
+            "decoded": len(h264_ssim),
+            "decode_errors": errors,
+            "encode_ms": summary(cpu),
+            "encode_core_share": round(float(np.mean(cpu)) * FPS, 3),
+        },
+        "jpeg": {
+            "quality": JPEG_QUALITY,
+            "bytes_per_s": round(jpeg_bytes / duration),
+            "ssim_mean": round(float(np.mean(jpeg_ssim)), 4),
+            "ssim_min": round(float(np.min(jpeg_ssim)), 4),
+        },
+    }
+
+
+FLEET = """robots:
+{robots}"""
+
+
+def fleet(cameras: int) -> str:
+    lines = []
+    for k in range(cameras):
+        lines.append(
+            f"  - name: cam{k}\n    limits: {{linear: 0.5, angular: 1.0}}\n    scan: null\n"
+            f"    cameras: [{{name: front, width: {WIDTH}, height: {HEIGHT}, rate: {FPS:g}}}]"
+        )
+    return FLEET.format(robots="\n".join(lines)) + "\n"
+
+
+async def relay_part(cameras: int, viewers: list[int], *, window: float, warmup: float, report: Report) -> JsonDict:
+    """``cameras`` panning 720p cameras through the ros backend; for each count in ``viewers``, that many clients
+    stream every camera as H.264 (same relay, same publisher, one after the other)."""
+    env = ros_env(new_ros_domain())
+    out: JsonDict = {"cameras": cameras, "runs": []}
+    with tempfile.TemporaryDirectory(prefix="bench-video-") as tmp:
+        config = Path(tmp) / "robots.yaml"
+        config.write_text(fleet(cameras))
+        spec = [
+            {"topic": f"/cam{k}/camera/image_raw", "width": WIDTH, "height": HEIGHT, "photo": str(PHOTO), "pan": True}
+            for k in range(cameras)
+        ]
+        publisher = await Child.start(
+            f"video-pub-{cameras}",
+            ["-m", "bench.ros_pub", "images", "--spec", json.dumps(spec), "--rate", str(FPS), "--duration", "300"],
+            env,
+        )
+        relay: Child | None = None
+        try:
+            await publisher.wait_for(lambda line: bool(line.get("ready")), 90)
+            relay = await Child.start(
+                f"video-relay-{cameras}",
+                ["-m", "bench.relay_proc", "--server", "xr", "--backend", "ros", "--config", str(config),
+                 "--token", TOKEN],
+                env,
+            )  # fmt: skip
+            ready = await relay.wait_for(lambda line: "port" in line, 60)
+            for count in viewers:
+                out["runs"].append(
+                    await viewers_run(relay, ready["port"], publisher, cameras, count, window=window, warmup=warmup)
+                )
+                run = out["runs"][-1]
+                report.line(
+                    f"{cameras} camera(s) x {count} viewer(s): "
+                    + (
+                        f"FAILED {run['error']}"
+                        if "error" in run
+                        else f"fps {', '.join(f'{v:.1f}' for v in run['fps'].values())}, "
+                        f"{run['kbytes_per_s_per_viewer']:.0f} kB/s per viewer per camera, latency p50 "
+                        f"{fmt(run['latency_ms']['p50'], 1)} p99 {fmt(run['latency_ms']['p99'], 1)} ms, relay CPU "
+                        f"{100 * run['cpu']['relay']:.0f} %"
+                    )
+                )
+        except (TimeoutError, ConnectionError, OSError) as exc:
+            out["error"] = f"{type(exc).__name__}: {exc}"
+            report.line(f"{cameras} camera(s): FAILED {out['error']}")
+        finally:
+            if relay is not None:
+                await relay.stop()
+            await publisher.stop()
+    return out
+
+
+async def viewers_run(
+    relay: Child, port: int, publisher: Child, cameras: int, count: int, *, window: float, warmup: float
+) -> JsonDict:
+    recorder = Recorder()
+    clients = []
+    try:
+        for _ in range(count):
+            client = await connect(recorder, port, path=f"/ws?token={TOKEN}")
+            for k in range(cameras):
+                client.send(
+                    json.dumps(
+                        {"identifier": f"cam{k}/stream", "id": f"v{k}", "camera": "front", "fps": FPS, "codec": "h264"}
+                    ).encode()
+                )
+            clients.append(client)
+        deadline = time.monotonic() + 40
+        while min(sum(c.frames_by_id.values()) for c in clients) < 10 * cameras:
+            if time.monotonic() > deadline:
+                raise TimeoutError("the clients got fewer than 10 video packets per camera within 40 s")
+            recorder.active = True  # frames are only counted while active
+            await asyncio.sleep(0.2)
+        recorder.active = False
+        await asyncio.sleep(warmup)
+        for client in clients:
+            client.reset_counts()
+        recorder.reset()
+        cpu = CpuWindow({"relay": relay.pid, "publisher": publisher.pid})
+        recorder.active = True
+        cpu.start()
+        await asyncio.sleep(window)
+        recorder.active = False
+        use = cpu.stop()
+        wall = use["wall"]
+        fps = {f"cam{k}": round(min(c.frames_by_id.get(f"cam{k}/camera/front", 0) for c in clients) / wall, 2)
+               for k in range(cameras)}  # fmt: skip
+        total_bytes = sum(recorder.frame_bytes)
+        return {
+            "viewers": count,
+            "fps": fps,
+            "kbytes_per_s_per_viewer": round(total_bytes / wall / count / cameras / 1000, 1),
+            "latency_ms": summary(recorder.frame_latency),
+            "cpu": use,
+        }
+    except (TimeoutError, ConnectionError, OSError) as exc:
+        return {"viewers": count, "error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        close_all(clients)
+        await asyncio.sleep(0.5)  # the relay ends the streams before the next run
+
+
+async def run(settings: Settings, report: Report) -> JsonDict:
+    window, warmup = settings.pick(5.0, 2.0), settings.pick(1.5, 0.5)
+    encoder = await asyncio.to_thread(encoder_part, settings.pick(3.0, 1.0))
+    h, j = encoder["h264"], encoder["jpeg"]
+    report.line(
+        f"encoder 720p30: H.264 {h['bytes_per_s'] / 1000:.0f} kB/s SSIM {h['ssim_mean']} (min {h['ssim_min']}), "
+        f"{h['encode_ms']['p50']:.1f} ms/frame = {100 * h['encode_core_share']:.0f} % of a core; JPEG "
+        f"{j['bytes_per_s'] / 1000:.0f} kB/s SSIM {j['ssim_mean']}"
+    )
+    one = await relay_part(1, [1, 10], window=window, warmup=warmup, report=report)
+    three = await relay_part(3, [1], window=window, warmup=warmup, report=report)
+    result: JsonDict = {"parameters": {"size": f"{WIDTH}x{HEIGHT}", "fps": FPS, "pan_px_per_frame": PAN_STEP},
+                        "encoder": encoder, "one_camera": one, "three_cameras": three}  # fmt: skip
+    result["targets"] = targets(result)
+    return result
+
+
+def targets(r: JsonDict) -> list[JsonDict]:
+    out = []
+    enc = r["encoder"]
+    h, j, raw = enc["h264"], enc["jpeg"], enc["raw_bytes_per_s"]
+    ratio = h["bytes_per_s"] / raw
+    ok = ratio <= TARGET_RATIO and (h["ssim_mean"] or 0) >= TARGET_SSIM and h["decode_errors"] == 0
+    out.append(
+        make_target(
+            "1280x720 at 30 fps: bytes and SSIM",
+            f"<= 1/50 of raw RGB ({raw * TARGET_RATIO / 1000:.0f} kB/s), SSIM >= {TARGET_SSIM}",
+            f"{h['bytes_per_s'] / 1000:.0f} kB/s = 1/{1 / ratio:.0f} of raw, SSIM {h['ssim_mean']}",
+            ok,
+            ""
+            if ok
+            else f"SSIM min {h['ssim_min']}, {h['decode_errors']} decode errors at {h['bitrate_target']} bit/s",
+            baseline=f"JPEG q{j['quality']}: {j['bytes_per_s'] / 1000:.0f} kB/s = 1/{raw / j['bytes_per_s']:.0f} "
+            f"of raw, SSIM {j['ssim_mean']}",
+        )
+    )
+    share = h["encode_core_share"]
+    out.append(
+        make_target(
+            "one 720p30 stream: encoder CPU",
+            f"<= {100 * TARGET_ENCODE_CORE:.0f} % of a core",
+            f"{100 * share:.0f} % ({h['encode_ms']['p50']:.1f} ms/frame p50)",
+            share <= TARGET_ENCODE_CORE,
+            ""
+            if share <= TARGET_ENCODE_CORE
+            else "x264 preset veryfast, one thread; the machine's load is in the JSON",
+            baseline="JPEG of the same frame: see the camera benchmark",
+        )
+    )
+    runs = {run["viewers"]: run for run in r["one_camera"].get("runs", []) if "error" not in run}
+    if 1 in runs and 10 in runs:
+        extra = runs[10]["cpu"]["relay"] / max(runs[1]["cpu"]["relay"], 1e-6) - 1
+        met = extra <= TARGET_VIEWERS_EXTRA
+        out.append(
+            make_target(
+                "ten viewers of one 720p30 stream: relay CPU",
+                f"<= {100 * TARGET_VIEWERS_EXTRA:.0f} % more than one viewer",
+                f"{100 * runs[10]['cpu']['relay']:.0f} % vs {100 * runs[1]['cpu']['relay']:.0f} % "
+                f"(+{100 * extra:.0f} %)",
+                met,
+                "" if met else "each viewer's socket writes cost the loop; the encoder runs once",
+                baseline=f"one viewer: latency p50 {fmt(runs[1]['latency_ms']['p50'])} ms",
+            )
+        )
+    else:
+        out.append(make_target("ten viewers of one 720p30 stream: relay CPU", "<= +10 %", "n/a", None,
+                               r["one_camera"].get("error", "a run failed")))  # fmt: skip
+    three = [run for run in r["three_cameras"].get("runs", []) if "error" not in run]
+    if three:
+        fps = three[0]["fps"]
+        met = min(fps.values()) >= TARGET_FPS
+        out.append(
+            make_target(
+                "3 x 1280x720 at 30 fps as H.264 on 2 cores",
+                f">= {TARGET_FPS} fps each",
+                ", ".join(f"{v:.1f}" for v in fps.values()) + " fps",
+                met,
+                ""
+                if met
+                else f"relay CPU {100 * three[0]['cpu']['relay']:.0f} %, publisher "
+                f"{100 * three[0]['cpu']['publisher']:.0f} % (the 2 cores also run the publisher and the client)",
+                baseline=f"latency p50 {fmt(three[0]['latency_ms']['p50'])} ms",
+            )
+        )
+    else:
+        out.append(make_target("3 x 1280x720 at 30 fps as H.264 on 2 cores", f">= {TARGET_FPS} fps each", "n/a",
+                               None, r["three_cameras"].get("error", "the run failed")))  # fmt: skip
+    return out
