@@ -216,11 +216,14 @@ async def viewers_run(
             client.reset_counts()
         recorder.reset()
         cpu = CpuWindow({"relay": relay.pid, "publisher": publisher.pid})
+        before = await relay.request("stats")
         recorder.active = True
         cpu.start()
         await asyncio.sleep(window)
         recorder.active = False
         use = cpu.stop()
+        after = await relay.request("stats")
+        span = after["t"] - before["t"]
         wall = use["wall"]
         fps = {f"cam{k}": round(min(c.frames_by_id.get(f"cam{k}/camera/front", 0) for c in clients) / wall, 2)
                for k in range(cameras)}  # fmt: skip
@@ -230,6 +233,12 @@ async def viewers_run(
             "fps": fps,
             "kbytes_per_s_per_viewer": round(total_bytes / wall / count / cameras / 1000, 1),
             "latency_ms": summary(recorder.frame_latency),
+            # Per camera: images DDS handed the backend, and frames the backend made of them (before the encoder).
+            "received_fps": round((after.get("images", 0) - before.get("images", 0)) / span / cameras, 2),
+            "converted_fps": round((after["frames"] - before["frames"]) / span / cameras, 2),
+            # Images the backend's encoders replaced while busy, and frames dropped as finished after a newer one.
+            "replaced": after.get("images_replaced", 0) - before.get("images_replaced", 0),
+            "out_of_order": after.get("frames_out_of_order", 0) - before.get("frames_out_of_order", 0),
             "cpu": use,
         }
     except (TimeoutError, ConnectionError, OSError) as exc:
@@ -318,7 +327,8 @@ def targets(r: JsonDict) -> list[JsonDict]:
                 met,
                 ""
                 if met
-                else f"relay CPU {100 * three[0]['cpu']['relay']:.0f} %, publisher "
+                else f"DDS delivered {three[0]['received_fps']:.1f} fps per camera to the relay, which converted "
+                f"{three[0]['converted_fps']:.1f}; relay CPU {100 * three[0]['cpu']['relay']:.0f} %, publisher "
                 f"{100 * three[0]['cpu']['publisher']:.0f} % (the 2 cores also run the publisher and the client)",
                 baseline=f"latency p50 {fmt(three[0]['latency_ms']['p50'])} ms",
             )

@@ -66,6 +66,9 @@ class LatestFrameEncoder(Generic[Image]):
         self._submitted = 0  # sequence number of the last image submitted
         self._delivered = 0  # ... and of the last frame delivered (the loop's; older results are dropped)
         self._in_transit = 0  # results handed to ``hop`` that ``done`` has not received yet
+        #: Images replaced while waiting for a free encode, and frames dropped for finishing after a newer one.
+        self.replaced = 0
+        self.out_of_order = 0
         self._pending: Image | None = None
         #: The newest image offered, with ``keep_latest`` (a recording: a snapshot of a paused replay encodes it;
         #: a live camera keeps none, its next image is at most a frame away).
@@ -112,6 +115,8 @@ class LatestFrameEncoder(Generic[Image]):
     def _start(self, image: Image) -> None:
         """Under the lock: encode ``image``, or keep it for when an encode in flight is done."""
         if self._in_flight >= IN_FLIGHT:
+            if self._pending is not None:
+                self.replaced += 1
             self._pending = image
             return
         self._in_flight += 1
@@ -144,11 +149,14 @@ class LatestFrameEncoder(Generic[Image]):
             self._in_transit = max(0, self._in_transit - 1)
         if frame is not None and sequence is not None:
             if sequence < self._delivered:
+                self.out_of_order += 1
                 return  # a newer frame of this camera went out first: never send one out of order
             self._delivered = sequence
         if frame is not None:
-            self.last, self._last_of, self._last_time = frame, image, self._clock()
             self._deliver(frame)
+            if not frame.jpeg:
+                return  # made for H.264 viewers only: a waiting snapshot takes the next, made with its JPEG
+            self.last, self._last_of, self._last_time = frame, image, self._clock()
         for waiter in self._waiters:
             if not waiter.done():
                 waiter.set_result(frame)

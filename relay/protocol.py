@@ -39,6 +39,8 @@ STREAM_CODECS: Final = ("jpeg", "h264")
 #: replaces ("0.9 of a period since the last frame taken") dropped each frame that came 4 ms early, and the
 #: relay delivered 22-27 of 30 fps (bench/bench_camera.py, 2026-11-22); backends and the hub use this one.
 FRAME_SLACK: Final = 0.5
+#: Periods a stream that fell behind may catch up on (a burst of up to about this many frames more).
+FRAME_CREDIT: Final = 2.0
 #: Binary frame header length prefix: 4 bytes, big-endian unsigned.
 FRAME_PREFIX: Final = struct.Struct(">I")
 
@@ -169,13 +171,17 @@ def sensor_key(robot: str, name: str) -> str:
 def take_frame(now: float, due: float, fps: float) -> float | None:
     """Whether a stream at ``fps`` takes a frame ``now``, its next frame being ``due`` (seconds; -inf: none taken
     yet): None to skip it, else when the frame after it is due. Due times advance one period per frame taken, so
-    the long-run rate is at most ``fps``; a stream more than a period late starts again from ``now`` (no burst)."""
+    the long-run rate is at most ``fps``; a stream behind may catch up by at most :data:`FRAME_CREDIT` periods, so
+    frames that arrive bunched (three 720p cameras' images come out of DDS in bursts: 18 of 29 fps got through a
+    one-period credit) are kept, while a source faster than ``fps`` is thinned evenly."""
     if fps <= 0:
         return None
     period = 1.0 / fps
+    if due == -math.inf:
+        return now + period
     if now < due - FRAME_SLACK * period:
         return None
-    return (due if due >= now - period else now) + period
+    return max(due, now - FRAME_CREDIT * period) + period
 
 
 def split_camera_identifier(identifier: str) -> tuple[str, str]:

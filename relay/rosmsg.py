@@ -109,25 +109,20 @@ def transform_of(stamped: Any) -> Transform:
     return Transform((float(tr.x), float(tr.y), float(tr.z)), (float(q.x), float(q.y), float(q.z), float(q.w)))
 
 
-def image_to_frame(robot: str, camera: str, stamp: float, message: Any, compressed: bool) -> FrameEvent:
-    """A sensor_msgs Image or CompressedImage as a JPEG frame (worker thread: OpenCV encodes here).
+def image_to_frame(
+    robot: str, camera: str, stamp: float, message: Any, compressed: bool, *, jpeg: bool = True
+) -> FrameEvent:
+    """A sensor_msgs Image or CompressedImage as a JPEG frame (worker thread: OpenCV encodes here); with ``jpeg``
+    False a raw image is not JPEG-encoded (its ``pixels`` feed the H.264 encoder; a 720p JPEG costs ~5 ms).
 
     Raises :class:`~relay.imaging.ImageError` or ``ValueError`` for an image it cannot read.
     """
-    pixels: Any = None
     if compressed:
-        jpeg, width, height = compressed_to_jpeg(bytes(message.data), message.format)
-    else:
-        data = message.data
-        # rclpy gives an array.array, rosbags a numpy array or bytes: a byte view of either, without a copy.
-        pixels = data if isinstance(data, bytes) else memoryview(data).cast("B")
-        bgr = raw_to_bgr(
-            pixels,
-            int(message.width),
-            int(message.height),
-            message.encoding,
-            int(message.step),
-            bool(message.is_bigendian),
-        )
-        jpeg, width, height, pixels = encode_jpeg(bgr), int(message.width), int(message.height), bgr
-    return FrameEvent(robot, camera, stamp, width, height, jpeg, pixels)
+        passed, width, height = compressed_to_jpeg(bytes(message.data), message.format)
+        return FrameEvent(robot, camera, stamp, width, height, passed)
+    data = message.data
+    # rclpy gives an array.array, rosbags a numpy array or bytes: a byte view of either, without a copy.
+    pixels = data if isinstance(data, bytes) else memoryview(data).cast("B")
+    width, height = int(message.width), int(message.height)
+    bgr = raw_to_bgr(pixels, width, height, message.encoding, int(message.step), bool(message.is_bigendian))
+    return FrameEvent(robot, camera, stamp, width, height, encode_jpeg(bgr) if jpeg else b"", bgr)

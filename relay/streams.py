@@ -64,6 +64,7 @@ class CameraStreams:
         spec = self._robots[robot].camera(camera)
         if spec is not None:
             self._backend.set_stream(robot, camera, min(spec.rate, self._hub.stream_demand(identifier)))
+            self._backend.set_jpeg(robot, camera, self._hub.stream_demand(identifier, "jpeg") > 0)
         if self._hub.stream_demand(identifier, "h264") <= 0:
             self.video.ended(identifier)
 
@@ -96,7 +97,7 @@ class CameraStreams:
 
     def on_frame(self, frame: FrameEvent, now: float) -> None:
         identifier = camera_identifier(frame.robot, frame.camera)
-        if self._hub.stream_demand(identifier, "jpeg") > 0:
+        if frame.jpeg and self._hub.stream_demand(identifier, "jpeg") > 0:
             self._hub.publish_frame(identifier, self.encode(frame, None), now)
         video = self._hub.stream_demand(identifier, "h264")
         if video > 0:

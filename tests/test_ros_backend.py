@@ -402,3 +402,49 @@ async def test_a_live_map_becomes_the_twin(ros_relay: RunningRelay, tmp_path: Pa
         await client.close()
         fleet.terminate()
         await fleet.wait()
+
+
+async def test_a_raw_camera_streams_as_h264_with_no_jpeg_encoded_and_snapshots_still_get_one(
+    ros_relay: RunningRelay, tmp_path: Path
+) -> None:
+    """Only H.264 viewers: the backend skips the JPEG encode (relay.rosmsg.image_to_frame jpeg=False), the video is
+    decodable frame by frame by FFmpeg's decoder, and a snapshot taken meanwhile is still a JPEG picture."""
+    import av
+
+    spec = {
+        "image": {
+            "file": str(FISHEYE),
+            "width": 640,
+            "height": 480,
+            "raw_topic": "/alpha/camera/image_raw",
+            "compressed_topic": "/alpha/camera/jpeg/compressed",
+        },
+        "rate": 15.0,
+    }
+    peer = await start_peer(spec, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        reply = await client.request({"identifier": "alpha/stream", "camera": "front", "fps": 15, "codec": "h264"})
+        assert reply["identifier"] == "ack", reply
+        deadline = time.monotonic() + 20
+        video: list[tuple[dict[str, Any], bytes]] = []
+        while time.monotonic() < deadline and len(video) < 10:
+            await asyncio.sleep(0.1)
+            video = [(h, p) for _, h, p in client.frames if h["identifier"] == "alpha/camera/front"]
+        assert len(video) >= 10 and all(h["encoding"] == "h264" for h, _ in video)
+        decoder: Any = av.CodecContext.create("h264", "r")
+        for header, payload in video:
+            (picture,) = decoder.decode(av.Packet(payload))
+            assert (picture.width, picture.height) == (640, 480) == (header["width"], header["height"])
+        encoder = ros_relay.relay.backend._cameras._cameras[("alpha", "front")]  # type: ignore[attr-defined]
+        assert encoder.jpeg is False and encoder.frames.last is None, "no JPEG made for a video-only stream"
+        reply = await client.request({"identifier": "alpha/snapshot", "camera": "front"}, timeout=15)
+        assert reply["identifier"] == "ack", reply
+        header, payload = next((h, p) for _, h, p in reversed(client.frames) if h["request_id"] == reply["id"])
+        assert (
+            header["encoding"] == "jpeg"
+            and cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_COLOR) is not None
+        )
+    finally:
+        await client.close()
+        await peer.stop()

@@ -64,6 +64,10 @@ class Backend(abc.ABC):
     def set_stream(self, robot: str, camera: str, fps: float) -> None:  # noqa: B027 - optional hook
         """Produce frames of a camera at up to ``fps`` (0 stops); frames arrive as FrameEvents."""
 
+    def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:  # noqa: B027 - optional hook
+        """Whether a streamed camera's frames need their JPEG (False: only H.264 viewers, which take the frame's
+        ``pixels``); a backend may then skip the JPEG encode. Snapshots always get one."""
+
     def command_refusal(self, robot: str) -> str | None:
         """Why ``robot`` cannot be commanded at all (e.g. it is a recording), or None when it can."""
         return None

@@ -197,7 +197,8 @@ class RosBackend(Backend):
     def ingest_stats(self) -> dict[str, int]:
         """Messages taken from DDS into the relay, poses replaced by newer ones before the loop got to them,
         events dropped over the inbox's bound (bench/bench_ros_ingest.py reads these)."""
-        return self._inbox.stats() if self._inbox is not None else {"received": 0, "coalesced": 0, "dropped": 0}
+        inbox = self._inbox.stats() if self._inbox is not None else {"received": 0, "coalesced": 0, "dropped": 0}
+        return {**inbox, **self._cameras.stats()}
 
     async def recover(self) -> None:
         """Re-create the node, its subscriptions and publishers, and the executor thread."""
@@ -452,6 +453,9 @@ class RosBackend(Backend):
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
         self._cameras.set_stream(robot, camera, fps)
+
+    def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:
+        self._cameras.set_jpeg(robot, camera, wanted)
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         return await self._cameras.snapshot(robot, camera)

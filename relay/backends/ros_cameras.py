@@ -39,6 +39,8 @@ class _Camera:
     spec: Camera
     frames: LatestFrameEncoder[tuple[bytes, float]]
     subscription: Any = None
+    #: Whether streamed frames need their JPEG (False: only H.264 viewers; a snapshot waiting gets one anyway).
+    jpeg: bool = True
 
 
 class RosCameras:
@@ -53,10 +55,27 @@ class RosCameras:
         decode: Decode,
     ) -> None:
         self._subscribe, self._unsubscribe = subscribe, unsubscribe
-        self._cameras = {
-            (robot.name, camera.name): _Camera(camera, _encoder(robot.name, camera, pool, hop, deliver, decode))
-            for robot in config.robots
-            for camera in robot.cameras
+        self._cameras: dict[tuple[str, str], _Camera] = {}
+        for robot in config.robots:
+            for camera in robot.cameras:
+                state = _Camera(camera, _encoder(robot.name, camera, pool, hop, deliver, decode, self._wants_jpeg))
+                self._cameras[(robot.name, camera.name)] = state
+
+    def _wants_jpeg(self, robot: str, camera: str) -> bool:
+        """Worker thread: whether the frame being made needs a JPEG (a stream that wants one, or a snapshot)."""
+        state = self._cameras[(robot, camera)]
+        return state.jpeg or state.frames.waiting
+
+    def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:
+        self._cameras[(robot, camera)].jpeg = wanted
+
+    def stats(self) -> dict[str, int]:
+        """Images every camera's encoder replaced while both its encodes were busy, frames it dropped as older
+        than one already sent (bench/bench_camera.py and bench_video.py read these)."""
+        states = self._cameras.values()
+        return {
+            "images_replaced": sum(s.frames.replaced for s in states),
+            "frames_out_of_order": sum(s.frames.out_of_order for s in states),
         }
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
@@ -112,11 +131,13 @@ def _encoder(
     hop: Callable[[Callable[[], None]], object],
     deliver: Callable[[FrameEvent], None],
     decode: Decode,
+    wants_jpeg: Callable[[str, str], bool],
 ) -> LatestFrameEncoder[tuple[bytes, float]]:
     type_name = image_type(camera.compressed)
 
     def convert(image: tuple[bytes, float]) -> FrameEvent:
         message = decode(image[0], type_name)
-        return image_to_frame(robot, camera.name, image[1], message, camera.compressed)
+        jpeg = wants_jpeg(robot, camera.name)
+        return image_to_frame(robot, camera.name, image[1], message, camera.compressed, jpeg=jpeg)
 
     return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, pool, hop, deliver)
