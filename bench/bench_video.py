@@ -43,10 +43,19 @@ WIDTH, HEIGHT, FPS = 1280, 720, 30.0
 PHOTO = FISHEYE / "front.jpg"
 PAN_STEP = 6
 TARGET_RATIO = 1 / 50
+#: The issue's figure beside the ratio (it is the stricter at 720p30: 1/50 of raw is 1659 kB/s).
+TARGET_BYTES_PER_S = 550_000
 TARGET_SSIM = 0.95
 TARGET_ENCODE_CORE = 0.25
 TARGET_VIEWERS_EXTRA = 0.10
 TARGET_FPS = 28.5
+#: What the 3 x 720p runs show and what would be next, said where the target is missed.
+BURSTS = (
+    "250 MB/s of raw images over loopback DDS arrive in bursts after stalls of up to a few hundred ms (reliable "
+    "repairs); a stream keeps up to two periods of late frames and drops the staler ones (newest wins, bounded "
+    "latency). Next step: images compressed at the source (CompressedImage: 166 kB instead of 2.7 MB, passed "
+    "through at 30 fps with p50 1 ms by the camera benchmark) or Fast DDS shared memory with loaned messages"
+)
 
 
 def ssim(a: np.ndarray, b: np.ndarray) -> float:
@@ -270,11 +279,12 @@ def targets(r: JsonDict) -> list[JsonDict]:
     enc = r["encoder"]
     h, j, raw = enc["h264"], enc["jpeg"], enc["raw_bytes_per_s"]
     ratio = h["bytes_per_s"] / raw
-    ok = ratio <= TARGET_RATIO and (h["ssim_mean"] or 0) >= TARGET_SSIM and h["decode_errors"] == 0
+    small = ratio <= TARGET_RATIO and h["bytes_per_s"] <= TARGET_BYTES_PER_S
+    ok = small and (h["ssim_mean"] or 0) >= TARGET_SSIM and h["decode_errors"] == 0
     out.append(
         make_target(
             "1280x720 at 30 fps: bytes and SSIM",
-            f"<= 1/50 of raw RGB ({raw * TARGET_RATIO / 1000:.0f} kB/s), SSIM >= {TARGET_SSIM}",
+            f"<= 1/50 of raw RGB and <= {TARGET_BYTES_PER_S / 1000:.0f} kB/s, SSIM >= {TARGET_SSIM}",
             f"{h['bytes_per_s'] / 1000:.0f} kB/s = 1/{1 / ratio:.0f} of raw, SSIM {h['ssim_mean']}",
             ok,
             ""
@@ -329,7 +339,8 @@ def targets(r: JsonDict) -> list[JsonDict]:
                 if met
                 else f"DDS delivered {three[0]['received_fps']:.1f} fps per camera to the relay, which converted "
                 f"{three[0]['converted_fps']:.1f}; relay CPU {100 * three[0]['cpu']['relay']:.0f} %, publisher "
-                f"{100 * three[0]['cpu']['publisher']:.0f} % (the 2 cores also run the publisher and the client)",
+                f"{100 * three[0]['cpu']['publisher']:.0f} % (the 2 cores also run the publisher and the client). "
+                f"{BURSTS} (latency p99 {fmt(three[0]['latency_ms']['p99'], 0)} ms here)",
                 baseline=f"latency p50 {fmt(three[0]['latency_ms']['p50'])} ms",
             )
         )

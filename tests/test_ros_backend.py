@@ -206,19 +206,22 @@ async def test_deadman_publishes_zero_twist_when_client_is_killed(ros_relay: Run
         await peer.stop()
 
 
+#: alpha's two cameras, raw and compressed, publishing the fisheye photo at 15 Hz (tests/ros_peer.py).
+CAMERAS = {
+    "image": {
+        "file": str(FISHEYE),
+        "width": 640,
+        "height": 480,
+        "raw_topic": "/alpha/camera/image_raw",
+        "compressed_topic": "/alpha/camera/jpeg/compressed",
+    },
+    "rate": 15.0,
+}
+
+
 @pytest.mark.skipif(not FISHEYE.exists(), reason="../shared/data/fisheye is absent")
 async def test_raw_and_compressed_images_arrive_as_jpeg_frames(ros_relay: RunningRelay, tmp_path: Path) -> None:
-    spec = {
-        "image": {
-            "file": str(FISHEYE),
-            "width": 640,
-            "height": 480,
-            "raw_topic": "/alpha/camera/image_raw",
-            "compressed_topic": "/alpha/camera/jpeg/compressed",
-        },
-        "rate": 15.0,
-    }
-    peer = await start_peer(spec, tmp_path)
+    peer = await start_peer(CAMERAS, tmp_path)
     client = await connected(ros_relay)
     try:
         # The camera is subscribed on demand; the first snapshot may time out while DDS discovers it.
@@ -404,6 +407,7 @@ async def test_a_live_map_becomes_the_twin(ros_relay: RunningRelay, tmp_path: Pa
         await fleet.wait()
 
 
+@pytest.mark.skipif(not FISHEYE.exists(), reason="../shared/data/fisheye is absent")
 async def test_a_raw_camera_streams_as_h264_with_no_jpeg_encoded_and_snapshots_still_get_one(
     ros_relay: RunningRelay, tmp_path: Path
 ) -> None:
@@ -411,17 +415,7 @@ async def test_a_raw_camera_streams_as_h264_with_no_jpeg_encoded_and_snapshots_s
     decodable frame by frame by FFmpeg's decoder, and a snapshot taken meanwhile is still a JPEG picture."""
     import av
 
-    spec = {
-        "image": {
-            "file": str(FISHEYE),
-            "width": 640,
-            "height": 480,
-            "raw_topic": "/alpha/camera/image_raw",
-            "compressed_topic": "/alpha/camera/jpeg/compressed",
-        },
-        "rate": 15.0,
-    }
-    peer = await start_peer(spec, tmp_path)
+    peer = await start_peer(CAMERAS, tmp_path)
     client = await connected(ros_relay)
     try:
         reply = await client.request({"identifier": "alpha/stream", "camera": "front", "fps": 15, "codec": "h264"})

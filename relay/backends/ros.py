@@ -59,7 +59,7 @@ logger = logging.getLogger(__name__)
 #: watchdog's timeout (the deadman's, 0.5 s by default) spans five of them.
 HEARTBEAT_PERIOD = 0.1
 #: History depth of image subscriptions (see ``_qos``).
-IMAGE_DEPTH = 5
+IMAGE_DEPTH = 10
 
 INSTALL_HINT = (
     "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
@@ -261,10 +261,10 @@ class RosBackend(Backend):
         )
         if kind == "map":
             return qos.QoSProfile(depth=1, reliability=reliability, durability=qos.DurabilityPolicy.TRANSIENT_LOCAL)
-        # Images: depth 5. Reliable with depth 1 or 2, Fast DDS delivered 5-7 of 30 fps of each of three 720p
-        # cameras to a bare subscriber, with 5 or 10 about 24 (same run, load 7; bench/bench_camera.py): a large
-        # sample still being reassembled is lost when the next one claims the only slot. The encoder takes the
-        # newest anyway, so a deeper queue costs memory (5 x 2.7 MB at 720p), not latency.
+        # Images: depth 10. Reliable Fast DDS delivered to a bare subscriber, of each of three 720p cameras at 30 fps
+        # (2026-11-23, quiet machine): depth 1-2: 5-7 fps, 5: 23, 10: 28-30, 20: 27-29. A large sample still being
+        # reassembled is lost when the next ones claim the history's slots. The encoder takes the newest anyway, so
+        # a deeper queue costs memory (at most 10 x 2.7 MB at 720p), not latency.
         return qos.QoSProfile(depth=IMAGE_DEPTH if kind == "images" else 10, reliability=reliability)
 
     def _create_robot(self, robot: Robot) -> None:

@@ -176,8 +176,8 @@ class Ros:
         ("pose", "best_effort"),
         ("sensors", "best_effort"),
         ("scan", "best_effort"),
-        # Reliable, depth 5: best effort loses most large images whose fragments drop (0.6 of 30 fps for
-        # 640x480 rgb8 vs 25 fps reliable, bench/bench_camera.py); depth 5 still bounds the queue.
+        # Reliable, depth 10: best effort loses most large images whose fragments drop (0.6 of 30 fps for
+        # 640x480 rgb8 vs 30 fps reliable, bench/bench_camera.py); depth 10 still bounds the queue.
         ("images", "reliable"),
         ("commands", "reliable"),
         ("map", "reliable"),
