@@ -15,6 +15,7 @@ import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView, LABEL_ANCHOR } from './robot_view.js';
 import { FleetInstances } from './fleet_instances.js';
 import { LabelAtlas } from './label_atlas.js';
+import { FleetScans } from './fleet_scans.js';
 import { labelOpacity } from '../label_rule.js';
 import { nearestDetailed } from '../level_of_detail.js';
 import { MapAnnotations } from './map_annotations.js';
@@ -40,7 +41,8 @@ export class FleetView {
     world.add(this.annotations.group);
     this.instances = new FleetInstances(0);
     this.atlas = new LabelAtlas(0);
-    world.add(this.instances.group, this.atlas.mesh);
+    this.scans = new FleetScans();
+    world.add(this.instances.group, this.atlas.mesh, this.scans.points);
     /** Per robot (by index): the viewer's distance this frame (Infinity: not a candidate for the full model). */
     this.distances = new Float64Array(0);
     /** @type {Set<number>} */
@@ -63,6 +65,7 @@ export class FleetView {
     this.world.add(this.instances.group, this.atlas.mesh);
     this.distances = new Float64Array(n).fill(Infinity);
     this.order = [];
+    this.scans.changed = true;
     for (const entry of fleet.robots.values()) this.add(entry.description, this.order.length);
   }
 
@@ -129,6 +132,7 @@ export class FleetView {
     this.instances.placed();
     this.atlas.placed();
     this.atlas.flush(this.renderer, now);
+    this.scans.update(this.order, scans, now);
   }
 
   /**
@@ -162,6 +166,7 @@ export class FleetView {
     this.views.clear();
     this.instances.dispose();
     this.atlas.dispose();
+    this.scans.dispose();
     this.annotations.dispose();
   }
 }

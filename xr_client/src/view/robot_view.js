@@ -44,9 +44,12 @@ export class RobotView {
     /** Holds the full model once loaded (drawn when detailed), else an invisible proxy that picking meets. */
     this.body = new THREE.Group();
     this.group.add(this.body);
-    const proxy = new THREE.Mesh(shared.proxyGeometry, shared.proxyMaterial);
-    proxy.userData.robot = this.name;
-    this.body.add(proxy);
+    this.proxy = new THREE.Mesh(shared.proxyGeometry, shared.proxyMaterial);
+    this.proxy.userData.robot = this.name;
+    this.body.add(this.proxy);
+    /** The loaded glTF (a clone), in `body` only while it is drawn: 96 undrawn models' 12 nodes each were matrix
+     * updates every frame for nothing. @type {THREE.Object3D | null} */
+    this.model = null;
     /** Whether the full model is loaded, and whether it is drawn this frame (level_of_detail.js). */
     this.hasModel = false;
     this.detailed = false;
@@ -88,19 +91,13 @@ export class RobotView {
     this.ring.raycast = () => {};
     this.group.add(this.ring);
 
-    this.scanPositions = new Float32Array(MAX_SCAN_POINTS * 3);
+    /** The latest laser scan, in the robot frame (x, y pairs); the fleet's scans are drawn together (fleet_scans.js). */
     this.scanXY = new Float32Array(MAX_SCAN_POINTS * 2);
-    const scanGeometry = new THREE.BufferGeometry();
-    scanGeometry.setAttribute('position', new THREE.BufferAttribute(this.scanPositions, 3).setUsage(THREE.DynamicDrawUsage));
-    scanGeometry.setDrawRange(0, 0);
-    // A few pixels whatever the distance (as RViz draws points): 6 cm dots were invisible from across the site.
-    const scanMaterial = new THREE.PointsMaterial({ color: this.colour, size: 3.5, sizeAttenuation: false });
-    this.scan = new THREE.Points(scanGeometry, scanMaterial);
-    this.scan.frustumCulled = false;
-    this.scan.raycast = () => {};
-    this.group.add(this.scan);
-    this.geometries.push(scanGeometry);
-    this.materials.push(scanMaterial);
+    this.scanCount = 0;
+    this.scanVisible = true;
+    /** A scan came since the last pack; where the robot was at that pack. */
+    this.scanNew = false;
+    this.packed = { x: NaN, z: NaN, yaw: NaN };
     this.offline = false;
     this.yaw = 0;
     /** Why what this view shows is old (the link, the pose), or null while it is live. @type {string | null} */
@@ -120,11 +117,10 @@ export class RobotView {
         object.userData.robot = this.name;
       });
       this.materials.push(...adoptMaterials(model, this.colour));
-      this.body.clear();
-      this.body.add(model);
+      this.model = model;
       this.hasModel = true;
-      this.body.visible = this.detailed;
       this.#applyTint();
+      this.setDetailed(this.detailed, true);
     } catch (error) {
       console.warn(`robot ${this.name}: model ${url} could not be loaded; keeping the built-in shape`, error);
     }
@@ -140,15 +136,37 @@ export class RobotView {
     return h;
   }
 
-  /** Whether the full model is drawn (else the shared shape is). @param {boolean} detailed */
-  setDetailed(detailed) {
+  /**
+   * Whether the full model is drawn (else the shared shape is, and picking meets the proxy).
+   * @param {boolean} detailed @param {boolean} [force]
+   */
+  setDetailed(detailed, force = false) {
+    if (detailed === this.detailed && !force) return;
     this.detailed = detailed;
-    this.body.visible = detailed || !this.hasModel;
+    const shown = detailed && this.model ? this.model : this.proxy;
+    if (shown.parent !== this.body) {
+      this.body.clear();
+      this.body.add(shown);
+    }
   }
 
   /** Show or hide the laser scan (the operator's Scans switch). @param {boolean} on */
   showScan(on) {
-    this.scan.visible = on;
+    this.scanVisible = on;
+  }
+
+  /** Whether the scan must be packed again: a new one came, or the robot moved since (1 cm, 0.3 degree). */
+  scanMoved() {
+    const p = this.packed;
+    return this.scanNew || !(Math.abs(p.x - this.group.position.x) < 0.01 && Math.abs(p.z - this.group.position.z) < 0.01 && Math.abs(p.yaw - this.yaw) < 0.005);
+  }
+
+  /** The scan was packed with the robot here. @param {number} x @param {number} z @param {number} yaw */
+  packedAt(x, z, yaw) {
+    this.packed.x = x;
+    this.packed.z = z;
+    this.packed.yaw = yaw;
+    this.scanNew = false;
   }
 
   /**
@@ -160,7 +178,6 @@ export class RobotView {
     this.group.position.set(x, y, z);
     this.yaw = yaw;
     this.body.rotation.y = yaw;
-    this.scan.rotation.y = yaw;
     this.heading.rotation.y = yaw;
   }
 
@@ -216,21 +233,10 @@ export class RobotView {
     this.keepLabel = state.selected || state.warning;
   }
 
-  /** A scan message in the robot frame (see scan.js). @param {any} message */
+  /** A scan message in the robot frame (see scan.js): kept until the fleet's scans are packed. @param {any} message */
   setScan(message) {
-    const n = scanToPoints(message, this.scanXY);
-    for (let i = 0; i < n; i++) {
-      // Robot frame (x forward, y left) to the robot group's glTF frame, 15 cm above the floor.
-      this.scanPositions[3 * i] = this.scanXY[2 * i];
-      this.scanPositions[3 * i + 1] = 0.15;
-      this.scanPositions[3 * i + 2] = -this.scanXY[2 * i + 1];
-    }
-    const geometry = this.scan.geometry;
-    geometry.setDrawRange(0, n);
-    const attribute = /** @type {THREE.BufferAttribute} */ (geometry.getAttribute('position'));
-    attribute.clearUpdateRanges();
-    attribute.addUpdateRange(0, n * 3);
-    attribute.needsUpdate = true;
+    this.scanCount = scanToPoints(message, this.scanXY);
+    this.scanNew = true;
   }
 
   dispose() {

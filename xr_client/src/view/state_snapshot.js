@@ -65,7 +65,7 @@ export function snapshotState(app) {
         name,
         {
           position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
-          scan: { points: v.scan.geometry.drawRange.count, visible: v.scan.visible },
+          scan: { points: v.scanCount, visible: v.scanVisible },
           // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
           heading: headingOf(app, v),
           labelHeight: v.label.sprite.scale.y,
