@@ -293,7 +293,9 @@ class Relay:
         elif isinstance(event, PathEvent):
             self.outbox.state(path_message(event.robot, event.points))
         elif isinstance(event, ScanEvent):
-            scan = scan_message(**dataclasses.asdict(event))
+            # Fields as they are, not dataclasses.asdict: that deep-copies the ranges float by float (1.3 ms a scan,
+            # 0.65 s of the loop a second with 100 sim robots scanning at 5 Hz; measured 2026-11-23, cProfile).
+            scan = scan_message(**{f.name: getattr(event, f.name) for f in dataclasses.fields(event)})
             self.outbox.state(scan)
         elif isinstance(event, FrameEvent):
             self.streams.on_frame(event, now)

@@ -9,7 +9,9 @@ and poses give the same place.
 
 Measured on the demo facility (360 x 200 cells, 720 candidates, three robots): about 4 ms quiet (30 ms with the
 browser tests beside it); at most MAX_CANDIDATES spots on any map; cached per robot layout (poses rounded to the
-candidate spacing), so a reconnecting client costs nothing.
+candidate spacing), so a reconnecting client costs nothing. A large fleet is judged by an even sample of at most
+MAX_ROBOTS of its robots: with 100 robots every hello searched 44 000 lines of sight, 3 s of the event loop per
+connecting client (the sample moves less often than 100 robots do, and the search is bounded whatever the fleet).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ MAX_CANDIDATES: Final = 1500
 STANDING_CLEARANCE: Final = 0.5
 #: Robots nearer than this are too close to see with the others (and to stand beside safely), metres.
 NEAR: Final = 1.5
+#: Robots judged at most (an even sample of the fleet in name order): the search is candidates x robots.
+MAX_ROBOTS: Final = 12
 #: Half of the horizontal field of view the robots should fit in: a Quest 3 shows about 110 degrees; 40 leaves margin.
 HALF_FOV: Final = math.radians(40.0)
 
@@ -48,6 +52,9 @@ def vantage(grid: OccupancyGrid, robots: dict[str, tuple[float, float]]) -> Vant
     min_x, min_y, max_x, max_y = grid.bounds
     spacing = SPACING * max(1, math.ceil(math.sqrt((max_x - min_x) * (max_y - min_y) / MAX_CANDIDATES) / SPACING))
     layout = tuple(sorted((name, round(x / spacing), round(y / spacing)) for name, (x, y) in robots.items()))
+    if len(layout) > MAX_ROBOTS:
+        step = len(layout) / MAX_ROBOTS
+        layout = tuple(layout[int(k * step)] for k in range(MAX_ROBOTS))
     return _vantage(grid, layout, spacing)
 
 
