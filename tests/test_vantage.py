@@ -8,7 +8,7 @@ import numpy as np
 
 from relay.occupancy import OccupancyGrid
 from relay.twin.facility import load_facility
-from relay.vantage import HALF_FOV, MAX_CANDIDATES, MAX_ROBOTS, NEAR, vantage
+from relay.vantage import HALF_FOV, MAX_CANDIDATES, MAX_ROBOTS, NEAR, SIGHT_BUDGET, vantage
 from tests.conftest import ROOT
 
 FACILITY = load_facility(ROOT / "scenes" / "facility.yaml")
@@ -95,4 +95,4 @@ def test_a_large_fleet_is_judged_by_a_bounded_sample() -> None:
     assert v is not None and 1 <= len(v.sees) <= MAX_ROBOTS
     assert set(v.sees) <= set(robots)
     assert grid.clearance(v.x, v.y, 0.5) >= 0.5
-    assert calls <= MAX_CANDIDATES * MAX_ROBOTS
+    assert calls <= SIGHT_BUDGET
