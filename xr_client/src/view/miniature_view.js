@@ -4,12 +4,13 @@
  * live robots on it as small arrows in their colours, and a cursor where a ray meets it. Pointing at it selects
  * robots, sets goals and teleports into the full-size twin (XRInteraction carries those out); this view maps a
  * ray's hit on it back to the map frame. The model shares the twin's materials, its geometry merged into one mesh
- * per material (the facility's 26 meshes were 26 more draw calls per eye, a clone of the node tree; now 8); the robots' arrows are one InstancedMesh (one
+ * per material (merged_copy.js: the facility's 26 meshes were 26 more draw calls per eye, a clone of the node tree;
+ * now 11); the robots' arrows are one InstancedMesh (one
  * draw call for the fleet: 100 robots were 100 meshes with a material each, 200 draw calls of a VR frame), moved
  * in place every frame, nothing is allocated per frame.
  */
 import * as THREE from 'three';
-import { mergeGeometries } from 'three/addons/utils/BufferGeometryUtils.js';
+import { disposeCopy, mergedCopy } from './merged_copy.js';
 import { mapToScene, sceneToMap } from '../frames.js';
 import { verdictColour } from '../goal_verdict.js';
 
@@ -137,8 +138,7 @@ export class MiniatureView {
   }
 
   #dropCopy() {
-    this.copy?.removeFromParent();
-    this.copy?.traverse((o) => /** @type {THREE.Mesh} */ (o).geometry?.dispose());
+    disposeCopy(this.copy);
     this.copy = null;
   }
 
@@ -221,45 +221,3 @@ export class MiniatureView {
   }
 }
 
-/**
- * The twin's meshes baked into its parent's frame (the copy sits where the twin does, scaled with the model) and
- * merged by material: one mesh per material, sharing the twin's materials. Attributes the materials do not read
- * are dropped so that any meshes merge (uv only for textured materials).
- * @param {THREE.Object3D} content
- * @returns {THREE.Group}
- */
-function mergedCopy(content) {
-  content.updateWorldMatrix(true, true);
-  const toParent = new THREE.Matrix4();
-  if (content.parent) toParent.copy(content.parent.matrixWorld).invert();
-  /** @type {Map<THREE.Material, THREE.BufferGeometry[]>} */
-  const byMaterial = new Map();
-  content.traverse((object) => {
-    const mesh = /** @type {THREE.Mesh} */ (object);
-    if (!mesh.isMesh || Array.isArray(mesh.material) || !mesh.visible) return;
-    const material = mesh.material;
-    const textured = Boolean(/** @type {THREE.MeshStandardMaterial} */ (material).map);
-    let geometry = mesh.geometry.index ? mesh.geometry.toNonIndexed() : mesh.geometry.clone();
-    for (const name of Object.keys(geometry.attributes)) {
-      if (name !== 'position' && name !== 'normal' && !(textured && name === 'uv')) geometry.deleteAttribute(name);
-    }
-    geometry.morphAttributes = {};
-    if (!geometry.getAttribute('normal')) geometry.computeVertexNormals();
-    geometry.applyMatrix4(new THREE.Matrix4().multiplyMatrices(toParent, mesh.matrixWorld));
-    if (textured && !geometry.getAttribute('uv')) geometry = geometry.setAttribute('uv', new THREE.Float32BufferAttribute(new Float32Array(geometry.getAttribute('position').count * 2), 2));
-    let list = byMaterial.get(material);
-    if (!list) byMaterial.set(material, (list = []));
-    list.push(geometry);
-  });
-  const copy = new THREE.Group();
-  copy.name = 'miniature-twin';
-  for (const [material, geometries] of byMaterial) {
-    const merged = geometries.length === 1 ? geometries[0] : mergeGeometries(geometries);
-    if (geometries.length > 1) for (const g of geometries) g.dispose();
-    if (!merged) continue;
-    const mesh = new THREE.Mesh(merged, material);
-    mesh.name = `miniature:${material.name || material.uuid}`;
-    copy.add(mesh);
-  }
-  return copy;
-}
