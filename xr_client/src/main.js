@@ -41,7 +41,7 @@ const container = /** @type {HTMLElement} */ (document.getElementById('viewport'
 // software renderer gets both by itself (render_quality.js), unless ?quality=high.
 const quality = renderQuality(webglRenderer(), params);
 const app = new App(container, { maxFps: quality.maxFps ?? undefined, lowQuality: quality.lowQuality });
-app.start(); /** @type {any} */ (window).__app = app; // TEMP-PROFILE
+app.start();
 if (quality.reason) {
   console.info(quality.reason);
   app.overlay.say(quality.reason, 'info', 8000);
