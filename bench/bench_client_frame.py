@@ -1,20 +1,26 @@
 """Benchmark 5: the client's frame time, in headless Chromium (Debian's /usr/bin/chromium through
 Playwright's async API, WebGL on SwiftShader) with the IWER-emulated Quest 3 (``?emulate=quest3``), in VR.
 
-Three configurations, each a regression guard (no target is given; the page compares with the previous
-committed run):
+Three configurations:
 
-- the demo fleet (robots.yaml, 3 robots, sim backend);
+- the demo fleet (robots.yaml, 3 robots, sim backend): a regression guard (the previous run's figure);
 - the same with Robot POV showing a live 480x480 stream (the fisheye photo as JPEG at 30 fps, served
   through the relay's real stream path instead of the ray-cast camera, whose ~100 ms renders would compete
-  with the browser for the CPU: the subject here is the client's decode and upload);
+  with the browser for the CPU: the subject here is the client's decode and upload). Target (#15): app JS per
+  frame p95 <= 3 ms;
 - 100 robots (sim backend) spawned on a grid over the free cells of scenes/facility.yaml's corridor and rooms.
+  Targets (#15): app JS per frame p95 <= 5 ms, the page connected and drawing >= 2 frames/s.
+
+Every configuration is also guarded against a regression (<= 1.5x the previous run's p95). ``--quick`` measures
+the live stream and the 100 robots (the two with targets), in shorter windows.
 
 Two measures per window. *Page JS per frame*: an init script wraps ``window.requestAnimationFrame``
 (IWER drives each XR frame from it) and times every callback, so each sample is one emulated XR frame:
 IWER's work plus the app's frame; frame intervals give the frame rate. *Long tasks*: a PerformanceObserver
-for ``longtask`` entries (> 50 ms). The app's own counter (``window.__xrRelay.state.timing``: the app's
-``#frame`` alone, over its last <= 1200 frames) is recorded beside them.
+for ``longtask`` entries (> 50 ms). The targets are read from the app's own counter
+(``window.__xrRelay.state.timing``: the app's ``#frame`` alone, JavaScript only, which excludes the GPU; frame by
+frame from its ``recent`` ring), with the page figure (IWER included) beside them. The load average is recorded
+with each window: the machine is shared, and a missed target's reason says what the page did meanwhile.
 
 The relay runs in its own process (bench/relay_proc.py, sim backend).
 """
@@ -23,6 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -58,6 +65,12 @@ STREAM_FPS = 30.0
 SIZE = 480
 #: Seconds the 100-robot page may take from opening to the end of its window.
 MANY_ROBOTS_BUDGET = 360.0
+#: The targets of #15 (app JS per frame, SwiftShader): the demo fleet with a live stream, and 100 robots.
+LIVE_P95_MS = 3.0
+MANY_P95_MS = 5.0
+MANY_MIN_FPS = 2.0
+LIVE = "3 robots + live 480x480"
+MANY = "100 robots"
 
 TIMING_SCRIPT = """
 (() => {
@@ -267,8 +280,10 @@ async def window(page: Any, seconds: float) -> JsonDict:
 
     timing = dict(last["timing"])
     timing.pop("recent", None)
+    renders = int(last["timing"].get("renders", 0)) - int(first["timing"].get("renders", 0))
     return {
         "seconds": round(span, 2),
+        "load_average": [round(x, 2) for x in os.getloadavg()],
         "presenting": bool(last.get("presenting")),
         "connected": bool(last.get("connected")),
         # The app's #frame (its own counter), frame by frame in this window.
@@ -289,7 +304,10 @@ async def window(page: Any, seconds: float) -> JsonDict:
         "slowest_state_read_s": round(slowest, 2),
         "app_timing_since_load": timing,
         "pov": last.get("pov"),
-        "renders_in_window": int(last["timing"].get("renders", 0)) - int(first["timing"].get("renders", 0)),
+        "renders_in_window": renders,
+        # Frames the app drew per second (in VR every frame is drawn: the same as fps, less IWER's idle frames).
+        "render_fps": round(renders / span, 2),
+        "draw_calls": last.get("draw", {}).get("calls"),
     }
 
 
@@ -373,38 +391,40 @@ async def run(settings: Settings, report: Report) -> JsonDict:
                     after = (await state(page))["pov"]["uploads"]
                     # Frames drawn onto the hemisphere per second, from the first upload to the window's end.
                     live["uploads_per_s"] = round((after - uploads) / (seconds + warmup / 2), 2)
-                    results["3 robots + live 480x480"] = live
-                    line(report, "3 robots + live 480x480", live, live["relay_cpu"])
+                    results[LIVE] = live
+                    line(report, LIVE, live, live["relay_cpu"])
                     await page.close()
                 finally:
                     await child.stop()
-                if not settings.quick:
-                    child, port = await start_relay("client-relay-100", many, token)
-                    try:
-                        url = f"http://127.0.0.1:{port}/?emulate=quest3{fragment}"
+                # Quick runs too: the 100 robots carry two of the targets.
+                child, port = await start_relay("client-relay-100", many, token)
+                try:
+                    url = f"http://127.0.0.1:{port}/?emulate=quest3{fragment}"
 
-                        async def many_robots() -> JsonDict:
-                            page = await open_vr(browser, url, 100, notes["100 robots"])
-                            await asyncio.sleep(warmup)
-                            began = asyncio.get_running_loop().time()
-                            try:
-                                return await measured(page, child, seconds)
-                            finally:
-                                took = asyncio.get_running_loop().time() - began
-                                notes["100 robots"].append(f"a {seconds:g} s measuring window took {took:.0f} s")
+                    # At least 4 s to settle and 6 s measured, quick or not: the first VR frames upload the label
+                    # atlas and compile the instanced shaders (one frame of ~400 ms), which a 3 s window would report.
+                    many_warmup, many_seconds = max(warmup, 4.0), max(seconds, 6.0)
 
-                        # Bounded: on SwiftShader this page can take minutes per step.
-                        results["100 robots"] = await asyncio.wait_for(many_robots(), MANY_ROBOTS_BUDGET)
-                        line(report, "100 robots", results["100 robots"], results["100 robots"]["relay_cpu"])
-                    except (TimeoutError, PlaywrightTimeout) as exc:
-                        message = (
-                            str(exc).splitlines()[0] if str(exc) else f"not done within {MANY_ROBOTS_BUDGET:.0f} s"
-                        )
-                        steps = "; ".join(notes["100 robots"])
-                        results["100 robots"] = {"error": f"{message} ({steps})" if steps else message}
-                        report.line(f"100 robots: FAILED {results['100 robots']['error']}")
-                    finally:
-                        await child.stop()
+                    async def many_robots() -> JsonDict:
+                        page = await open_vr(browser, url, 100, notes["100 robots"])
+                        await asyncio.sleep(many_warmup)
+                        began = asyncio.get_running_loop().time()
+                        try:
+                            return await measured(page, child, many_seconds)
+                        finally:
+                            took = asyncio.get_running_loop().time() - began
+                            notes["100 robots"].append(f"a {many_seconds:g} s measuring window took {took:.0f} s")
+
+                    # Bounded: on SwiftShader this page can take minutes per step.
+                    results[MANY] = await asyncio.wait_for(many_robots(), MANY_ROBOTS_BUDGET)
+                    line(report, MANY, results[MANY], results[MANY]["relay_cpu"])
+                except (TimeoutError, PlaywrightTimeout) as exc:
+                    message = str(exc).splitlines()[0] if str(exc) else f"not done within {MANY_ROBOTS_BUDGET:.0f} s"
+                    steps = "; ".join(notes["100 robots"])
+                    results["100 robots"] = {"error": f"{message} ({steps})" if steps else message}
+                    report.line(f"100 robots: FAILED {results['100 robots']['error']}")
+                finally:
+                    await child.stop()
             finally:
                 await browser.close()
     for line_ in notes["demo"] + notes["100 robots"]:
@@ -436,6 +456,63 @@ def unresponsive(figures: JsonDict, steps: list[str]) -> str:
     return "; ".join(parts + steps)
 
 
+def why_slow(figures: JsonDict) -> str:
+    """What the page did in a window whose app frame missed its target: the measured context, not a guess."""
+    split = figures.get("main_thread") or {}
+    load = figures.get("load_average")
+    parts = [
+        f"app frame p50 {fmt(figures['app_ms']['p50'], 2)} ms, max {fmt(figures['app_ms']['max'], 2)} ms",
+        f"{figures.get('draw_calls')} draw calls a frame",
+        f"{figures['long_tasks']} long tasks",
+        f"main thread JS {100 * split.get('javascript', 0):.0f} % native {100 * split.get('native', 0):.0f} %",
+    ]
+    if load:
+        parts.append(f"load average {load[0]:.1f} on {os.cpu_count()} cores (the machine is shared)")
+    return "; ".join(parts)
+
+
+def page_figure(figures: JsonDict) -> str:
+    page = figures["page_js_ms"]
+    return f"page JS per frame (IWER included) p50 {fmt(page['p50'], 2)} / p95 {fmt(page['p95'], 2)} ms"
+
+
+def absolute(name: str, figures: JsonDict) -> list[JsonDict]:
+    """The targets of #15 for this configuration (none for the demo fleet alone)."""
+    out = []
+    p95 = figures["app_ms"]["p95"]
+    limit = LIVE_P95_MS if name == LIVE else MANY_P95_MS if name == MANY else None
+    if name == MANY:
+        fps = figures["render_fps"]
+        ok = fps >= MANY_MIN_FPS and figures["connected"]
+        out.append(
+            target(
+                f"{name}: the page stays connected and draws",
+                f">= {MANY_MIN_FPS:g} frames/s, connected",
+                f"{fps:.2f} frames/s ({figures['renders_in_window']} in {figures['seconds']:.0f} s), "
+                + ("connected" if figures["connected"] else "connection lost"),
+                ok,
+                "" if ok else unresponsive(figures, []),
+                baseline="before #15: 3 frames in 43 s (0.07 fps), connection lost",
+            )
+        )
+    if limit is not None:
+        if p95 is None:
+            out.append(target(f"{name}: app JS per frame p95", f"<= {limit:g} ms", "n/a", False, "no frame measured"))
+        else:
+            ok = p95 <= limit
+            out.append(
+                target(
+                    f"{name}: app JS per frame p95",
+                    f"<= {limit:g} ms",
+                    f"{p95:.2f} ms ({figures['app_ms']['n']} frames)",
+                    ok,
+                    "" if ok else why_slow(figures),
+                    baseline=page_figure(figures),
+                )
+            )
+    return out
+
+
 def guards(
     results: dict[str, JsonDict], previous: dict[str, JsonDict], notes: dict[str, list[str]] | None = None
 ) -> list[JsonDict]:
@@ -445,21 +522,23 @@ def guards(
         if "error" in figures:
             out.append(target(f"{name}: app JS per frame p95", "regression guard", "n/a", False, figures["error"]))
             continue
-        p95 = figures["app_ms"]["p95"]
-        before = previous.get(name, {}).get("app_ms", {}).get("p95")
-        if figures["fps"] < 1.0 or not figures["connected"]:
-            # No regression figure means anything from a page that draws less than a frame a second.
+        if figures["render_fps"] < 1.0 or not figures["connected"]:
+            # No frame-time figure means anything from a page that draws less than a frame a second.
             out.append(
                 target(
                     f"{name}: the page keeps drawing and stays connected",
-                    "regression guard",
-                    f"{figures['frames']} frames in {figures['seconds']:.0f} s ({figures['fps']:.2f} fps)",
+                    f">= {MANY_MIN_FPS:g} frames/s, connected" if name == MANY else ">= 1 frame/s, connected",
+                    f"{figures['renders_in_window']} frames in {figures['seconds']:.0f} s "
+                    f"({figures['render_fps']:.2f} fps)",
                     False,
                     unresponsive(figures, notes.get(name, [])),
                     baseline=f"headset frame {HEADSET_FRAME_MS:.1f} ms",
                 )
             )
             continue
+        out.extend(absolute(name, figures))
+        p95 = figures["app_ms"]["p95"]
+        before = previous.get(name, {}).get("app_ms", {}).get("p95")
         if p95 is None:
             out.append(target(f"{name}: app JS per frame p95", "regression guard", "n/a", None, "no frame measured"))
             continue
@@ -467,22 +546,22 @@ def guards(
             ok = p95 <= REGRESSION * before
             out.append(
                 target(
-                    f"{name}: app JS per frame p95",
-                    f"<= {REGRESSION:g}x the previous committed run",
+                    f"{name}: app JS per frame p95, against the previous run",
+                    f"<= {REGRESSION:g}x the previous run",
                     f"{p95:.2f} ms ({p95 / before:.2f}x)",
                     ok,
-                    "" if ok else "slower than the previous run; compare long tasks and the machine's load",
-                    baseline=f"previous {before:.2f} ms; headset frame {HEADSET_FRAME_MS:.1f} ms",
+                    "" if ok else "slower than the previous run: " + why_slow(figures),
+                    baseline=f"previous {before:.2f} ms; {page_figure(figures)}",
                 )
             )
         else:
             out.append(
                 target(
-                    f"{name}: app JS per frame p95",
+                    f"{name}: app JS per frame p95, against the previous run",
                     "regression guard (first run: no previous figure)",
                     f"{p95:.2f} ms",
                     None,
-                    baseline=f"headset frame {HEADSET_FRAME_MS:.1f} ms",
+                    baseline=page_figure(figures),
                 )
             )
     return out

@@ -8,7 +8,7 @@ import numpy as np
 
 from relay.occupancy import OccupancyGrid
 from relay.twin.facility import load_facility
-from relay.vantage import HALF_FOV, MAX_CANDIDATES, NEAR, vantage
+from relay.vantage import HALF_FOV, MAX_CANDIDATES, MAX_ROBOTS, NEAR, SIGHT_BUDGET, vantage
 from tests.conftest import ROOT
 
 FACILITY = load_facility(ROOT / "scenes" / "facility.yaml")
@@ -71,3 +71,28 @@ def test_a_large_site_is_searched_in_bounded_time() -> None:
     v = vantage(grid, robots)
     assert v is not None and len(v.sees) >= 4
     assert calls <= MAX_CANDIDATES * len(robots)
+
+
+def test_a_large_fleet_is_judged_by_a_bounded_sample() -> None:
+    # 100 robots on the demo facility (the client benchmark's fleet): every robot against every spot was 44 000
+    # lines of sight, 3 s of the event loop for each connecting client's hello.
+    from bench.bench_client_frame import grid_spawns
+
+    robots = {f"robot{i + 1}": xy for i, xy in enumerate(grid_spawns(100))}
+    calls = 0
+    real = FACILITY.grid.segment_free
+
+    def counted(*args: float) -> bool:
+        nonlocal calls
+        calls += 1
+        return real(*args)
+
+    grid = OccupancyGrid(
+        FACILITY.grid.origin_x, FACILITY.grid.origin_y, FACILITY.grid.resolution, FACILITY.grid.occupied
+    )
+    object.__setattr__(grid, "segment_free", counted)
+    v = vantage(grid, robots)
+    assert v is not None and 1 <= len(v.sees) <= MAX_ROBOTS
+    assert set(v.sees) <= set(robots)
+    assert grid.clearance(v.x, v.y, 0.5) >= 0.5
+    assert calls <= SIGHT_BUDGET

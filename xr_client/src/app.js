@@ -172,7 +172,7 @@ export class App {
     this.loader = new ModelLoader(this.renderer);
     this.twin = new TwinView(this.loader);
     this.world.add(this.twin.group);
-    this.fleetView = new FleetView(this.world, this.loader);
+    this.fleetView = new FleetView(this.world, this.loader, this.renderer);
     this.robotViews = this.fleetView.views;
     this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu }, (text) => this.#notify(text, 'error'));
     this.picking = new Picking(this.twin, this.robotViews, this.fleet);

@@ -1,46 +1,90 @@
 // @ts-check
 /**
  * The robots in the twin: one RobotView per robot of the fleet, placed every frame from the smoothed poses
- * and labelled with their status. Views are rebuilt only when the fleet (or a robot's model) changes. The map's
- * annotations (room names, grid, north arrow) come with the fleet's hello and live here too.
+ * and labelled with their status; the parts every robot shares (fleet_instances.js) and the label atlas
+ * (label_atlas.js) are built here with the fleet. Views are rebuilt only when the fleet (or a robot's model)
+ * changes. The map's annotations (room names, grid, north arrow) come with the fleet's hello and live here too.
+ *
+ * Per frame, for every robot: its pose (in place, no allocation), its label's size and fade (label_rule.js), and
+ * which robots get their full model (level_of_detail.js). Statuses (the label's words, the tint) are refreshed
+ * for STATUS_PER_FRAME robots a frame in turn, all of them in a few frames: text the eye reads, not a per-frame
+ * rebuild of 100 strings (and the selection ring at once, every frame).
  */
 import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
-import { RobotView } from './robot_view.js';
+import { RobotView, LABEL_ANCHOR } from './robot_view.js';
+import { FleetInstances } from './fleet_instances.js';
+import { LabelAtlas } from './label_atlas.js';
+import { FleetScans } from './fleet_scans.js';
+import { labelOpacity } from '../label_rule.js';
+import { nearestDetailed } from '../level_of_detail.js';
 import { MapAnnotations } from './map_annotations.js';
 import { formatSilence } from '../freshness.js';
 import { displayName } from '../operator_names.js';
+
+/** Robots whose status is refreshed each frame, at least (a fleet of up to this many: all of them every frame). */
+const STATUS_PER_FRAME = 12;
 
 export class FleetView {
   /** By robot name; the same Map for the life of the page (picking and the desktop controls hold it). @type {Map<string, RobotView>} */
   views = new Map();
 
-  /** @param {THREE.Group} world @param {import('./gltf_loading.js').ModelLoader} loader */
-  constructor(world, loader) {
+  /**
+   * @param {THREE.Group} world @param {import('./gltf_loading.js').ModelLoader} loader
+   * @param {THREE.WebGLRenderer} [renderer] uploads single label cells (without it, the whole atlas each time)
+   */
+  constructor(world, loader, renderer) {
     this.world = world;
     this.loader = loader;
+    this.renderer = renderer ?? null;
     this.annotations = new MapAnnotations();
     world.add(this.annotations.group);
+    this.instances = new FleetInstances(0);
+    this.atlas = new LabelAtlas(0);
+    this.scans = new FleetScans();
+    world.add(this.instances.group, this.atlas.mesh, this.scans.points);
+    /** Per robot (by index): the viewer's distance this frame (Infinity: not a candidate for the full model). */
+    this.distances = new Float64Array(0);
+    /** @type {Set<number>} */
+    this.detailed = new Set();
+    /** @type {RobotView[]} by index */
+    this.order = [];
+    this.statusNext = 0;
+    this.anchor = new THREE.Vector3();
   }
 
-  /** A new fleet: every view is rebuilt. @param {import('../fleet_model.js').FleetModel} fleet */
+  /** A new fleet: every view and the shared parts are rebuilt. @param {import('../fleet_model.js').FleetModel} fleet */
   rebuild(fleet) {
     for (const view of this.views.values()) view.dispose();
     this.views.clear();
-    for (const entry of fleet.robots.values()) this.add(entry.description);
+    this.instances.dispose();
+    this.atlas.dispose();
+    const n = fleet.robots.size;
+    this.instances = new FleetInstances(n);
+    this.atlas = new LabelAtlas(n);
+    this.world.add(this.instances.group, this.atlas.mesh);
+    this.distances = new Float64Array(n).fill(Infinity);
+    this.order = [];
+    this.scans.changed = true;
+    for (const entry of fleet.robots.values()) this.add(entry.description, this.order.length);
   }
 
   /** One robot's model changed (the relay built it from its robot_description). @param {import('../fleet_model.js').FleetModel} fleet @param {string} name */
   rebuildOne(fleet, name) {
     const entry = fleet.robots.get(name);
-    if (entry) this.add(entry.description);
+    const view = this.views.get(name);
+    if (entry && view) this.add(entry.description, view.index);
   }
 
-  /** A robot's view, (re)built from its description (a new model replaces the old view). @param {import('../protocol.js').RobotDescription} description */
-  add(description) {
+  /**
+   * A robot's view, (re)built from its description (a new model replaces the old view, in the same place).
+   * @param {import('../protocol.js').RobotDescription} description @param {number} index
+   */
+  add(description, index) {
     this.views.get(description.name)?.dispose();
-    const view = new RobotView(description, this.loader);
+    const view = new RobotView(description, this.loader, index, this.instances, this.atlas);
     this.views.set(description.name, view);
+    this.order[index] = view;
     this.world.add(view.group);
   }
 
@@ -55,38 +99,74 @@ export class FleetView {
   update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans }) {
     this.annotations.update(fleet);
     const t = fleet.scene.mapToScene;
-    for (const [name, view] of this.views) {
-      const entry = fleet.robots.get(name);
+    const n = this.order.length;
+    // Statuses in turn: this frame's share of the fleet (all of a small fleet), from where the last frame stopped.
+    const share = Math.max(STATUS_PER_FRAME, Math.ceil(n / 6));
+    const first = n <= share ? 0 : this.statusNext;
+    this.statusNext = n <= share ? 0 : (first + share) % n;
+    for (let i = 0; i < n; i++) {
+      const view = this.order[i];
+      const entry = fleet.robots.get(view.name);
       if (!entry) continue;
-      const pose = smoothers.get(name)?.sample(now);
+      const pose = smoothers.get(view.name)?.sample(now);
       if (pose) {
         const [x, y, z] = mapToScene(t, pose.x, pose.y, 0);
         view.place(x, y, z, mapYawToScene(t, pose.yaw));
-        view.scaleLabel(eye.distanceTo(view.group.position));
       }
       view.showScan(scans);
-      const status = entry.status;
-      const controller = displayName(status?.controller, fleet.names, fleet.clientId);
-      // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
-      const silent = freshness.age(name, now);
-      const since = silent !== null ? ` · ${formatSilence(silent)}` : '';
-      const stale = link === 'lost' ? `connection lost${since}` : link === 'quiet' ? `relay silent${since}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
-      view.setStatus({
-        name,
-        mode: status?.mode ?? 'unknown',
-        controller,
-        offline: status ? !status.online : false,
-        age: status?.age ?? null,
-        selected: name === selected,
-        warning: history.robotWarning(name),
-        stale,
-      });
+      view.ring.visible = view.name === selected;
+      if (n <= share || (i - first + n) % n < share) this.#status(view, entry, fleet, history, selected, freshness, link, now);
+      this.distances[i] = view.group.visible && view.hasModel ? eye.distanceTo(view.group.position) : Infinity;
     }
+    nearestDetailed(this.distances, undefined, this.detailed);
+    for (let i = 0; i < n; i++) {
+      const view = this.order[i];
+      const shown = view.group.visible;
+      view.setDetailed(this.detailed.has(i));
+      this.instances.place(i, shown ? view.group.position : null, view.yaw, !view.detailed);
+      const distance = eye.distanceTo(view.group.position);
+      const height = view.scaleLabel(distance);
+      this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
+      this.atlas.place(i, shown ? this.anchor : null, height, labelOpacity(distance, view.keepLabel));
+    }
+    this.instances.placed();
+    this.atlas.placed();
+    this.atlas.flush(this.renderer, now);
+    this.scans.update(this.order, scans, now);
+  }
+
+  /**
+   * A robot's label and tint from its status and the link.
+   * @param {RobotView} view @param {import('../fleet_model.js').RobotEntry} entry @param {import('../fleet_model.js').FleetModel} fleet
+   * @param {import('../sensor_history.js').SensorHistory} history @param {string | null} selected
+   * @param {import('../freshness.js').Freshness} freshness @param {'live' | 'quiet' | 'lost'} link @param {number} now
+   */
+  #status(view, entry, fleet, history, selected, freshness, link, now) {
+    const name = view.name;
+    const status = entry.status;
+    const controller = displayName(status?.controller, fleet.names, fleet.clientId);
+    // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
+    const silent = freshness.age(name, now);
+    const since = silent !== null ? ` · ${formatSilence(silent)}` : '';
+    const stale = link === 'lost' ? `connection lost${since}` : link === 'quiet' ? `relay silent${since}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
+    view.setStatus({
+      name,
+      mode: status?.mode ?? 'unknown',
+      controller,
+      offline: status ? !status.online : false,
+      age: status?.age ?? null,
+      selected: name === selected,
+      warning: history.robotWarning(name),
+      stale,
+    });
   }
 
   dispose() {
     for (const view of this.views.values()) view.dispose();
     this.views.clear();
+    this.instances.dispose();
+    this.atlas.dispose();
+    this.scans.dispose();
     this.annotations.dispose();
   }
 }

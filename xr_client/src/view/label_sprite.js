@@ -26,7 +26,7 @@ export class LabelSprite {
 
   /**
    * @param {string[]} lines first line bold
-   * @param {{accent?: string, dim?: boolean, warning?: boolean}} [style]
+   * @param {LabelStyle} [style]
    */
   set(lines, style = {}) {
     const key = JSON.stringify([lines, style]);
@@ -35,21 +35,7 @@ export class LabelSprite {
     const ctx = /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d'));
     const { width, height } = this.canvas;
     ctx.clearRect(0, 0, width, height);
-    roundRect(ctx, 4, 4, width - 8, height - 8, 18);
-    ctx.fillStyle = style.dim ? 'rgba(40,40,40,0.72)' : 'rgba(16,20,28,0.78)';
-    ctx.fill();
-    if (style.accent) {
-      ctx.fillStyle = style.accent;
-      ctx.fillRect(4, 18, 10, height - 36);
-    }
-    ctx.textAlign = 'left';
-    ctx.textBaseline = 'middle';
-    const lineHeight = (height - 16) / lines.length;
-    lines.forEach((line, i) => {
-      ctx.fillStyle = style.dim ? '#aaa' : i === 0 ? '#fff' : '#c8d0dc';
-      const px = i === 0 ? lineHeight * 0.62 : lineHeight * 0.5;
-      fitText(ctx, line, 28, 8 + lineHeight * (i + 0.5), width - 48, px, i === 0 ? 700 : 500);
-    });
+    drawLabel(ctx, 0, 0, width, height, lines, style);
     this.texture.needsUpdate = true;
   }
 
@@ -59,25 +45,61 @@ export class LabelSprite {
   }
 }
 
+/**
+ * A label's card: a rounded dark box, the accent bar, the lines (the first bold), in a rectangle of a canvas.
+ * Sizes are those of a 150 px high label, scaled to the rectangle's height.
+ * @param {CanvasRenderingContext2D} ctx @param {number} x @param {number} y @param {number} width @param {number} height
+ * @param {string[]} lines @param {LabelStyle} style
+ */
+export function drawLabel(ctx, x, y, width, height, lines, style) {
+  const k = height / 150;
+  roundRect(ctx, x + 4 * k, y + 4 * k, width - 8 * k, height - 8 * k, 18 * k);
+  ctx.fillStyle = style.dim ? 'rgba(40,40,40,0.72)' : 'rgba(16,20,28,0.78)';
+  ctx.fill();
+  if (style.accent) {
+    ctx.fillStyle = style.accent;
+    ctx.fillRect(x + 4 * k, y + 18 * k, 10 * k, height - 36 * k);
+  }
+  ctx.textAlign = 'left';
+  ctx.textBaseline = 'middle';
+  const lineHeight = (height - 16 * k) / lines.length;
+  lines.forEach((line, i) => {
+    ctx.fillStyle = style.dim ? '#aaa' : i === 0 ? '#fff' : '#c8d0dc';
+    const px = i === 0 ? lineHeight * 0.62 : lineHeight * 0.5;
+    fitText(ctx, line, x + 28 * k, y + 8 * k + lineHeight * (i + 0.5), width - 48 * k, px, i === 0 ? 700 : 500);
+  });
+}
+
+/** @typedef {{accent?: string, dim?: boolean, warning?: boolean}} LabelStyle */
+
 /** The red warning icon over a robot: drawn once, on top of everything, constant size on screen. */
 export class WarningSprite {
-  constructor() {
-    const canvas = document.createElement('canvas');
-    canvas.width = canvas.height = 128;
-    const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
-    warningIcon(ctx, 64, 64, 112);
-    ctx.font = font(10);
-    this.texture = new THREE.CanvasTexture(canvas);
-    this.texture.colorSpace = THREE.SRGBColorSpace;
-    // Visible from anywhere: no depth test, and a fixed angular size whatever the distance.
-    this.material = new THREE.SpriteMaterial({ map: this.texture, depthTest: false, depthWrite: false, sizeAttenuation: false, transparent: true });
+  /** @param {THREE.SpriteMaterial} [shared] one material for every robot's icon (the fleet view's): no canvas each */
+  constructor(shared) {
+    this.shared = shared ?? null;
+    this.material = shared ?? WarningSprite.material();
     this.sprite = new THREE.Sprite(this.material);
     this.sprite.scale.set(0.05, 0.05, 1);
     this.sprite.renderOrder = 20;
   }
 
+  /** The icon's material (its own canvas texture), for one sprite or to share. */
+  static material() {
+    const canvas = document.createElement('canvas');
+    canvas.width = canvas.height = 128;
+    const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+    warningIcon(ctx, 64, 64, 112);
+    ctx.font = font(10);
+    const texture = new THREE.CanvasTexture(canvas);
+    texture.colorSpace = THREE.SRGBColorSpace;
+    // Visible from anywhere: no depth test, and a fixed angular size whatever the distance.
+    return new THREE.SpriteMaterial({ map: texture, depthTest: false, depthWrite: false, sizeAttenuation: false, transparent: true });
+  }
+
+  /** Frees the material unless it is shared (its owner frees that). */
   dispose() {
-    this.texture.dispose();
+    if (this.shared) return;
+    this.material.map?.dispose();
     this.material.dispose();
   }
 }

@@ -129,7 +129,10 @@ export class Overlay {
     const data = this.host.sensorPanelData(now);
     if (data.link !== this.status.textContent) this.setLink(data.link, data.linkOk);
     const sensorKey = `${data.robot}|${data.status}|${data.link}|${data.sensors.map((s) => s.warning).join()}`;
-    if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
+    // In VR the page's panels are hidden (style.css, body.presenting): the wrist panel shows the readings there.
+    const hidden = document.body.classList.contains('presenting');
+    if (hidden) this.sensorKey = '';
+    else if (sensorKey !== this.sensorKey || now - this.lastSensorDraw > 250) {
       this.sensorKey = sensorKey;
       this.lastSensorDraw = now;
       const ctx = /** @type {CanvasRenderingContext2D} */ (this.sensorCanvas.getContext('2d'));

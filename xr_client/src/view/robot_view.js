@@ -1,61 +1,79 @@
 // @ts-check
 /**
- * One robot in the twin: its model (the glTF from `hello`, or a built-in shape when the model is ""),
- * tinted with its colour through the material named `body`; a footprint on the floor with a heading arrow (the
- * robot's +x, readable from above at any distance); a label (name, mode, controller) that keeps about the same
- * size on screen within limits; a red warning icon visible from anywhere; a selection ring; laser scan points in
- * the robot frame (shown unless the operator turns scans off). Offline, the robot is greyed and its label shows
- * the age of its data. The view only reads the fleet model.
+ * One robot in the twin: what is its own (its loaded glTF model, tinted with its colour through the material named
+ * `body`; its laser scan points in the robot frame; the selection ring; the red warning icon) and its place in what
+ * the fleet shares (view/fleet_instances.js: the built-in shape and the footprint with its heading arrow, one
+ * InstancedMesh per part for every robot; view/label_atlas.js: every label in one texture and one draw call).
+ * The full model is drawn only for the nearest few robots (level_of_detail.js), the shared shape for the others.
+ * Offline, the robot is greyed and its label shows the age of its data. The view only reads the fleet model.
+ *
+ * Nothing is allocated per pose: place() writes positions in place; a label is redrawn in its atlas cell only
+ * when its text changes. Measured with 100 robots (bench client_frame, SwiftShader, 2 cores, VR): 1576 draw calls a
+ * frame before (a dozen objects and ~8 draw calls per robot, 100 label textures), 0.07 frames/s; 118 after (with
+ * the twin merged), 5.5 frames/s, app JS p50 4.6 ms (docs/client.md).
  */
 import * as THREE from 'three';
 import { adoptMaterials } from './model_materials.js';
-import { LabelSprite, WarningSprite } from './label_sprite.js';
+import { WarningSprite } from './label_sprite.js';
+import { LABEL_ASPECT } from './label_atlas.js';
 import { MAX_SCAN_POINTS, scanToPoints } from '../scan.js';
+import { LABEL_ANGLE, LABEL_MAX, LABEL_MIN, labelHeight } from '../label_rule.js';
 
+export { LABEL_ANGLE, LABEL_MAX, LABEL_MIN };
 const GREY = new THREE.Color('#777777');
-/** A label's height on screen, as an angle (rad): ~2 degrees, 27 px in a 60-degree desktop view 800 px high,
- * ~40 px on a Quest 3. Within LABEL_MIN..LABEL_MAX metres: not a wall of text up close (it was 0.26 m whatever
- * the distance under 5 m, larger than the robot), not a billboard across the site. */
-export const LABEL_ANGLE = 0.035;
-export const LABEL_MIN = 0.07;
-export const LABEL_MAX = 1.5;
 /** Where labels hang from: the top of a TurtleBot-sized robot (m). */
-const LABEL_ANCHOR = 0.45;
-/** The footprint's radius (m): a TurtleBot-sized base, the built-in shape's 0.2 m and a margin. */
-const FOOTPRINT = 0.26;
+export const LABEL_ANCHOR = 0.45;
 
 export class RobotView {
   /**
    * @param {import('../fleet_model.js').RobotDescription} description
    * @param {import('./gltf_loading.js').ModelLoader} loader
+   * @param {number} index the robot's instance in the shared parts and its cell in the label atlas
+   * @param {import('./fleet_instances.js').FleetInstances} shared
+   * @param {import('./label_atlas.js').LabelAtlas} atlas
    */
-  constructor(description, loader) {
+  constructor(description, loader, index, shared, atlas) {
     this.name = description.name;
+    this.index = index;
+    this.shared = shared;
+    this.atlas = atlas;
     this.colour = new THREE.Color(description.colour);
     this.group = new THREE.Group();
     this.group.name = `robot:${description.name}`;
     this.group.userData.robot = description.name;
     this.group.visible = false; // until its first pose
-    /** Holds the model: replaced when a glTF arrives. */
+    /** Holds the full model once loaded (drawn when detailed), else an invisible proxy that picking meets. */
     this.body = new THREE.Group();
     this.group.add(this.body);
-    /** @type {THREE.Material[]} materials owned by this view */
+    this.proxy = new THREE.Mesh(shared.proxyGeometry, shared.proxyMaterial);
+    this.proxy.userData.robot = this.name;
+    this.body.add(this.proxy);
+    /** The loaded glTF (a clone), in `body` only while it is drawn: 96 undrawn models' 12 nodes each were matrix
+     * updates every frame for nothing. @type {THREE.Object3D | null} */
+    this.model = null;
+    /** Whether the full model is loaded, and whether it is drawn this frame (level_of_detail.js). */
+    this.hasModel = false;
+    this.detailed = false;
+    /** @type {THREE.Material[]} materials owned by this view (the model's copies) */
     this.materials = [];
     /** @type {THREE.BufferGeometry[]} */
     this.geometries = [];
-    this.#builtin(description.cameras.length > 0);
+    shared.setRobot(index, description.cameras.length > 0, this.colour);
     this.loadGeneration = 0;
     if (description.model) this.#loadModel(description.model, loader);
 
-    // On top of walls: the operator keeps track of every robot (an x-ray view of the twin).
-    this.label = new LabelSprite({ width: 512, height: 150, worldHeight: 0.26, onTop: true });
-    // Anchored at the robot's top and drawn above that point on screen (sprite centre below the label): seen from
-    // above, the label sits beside the robot instead of on it, and its footprint and heading stay visible.
-    this.label.sprite.position.set(0, LABEL_ANCHOR, 0);
-    this.label.sprite.center.set(0.5, -0.35);
-    this.label.sprite.userData.robot = description.name;
-    this.group.add(this.label.sprite);
-    this.warning = new WarningSprite();
+    // The label is drawn by the atlas; this invisible sprite of the same size is what the desktop's mouse picks,
+    // and what the state snapshot measures. Anchored at the robot's top and drawn above that point on screen.
+    const sprite = new THREE.Sprite(shared.labelProxyMaterial);
+    sprite.position.set(0, LABEL_ANCHOR, 0);
+    sprite.center.set(0.5, -0.35);
+    sprite.userData.robot = description.name;
+    this.group.add(sprite);
+    /** @type {{sprite: THREE.Sprite, key: string}} */
+    this.label = { sprite, key: '' };
+    /** The label is kept whatever the distance (the selected robot's, a warning's): label_rule.js. */
+    this.keepLabel = false;
+    this.warning = new WarningSprite(shared.warningMaterial);
     // Above the label: the icon is 0.05 of the view high (sizeAttenuation off), the label LABEL_ANGLE, ~1.4 times
     // less; a centre 1.05 icons below it clears the label's top (0.35 + 1 label heights up).
     this.warning.sprite.position.set(0, LABEL_ANCHOR, 0);
@@ -63,91 +81,28 @@ export class RobotView {
     this.warning.sprite.visible = false;
     this.group.add(this.warning.sprite);
 
-    /** The footprint and heading arrow, turned with the robot. */
+    /** Turned with the robot: the footprint's heading (drawn by the shared instances; the snapshot reads it). */
     this.heading = new THREE.Group();
-    /** @type {THREE.MeshBasicMaterial[]} */
-    this.footprintMaterials = [];
-    this.#footprint();
+    this.heading.name = `footprint:${this.name}`;
+    this.group.add(this.heading);
 
-    const ringGeometry = new THREE.RingGeometry(0.32, 0.38, 48).rotateX(-Math.PI / 2);
-    const ringMaterial = new THREE.MeshBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.85 });
-    this.ring = new THREE.Mesh(ringGeometry, ringMaterial);
+    this.ring = new THREE.Mesh(shared.ringGeometry, shared.ringMaterial);
     this.ring.position.y = 0.01;
     this.ring.visible = false;
     this.ring.raycast = () => {};
     this.group.add(this.ring);
-    this.geometries.push(ringGeometry);
-    this.materials.push(ringMaterial);
 
-    this.scanPositions = new Float32Array(MAX_SCAN_POINTS * 3);
+    /** The latest laser scan, in the robot frame (x, y pairs); the fleet's scans are drawn together (fleet_scans.js). */
     this.scanXY = new Float32Array(MAX_SCAN_POINTS * 2);
-    const scanGeometry = new THREE.BufferGeometry();
-    scanGeometry.setAttribute('position', new THREE.BufferAttribute(this.scanPositions, 3).setUsage(THREE.DynamicDrawUsage));
-    scanGeometry.setDrawRange(0, 0);
-    // A few pixels whatever the distance (as RViz draws points): 6 cm dots were invisible from across the site.
-    const scanMaterial = new THREE.PointsMaterial({ color: this.colour, size: 3.5, sizeAttenuation: false });
-    this.scan = new THREE.Points(scanGeometry, scanMaterial);
-    this.scan.frustumCulled = false;
-    this.scan.raycast = () => {};
-    this.group.add(this.scan);
-    this.geometries.push(scanGeometry);
-    this.materials.push(scanMaterial);
+    this.scanCount = 0;
+    this.scanVisible = true;
+    /** A scan came since the last pack; where the robot was at that pack. */
+    this.scanNew = false;
+    this.packed = { x: NaN, z: NaN, yaw: NaN };
     this.offline = false;
+    this.yaw = 0;
     /** Why what this view shows is old (the link, the pose), or null while it is live. @type {string | null} */
     this.stale = null;
-  }
-
-  /** The footprint and the heading arrow: flat on the floor, turned with the robot (see place()). */
-  #footprint() {
-    this.heading.name = `footprint:${this.name}`;
-    const discGeometry = new THREE.CircleGeometry(FOOTPRINT, 40).rotateX(-Math.PI / 2);
-    const edgeGeometry = new THREE.RingGeometry(FOOTPRINT - 0.025, FOOTPRINT, 40).rotateX(-Math.PI / 2);
-    // The arrow points along +x (the robot's forward) from the footprint's edge: 0.45 m long, so that the heading
-    // reads from 20 m away, where the robot itself is a dozen pixels.
-    const arrow = new THREE.Shape();
-    arrow.moveTo(FOOTPRINT + 0.45, 0);
-    arrow.lineTo(FOOTPRINT - 0.02, 0.16);
-    arrow.lineTo(FOOTPRINT + 0.08, 0);
-    arrow.lineTo(FOOTPRINT - 0.02, -0.16);
-    arrow.closePath();
-    const arrowGeometry = new THREE.ShapeGeometry(arrow).rotateX(-Math.PI / 2);
-    const fill = new THREE.MeshBasicMaterial({ color: this.colour, transparent: true, opacity: 0.28, depthWrite: false });
-    const solid = new THREE.MeshBasicMaterial({ color: this.colour, transparent: true, opacity: 0.95, depthWrite: false });
-    const parts = [new THREE.Mesh(discGeometry, fill), new THREE.Mesh(edgeGeometry, solid), new THREE.Mesh(arrowGeometry, solid)];
-    parts.forEach((mesh, i) => {
-      mesh.position.y = 0.012 + i * 0.002; // above the floor, below the selection ring
-      mesh.raycast = () => {};
-      mesh.renderOrder = 2;
-      this.heading.add(mesh);
-    });
-    this.footprintMaterials = [fill, solid];
-    this.group.add(this.heading);
-    this.geometries.push(discGeometry, edgeGeometry, arrowGeometry);
-    this.materials.push(fill, solid);
-  }
-
-  /** @param {boolean} hasCamera */
-  #builtin(hasCamera) {
-    // A TurtleBot-sized base: 0.4 m round, forward along +x like the robot frame.
-    const bodyGeometry = new THREE.CylinderGeometry(0.2, 0.2, 0.22, 32).translate(0, 0.13, 0);
-    const body = new THREE.MeshStandardMaterial({ name: 'body', color: this.colour, roughness: 0.6 });
-    const trimGeometry = new THREE.BoxGeometry(0.12, 0.06, 0.24).translate(0.14, 0.27, 0);
-    const trim = new THREE.MeshStandardMaterial({ color: '#222831', roughness: 0.8 });
-    /** @type {THREE.Mesh[]} */
-    const meshes = [new THREE.Mesh(bodyGeometry, body), new THREE.Mesh(trimGeometry, trim)];
-    this.geometries.push(bodyGeometry, trimGeometry);
-    this.materials.push(body, trim);
-    if (hasCamera) {
-      const camGeometry = new THREE.SphereGeometry(0.05, 16, 12).translate(0.16, 0.33, 0);
-      const cam = new THREE.MeshStandardMaterial({ color: '#0b0d12', roughness: 0.2, metalness: 0.5 });
-      meshes.push(new THREE.Mesh(camGeometry, cam));
-      this.geometries.push(camGeometry);
-      this.materials.push(cam);
-    }
-    for (const mesh of meshes) {
-      mesh.userData.robot = this.name;
-      this.body.add(mesh);
-    }
   }
 
   /**
@@ -163,26 +118,56 @@ export class RobotView {
         object.userData.robot = this.name;
       });
       this.materials.push(...adoptMaterials(model, this.colour));
-      this.body.clear();
-      this.body.add(model);
+      this.model = model;
+      this.hasModel = true;
       this.#applyTint();
+      this.setDetailed(this.detailed, true);
     } catch (error) {
       console.warn(`robot ${this.name}: model ${url} could not be loaded; keeping the built-in shape`, error);
     }
   }
 
   /**
-   * The label keeps about the same size on screen (LABEL_ANGLE), within LABEL_MIN..LABEL_MAX metres.
+   * The label keeps about the same size on screen (label_rule.js); the atlas draws it, the proxy sprite follows.
    * @param {number} distance from the viewer, metres
    */
   scaleLabel(distance) {
-    const h = Math.min(LABEL_MAX, Math.max(LABEL_MIN, LABEL_ANGLE * distance));
-    this.label.sprite.scale.set((h * this.label.canvas.width) / this.label.canvas.height, h, 1);
+    const h = labelHeight(distance);
+    this.label.sprite.scale.set(h * LABEL_ASPECT, h, 1);
+    return h;
+  }
+
+  /**
+   * Whether the full model is drawn (else the shared shape is, and picking meets the proxy).
+   * @param {boolean} detailed @param {boolean} [force]
+   */
+  setDetailed(detailed, force = false) {
+    if (detailed === this.detailed && !force) return;
+    this.detailed = detailed;
+    const shown = detailed && this.model ? this.model : this.proxy;
+    if (shown.parent !== this.body) {
+      this.body.clear();
+      this.body.add(shown);
+    }
   }
 
   /** Show or hide the laser scan (the operator's Scans switch). @param {boolean} on */
   showScan(on) {
-    this.scan.visible = on;
+    this.scanVisible = on;
+  }
+
+  /** Whether the scan must be packed again: a new one came, or the robot moved since (1 cm, 0.3 degree). */
+  scanMoved() {
+    const p = this.packed;
+    return this.scanNew || !(Math.abs(p.x - this.group.position.x) < 0.01 && Math.abs(p.z - this.group.position.z) < 0.01 && Math.abs(p.yaw - this.yaw) < 0.005);
+  }
+
+  /** The scan was packed with the robot here. @param {number} x @param {number} z @param {number} yaw */
+  packedAt(x, z, yaw) {
+    this.packed.x = x;
+    this.packed.z = z;
+    this.packed.yaw = yaw;
+    this.scanNew = false;
   }
 
   /**
@@ -192,8 +177,8 @@ export class RobotView {
   place(x, y, z, yaw) {
     this.group.visible = true;
     this.group.position.set(x, y, z);
+    this.yaw = yaw;
     this.body.rotation.y = yaw;
-    this.scan.rotation.y = yaw;
     this.heading.rotation.y = yaw;
   }
 
@@ -220,7 +205,7 @@ export class RobotView {
         material.opacity = offline ? 0.55 : 1;
       }
     });
-    for (const material of this.footprintMaterials) material.color.copy(this.colour).lerp(GREY, offline ? 0.8 : 0);
+    this.shared.tint(this.index, this.colour, offline);
   }
 
   /**
@@ -237,33 +222,28 @@ export class RobotView {
       : state.offline
         ? `offline${state.age !== null ? ` · ${formatAge(state.age)}` : ''}`
         : `${state.mode}${state.controller ? ` · ${state.controller}` : ''}`;
-    this.label.set([state.name, second], { accent: `#${this.colour.getHexString()}`, dim: old });
+    const lines = [state.name, second];
+    const style = { accent: `#${this.colour.getHexString()}`, dim: old };
+    const key = JSON.stringify([lines, style]);
+    if (key !== this.label.key) {
+      this.label.key = key;
+      this.atlas.draw(this.index, lines, style);
+    }
     this.ring.visible = state.selected;
     this.warning.sprite.visible = state.warning;
+    this.keepLabel = state.selected || state.warning;
   }
 
-  /** A scan message in the robot frame (see scan.js). @param {any} message */
+  /** A scan message in the robot frame (see scan.js): kept until the fleet's scans are packed. @param {any} message */
   setScan(message) {
-    const n = scanToPoints(message, this.scanXY);
-    for (let i = 0; i < n; i++) {
-      // Robot frame (x forward, y left) to the robot group's glTF frame, 15 cm above the floor.
-      this.scanPositions[3 * i] = this.scanXY[2 * i];
-      this.scanPositions[3 * i + 1] = 0.15;
-      this.scanPositions[3 * i + 2] = -this.scanXY[2 * i + 1];
-    }
-    const geometry = this.scan.geometry;
-    geometry.setDrawRange(0, n);
-    const attribute = /** @type {THREE.BufferAttribute} */ (geometry.getAttribute('position'));
-    attribute.clearUpdateRanges();
-    attribute.addUpdateRange(0, n * 3);
-    attribute.needsUpdate = true;
+    this.scanCount = scanToPoints(message, this.scanXY);
+    this.scanNew = true;
   }
 
   dispose() {
     this.disposed = true;
     this.loadGeneration++;
     this.group.removeFromParent();
-    this.label.dispose();
     this.warning.dispose();
     for (const g of this.geometries) g.dispose();
     for (const m of this.materials) m.dispose();

@@ -59,16 +59,18 @@ export function snapshotState(app) {
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
     rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
     world: app.world.visible,
+    labels: { capacity: app.fleetView.atlas.layout.capacity, whole: app.fleetView.atlas.uploads.whole, cells: app.fleetView.atlas.uploads.cells, scans: app.fleetView.scans.drawn },
     map: { rooms: app.fleetView.annotations.rooms, grid: app.fleetView.annotations.gridLines, north: app.fleetView.annotations.north },
     robots: Object.fromEntries(
       [...app.robotViews].map(([name, v]) => [
         name,
         {
           position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
-          scan: { points: v.scan.geometry.drawRange.count, visible: v.scan.visible },
+          scan: { points: v.scanCount, visible: v.scanVisible },
           // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
           heading: headingOf(app, v),
           labelHeight: v.label.sprite.scale.y,
+          labelOpacity: app.fleetView.atlas.opacities.getX(v.index), detailed: v.detailed,
           labelPixels: app.presenting ? null : labelPixels(app, v),
         },
       ]),

@@ -6,6 +6,7 @@
  */
 import * as THREE from 'three';
 import { mapToScene } from '../frames.js';
+import { disposeCopy, mergedCopy } from './merged_copy.js';
 
 export class TwinView {
   /** @param {{load: import('./gltf_loading.js').ModelLoader['load'], release: (url: string) => void}} loader */
@@ -15,6 +16,8 @@ export class TwinView {
     this.group.name = 'twin';
     /** @type {THREE.Object3D | null} */
     this.content = null;
+    /** What is drawn of a loaded twin: its meshes merged by material (merged_copy.js). @type {THREE.Object3D | null} */
+    this.drawn = null;
     /** @type {THREE.Object3D[]} */
     this.floorTargets = [];
     /** @type {string | null | undefined} */
@@ -119,9 +122,16 @@ export class TwinView {
   #show(content) {
     this.content = content;
     this.group.add(content);
+    if (content.name === 'drawn-floor') return;
+    // Drawn merged by material (merged_copy.js); the loaded nodes stay, hidden, for picking and bounds.
+    this.drawn = mergedCopy(content);
+    this.group.add(this.drawn);
+    content.visible = false;
   }
 
   #clear() {
+    disposeCopy(this.drawn);
+    this.drawn = null;
     if (!this.content) return;
     this.content.removeFromParent();
     // Drawn floors own their geometry; a glTF's resources stay cached in the loader for a reload.

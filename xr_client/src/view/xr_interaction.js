@@ -360,6 +360,8 @@ export class XRInteraction {
     mesh.position.copy(this.head).addScaledVector(forward, MENU_DISTANCE);
     mesh.position.y = this.head.y - 0.12;
     mesh.lookAt(this.head.x, mesh.position.y + 0.1, this.head.z);
+    // Drawn now (a closed menu is not kept drawn): its buttons are where the first ray after opening meets them.
+    host.menuPanel.update(host.menu, null, host.link());
   }
 
   dispose() {
