@@ -142,6 +142,38 @@ async def test_jpeg_when_asked_and_video_shows_the_same_picture_upright(
     assert jpeg.errors == [] and video.errors == [], (jpeg.errors, video.errors)
 
 
+async def test_a_codec_the_browser_refuses_falls_back_to_jpeg_and_says_so_once(
+    station: Station, open_client: OpenClient
+) -> None:
+    """A browser whose VideoDecoder will not take the stream's codec string (isConfigSupported says no: made to here)
+    streams JPEG instead, and the operator is told once, not at every stream."""
+    if station.camera is None or station.synthetic:
+        pytest.skip("the fleet's cameras are synthetic JPEG patterns: no video to decode")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "video-refused", 1280, 760)
+    await client.page.evaluate(
+        """() => {
+            VideoDecoder.isConfigSupported = async (config) => ({ supported: false, config });
+            const line = document.getElementById('message');
+            window.__said = [];
+            new MutationObserver(() => window.__said.push(line.textContent)).observe(line, { childList: true });
+        }"""
+    )
+    await start_live_desktop(client)
+    v = await client.wait("s.video.fallback && s.video.codec === 'jpeg' && s.pov.decoded >= 3 && s.video", 60)
+    assert v["fallback"].startswith("video decoding unavailable: JPEG frames"), v
+    assert v["errors"] == 0 and v["decoded"] == 0, v
+    # Live off and on again: JPEG at once, nothing said again.
+    page = client.page
+    await page.click('#menu button[data-button="camera:live"]')
+    await client.wait("!s.menu.live")
+    decoded = (await client.state())["pov"]["decoded"]
+    await page.click('#menu button[data-button="camera:live"]')
+    await client.wait("s.menu.live && s.video.codec === 'jpeg' && s.pov.decoded >= arg", 60, decoded + 3)
+    said = await page.evaluate("window.__said.filter((t) => t.startsWith('video decoding unavailable'))")
+    assert len(said) == 1, said
+    assert client.errors == [], client.errors
+
+
 async def test_vr_hemisphere_decodes_h264(station: Station, open_client: OpenClient) -> None:
     """In VR (IWER's Quest 3) the hemisphere shows the decoded video: frames decoded, uploaded to the one texture,
     and the headset's view changes while the robot turns."""

@@ -195,7 +195,9 @@ export class CommandSender {
       this.snapshots.failed++;
       this.snapshots.lastError = error.code;
     }
-    if (error.id !== null && this.pendingVideo.delete(String(error.id))) this.onVideoRefused(error);
+    // Refused when asked, or later without an id: a camera whose images turned out not to be encodable (its video
+    // streams end; the message starts with the camera's identifier).
+    if (error.id !== null ? this.pendingVideo.delete(String(error.id)) : error.code === ERROR_CODES.UNSUPPORTED) this.onVideoRefused(error);
   }
 
   /** Whether the last refused snapshot had no image to give. */

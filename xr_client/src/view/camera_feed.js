@@ -50,7 +50,9 @@ export class CameraFeed {
     // The decoder hands out what the browser's VideoDecoder gave it: VideoFrames.
     hemisphere.pull = () => /** @type {{frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null} */ (this.video.take());
     sender.onVideoRefused = (error) => {
-      if (error.id !== null && String(error.id) === this.request?.id) this.#fallBack(`video decoding unavailable: JPEG frames (${error.message})`);
+      const r = this.request;
+      const ours = error.id !== null ? String(error.id) === r?.id : Boolean(r && error.message.startsWith(`${r.camera.identifier}:`));
+      if (ours) this.#fallBack(`video decoding unavailable: JPEG frames (${error.message})`);
     };
   }
 
