@@ -53,6 +53,7 @@ class StreamCommand(TypedDict):
     id: RequestId
     camera: str
     fps: float
+    codec: NotRequired[Literal["jpeg", "h264"]]  # jpeg when omitted; h264 when hello's camera codecs offer it
 
 
 class LeaseCommand(TypedDict):

@@ -32,7 +32,7 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "targets": ["spill"], "name": "Valves", "mission": "m-1.robot1", "capture": "c-1",
                            "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
                            "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
-                           "facing": 0.5}  # fmt: skip
+                           "facing": 0.5, "codec": "h264"}  # fmt: skip
 
 
 def _identifier(cls: type) -> str:

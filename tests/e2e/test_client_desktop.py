@@ -140,6 +140,7 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
             "pov_still": still,
             "pov_live": live,
             "pov": live_state["pov"],
+            "video": live_state["video"],
             "note": "JS ms per drawn frame (update + render), headless Chromium on SwiftShader: a regression budget",
         },
     )

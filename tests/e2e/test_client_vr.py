@@ -146,7 +146,7 @@ async def test_vr_robot_pov(station: Station, open_client: OpenClient) -> None:
     await client.wait("s.pov.uploads >= arg", 30, before["pov"]["uploads"] + 6)
     s = await client.state()
     assert s["textures"] == before["textures"], "a texture was created while streaming"
-    record_timing("vr_live", {**window_stats(before["timing"], s["timing"]), "pov": s["pov"]})
+    record_timing("vr_live", {**window_stats(before["timing"], s["timing"]), "pov": s["pov"], "video": s["video"]})
 
     # Free Roam returns the operator where they were.
     await set_menu(client, True)

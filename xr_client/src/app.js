@@ -27,7 +27,7 @@ import { FleetView } from './view/fleet_view.js';
 import { GoalView } from './view/goal_view.js';
 import { TeleportView, Vignette } from './view/comfort_view.js';
 import { HemisphereScreen, POV_LAYER } from './view/hemisphere_screen.js';
-import { FrameDecoder } from './view/frame_decoder.js';
+import { CameraFeed } from './view/camera_feed.js';
 import { MenuPanel } from './view/panels.js';
 import { XRInput } from './view/xr_input.js';
 import { XRInteraction } from './view/xr_interaction.js';
@@ -90,7 +90,7 @@ export class App {
   /** @type {HemisphereScreen} */ hemisphere = UNBUILT;
   /** @type {FleetView} */ fleetView = UNBUILT;
   /** @type {Map<string, import('./view/robot_view.js').RobotView>} */ robotViews = UNBUILT;
-  /** @type {FrameDecoder} */ decoder = UNBUILT;
+  /** @type {CameraFeed} */ feed = UNBUILT;
   /** @type {XRInput} */ xrInput = UNBUILT;
   /** @type {XRInteraction} */ interaction = UNBUILT;
   /** @type {FindingCard} */ findingCard = UNBUILT;
@@ -194,10 +194,8 @@ export class App {
     this.operatorUi = new OperatorUi({ sender: this.sender, storage: window.localStorage, params: new URLSearchParams(location.search), presenting: () => this.presenting, sendGoal: (robot, goal) => this.#goalFor(robot, goal) });
     this.hemisphere = new HemisphereScreen(640, 640);
     this.scene.add(this.hemisphere.group);
-    this.decoder = new FrameDecoder(
-      () => ({ width: this.hemisphere.width, height: this.hemisphere.height }),
-      (bitmap, header) => this.hemisphere.show(bitmap, header),
-    );
+    // JPEG pictures and H.264 video onto the hemisphere; a fallback from video to JPEG is said once.
+    this.feed = new CameraFeed({ hemisphere: this.hemisphere, sender: this.sender, say: (text) => this.#notify(text, 'warning'), params: new URLSearchParams(location.search) });
     this.xrInput = new XRInput(this.renderer, this.rig, this.scene);
     const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
     this.findingCard = new FindingCard(token);
@@ -216,7 +214,7 @@ export class App {
 
   #listen() {
     this.#on(this.connection, 'message', (e) => this.#onMessage(/** @type {CustomEvent} */ (e).detail));
-    this.#on(this.connection, 'frame', (e) => this.decoder.push(/** @type {CustomEvent} */ (e).detail));
+    this.#on(this.connection, 'frame', (e) => this.feed.push(/** @type {CustomEvent} */ (e).detail));
     this.#on(this.connection, 'status', () => this.#onLink());
     this.#on(window, 'resize', () => this.#resize());
     this.#on(document, 'visibilitychange', () => {
@@ -414,7 +412,7 @@ export class App {
           break;
         case 'stream': {
           const camera = this.fleet.camera(effect.robot);
-          if (camera) this.sender.stream(effect.robot, camera.name, effect.fps);
+          if (camera) this.feed.stream(effect.robot, camera, effect.fps);
           break;
         }
         case 'snapshot':
@@ -447,8 +445,8 @@ export class App {
     this.inspectionUi.update(this.menu);
     const camera = this.fleet.camera(this.menu.selected);
     const identifier = camera?.identifier ?? '';
-    if (identifier !== this.decoder.accept) {
-      this.decoder.setAccepted(identifier);
+    if (identifier !== this.feed.accept) {
+      this.feed.setAccepted(identifier);
       this.hemisphere.clear(camera ? 'no image yet: Snapshot or Live' : 'this robot has no camera');
       this.hemisphere.calibration = camera ? { width: camera.width, height: camera.height } : null;
       if (camera) this.hemisphere.setSize(camera.width, camera.height);
@@ -578,7 +576,7 @@ export class App {
     this.unlisten = [];
     this.xrSession.dispose();
     this.connection.dispose();
-    this.decoder.dispose();
+    this.feed.dispose();
     this.desktop.dispose();
     this.overlay.dispose();
     this.interaction.dispose();

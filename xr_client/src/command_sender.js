@@ -40,6 +40,10 @@ export class CommandSender {
   snapshots = { requested: 0, acked: 0, failed: 0, lastError: '' };
   /** Ids of snapshot requests awaiting their ack or error. @type {Set<string>} */
   pendingSnapshots = new Set();
+  /** Ids of H.264 stream requests awaiting their ack or error (a relay may refuse video for a camera). @type {Set<string>} */
+  pendingVideo = new Set();
+  /** Called with the relay's `error` when it refuses a stream asked for as H.264 (view/camera_feed.js falls back). @type {(error: import('./protocol.js').ErrorMessage) => void} */
+  onVideoRefused = () => {};
 
   /**
    * @param {Link} link
@@ -87,9 +91,14 @@ export class CommandSender {
     if (command.linear === 0 && command.angular === 0) this.counts.zeros++;
   }
 
-  /** @param {string} robot @param {string} camera @param {number} fps 0 stops */
-  stream(robot, camera, fps) {
-    return this.#send({ identifier: robotIdentifier(robot, 'stream'), camera, fps });
+  /**
+   * @param {string} robot @param {string} camera @param {number} fps 0 stops
+   * @param {'jpeg' | 'h264'} [codec] omitted: the relay's default, JPEG
+   */
+  stream(robot, camera, fps, codec) {
+    const id = this.#send(codec ? { identifier: robotIdentifier(robot, 'stream'), camera, fps, codec } : { identifier: robotIdentifier(robot, 'stream'), camera, fps });
+    if (id && codec === 'h264' && fps > 0) this.pendingVideo.add(id);
+    return id;
   }
 
   /** @param {string} robot @param {string | null} camera null: the robot's first camera */
@@ -177,6 +186,7 @@ export class CommandSender {
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;
+    this.pendingVideo.delete(String(id));
   }
 
   /** An `error` arrived. @param {import('./protocol.js').ErrorMessage} error */
@@ -185,6 +195,9 @@ export class CommandSender {
       this.snapshots.failed++;
       this.snapshots.lastError = error.code;
     }
+    // Refused when asked, or later without an id: a camera whose images turned out not to be encodable (its video
+    // streams end; the message starts with the camera's identifier).
+    if (error.id !== null ? this.pendingVideo.delete(String(error.id)) : error.code === ERROR_CODES.UNSUPPORTED) this.onVideoRefused(error);
   }
 
   /** Whether the last refused snapshot had no image to give. */
@@ -195,5 +208,6 @@ export class CommandSender {
   /** A new `hello`: nothing sent before it will be answered. */
   reset() {
     this.pendingSnapshots.clear();
+    this.pendingVideo.clear();
   }
 }

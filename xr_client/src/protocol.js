@@ -69,7 +69,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, linear: number, angular: number, id?: RequestId, t?: number}} CmdVelCommand */
 /** @typedef {{identifier: string, id: RequestId}} CancelCommand */
 /** @typedef {{identifier: string, id: RequestId, camera?: string}} SnapshotCommand */
-/** @typedef {{identifier: string, id: RequestId, camera: string, fps: number}} StreamCommand */
+/** @typedef {{identifier: string, id: RequestId, camera: string, fps: number, codec?: 'jpeg' | 'h264'}} StreamCommand */
 /** @typedef {{identifier: string, id: RequestId, action?: 'acquire' | 'release', force?: boolean}} LeaseCommand */
 /** @typedef {{identifier: 'estop', id: RequestId, robot?: string, action?: 'stop' | 'reset'}} EstopCommand */
 /** @typedef {{identifier: 'name', id: RequestId, name: string}} NameCommand */

@@ -149,3 +149,20 @@ test('every cmd_vel carries the client clock as t, so the relay can drop a comma
   assert.deepEqual(sent.map((m) => m.t), [1234, 1285]);
   assert.deepEqual(Object.keys(sent[0]).sort(), ['angular', 'identifier', 'linear', 't']);
 });
+
+test('a stream asked as H.264 that the relay refuses, then or later, is told to the feed; JPEG ones are not', () => {
+  /** @type {any[]} */
+  const refused = [];
+  let n = 0;
+  const sender = new CommandSender({ send: () => `r${++n}` }, () => {});
+  sender.onVideoRefused = (error) => refused.push(error.message);
+  const video = sender.stream('robot1', 'front', 15, 'h264');
+  const jpeg = sender.stream('robot1', 'front', 15, 'jpeg');
+  sender.failed({ identifier: 'error', id: jpeg, code: 'unsupported', message: 'no' });
+  assert.deepEqual(refused, []);
+  sender.failed({ identifier: 'error', id: video, code: 'unsupported', message: 'robot1/stream: 641x480' });
+  sender.failed({ identifier: 'error', id: video, code: 'unsupported', message: 'answered once' });
+  sender.acked(sender.stream('robot1', 'front', 15, 'h264') ?? '');
+  sender.failed({ identifier: 'error', id: null, code: 'unsupported', message: 'robot1/camera/front: encoder failed' });
+  assert.deepEqual(refused, ['robot1/stream: 641x480', 'robot1/camera/front: encoder failed']);
+});

@@ -3,9 +3,11 @@
  * Camera frames off the render path: parse the header, decode the JPEG with createImageBitmap (the
  * browser decodes it on another thread), flipped with imageOrientation 'flipY' (three.js ignores
  * texture.flipY for ImageBitmaps) and resized to the screen's fixed texture size, so that every upload
- * reuses one texture. One decode in flight, newest wins.
+ * reuses one texture. One decode in flight, newest wins. (H.264 frames take view/camera_feed.js's other path.)
  */
 import { LatestOnly, parseFrame } from '../camera_frame.js';
+
+/** @typedef {{header: import('../camera_frame.js').FrameHeader, payload: Uint8Array}} ParsedFrame */
 
 export class FrameDecoder {
   /**
@@ -20,7 +22,7 @@ export class FrameDecoder {
     this.generation = 0;
     this.decoded = 0;
     this.received = 0;
-    /** @type {LatestOnly<{buffer: ArrayBuffer, generation: number}>} */
+    /** @type {LatestOnly<{frame: ParsedFrame, generation: number}>} */
     this.queue = new LatestOnly((item) => this.#decode(item));
   }
 
@@ -34,13 +36,18 @@ export class FrameDecoder {
 
   /** @param {ArrayBuffer} buffer */
   push(buffer) {
-    this.received++;
-    this.queue.submit({ buffer, generation: this.generation });
+    this.pushFrame(parseFrame(buffer));
   }
 
-  /** @param {{buffer: ArrayBuffer, generation: number}} item */
-  async #decode({ buffer, generation }) {
-    const { header, payload } = parseFrame(buffer);
+  /** A frame whose header was read already. @param {ParsedFrame} frame */
+  pushFrame(frame) {
+    this.received++;
+    this.queue.submit({ frame, generation: this.generation });
+  }
+
+  /** @param {{frame: ParsedFrame, generation: number}} item */
+  async #decode({ frame, generation }) {
+    const { header, payload } = frame;
     if (header.identifier !== this.accept || generation !== this.generation) return;
     if (header.encoding !== 'jpeg' && header.encoding !== 'png') throw new Error(`unsupported frame encoding ${header.encoding}`);
     const { width, height } = this.size();

@@ -7,7 +7,14 @@
  * One texture of fixed size, without mipmaps (video does not need them, and generating them doubles the
  * frame time), is created once and reused for every frame: a decoded ImageBitmap (already flipped, see
  * FrameDecoder) replaces the texture's image and is uploaded in place (texSubImage2D); the previous bitmap
- * is closed at once. Never a new texture per frame.
+ * is closed at once. Never a new texture per frame. A decoded H.264 picture (a WebCodecs VideoFrame) goes into the
+ * same texture the same way, no canvas in between: WebGL takes a VideoFrame as a texture source, and the frame is
+ * closed as soon as it is uploaded (a decoder's frames are few; holding them stalls it). The screen pulls the newest
+ * picture just before it is drawn (`pull`, set by view/camera_feed.js), so a frame is uploaded only when drawn.
+ *
+ * Why not three.js's VideoFrameTexture: it is a VideoTexture, which three.js re-allocates (texImage2D) on every
+ * upload instead of writing into the texture's storage (texSubImage2D), and it would be a second texture beside
+ * the JPEG one: the tests pin one texture, reused for every frame, whatever the codec.
  *
  * The cap lives on its own layer (POV_LAYER): the desktop's picture-in-picture camera sees only that
  * layer, the main desktop camera never does, and in VR the layer is switched on while in Robot POV.
@@ -52,8 +59,16 @@ export class HemisphereScreen {
     floor.layers.set(POV_LAYER);
     this.group.add(floor);
     this.lensKey = '';
-    /** @type {ImageBitmap | null} */
-    this.bitmap = null;
+    /** @type {ImageBitmap | VideoFrame | null} the picture on the texture (closed when replaced) */
+    this.source = null;
+    /** @type {(() => {frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null) | null} */
+    this.pull = null;
+    // The newest decoded video picture goes onto the texture just before the screen is drawn (each eye in VR:
+    // the second finds nothing new).
+    this.mesh.onBeforeRender = () => {
+      const next = this.pull?.();
+      if (next) this.showVideo(next.frame, next.header);
+    };
     this.lastSeq = 0;
     this.lastIdentifier = '';
     /** @type {{width: number, height: number} | null} the selected camera's configured size: K's pixels */
@@ -76,8 +91,8 @@ export class HemisphereScreen {
     this.placeholder.width = width;
     this.placeholder.height = height;
     this.#drawPlaceholder(this.placeholder, 'no image yet: Snapshot or Live');
-    /** @type {THREE.Texture<HTMLCanvasElement | ImageBitmap>} */
-    const texture = new THREE.Texture(/** @type {HTMLCanvasElement | ImageBitmap} */ (this.placeholder));
+    /** @type {THREE.Texture<HTMLCanvasElement | ImageBitmap | VideoFrame>} */
+    const texture = new THREE.Texture(/** @type {HTMLCanvasElement | ImageBitmap | VideoFrame} */ (this.placeholder));
     texture.colorSpace = THREE.SRGBColorSpace;
     texture.generateMipmaps = false;
     texture.minFilter = THREE.LinearFilter;
@@ -85,6 +100,11 @@ export class HemisphereScreen {
     texture.needsUpdate = true;
     texture.onUpdate = () => {
       this.uploads++;
+      // Uploaded: the texture has the pixels, the decoder gets its frame back.
+      if (typeof VideoFrame !== 'undefined' && texture.image instanceof VideoFrame) {
+        texture.image.close();
+        if (this.source === texture.image) this.source = null;
+      }
     };
     return texture;
   }
@@ -97,8 +117,8 @@ export class HemisphereScreen {
     const w = Math.max(16, Math.min(2048, Math.round(width)));
     const h = Math.max(16, Math.min(2048, Math.round(height)));
     if (w === this.width && h === this.height) return false;
-    this.bitmap?.close();
-    this.bitmap = null;
+    this.source?.close();
+    this.source = null;
     this.texture.dispose();
     this.texture = this.#createTexture(w, h);
     this.material.map = this.texture;
@@ -133,20 +153,40 @@ export class HemisphereScreen {
     // circle models and pinhole scale with the image, whose own size the header gives.
     const size = header.lens.model === 'opencv_fisheye' && this.calibration ? this.calibration : header;
     this.setLens(header.lens, size.width, size.height);
-    const previous = this.bitmap;
-    this.bitmap = bitmap;
-    this.texture.image = bitmap;
+    this.#replace(bitmap, header);
+  }
+
+  /**
+   * A decoded video picture, top-down like the camera's image: WebGL flips it on upload (texture.flipY, as for
+   * the placeholder canvas), unlike an ImageBitmap, which WebGL never flips and the JPEG path decodes flipped.
+   * @param {VideoFrame} frame @param {import('../camera_frame.js').FrameHeader} header
+   */
+  showVideo(frame, header) {
+    // A frame of another size than the texture (a camera that changed its resolution): a texture of its size,
+    // once; texSubImage2D into storage of another size would fail.
+    if (frame.displayWidth !== this.width || frame.displayHeight !== this.height) this.setSize(frame.displayWidth, frame.displayHeight);
+    const size = header.lens.model === 'opencv_fisheye' && this.calibration ? this.calibration : header;
+    this.setLens(header.lens, size.width, size.height);
+    this.#replace(frame, header);
+  }
+
+  /** @param {ImageBitmap | VideoFrame} source @param {import('../camera_frame.js').FrameHeader} header */
+  #replace(source, header) {
+    const previous = this.source;
+    this.source = source;
+    this.texture.image = source;
     this.texture.needsUpdate = true;
     this.lastSeq = header.seq;
     this.lastIdentifier = header.identifier;
-    // Uploaded at the next render or replaced before it: either way nobody needs the old one.
+    // Uploaded at the next render or replaced before it: either way nobody needs the old one. (A VideoFrame
+    // uploaded already was closed then: closing twice is harmless.)
     previous?.close();
   }
 
   /** Back to the placeholder (another robot selected). @param {string} text */
   clear(text) {
-    this.bitmap?.close();
-    this.bitmap = null;
+    this.source?.close();
+    this.source = null;
     this.#drawPlaceholder(this.placeholder, text);
     this.texture.image = this.placeholder;
     this.texture.needsUpdate = true;
@@ -198,7 +238,9 @@ export class HemisphereScreen {
   }
 
   dispose() {
-    this.bitmap?.close();
+    this.mesh.onBeforeRender = () => {};
+    this.pull = null;
+    this.source?.close();
     this.texture.dispose();
     this.material.dispose();
     this.geometry.dispose();

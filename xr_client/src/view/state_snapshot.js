@@ -1,7 +1,7 @@
 // @ts-check
 /**
  * The read-only snapshot of the client behind `window.__xrRelay.state`: what the end-to-end tests wait on
- * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, frame timing) and what a developer
+ * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, video decoding, frame timing) and what a developer
  * reads in a console. Building it changes nothing.
  */
 import * as THREE from 'three';
@@ -10,7 +10,8 @@ import { mapToScene, sceneYawToMap } from '../frames.js';
 /** @param {import('../app.js').App} app */
 export function snapshotState(app) {
   const rigQuaternion = app.rig.getWorldQuaternion(new THREE.Quaternion());
-  const { hemisphere, decoder, menu, interaction } = app;
+  const { hemisphere, menu, interaction } = app;
+  const decoder = app.feed.jpeg;
   return {
     connected: app.linkOk,
     link: app.linkText,
@@ -96,6 +97,8 @@ export function snapshotState(app) {
       mipmaps: hemisphere.texture.generateMipmaps,
       snapshots: { ...app.sender.snapshots },
     },
+    // The live stream's codec and the H.264 decoder's counts (view/camera_feed.js, video_decoder.js).
+    video: app.feed.state(),
     timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles, pixelRatio: app.renderer.getPixelRatio(), maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null },
