@@ -21,6 +21,10 @@
 export const MAX_DECODE_QUEUE = 30;
 /** Packets kept while the browser says whether it decodes the codec (a promise: a few ms; 1 s at 30 fps at most). */
 export const MAX_PENDING = 30;
+/** Decoder errors in a row, with no picture between them, after which the stream is not decodable here: each one
+ * costs a keyframe from the relay (about a second of nothing on screen), so a decoder that fails every keyframe it
+ * is given falls back to JPEG instead of asking forever. */
+export const MAX_FAILURES = 3;
 
 /**
  * @typedef {{timestamp: number, close(): void}} FrameLike a decoded picture (a VideoFrame)
@@ -84,6 +88,8 @@ export class H264Decoder {
       gaps: 0, gapKeyframes: 0,
     };
     this.lastError = '';
+    /** Decoder errors since the last decoded picture. */
+    this.failures = 0;
   }
 
   /** Decode this camera's stream from its next keyframe (a new stream or a new camera). @param {string} identifier */
@@ -229,6 +235,7 @@ export class H264Decoder {
       return;
     }
     this.counts.decoded++;
+    this.failures = 0;
     if (this.held) {
       this.held.frame.close(); // never drawn: the page draws less often than frames come
       this.counts.dropped++;
@@ -241,6 +248,13 @@ export class H264Decoder {
     if (generation !== this.generation) return;
     this.counts.errors++;
     this.lastError = String(error?.message ?? error);
+    if (++this.failures >= MAX_FAILURES) {
+      const codec = this.codec;
+      this.#closeDecoder();
+      this.phase = 'unsupported';
+      this.host.unsupported(`${codec} (${this.failures} decoder errors in a row: ${this.lastError})`);
+      return;
+    }
     this.#recover('decoder error');
   }
 

@@ -1,7 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { H264Decoder, MAX_DECODE_QUEUE, streamCodec } from '../src/video_decoder.js';
+import { H264Decoder, MAX_DECODE_QUEUE, MAX_FAILURES, streamCodec } from '../src/video_decoder.js';
 
 const CAMERA = 'robot1/camera/front';
 
@@ -286,4 +286,23 @@ test('the codec: H.264 only when the relay offers it, the browser decodes it and
   assert.equal(streamCodec(camera, { ...here, forced: 'jpeg' }), 'jpeg');
   assert.equal(streamCodec(camera, { ...here, refused: new Set([CAMERA]) }), 'jpeg');
   assert.equal(streamCodec(null, here), 'jpeg');
+});
+
+test('a decoder that fails at every keyframe gives up: the stream is called undecodable, not asked for forever', async () => {
+  const { platform, decoders } = fakePlatform();
+  const h = host();
+  const d = new H264Decoder(platform, wire(h));
+  d.start(CAMERA);
+  d.push(...packet(true));
+  await tick();
+  decoders[0].flush(); // one picture: the count of failures in a row starts from here
+  for (let i = 0; i < MAX_FAILURES; i++) {
+    decoders[decoders.length - 1].fail();
+    d.push(...packet(true));
+  }
+  assert.equal(h.restarts.length, MAX_FAILURES - 1);
+  assert.equal(h.unsupported.length, 1);
+  assert.match(h.unsupported[0], /^avc1\.42C01E \(3 decoder errors in a row: Decoding error\.\)$/);
+  assert.equal(d.phase, 'unsupported');
+  assert.equal(decoders.length, MAX_FAILURES, 'no decoder after giving up');
 });

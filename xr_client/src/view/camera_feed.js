@@ -45,7 +45,7 @@ export class CameraFeed {
     this.request = null;
     this.video = new H264Decoder(this.hasDecoder ? webCodecs() : unavailable(), {
       restart: () => this.#again(),
-      unsupported: (codec) => this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${codec})`),
+      unsupported: (why) => this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${why})`),
     });
     // The decoder hands out what the browser's VideoDecoder gave it: VideoFrames.
     hemisphere.pull = () => /** @type {{frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null} */ (this.video.take());
