@@ -120,8 +120,10 @@ async def test_a_frozen_page_has_its_robot_stopped_by_the_worker(station: Statio
     during = station.velocities_of("robot2", frozen)
     zero_at = next(t for t, lin, ang in during if lin == 0 and ang == 0)
     assert not freeze.done(), "the zero came from the worker, while the page was still frozen"
-    # The worker kept driving until its bound (the page froze at most one 100 ms confirmation after `frozen`).
-    assert HOLD_S - 0.3 <= zero_at - frozen <= HOLD_S + 0.6, zero_at - frozen
+    # The worker kept driving until its bound, counted from the page's last confirmation: that came with the page's
+    # last frame before the freeze, up to one slow frame before `frozen` (SwiftShader frames measured up to 1.05 s on
+    # a loaded CI machine: once the zero came 1.0 s after `frozen`).
+    assert HOLD_S - 1.05 - 0.05 <= zero_at - frozen <= HOLD_S + 0.6, zero_at - frozen
     assert sum(1 for t, lin, _ in during if t < zero_at and lin > 0.5) >= 10
     await freeze
 
