@@ -30,6 +30,7 @@ from relay.config.model import Ros
 from relay.imaging import JPEG_QUALITY, encode_jpeg, raw_to_bgr
 
 from .common import (
+    BURSTS,
     FISHEYE,
     ROOT,
     TOKEN,
@@ -332,8 +333,6 @@ def explain(result: JsonDict) -> str:
             f"the client got {delivered:.1f} of {encoded:.1f} encoded fps per camera (the hub's per-client throttle)"
         )
     if len(result["fps"]) > 1 and result.get("qos") != "best_effort" and delivered < 0.95 * FPS:
-        from .bench_video import BURSTS
-
         reasons.append(BURSTS + f" (latency p99 {fmt(result['latency_ms']['p99'], 0)} ms here)")
     if max(result["fps"].values()) > 1.5 * max(min(result["fps"].values()), 0.1):
         reasons.append("the cameras were served unevenly: " + ", ".join(f"{v:.1f}" for v in result["fps"].values()))

@@ -33,7 +33,20 @@ import numpy as np
 from relay.imaging import JPEG_QUALITY, encode_jpeg
 from relay.video import H264Encoder, default_bitrate
 
-from .common import FISHEYE, TOKEN, Child, CpuWindow, JsonDict, Report, Settings, fmt, new_ros_domain, ros_env, summary
+from .common import (
+    BURSTS,
+    FISHEYE,
+    TOKEN,
+    Child,
+    CpuWindow,
+    JsonDict,
+    Report,
+    Settings,
+    fmt,
+    new_ros_domain,
+    ros_env,
+    summary,
+)
 from .common import target as make_target
 from .wsload import Recorder, close_all, connect
 
@@ -49,13 +62,6 @@ TARGET_SSIM = 0.95
 TARGET_ENCODE_CORE = 0.25
 TARGET_VIEWERS_EXTRA = 0.10
 TARGET_FPS = 28.5
-#: What the 3 x 720p runs show and what would be next, said where the target is missed.
-BURSTS = (
-    "250 MB/s of raw images over loopback DDS arrive in bursts after stalls of up to a few hundred ms (reliable "
-    "repairs); a stream keeps up to two periods of late frames and drops the staler ones (newest wins, bounded "
-    "latency). Next step: images compressed at the source (CompressedImage: 166 kB instead of 2.7 MB, passed "
-    "through at 30 fps with p50 1 ms by the camera benchmark) or Fast DDS shared memory with loaned messages"
-)
 
 
 def ssim(a: np.ndarray, b: np.ndarray) -> float:

@@ -142,12 +142,12 @@ class LatestFrameEncoder(Generic[Image]):
                 self._submitted += 1
                 sequence = self._submitted
 
-    def done(self, frame: FrameEvent | None, image: Image, sequence: int | None = None) -> None:
+    def done(self, frame: FrameEvent | None, image: Image, sequence: int) -> None:
         """On the loop: a frame (or None: the image could not be read) is ready; ``sequence`` orders the images
         submitted (a frame older than one already delivered is dropped)."""
         with self._lock:
             self._in_transit = max(0, self._in_transit - 1)
-        if frame is not None and sequence is not None:
+        if frame is not None:
             if sequence < self._delivered:
                 self.out_of_order += 1
                 return  # a newer frame of this camera went out first: never send one out of order

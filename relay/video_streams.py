@@ -21,7 +21,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -61,7 +61,6 @@ class _Camera:
     last_loss: float = -1e9
     last_change: float = -1e9
     failed: str | None = None
-    skipped: int = field(default=0)
 
 
 class VideoStreams:
@@ -90,8 +89,6 @@ class VideoStreams:
         if camera.failed is not None:
             return
         if camera.busy:
-            if camera.pending is not None:
-                camera.skipped += 1
             camera.pending = frame  # newest wins, before encoding
             return
         camera.busy = True
@@ -110,10 +107,6 @@ class VideoStreams:
         camera = self._cameras.pop(identifier, None)
         if camera is not None and camera.encoder is not None and not camera.busy:
             camera.encoder.close()
-
-    def bitrate(self, identifier: str) -> int | None:
-        camera = self._cameras.get(identifier)
-        return camera.target if camera is not None and camera.target else None
 
     def close(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)
