@@ -16,7 +16,9 @@ client. Per client there are three lanes, drained by one writer task:
   encoder for one). A client that starts a video stream also waits for a keyframe. JPEG and video take turns.
 
 The writer awaits each send, so a client that stops reading blocks only its own writer (aiohttp waits for
-the socket to drain past its high-water mark) while the lanes above keep its memory bounded.
+the socket to drain past its high-water mark) while the lanes above keep its memory bounded. The server keeps
+that high-water mark and the kernel's unsent bytes small (``relay.server.bound_backlog``), so the lanes, not
+the socket, are where a slow client's pictures wait and are dropped.
 
 **Batching** (a client that connects with ``/ws?batch=1``): when the writer gets the socket it takes everything
 waiting in the state lane and sends it as one text frame, a JSON array of the messages' bytes joined with commas

@@ -40,6 +40,15 @@ MAX_FRAME_BYTES = 1024 * 1024
 #: fill before the hub's lanes even notice; 256 kB (the kernel doubles it) still carries a 30 fps camera
 #: stream over a LAN round trip of tens of milliseconds.
 SOCKET_SEND_BUFFER = 256 * 1024
+#: Unsent bytes the kernel holds per WebSocket (TCP_NOTSENT_LOWAT): bytes in flight are limited by the send
+#: buffer above, bytes not yet sent by this. Without it a viewer that stops reading (or a network that slows down)
+#: took the whole 512 kB before the hub's lanes dropped anything: 1.6 s of a 2.5 Mbit/s video, 3 JPEG frames of
+#: 720p, each one a picture that much older (measured: tests/test_video.py). 64 kB is 0.2 s of that video.
+UNSENT_BYTES = 64 * 1024
+#: asyncio's buffer above the kernel (its default high-water mark is 64 kB and aiohttp looked at it only every
+#: 64 kB written): aiohttp's writer waits past this, and checks after every WEBSOCKET_WRITER_LIMIT bytes.
+WRITE_BUFFER_BYTES = 32 * 1024
+WEBSOCKET_WRITER_LIMIT = 16 * 1024
 #: Shutdown budget: Ctrl-C must leave within 2 s, robots stopped and sockets closed.
 SHUTDOWN_TIMEOUT = 1.5
 
@@ -64,6 +73,20 @@ class AiohttpTransport:
 
     async def close(self, code: int, reason: str) -> None:
         await self._ws.close(code=code, message=reason.encode())
+
+
+def bound_backlog(transport: asyncio.BaseTransport | None) -> None:
+    """Keep what a WebSocket holds for a peer that does not read small, so that the hub's lanes see it at once
+    and drop (a JPEG frame, a video stream until its next keyframe) instead of queueing seconds of pictures."""
+    if not isinstance(transport, asyncio.WriteTransport):
+        return
+    transport.set_write_buffer_limits(high=WRITE_BUFFER_BYTES)
+    sock = transport.get_extra_info("socket")
+    if sock is None or sock.family not in (socket.AF_INET, socket.AF_INET6):
+        return
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_SEND_BUFFER)
+    if hasattr(socket, "TCP_NOTSENT_LOWAT"):  # Linux and macOS; elsewhere the send buffer alone bounds it
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NOTSENT_LOWAT, UNSENT_BYTES)
 
 
 #: Content types by extension. Explicit because ES modules must be served as JavaScript, glTF has no
@@ -149,10 +172,10 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     if delay > 0:
         await asyncio.sleep(delay)
     # compress=False: per-message deflate would compress per client and defeat "encode once".
-    ws = web.WebSocketResponse(compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0)
-    sock = request.transport.get_extra_info("socket") if request.transport is not None else None
-    if sock is not None:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCKET_SEND_BUFFER)
+    ws = web.WebSocketResponse(
+        compress=False, max_msg_size=MAX_FRAME_BYTES, heartbeat=20.0, writer_limit=WEBSOCKET_WRITER_LIMIT
+    )
+    bound_backlog(request.transport)
     await ws.prepare(request)
     request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)

@@ -6,6 +6,7 @@ The images are the real fisheye photo of shared/data panned across (so the encod
 from __future__ import annotations
 
 import asyncio
+import socket
 import time
 from typing import Any
 
@@ -13,8 +14,10 @@ import av
 import cv2
 import numpy as np
 import pytest
+from websockets.asyncio.client import connect
 
 from relay.hub import Hub
+from relay.messages import FrameHeader, encode_frame
 from relay.video import H264Encoder, VideoError, codec_string
 from tests.conftest import SHARED_DATA, RunningRelay
 from tests.test_hub import RecordingTransport, settle
@@ -143,3 +146,71 @@ async def test_a_codec_that_does_not_exist_is_refused_by_name_and_nothing_stream
         assert client.frames == []
     finally:
         await client.close()
+
+
+#: Bytes the relay may have written into a stalled viewer's connection before its video lane drops: the
+#: connection's unsent kernel bytes (server.UNSENT_BYTES), asyncio's buffer (server.WRITE_BUFFER_BYTES) and what
+#: the viewer's own small socket takes. Measured 63 kB; 513 kB before the relay bounded the unsent bytes (its
+#: 512 kB send buffer full of them: 1.6 s of this 2.5 Mbit/s stream that a viewer would see late before the lane
+#: noticed anything).
+STALLED_BACKLOG = 160 * 1024
+
+
+def pan_frames(identifier: str, width: int, height: int, count: int) -> list[tuple[bytes, bool]]:
+    """The wire frames (header and packet) of a pan at the default bitrate, as the relay sends them."""
+    encoder = H264Encoder(width, height, 30.0)
+    frames = []
+    for i, image in enumerate(panning(width, height, count)):
+        for packet in encoder.encode(image, i / 30):
+            header: FrameHeader = {
+                "identifier": identifier,
+                "seq": i,
+                "stamp": i / 30,
+                "encoding": "h264",
+                "width": width,
+                "height": height,
+                "lens": {"model": "pinhole", "fov": 90.0},
+                "request_id": None,
+                "keyframe": packet.keyframe,
+                "codec": packet.codec,
+            }
+            frames.append((encode_frame(header, packet.data), packet.keyframe))
+    encoder.close()
+    return frames
+
+
+async def test_a_viewer_that_stops_reading_is_noticed_within_a_bounded_backlog(relay_server: RunningRelay) -> None:
+    # A viewer whose socket takes little (a slow network does the same): it reads the hello, then nothing.
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # before connect: the window it offers
+    host, port = relay_server.ws_url.split("/")[2].split(":")
+    sock.setblocking(False)
+    await asyncio.get_running_loop().sock_connect(sock, (host, int(port)))
+    client = TestClient(await connect(relay_server.ws_url, sock=sock, max_size=8 * 1024 * 1024))
+    await client.hello()
+    hub = relay_server.relay.hub
+    (channel,) = list(hub)
+    identifier = "robot1/camera/test"
+    hub.set_stream(channel, identifier, 30.0, "h264")
+    client.ws.transport.pause_reading()
+    # Real packets of a 1280x720 pan at the camera default's bitrate (~10 kB each), published at 30 fps.
+    frames = await asyncio.to_thread(pan_frames, identifier, 1280, 720, 60)
+    sent_before = hub.counters.bytes_out
+    published = 0
+    for i in range(10 * 30):  # at most 10 s
+        data, keyframe = frames[i % len(frames)]
+        hub.publish_video(identifier, data, keyframe)
+        published += len(data)
+        if hub.counters.video_dropped:
+            break
+        await asyncio.sleep(1 / 30)
+    written = hub.counters.bytes_out - sent_before
+    assert hub.counters.video_dropped, f"nothing dropped after {published} bytes to a viewer that reads nothing"
+    assert written <= STALLED_BACKLOG, f"{written} bytes went into the stalled connection before the lane dropped"
+    # It reads again: the connection delivers what was written (the relay did not lose its place).
+    client.ws.transport.resume_reading()
+    deadline = time.monotonic() + 10
+    while not any(h["identifier"] == identifier for _, h, _ in client.frames):
+        assert time.monotonic() < deadline, "the viewer got none of the stream after it read again"
+        await asyncio.sleep(0.05)
+    await client.close()

@@ -22,7 +22,6 @@ from PIL import Image, ImageChops, ImageStat
 from playwright.async_api import FloatRect
 
 from relay.config import load_config
-from relay.server import SOCKETS_KEY
 from tests.conftest import ROOT, RunningRelay, start_relay
 
 from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
@@ -224,8 +223,8 @@ async def view_pixels(client: Client) -> Image.Image:
 STALL_SECONDS = 4.5
 #: The camera's bitrate for that test (bit/s): x264 gives the sim's simple picture ~1 Mbit/s of it (measured
 #: 132 kB/s while turning, four times robots.yaml's default), so that what lies between the relay's video lane and
-#: the held proxy fills within the stall: the relay's asyncio write buffer took 85-308 kB before aiohttp's writer
-#: waited (measured), its socket 8 kB, the proxy's side 8 kB.
+#: the held proxy fills within the stall: the relay's side of a connection holds up to ~100 kB unsent
+#: (relay.server.bound_backlog; measured 63 kB in tests/test_video.py), the proxy's side 8 kB.
 LOUD_BITRATE = 20_000_000
 #: The relay's video lane for that test (packets; 30 by default, 2-3 s of this camera): with the buffers above, 30
 #: took more than the 4.5 s a page may go without a pong before it reconnects.
@@ -313,14 +312,6 @@ async def test_a_page_that_stops_reading_gets_a_clean_picture_again_from_a_keyfr
         await start_live_desktop(client)
         await client.wait("s.video.codec === 'h264' && s.video.decoded >= 3", 60)
         counters = loud_relay.relay.hub.counters
-        # The relay's side of the page's socket buffers little too: its socket 4 KiB (the kernel doubles it), its
-        # asyncio transport 16 KiB before aiohttp's writer waits (it took 85-308 kB with the defaults, measured;
-        # aiohttp has no public handle on it: the response's writer).
-        for ws in loud_relay.runner.app[SOCKETS_KEY]:
-            ws.get_extra_info("socket").setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
-            writer = ws._writer
-            assert writer is not None and writer.transport is not None
-            writer.transport.set_write_buffer_limits(high=16384)
         async with turning(loud_relay):
             await client.wait("s.video.decoded >= arg", 60, (await video_state(client))["decoded"] + 5)
             before = await video_state(client)
