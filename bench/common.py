@@ -342,6 +342,8 @@ def fmt(value: float | None, digits: int = 1, unit: str = "") -> str:
 BURSTS = (
     "250 MB/s of raw images over loopback DDS arrive in bursts after stalls of up to a few hundred ms (reliable "
     "repairs); a stream keeps up to two periods of late frames and drops the staler ones (newest wins, bounded "
-    "latency). Next step: images compressed at the source (CompressedImage: 166 kB instead of 2.7 MB, passed "
-    "through at 30 fps with p50 1 ms by the camera benchmark) or Fast DDS shared memory with loaned messages"
+    "latency). A 2.7 MB image does not fit Fast DDS's built-in 0.5 MB shared-memory segments and goes over UDP: "
+    "the publisher with the relay's large-images profile (relay/backends/fastdds_large_images.xml) sends it through "
+    "shared memory (the video benchmark's rows with it); or images compressed at the source (CompressedImage, "
+    "166 kB, passed through at 30 fps with p50 1 ms by the camera benchmark)"
 )

@@ -707,8 +707,11 @@ preset veryfast, one thread, the camera's default bitrate) beside the JPEG path,
 pixels a frame at 1280x720 and 30 fps. Encoder part (one process, no network): bytes per second, SSIM of the luma
 against the source frames (H.264 decoded by FFmpeg's own decoder through PyAV), encoder CPU per frame. Relay part:
 the ros backend with a panning publisher in another process over DDS (bench/ros_pub.py `pan`), one camera streamed
-as H.264 to 1 and then 10 WebSocket clients (relay CPU of each, same run), then three cameras to one client.
-Latency: the publisher's stamp to the client's receipt of the packet.
+as H.264 to 1 and then 10 WebSocket clients (relay CPU of each, same run), then three cameras to one client; the
+same again with the publisher using the relay's Fast DDS profile for large images (relay/backends/
+fastdds_large_images.xml: a raw 720p image does not fit the built-in 0.5 MB shared-memory segments). Latency: the
+publisher's stamp to the client's receipt of the packet. Chromium: the real client's Robot POV streaming the camera
+as H.264 (WebCodecs) and as JPEG (`?video=jpeg`), the publisher's stamp to the picture decoded (bench/video_browser.py).
 """
 
 
@@ -740,7 +743,27 @@ def video_section(page: Page, r: JsonDict) -> None:
         )
     )
     rows = []
-    for label, part in (("1 camera", r["one_camera"]), ("3 cameras", r["three_cameras"])):
+    browser_rows = []
+    parts = (
+        ("1 camera", r["one_camera"]),
+        ("3 cameras", r["three_cameras"]),
+        ("1 camera, profiled publisher", r.get("one_camera_profiled", {})),
+        ("3 cameras, profiled publisher", r.get("three_cameras_profiled", {})),
+    )
+    for label, part in parts:
+        for page_run in part.get("browser", {}).get("pages", []):
+            lat = page_run.get("latency_ms")
+            browser_rows.append(
+                [label, page_run["codec"], "failed: " + page_run["error"], "", ""]
+                if lat is None
+                else [
+                    label,
+                    page_run["codec"],
+                    f"{fmt(lat['p50'])} / {fmt(lat['p99'])}",
+                    f"{page_run['pictures_per_s']:.1f}",
+                    f"{page_run['clock_error_ms']:.1f}",
+                ]
+            )
         for run in part.get("runs", []):
             if "error" in run:
                 rows.append([label, run["viewers"], "failed: " + run["error"], "", "", ""])
@@ -770,6 +793,13 @@ def video_section(page: Page, r: JsonDict) -> None:
             rows,
         )
     )
+    if browser_rows:
+        page.add(
+            table(
+                ["in Chromium", "codec", "stamp to decoded p50 / p99 ms", "pictures/s", "clock mapping within ms"],
+                browser_rows,
+            )
+        )
     fig, ax = plt.subplots(figsize=(7, 3))
     ax.bar(["H.264", f"JPEG q{j['quality']}"], [h["bytes_per_s"] / 1000, j["bytes_per_s"] / 1000],
            color=["#1f77b4", "#ff7f0e"])  # fmt: skip

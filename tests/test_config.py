@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from relay.backends import dds_profile
 from relay.cli import main
 from relay.config import load_config, parse_config
 from relay.errors import ConfigError
@@ -176,6 +177,10 @@ def test_topic_overrides_and_root_namespace() -> None:
             MINIMAL + "ros: {executor: multi}\n",
             'robots.yaml:4: ros.executor: expected one of events, single, got "multi"',
         ),
+        (
+            MINIMAL + "ros: {dds_profile: nowhere/fastdds.xml}\n",
+            "robots.yaml:4: ros.dds_profile: no Fast DDS profile file at nowhere/fastdds.xml",
+        ),
     ],
 )
 def test_errors_name_file_line_and_field(text: str, expected: str) -> None:
@@ -195,3 +200,20 @@ def test_relay_exits_2_on_bad_config(tmp_path: Path, caplog: pytest.LogCaptureFi
         status = main(["--config", str(bad), "--port", "0"])
     assert status == 2
     assert f'{bad}:3: robots[0].limits.linear: expected a positive number, got "fast"' in caplog.text
+
+
+def test_the_dds_profile_is_the_relays_unless_the_environment_or_the_config_names_another(tmp_path: Path) -> None:
+    assert parse_config(MINIMAL).ros.dds_profile == "large_images"
+    mine = tmp_path / "site.xml"
+    mine.write_text("<dds/>")
+    (tmp_path / "robots.yaml").write_text(MINIMAL + "ros: {dds_profile: site.xml}\n")
+    assert load_config(tmp_path / "robots.yaml").ros.dds_profile == str(mine), "relative to the config file"
+    environ: dict[str, str] = {}
+    assert dds_profile.apply("large_images", environ) == str(dds_profile.LARGE_IMAGES)
+    assert environ["FASTDDS_DEFAULT_PROFILES_FILE"] == str(dds_profile.LARGE_IMAGES)
+    assert "<segment_size>" in dds_profile.LARGE_IMAGES.read_text(), "the shipped profile is there"
+    theirs = {"FASTRTPS_DEFAULT_PROFILES_FILE": "/etc/robot/fastdds.xml"}
+    assert dds_profile.apply("large_images", theirs) == "FASTRTPS_DEFAULT_PROFILES_FILE=/etc/robot/fastdds.xml"
+    assert "FASTDDS_DEFAULT_PROFILES_FILE" not in theirs, "the operator's choice wins"
+    builtin: dict[str, str] = {}
+    assert dds_profile.apply("builtin", builtin) == "builtin" and builtin == {}

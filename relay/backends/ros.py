@@ -48,6 +48,7 @@ from ..rosmsg import (
 )
 from ..scan import RateCap, scan_event
 from ..tf import TfPose
+from . import dds_profile
 from .base import Backend
 from .goal_watch import GoalWatch
 from .ros_cameras import RosCameras
@@ -147,6 +148,8 @@ class RosBackend(Backend):
         self._grid: OccupancyGrid | None = None
         self._heartbeat_pub: Any = None
         self._heartbeat_task: asyncio.Task[None] | None = None
+        #: The Fast DDS profile in effect (dds_profile.apply), for /healthz.
+        self.dds_profile = ""
 
     def _msg(self, module: str, cls: str) -> Any:
         return self._messages[f"{module}.{cls}"]
@@ -168,6 +171,7 @@ class RosBackend(Backend):
 
     def _start_node(self) -> None:
         """Worker thread: import ROS, check every message package, create the node and start spinning."""
+        self.dds_profile = dds_profile.apply(self.config.ros.dds_profile)  # before the first participant
         self._rclpy = rclpy = load_rclpy()
         self._messages = check_messages(self.config)
         if self._decode is None:
@@ -189,6 +193,9 @@ class RosBackend(Backend):
             )
         self._spinner = Spinner(executors, self._context, self.config.ros.executor, self._executor_failed)
         self._spinner.start(self._node)
+
+    def health(self) -> dict[str, object]:
+        return {"dds_profile": self.dds_profile}
 
     def _executor_failed(self, why: str) -> None:
         if self._node is not None:

@@ -111,7 +111,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
             map_path = base_dir / map_path
     sim = _sim(reader, top["sim"], base_dir) if "sim" in top else Sim()
     safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
-    ros = _ros(reader, top["ros"]) if "ros" in top else Ros()
+    ros = _ros(reader, top["ros"], base_dir) if "ros" in top else Ros()
     georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
 
     robots: list[Robot] = []
@@ -227,8 +227,8 @@ def _safety(reader: _Reader, node: Node) -> Safety:
     )
 
 
-def _ros(reader: _Reader, node: Node) -> Ros:
-    f = reader.mapping(node, "ros", ("map_topic", "heartbeat_topic", "qos", "executor"))
+def _ros(reader: _Reader, node: Node, base_dir: Path | None) -> Ros:
+    f = reader.mapping(node, "ros", ("map_topic", "heartbeat_topic", "qos", "executor", "dds_profile"))
     map_topic = Ros.map_topic
     if "map_topic" in f:
         map_topic = _topic(reader, f["map_topic"], "ros.map_topic", "")
@@ -243,4 +243,20 @@ def _ros(reader: _Reader, node: Node) -> Ros:
     executor = Ros.executor
     if "executor" in f:
         executor = reader.choice(f["executor"], "ros.executor", ("events", "single"))
-    return Ros(map_topic=map_topic, heartbeat_topic=heartbeat_topic, qos=tuple(qos.items()), executor=executor)
+    dds_profile = Ros.dds_profile
+    if "dds_profile" in f:
+        dds_profile = reader.string(f["dds_profile"], "ros.dds_profile", expected="large_images, builtin or a path")
+        if dds_profile not in ("large_images", "builtin"):
+            path = Path(dds_profile)
+            if base_dir is not None and not path.is_absolute():
+                path = base_dir / path
+            if not path.is_file():
+                raise reader.fail(f["dds_profile"], "ros.dds_profile", f"no Fast DDS profile file at {path}")
+            dds_profile = str(path)
+    return Ros(
+        map_topic=map_topic,
+        heartbeat_topic=heartbeat_topic,
+        qos=tuple(qos.items()),
+        executor=executor,
+        dds_profile=dds_profile,
+    )

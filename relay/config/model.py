@@ -171,6 +171,10 @@ class Ros:
     #: rclpy executor: "events" (the EventsExecutor, 3.5x the other's raw ingest) or "single" (the
     #: SingleThreadedExecutor, for an rclpy without a working EventsExecutor). relay/backends/ros_ingest.py.
     executor: str = "events"
+    #: Fast DDS participant profile: "large_images" (relay/backends/fastdds_large_images.xml: raw 720p images
+    #: through shared memory), "builtin" (Fast DDS's own transports) or a profile file's path. An environment that
+    #: sets FASTDDS_DEFAULT_PROFILES_FILE wins. relay/backends/dds_profile.py.
+    dds_profile: str = "large_images"
     #: Reliability per kind of topic; depth and durability are fixed (images depth 1, map transient local).
     qos: tuple[tuple[str, Reliability], ...] = (
         ("pose", "best_effort"),

@@ -58,6 +58,8 @@ if (quality.reason) {
   overviewPoint: (x, y) => app.hud.miniature.worldPoint(x, y, app.fleet.scene.mapToScene),
   /** @param {[number, number] | null} [pixel] the VR finding card's buttons (and a pixel of its capture) -> scene points */
   cardPoints: (pixel) => app.findingCard.points(pixel ?? null),
+  /** The last n camera pictures decoded: [publisher stamp (s), page time (ms)] pairs (picture_times.js). @param {number} n */
+  pictureTimes: (n) => app.feed.times.recent(n),
   /** How this browser draws and what the station asks of it (render_quality.js). */
   quality,
   version: 1,

@@ -52,8 +52,9 @@ export function streamCodec(camera, here) {
 export class H264Decoder {
   /**
    * @param {DecoderPlatform} platform
-   * @param {{restart: (why: string) => void, unsupported: (codec: string) => void}} host `restart`: ask the relay
-   *   for the stream again (a keyframe comes first); `unsupported`: this browser cannot decode the stream's codec
+   * @param {{restart: (why: string) => void, unsupported: (codec: string) => void, decoded?: (header: FrameHeader) => void}} host
+   *   `restart`: ask the relay for the stream again (a keyframe comes first); `unsupported`: this browser cannot
+   *   decode the stream's codec; `decoded`: a picture came out of the decoder (its packet's header)
    */
   constructor(platform, host) {
     this.platform = platform;
@@ -236,6 +237,7 @@ export class H264Decoder {
     }
     this.counts.decoded++;
     this.failures = 0;
+    this.host.decoded?.(header);
     if (this.held) {
       this.held.frame.close(); // never drawn: the page draws less often than frames come
       this.counts.dropped++;

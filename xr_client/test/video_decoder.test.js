@@ -1,6 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
+import { PictureTimes } from '../src/picture_times.js';
 import { H264Decoder, MAX_DECODE_QUEUE, MAX_FAILURES, streamCodec } from '../src/video_decoder.js';
 
 const CAMERA = 'robot1/camera/front';
@@ -305,4 +306,20 @@ test('a decoder that fails at every keyframe gives up: the stream is called unde
   assert.match(h.unsupported[0], /^avc1\.42C01E \(3 decoder errors in a row: Decoding error\.\)$/);
   assert.equal(d.phase, 'unsupported');
   assert.equal(decoders.length, MAX_FAILURES, 'no decoder after giving up');
+});
+
+test('every decoded picture is timed with its own packet’s stamp, dropped ones too; the ring keeps the newest', async () => {
+  const { platform, decoders } = fakePlatform();
+  const times = new PictureTimes(3);
+  let clock = 1000;
+  const d = new H264Decoder(platform, { ...wire(host()), decoded: (header) => times.record(header.stamp, clock++) });
+  d.start(CAMERA);
+  const sent = [packet(true), packet(false), packet(false), packet(false)];
+  d.push(...sent[0]);
+  await tick();
+  for (const p of sent.slice(1)) d.push(...p);
+  decoders[0].flush();
+  assert.equal(d.counts.dropped, 3, 'three were replaced before the page took them, and still decoded');
+  assert.deepEqual(times.recent(10), sent.slice(1).map(([h], i) => [h.stamp, 1001 + i]), 'the last three of four, oldest first');
+  assert.deepEqual(times.recent(1), [[sent[3][0].stamp, 1003]]);
 });

@@ -12,6 +12,7 @@
  */
 import { parseFrame } from '../camera_frame.js';
 import { H264Decoder, streamCodec } from '../video_decoder.js';
+import { PictureTimes } from '../picture_times.js';
 import { FrameDecoder } from './frame_decoder.js';
 
 /** @typedef {import('../protocol.js').CameraDescription} CameraDescription */
@@ -33,7 +34,12 @@ export class CameraFeed {
   constructor(host) {
     this.host = host;
     const { hemisphere, sender } = host;
-    this.jpeg = new FrameDecoder(() => ({ width: hemisphere.width, height: hemisphere.height }), (bitmap, header) => hemisphere.show(bitmap, header));
+    /** When each picture was decoded, beside its publisher's stamp (both paths): what latency is measured on. */
+    this.times = new PictureTimes();
+    this.jpeg = new FrameDecoder(() => ({ width: hemisphere.width, height: hemisphere.height }), (bitmap, header) => {
+      this.times.record(header.stamp, performance.now());
+      hemisphere.show(bitmap, header);
+    });
     this.hasDecoder = typeof VideoDecoder !== 'undefined' && typeof EncodedVideoChunk !== 'undefined';
     /** `?video=jpeg`: never ask for video (a browser whose decoder misbehaves, a comparison). */
     this.forced = host.params.get('video');
@@ -46,6 +52,7 @@ export class CameraFeed {
     this.video = new H264Decoder(this.hasDecoder ? webCodecs() : unavailable(), {
       restart: () => this.#again(),
       unsupported: (why) => this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${why})`),
+      decoded: (header) => this.times.record(header.stamp, performance.now()),
     });
     // The decoder hands out what the browser's VideoDecoder gave it: VideoFrames.
     hemisphere.pull = () => /** @type {{frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null} */ (this.video.take());
