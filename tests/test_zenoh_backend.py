@@ -9,8 +9,10 @@ import asyncio
 import logging
 import math
 import struct
+import sys
 import time
 from collections.abc import AsyncIterator
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -20,10 +22,10 @@ import pytest
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
 from relay.backends.zenoh import ZenohBackend  # noqa: E402
-from relay.config import FleetConfig, parse_config  # noqa: E402
+from relay.config import FleetConfig, load_config, parse_config  # noqa: E402
 from relay.errors import BackendUnavailable  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
-from tests.conftest import RunningRelay, start_relay  # noqa: E402
+from tests.conftest import ROOT, RunningRelay, start_relay  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import (  # noqa: E402
     STORE,
@@ -303,3 +305,38 @@ async def test_a_router_that_goes_away_is_a_backend_failure_until_it_comes_back(
     finally:
         await client.close()
         await running.runner.cleanup()
+
+
+async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path: Path) -> None:
+    """tools/fake_fleet_zenoh.py (what `make run ARGS="--backend zenoh"` is shown beside) is a router with the demo's
+    robots: a relay started after it gets every robot's pose, its sensors, and the map from the publisher's cache
+    (a late joiner, as with a transient-local /map), and a goal moves a robot."""
+    port = free_port()
+    fleet_process = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
+        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    assert fleet_process.stdout is not None
+    try:
+        line = await asyncio.wait_for(fleet_process.stdout.readline(), 30)
+        assert b"a Zenoh router on" in line, line
+        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(f"tcp/127.0.0.1:{port}",)))
+        running = await start_relay(load_config(ROOT / "robots.yaml"), options=options)
+        client = await TestClient.open(running.ws_url)
+        try:
+            await client.hello()
+            await until(lambda: all(client.pose(r) for r in ("robot1", "robot2", "robot3")), 10, "the robots' poses")
+            await until(lambda: client.latest.get("robot1/sensor/gas"), 10, "robot1's gas reading")
+            grid = await until(lambda: running.relay._live_map, 10, "the map (from /map, not robots.yaml)")
+            assert (grid.width, grid.height) == (360, 200)
+            start = client.pose("robot1")
+            assert start is not None
+            reply = await client.request({"identifier": "robot1/goal_pose", "x": start["x"], "y": start["y"] + 1.5})
+            assert reply["identifier"] == "ack", reply
+            await client.wait_pose_near("robot1", start["x"], start["y"] + 1.5, 0.3, timeout=15)
+        finally:
+            await client.close()
+            await running.runner.cleanup()
+    finally:
+        fleet_process.terminate()
+        await asyncio.wait_for(fleet_process.wait(), 10)

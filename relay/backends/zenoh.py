@@ -22,6 +22,7 @@ import asyncio
 import concurrent.futures
 import contextlib
 import hashlib
+import importlib
 import logging
 import time
 from collections.abc import Callable
@@ -250,7 +251,7 @@ class ZenohBackend(Backend):
                 self._warn_once(key, f"{what}: a sample on {key} could not be read: {exc!r}")
 
         if history:
-            ext = __import__("zenoh.ext", fromlist=["HistoryConfig"])
+            ext = importlib.import_module("zenoh.ext")
             return ext.declare_advanced_subscriber(
                 self._session, selector, on_sample, history=ext.HistoryConfig(detect_late_publishers=True)
             )
