@@ -105,15 +105,13 @@ async def test_a_robot_leased_through_another_relay_refuses_commands_naming_the_
     station, peer = peered
     client, seen = station.connect()
     peer.elsewhere["robot1"] = "op-7 through relay there"
-    for i, message in enumerate(
-        (
-            {"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.0},
-            {"identifier": "robot1/goal_pose", "x": 3.0, "y": 2.0},
-            {"identifier": "robot1/lease"},
-            {"identifier": "robot1/lease", "force": True},
-        ),
-        start=1,
-    ):
+    commands: list[dict[str, Any]] = [
+        {"identifier": "robot1/cmd_vel", "linear": 0.2, "angular": 0.0},
+        {"identifier": "robot1/goal_pose", "x": 3.0, "y": 2.0},
+        {"identifier": "robot1/lease"},
+        {"identifier": "robot1/lease", "force": True},
+    ]
+    for i, message in enumerate(commands, start=1):
         await station.send(client, {**message, "id": i})
         reply = seen.replies(i)[0]
         assert reply["code"] == "leased" and "op-7 through relay there" in reply["message"], reply
