@@ -340,3 +340,32 @@ async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path:
     finally:
         fleet_process.terminate()
         await asyncio.wait_for(fleet_process.wait(), 10)
+
+
+async def test_behind_zenoh_bridge_ros2dds_keys_are_the_topics(router: Router) -> None:
+    """``zenoh.keys: bridge``: zenoh-bridge-ros2dds routes a DDS topic on its name alone (no domain, no type), and
+    passes no rmw_zenoh attachment."""
+    goals = router.listen("alpha/goal_pose")
+    config = parse_config(FLEET.replace("zenoh: {domain_id: 0}", "zenoh: {keys: bridge}"), "fleet.yaml")
+    options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(router.endpoint,)))
+    running = await start_relay(config, options=options)
+    client = await TestClient.open(running.ws_url)
+    try:
+        await client.hello()
+        pose = (2.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        for _ in range(100):
+            router.session.put("alpha/odom", odometry_by_hand(1_700_000_000, 0, "odom", "base_link", pose))
+            await asyncio.sleep(0.05)
+            if client.pose("alpha") is not None:
+                break
+        p = client.pose("alpha")
+        assert p is not None and (p["x"], p["y"]) == (2.0, 3.0)
+        reply = await client.request({"identifier": "alpha/goal_pose", "x": 1.0, "y": 2.0})
+        assert reply["identifier"] == "ack", reply
+        goal_key, payload, extra = (await until(goals.all, 5, "the goal"))[-1]
+        assert goal_key == "alpha/goal_pose" and extra is None
+        goal = decode(payload, "geometry_msgs/msg/PoseStamped")
+        assert (goal.pose.position.x, goal.pose.position.y) == (1.0, 2.0)
+    finally:
+        await client.close()
+        await running.runner.cleanup()
