@@ -6,6 +6,7 @@ commands reach the robot as rmw_zenoh would send them. tests/zenoh_robots.py is 
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import math
 import struct
@@ -369,3 +370,38 @@ async def test_behind_zenoh_bridge_ros2dds_keys_are_the_topics(router: Router) -
     finally:
         await client.close()
         await running.runner.cleanup()
+
+
+async def test_a_zenoh_config_file_is_passed_through_user_password_included(tmp_path: Path) -> None:
+    """--zenoh-config goes to Zenoh as is: a router that asks for a user and password admits the relay with the
+    right ones and refuses it, named, with wrong ones or none; a config file that cannot be read is named too."""
+    (tmp_path / "users.txt").write_text("relay:s3cret\n")
+    port = free_port()
+    config = router_config(port)
+    config.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(tmp_path / "users.txt")))
+    config.insert_json5("transport/auth/usrpwd/user", '"router"')
+    config.insert_json5("transport/auth/usrpwd/password", '"router-pw"')
+    router_session = await asyncio.to_thread(zenoh.open, config)
+    endpoint = f"tcp/127.0.0.1:{port}"
+
+    def backend(config_file: str | None) -> ZenohBackend:
+        return ZenohBackend(fleet(), lambda event: None, ZenohOptions(connect=(endpoint,), config=config_file))
+
+    try:
+        for name, password in (("right", "s3cret"), ("wrong", "guess")):
+            usrpwd = json.dumps({"user": "relay", "password": password})
+            (tmp_path / f"{name}.json5").write_text(f"{{transport: {{auth: {{usrpwd: {usrpwd}}}}}}}")
+        admitted = backend(str(tmp_path / "right.json5"))
+        await admitted.start()
+        try:
+            health = admitted.health()["zenoh"]
+            assert isinstance(health, dict) and health["connected"] is True
+        finally:
+            await admitted.stop()
+        for refused in (backend(str(tmp_path / "wrong.json5")), backend(None)):
+            with pytest.raises(BackendUnavailable, match=f"cannot reach the router at {endpoint}"):
+                await refused.start()
+        with pytest.raises(BackendUnavailable, match=r"missing\.json5 cannot be used"):
+            await backend(str(tmp_path / "missing.json5")).start()
+    finally:
+        await asyncio.to_thread(router_session.close)
