@@ -10,6 +10,10 @@ backend's raw subscriptions: poses by hand (relay/cdr.py), TF, scans, images and
 event and hands it to the loop through :meth:`ZenohBackend._post` (the same batching Inbox as the ``ros``
 backend's); a camera's finished frame and the fleet's estops and leases cross in :meth:`ZenohBackend._hop`.
 
+**Subscriptions** are one per topic, ``<domain>/<topic>/*/*`` (any type and hash, the type checked per sample), not
+one per robot (``<domain>/<robot>/**``): a robot-wide wildcard would also pull every camera's images across the
+network whether anyone watches or not; cameras are subscribed only while streamed or snapshot (ros_cameras.py).
+
 **The link.** A client session has one router; while it has none (the router went away), ``failure`` says so and
 Zenoh reconnects by itself (the session's subscriptions and tokens are re-declared by Zenoh); ``recover`` clears
 the failure once the router is back, or opens a new session if this one was closed. Several relays share estops and
@@ -60,9 +64,14 @@ class _Publisher:
     """A Zenoh publisher that sends what rmw_zenoh sends: the CDR bytes, and its attachment (sequence number,
     source timestamp, a GID of its own) unless the robots are behind zenoh-bridge-ros2dds."""
 
-    def __init__(self, session: Any, key: str, attach: bool) -> None:
+    def __init__(self, zenoh: Any, session: Any, key: str, attach: bool) -> None:
         self.key = key
-        self._publisher = session.declare_publisher(key)
+        # Commands go ahead of bulk data (express: not batched; high priority: their own queue), and are dropped
+        # rather than block when the link is congested: a blocked put would stall the event loop, and with it the
+        # deadman and the estop; a dropped command is what the robot's watchdog is for.
+        self._publisher = session.declare_publisher(
+            key, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True, congestion_control=zenoh.CongestionControl.DROP
+        )
         self._attach = attach
         self._sequence = 0
         # rmw_zenoh hashes the entity's liveliness key into the GID; any 16 bytes unique to this publisher do.
@@ -228,7 +237,7 @@ class ZenohBackend(Backend):
         assert self._encode is not None
         s = self.settings
         key = topic_key(s.keys, s.domain, topic, type_name, self._encode.type_hash(type_name))
-        return _Publisher(self._session, key, attach=s.keys == "rmw_zenoh")
+        return _Publisher(self._zenoh, self._session, key, attach=s.keys == "rmw_zenoh")
 
     def _subscribe(
         self, what: str, topic: str, type_name: str, handle: Callable[[bytes], None], *, history: bool = False

@@ -129,9 +129,20 @@ class ZenohFleet:
     # -- estop ------------------------------------------------------------------------------------
 
     def estop(self, robot: str | None, by: str | None) -> None:
-        if self._estop_pub is None:
+        """Sent from a thread of its own: the put blocks while the link is congested (it must not be dropped),
+        and this relay's own robots must not wait for it (Control stops them right after this returns)."""
+        publisher = self._estop_pub
+        if publisher is None:
             raise RuntimeError("the Zenoh session is not open: the other relays cannot be told")
-        self._estop_pub.put(FleetEstop(self.relay_id, robot, by).encode())
+        payload = FleetEstop(self.relay_id, robot, by).encode()
+
+        def send() -> None:
+            try:
+                publisher.put(payload)
+            except Exception:
+                logger.exception("fleet: the emergency stop could not be sent to the other relays")
+
+        threading.Thread(target=send, name="fleet-estop", daemon=True).start()
 
     def _on_estop_sample(self, sample: Any) -> None:
         """Zenoh thread: an estop from some relay (our own come back too, and are ignored)."""
