@@ -7,17 +7,23 @@ robot. tests/test_zenoh_backend.py has the router and the robots' side.
 from __future__ import annotations
 
 import asyncio
+import math
 import signal
+import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
-from tests.conftest import relay_process
-from tests.test_zenoh_backend import FLEET, Router, decode, router, zenoh_relay  # noqa: F401
+from relay.config import load_config
+from relay.options import Options, ZenohOptions
+from tests.conftest import ROOT, relay_process, start_relay
+from tests.test_zenoh_backend import FLEET, Router, decode, router, until, zenoh_relay  # noqa: F401
 from tests.wsclient import TestClient
+from tests.zenoh_robots import free_port
 
 pytestmark = pytest.mark.slow
 
@@ -84,3 +90,68 @@ async def test_estop_and_leases_are_shared_by_two_relays_and_a_killed_relay_free
 
 
 TWIST = "geometry_msgs/msg/Twist"
+
+
+def distance(a: dict[str, Any] | None, b: dict[str, Any] | None) -> float:
+    assert a is not None and b is not None
+    return math.hypot(a["x"] - b["x"], a["y"] - b["y"])
+
+
+async def test_a_killed_relays_robot_is_stopped_by_its_watchdog_and_freed_for_the_other_relay(tmp_path: Path) -> None:
+    """The demo fleet over Zenoh (tools/fake_fleet_zenoh.py: robots with cmd_vel.watchdog, the watchdog's rules on
+    the robots' side): relay B drives robot2 and is killed mid-drive; the heartbeat stops, the watchdog stops robot2
+    (relay A sees it stand still), and A's operator gets robot2's lease."""
+    port = free_port()
+    fleet = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
+        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    assert fleet.stdout is not None
+    relay_b = None
+    try:
+        assert b"a Zenoh router on" in await asyncio.wait_for(fleet.stdout.readline(), 30)
+        endpoint = f"tcp/127.0.0.1:{port}"
+        relay_b, base_b = await relay_process(
+            "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
+            "--relay-id", "B", "--token", "t", "--audit-log", "", "--database", str(tmp_path / "b.sqlite"),
+        )  # fmt: skip
+        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,), relay_id="A"))
+        running_a = await start_relay(load_config(ROOT / "robots.yaml"), options=options)
+        client_a = await TestClient.open(running_a.ws_url)
+        client_b = await TestClient.open(base_b.replace("http", "ws") + "/ws?token=t")
+        try:
+            await client_a.hello()
+            await client_b.hello()
+            await until(lambda: client_a.pose("robot2"), 10, "robot2's pose on relay A")
+            # B's operator drives robot2 (through its watchdog) until A sees it move.
+            start = client_a.pose("robot2")
+            assert start is not None
+            deadline = time.monotonic() + 10
+            while distance(client_a.pose("robot2"), start) < 0.2:
+                assert time.monotonic() < deadline, "robot2 did not move"
+                await client_b.send({"identifier": "robot2/cmd_vel", "linear": 0.4, "angular": 0.0})
+                await asyncio.sleep(0.05)
+            relay_b.send_signal(signal.SIGKILL)
+            killed = time.monotonic()
+            await relay_b.wait()
+            # Stopped by the watchdog (relay A sends robot2 nothing): its pose stands still for a second.
+            still_since, last = time.monotonic(), client_a.pose("robot2")
+            while time.monotonic() - still_since < 1.0:
+                assert time.monotonic() - killed < 5, "robot2 kept moving after its relay died"
+                await asyncio.sleep(0.1)
+                now = client_a.pose("robot2")
+                if distance(now, last) > 0.005:
+                    still_since, last = time.monotonic(), now
+            deadline = time.monotonic() + 15
+            while (reply := await client_a.request({"identifier": "robot2/lease"}))["identifier"] != "ack":
+                assert time.monotonic() < deadline, reply
+                await asyncio.sleep(0.2)
+        finally:
+            await client_a.close()
+            await running_a.runner.cleanup()
+    finally:
+        if relay_b is not None and relay_b.returncode is None:
+            relay_b.kill()
+            await relay_b.wait()
+        fleet.terminate()
+        await asyncio.wait_for(fleet.wait(), 10)
