@@ -8,6 +8,7 @@ from __future__ import annotations
 import importlib
 import json
 import os
+import re
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
@@ -59,6 +60,14 @@ def settings(config: Zenoh, options: ZenohOptions) -> ZenohSettings:
     )
 
 
+_SOURCE = re.compile(r" at /\S+\.rs:\d+\.?")
+
+
+def _why(exc: Exception) -> str:
+    """A Zenoh error without the Rust source locations it carries (``... at /root/.cargo/.../config.rs:86.``)."""
+    return _SOURCE.sub("", str(exc)).strip()
+
+
 def load_zenoh() -> ModuleType:
     try:
         return importlib.import_module("zenoh")
@@ -73,7 +82,8 @@ def session_config(zenoh: ModuleType, s: ZenohSettings) -> Any:
         try:
             config = zenoh.Config.from_file(s.config_file)
         except Exception as exc:  # zenoh raises ZError for a missing file and for bad JSON5 alike
-            raise BackendUnavailable(f"the Zenoh configuration file {s.config_file} cannot be used: {exc}") from None
+            why = _why(exc)
+            raise BackendUnavailable(f"the Zenoh configuration file {s.config_file} cannot be used: {why}") from None
     else:
         config = zenoh.Config()
     try:
@@ -85,7 +95,7 @@ def session_config(zenoh: ModuleType, s: ZenohSettings) -> Any:
             config.insert_json5("connect/timeout_ms", str(CONNECT_TIMEOUT_MS))
             config.insert_json5("connect/exit_on_failure", "true")
     except Exception as exc:
-        raise BackendUnavailable(f"zenoh: bad endpoint or mode ({s.where()}, {s.mode}): {exc}") from None
+        raise BackendUnavailable(f"zenoh: bad endpoint or mode ({s.where()}, {s.mode}): {_why(exc)}") from None
     return config
 
 
@@ -98,7 +108,7 @@ def open_session(s: ZenohSettings) -> Any:
     except Exception as exc:
         raise BackendUnavailable(
             f"zenoh: cannot reach the router at {s.where()} ({s.mode} mode) within "
-            f"{CONNECT_TIMEOUT_MS / 1000:.0f} s: {exc}; is a Zenoh router (zenohd, rmw_zenohd or "
+            f"{CONNECT_TIMEOUT_MS / 1000:.0f} s ({_why(exc)}); is a Zenoh router (zenohd, rmw_zenohd or "
             "zenoh-bridge-ros2dds) running there, and is the address right?"
         ) from None
 
