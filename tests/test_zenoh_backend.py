@@ -51,6 +51,7 @@ robots:
     scan: null
     cameras:
       - {name: front, lens: {model: equidistant, fov: 180}, width: 64, height: 48}
+      - {name: jpeg, compressed: true, topic: camera/jpeg/compressed}
     sensors:
       - {name: gas, type: std_msgs/Float32, unit: ppm, warn_above: 400}
   - name: beta
@@ -196,6 +197,31 @@ async def test_odometry_tf_sensor_and_camera_reach_the_operator_field_by_field(r
         assert picture is not None
         assert picture[24, 8].tolist() == pytest.approx([0, 0, 255], abs=30)  # red on the left
         assert picture[24, 56].tolist() == pytest.approx([255, 0, 0], abs=30)  # blue on the right
+
+        # A compressed camera: the robot's JPEG (green above, white below) is passed through as it came.
+        bgr = np.zeros((40, 80, 3), np.uint8)
+        bgr[:20] = (0, 255, 0)
+        bgr[20:] = (255, 255, 255)
+        jpeg = cv2.imencode(".jpg", bgr)[1].tobytes()
+        compressed = T["sensor_msgs/msg/CompressedImage"](
+            header=header(1_700_000_200.0, "camera"), format="jpeg", data=np.frombuffer(jpeg, np.uint8)
+        )
+        jpeg_key = key(
+            "alpha/camera/jpeg/compressed",
+            "sensor_msgs::msg::dds_::CompressedImage_",
+            "sensor_msgs/msg/CompressedImage",
+        )
+        raw = bytes(STORE.serialize_cdr(compressed, "sensor_msgs/msg/CompressedImage"))
+        request = asyncio.ensure_future(client.request({"identifier": "alpha/snapshot", "camera": "jpeg"}, 10))
+        while not request.done():
+            router.put(jpeg_key, raw)
+            await asyncio.sleep(0.05)
+        reply = request.result()
+        assert reply["identifier"] == "ack", reply
+        _, frame_header, payload = client.frames[-1]
+        assert frame_header["identifier"] == "alpha/camera/jpeg" and frame_header["request_id"] == reply["id"]
+        assert (frame_header["width"], frame_header["height"], frame_header["stamp"]) == (80, 40, 1_700_000_200.0)
+        assert payload == jpeg
     finally:
         await client.close()
         await running.runner.cleanup()
@@ -328,6 +354,9 @@ async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path:
             await client.hello()
             await until(lambda: all(client.pose(r) for r in ("robot1", "robot2", "robot3")), 10, "the robots' poses")
             await until(lambda: client.latest.get("robot1/sensor/gas"), 10, "robot1's gas reading")
+            scan = await until(lambda: client.latest.get("robot1/scan"), 10, "robot1's laser scan")
+            assert scan["frame"] == "robot1/base_scan" and len(scan["ranges"]) >= 90
+            assert any(r is not None and r < scan["range_max"] for r in scan["ranges"]), "the walls are seen"
             grid = await until(lambda: running.relay._live_map, 10, "the map (from /map, not robots.yaml)")
             assert (grid.width, grid.height) == (360, 200)
             start = client.pose("robot1")
