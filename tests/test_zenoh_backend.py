@@ -22,6 +22,7 @@ import pytest
 
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
+from relay.backends import zenoh as zenoh_backend  # noqa: E402
 from relay.backends.zenoh import ZenohBackend  # noqa: E402
 from relay.config import FleetConfig, load_config, parse_config  # noqa: E402
 from relay.errors import BackendUnavailable  # noqa: E402
@@ -266,8 +267,11 @@ async def test_goal_and_cmd_vel_reach_the_robot_as_rmw_zenoh_sends_them(router: 
         await running.runner.cleanup()
 
 
-async def test_bad_samples_are_named_and_change_nothing(router: Router, caplog: pytest.LogCaptureFixture) -> None:
+async def test_bad_samples_are_named_and_change_nothing(
+    router: Router, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
     caplog.set_level(logging.WARNING)
+    monkeypatch.setattr(zenoh_backend, "SILENT_AFTER", 1.0)
     running = await zenoh_relay(router)
     client = await TestClient.open(running.ws_url)
     try:
@@ -298,6 +302,10 @@ async def test_bad_samples_are_named_and_change_nothing(router: Router, caplog: 
                 break
         p = client.pose("alpha")
         assert p is not None and (p["x"], p["y"]) == (4.0, 5.0)
+        # beta's key matches no publisher (nobody publishes beta/tf): named once the relay has waited for it.
+        await until(lambda: "no pose sample on 0/beta/tf/*/*" in caplog.text, 5, "beta's silent key named")
+        health = running.relay.backend.health()["zenoh"]
+        assert isinstance(health, dict) and health["silent"] == {"beta": "0/beta/tf/*/*"}
     finally:
         await client.close()
         await running.runner.cleanup()

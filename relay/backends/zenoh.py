@@ -58,6 +58,9 @@ logger = logging.getLogger(__name__)
 HEARTBEAT_PERIOD = 0.1
 #: Seconds between two looks at the session's router.
 LINK_PERIOD = 0.5
+#: Seconds after start when a robot whose pose key has had no sample is named in the log (a wrong topic or domain
+#: matches no publisher, and Zenoh says nothing about it).
+SILENT_AFTER = 5.0
 
 
 class _Publisher:
@@ -114,6 +117,8 @@ class ZenohBackend(Backend):
         self._tasks: list[asyncio.Task[None]] = []
         #: Keys already warned about (a wrong type, an undecodable body): one line each, not one per sample.
         self._warned: set[str] = set()
+        #: Robots whose pose has arrived at least once.
+        self._heard: set[str] = set()
 
     # -- lifecycle --------------------------------------------------------------------------------
 
@@ -124,6 +129,7 @@ class ZenohBackend(Backend):
         if self._heartbeat is not None:
             self._tasks.append(asyncio.create_task(self._beat(), name="zenoh-heartbeat"))
         self._tasks.append(asyncio.create_task(self._watch_link(), name="zenoh-link"))
+        self._tasks.append(asyncio.create_task(self._name_silent_keys(), name="zenoh-silent"))
         s = self.settings
         logger.info(
             "zenoh backend: %s mode, connected to %s, %s keys (domain %d), relay id %s, %d robots",
@@ -185,6 +191,24 @@ class ZenohBackend(Backend):
             if session.is_closed() or not connected(session):
                 self.failure = f"lost the Zenoh router at {self.settings.where()}; reconnecting"
 
+    def silent(self) -> dict[str, str]:
+        """Robots whose pose key has had no sample yet, with the key expression they wait on."""
+        s = self.settings
+        return {
+            robot.name: topic_selector(s.keys, s.domain, robot.pose.topic)
+            for robot in self.config.robots
+            if robot.name not in self._heard
+        }
+
+    async def _name_silent_keys(self) -> None:
+        await asyncio.sleep(SILENT_AFTER)
+        for robot, selector in self.silent().items():
+            logger.warning(
+                "zenoh: %s: no pose sample on %s in %.0f s: no publisher matches that key (is robots.yaml's pose topic "
+                "right, and the domain %d, and keys: %s?)",
+                robot, selector, SILENT_AFTER, self.settings.domain, self.settings.keys,
+            )  # fmt: skip
+
     async def recover(self) -> None:
         session = self._session
         if session is not None and not session.is_closed():
@@ -213,7 +237,7 @@ class ZenohBackend(Backend):
         return {
             "zenoh": {
                 "mode": s.mode, "connect": list(s.connect), "keys": s.keys, "domain": s.domain,
-                "relay_id": self._fleet.relay_id, "connected": link,
+                "relay_id": self._fleet.relay_id, "connected": link, "silent": self.silent(),
             }
         }  # fmt: skip
 
@@ -351,8 +375,10 @@ class ZenohBackend(Backend):
 
     def _deliver(self, event: Event) -> None:
         self.sink(event)
-        if isinstance(event, PoseEvent) and (reached := self._goals.pose(event)) is not None:
-            self.sink(reached)
+        if isinstance(event, PoseEvent):
+            self._heard.add(event.robot)
+            if (reached := self._goals.pose(event)) is not None:
+                self.sink(reached)
 
     def _decode_raw(self, data: bytes, type_name: str) -> Any:
         assert self._decode is not None
