@@ -28,6 +28,7 @@ import contextlib
 import hashlib
 import importlib
 import logging
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -301,9 +302,13 @@ class ZenohBackend(Backend):
         if source == "tf":
             self._tf[name] = TfPose(robot.pose.map_frame, robot.pose.odom_frame, robot.pose.base_frame)
             tracker = self._tf[name]
+            # /tf and /tf_static are two subscribers, and Zenoh may call them back on two of its threads at once:
+            # the chain they feed is one robot's, read and written whole.
+            lock = threading.Lock()
 
             def on_tf(data: bytes) -> None:
-                read_tf(name, tracker, data, self._decode_raw, self._post)
+                with lock:
+                    read_tf(name, tracker, data, self._decode_raw, self._post)
 
             add(self._subscribe(f"{name} tf", robot.pose.topic, POSE_TYPES["tf"], on_tf))
             add(self._subscribe(f"{name} tf_static", robot.pose.topic + "_static", POSE_TYPES["tf"], on_tf))
