@@ -442,3 +442,25 @@ async def test_a_zenoh_config_file_is_passed_through_user_password_included(tmp_
             await backend(str(tmp_path / "missing.json5")).start()
     finally:
         await asyncio.to_thread(router_session.close)
+
+
+async def test_in_peer_mode_the_relay_reaches_the_robots_too(router: Router) -> None:
+    options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(router.endpoint,), mode="peer"))
+    running = await start_relay(fleet(), options=options)
+    client = await TestClient.open(running.ws_url)
+    try:
+        await client.hello()
+        pose = (6.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        for i in range(100):
+            router.put(key(*ODOM), odometry_by_hand(1_700_000_000, 0, "odom", "base_link", pose), i)
+            await asyncio.sleep(0.05)
+            if client.pose("alpha") is not None:
+                break
+        p = client.pose("alpha")
+        assert p is not None and (p["x"], p["y"]) == (6.0, 1.0)
+        health = running.relay.backend.health()["zenoh"]
+        assert isinstance(health, dict) and (health["mode"], health["connected"]) == ("peer", True)
+        assert running.relay.backend.failure is None
+    finally:
+        await client.close()
+        await running.runner.cleanup()
