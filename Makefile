@@ -18,7 +18,9 @@ $(BIN)/python:
 
 $(STAMPS)/python: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,ros]'
+	# zenoh too: its backend's tests (tests/test_zenoh_backend.py, two-relay fleets) and `make run ARGS="--backend
+	# zenoh"` (tools/fake_fleet.py --zenoh) run on every machine, with no ROS install.
+	$(BIN)/python -m pip install --quiet -e '.[dev,ros,zenoh]'
 	@mkdir -p $(STAMPS) && touch $@
 
 # The client's npm packages: three.js and the controller models it serves, and the tools the tests use
@@ -58,7 +60,7 @@ lint: setup
 # 15-20 minutes; QUICK=1 runs a subset in under 2 minutes into bench/results/scratch/quick/ (ignored by git).
 # Their extra packages (the Foxglove SDK, matplotlib) are installed here when missing.
 bench: setup
-	@$(BIN)/python -c 'import foxglove, matplotlib' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[dev,ros,bench]'
+	@$(BIN)/python -c 'import foxglove, matplotlib' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[dev,ros,zenoh,bench]'
 	$(BIN)/python -m bench.run $(if $(QUICK),--quick)
 
 clean:

@@ -13,6 +13,10 @@ subscriber (EventsExecutor, ``raw=True``, nothing decoded: the executor's limit)
 rate targets at 100 Hz and 1 kHz are against the same subscriber. Also measured for the ros backend's choice:
 SingleThreadedExecutor vs EventsExecutor, rclpy deserialisation vs ``raw=True`` with bench/cdr.py's decode.
 
+The same Odometry over Zenoh, in the same run: bench/zenoh_pub.py (a Zenoh router on 127.0.0.1 publishing on
+rmw_zenoh's key with its attachment) into the relay's zenoh backend (``--backend zenoh``), the same relay process
+and client: ingested per second, freshness and CPU beside the ros backend's and the bare rclpy subscribers'.
+
 Then a fleet: 100 robots, each Odometry at 30 Hz and a 360-beam LaserScan at 10 Hz (bench/ros_pub.py ``fleet``,
 4000 messages a second), into the relay and out to 5 batching clients (``/ws?batch=1``, as the web client).
 Target: relay CPU <= 50 % of a core, with every robot's poses and scans reaching every client.
@@ -21,6 +25,7 @@ Target: relay CPU <= 50 % of a core, with every robot's poses and scans reaching
 from __future__ import annotations
 
 import asyncio
+import socket
 import tempfile
 import time
 from pathlib import Path
@@ -73,11 +78,21 @@ def published_rate(publisher: Child, t0: float, t1: float) -> float | None:
 
 
 async def relay_run(
-    config: Path, env: dict[str, str], publisher: Child, *, window: float, warmup: float, report: Report, label: str
+    config: Path,
+    env: dict[str, str],
+    publisher: Child,
+    *,
+    window: float,
+    warmup: float,
+    report: Report,
+    label: str,
+    zenoh: str | None = None,
 ) -> JsonDict:
+    """The relay's ros backend, or its zenoh backend connected to the router at ``zenoh``."""
+    backend = ["--backend", "zenoh", "--zenoh-connect", zenoh] if zenoh else ["--backend", "ros"]
     child = await Child.start(
-        f"ingest-relay-{label}",
-        ["-m", "bench.relay_proc", "--server", "xr", "--backend", "ros", "--config", str(config), "--token", TOKEN],
+        f"ingest-relay-{'zenoh-' if zenoh else ''}{label}",
+        ["-m", "bench.relay_proc", "--server", "xr", *backend, "--config", str(config), "--token", TOKEN],
         env,
     )
     recorder = Recorder()
@@ -86,7 +101,7 @@ async def relay_run(
         ready = await child.wait_for(lambda line: "port" in line, 60)
         client = await connect(recorder, ready["port"], path=f"/ws?token={TOKEN}")
         deadline = time.monotonic() + 30
-        while (await child.request("stats"))["events"] == 0:  # DDS discovery
+        while (await child.request("stats"))["events"] == 0:  # DDS discovery (Zenoh: the subscription's declaration)
             if time.monotonic() > deadline:
                 raise TimeoutError("the relay received no Odometry within 30 s")
             await asyncio.sleep(0.2)
@@ -112,7 +127,7 @@ async def relay_run(
             "cpu": use,
         }
         report.line(
-            f"relay  {label:>9s}: ingested {ingested:8.0f}/s, client freshness p50 "
+            f"relay{' zenoh' if zenoh else ''}  {label:>9s}: ingested {ingested:8.0f}/s, client freshness p50 "
             f"{fmt(result['freshness_ms']['p50'], 2)} p99 {fmt(result['freshness_ms']['p99'], 2)} ms, "
             f"relay CPU {100 * use['relay']:.0f} %, publisher {fmt(result['published_per_s'], 0)}/s"
         )
@@ -237,6 +252,7 @@ async def run(settings: Settings, report: Report) -> JsonDict:
                 entry["bare"] = merge_rounds(rounds)
             finally:
                 await publisher.stop()
+            entry["zenoh"] = await zenoh_run(config, env, rate, window=window, warmup=warmup, report=report)
             runs.append(entry)
         fleet = await fleet_run(Path(tmp), env, window=settings.pick(6.0, 2.0), report=report)
     return {
@@ -253,6 +269,35 @@ async def run(settings: Settings, report: Report) -> JsonDict:
         "targets": targets(runs) + fleet_targets(fleet),
         "findings": FINDINGS,
     }
+
+
+async def zenoh_run(
+    config: Path, env: dict[str, str], rate: float, *, window: float, warmup: float, report: Report
+) -> JsonDict:
+    """The same Odometry at the same rate over Zenoh: bench/zenoh_pub.py (a router) into the zenoh backend."""
+    label = rate_name(rate)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    publisher = await Child.start(
+        f"ingest-zenoh-pub-{int(rate)}",
+        ["-m", "bench.zenoh_pub", "--listen", endpoint, "--topic", TOPIC, "--rate", str(rate), "--duration", "300"],
+        env,
+    )
+    try:
+        await publisher.wait_for(lambda line: bool(line.get("ready")), 60)
+        return await relay_run(
+            config, env, publisher, window=window, warmup=warmup, report=report, label=label, zenoh=endpoint
+        )
+    except (TimeoutError, ConnectionError, OSError) as exc:
+        report.line(f"relay zenoh {label}: FAILED {type(exc).__name__}: {exc}")
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        await publisher.stop()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
 
 #: What the variants showed besides speed (checked by bench/ros_sub.py every run, noted here once).
@@ -303,6 +348,7 @@ def targets(runs: list[JsonDict]) -> list[JsonDict]:
                 + (f", plain-single {plain['rate']:.0f}/s" if plain else ""),
             )
         )
+        out.append(zenoh_target(entry, limit))
         if entry["rate"] == 1000.0:
             p99 = relay["freshness_ms"]["p99"]
             out.append(
@@ -318,6 +364,25 @@ def targets(runs: list[JsonDict]) -> list[JsonDict]:
                 )
             )
     return out
+
+
+def zenoh_target(entry: JsonDict, limit: JsonDict) -> JsonDict:
+    """The zenoh backend beside the ros backend and the bare subscriber: measured, with no target of its own (#18
+    asks for the figure; Zenoh through a router and DDS on one host are different transports)."""
+    name = f"zenoh backend ingest at {entry['label']}"
+    zenoh, ros = entry.get("zenoh", {}), entry.get("relay", {})
+    if not zenoh or "error" in zenoh:
+        return target(name, "measured beside the ros backend", "n/a", None, zenoh.get("error", "not run"))
+    fresh = zenoh["freshness_ms"]
+    return target(
+        name,
+        "measured beside the ros backend (no target)",
+        f"{zenoh['ingested_per_s']:.0f}/s, freshness p50 {fmt(fresh['p50'], 2)} p99 {fmt(fresh['p99'], 2)} ms, "
+        f"relay CPU {100 * zenoh['cpu']['relay']:.0f} %",
+        None,
+        "informational",
+        baseline=f"ros backend {ros.get('ingested_per_s', 0):.0f}/s; bare {LIMIT_VARIANT} {limit['rate']:.0f}/s",
+    )
 
 
 def fleet_config() -> str:

@@ -1,6 +1,6 @@
 """The server under test, in a process of its own (so its CPU time is its own, and the clients' is not).
 
-    python -m bench.relay_proc --server xr|naive|foxglove [--backend synthetic|ros|sim] [--robots N] ...
+    python -m bench.relay_proc --server xr|naive|foxglove [--backend synthetic|ros|sim|zenoh] [--robots N] ...
 
 Prints ``{"port": N, "pid": P}`` once it listens, then answers ``stats`` on stdin with one JSON line
 (``{"reply": "stats", "events": ..., "frames": ...}``) and exits on ``quit``, end of input or SIGTERM.
@@ -20,6 +20,8 @@ Backends of ``xr``:
   just before the crossing: the clients' receive time minus that stamp is the latency the relay adds
   (thread hop, encoding, queueing, sending, loopback). The naive relay and Foxglove get the same producer.
 - ``ros``: the real ros backend against a robots.yaml (``--config``); events are counted on their way in.
+- ``zenoh``: the real zenoh backend, connected to ``--zenoh-connect`` (bench/zenoh_pub.py's router); counted
+  the same way.
 - ``sim``: the real sim backend against a robots.yaml, optionally with a camera served from a JPEG
   (``--camera-jpeg``) instead of the ray-cast one, so that the browser benchmark measures the client.
 """
@@ -258,11 +260,15 @@ class Counter:
         self.sink(event)
 
 
-def relay_options(backend: str, token: str | None) -> Options:
+def relay_options(backend: str, token: str | None, zenoh_connect: str | None = None) -> Options:
     names = {f.name for f in dataclasses.fields(Options)}
     kwargs: dict[str, Any] = {"backend": backend, "audit_log": None}
     if token and "token" in names:
         kwargs["token"] = token
+    if zenoh_connect:
+        from relay.options import ZenohOptions
+
+        kwargs["zenoh"] = ZenohOptions(connect=(zenoh_connect,))
     return Options(**kwargs)
 
 
@@ -286,7 +292,7 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
             return synthetic
         return create_backend(cfg, counter, options)
 
-    options = relay_options("sim" if args.backend == "synthetic" else args.backend, args.token)
+    options = relay_options("sim" if args.backend == "synthetic" else args.backend, args.token, args.zenoh_connect)
     app = create_app(config, options, backend_factory=counting_backend)
     the_relay = app[RELAY_KEY]
     backend = the_relay.backend
@@ -522,7 +528,8 @@ async def control_loop(stats: Callable[[], dict[str, Any]], start: Callable[[], 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--server", choices=("xr", "naive", "foxglove"), default="xr")
-    parser.add_argument("--backend", choices=("synthetic", "ros", "sim"), default="synthetic")
+    parser.add_argument("--backend", choices=("synthetic", "ros", "sim", "zenoh"), default="synthetic")
+    parser.add_argument("--zenoh-connect", default=None, help="the zenoh backend's router (tcp/127.0.0.1:PORT)")
     parser.add_argument("--robots", type=int, default=3, help="synthetic robots")
     parser.add_argument("--rate", type=float, default=30.0, help="pose rate of each synthetic robot (Hz)")
     parser.add_argument("--config", help="robots.yaml for the ros and sim backends")

@@ -311,6 +311,36 @@ the relay and out to 5 clients that batch (`/ws?batch=1`, as the web client). Th
 """
 
 
+def zenoh_table(page: Page, r: JsonDict) -> None:
+    """The zenoh backend's row per rate, beside the ros backend's (the same Odometry over a Zenoh router)."""
+    rows = []
+    for run in r["runs"]:
+        zenoh, ros = run.get("zenoh"), run.get("relay", {})
+        if zenoh is None:
+            continue
+        if "error" in zenoh:
+            rows.append([run["label"], "failed: " + zenoh["error"], "", "", "", ""])
+            continue
+        fresh = zenoh["freshness_ms"]
+        rows.append(
+            [
+                run["label"],
+                fmt(zenoh.get("published_per_s"), 0),
+                f"{zenoh['ingested_per_s']:.0f}",
+                f"{fmt(fresh['p50'], 2)} / {fmt(fresh['p99'], 2)}",
+                pct(zenoh["cpu"]["relay"]),
+                fmt(ros.get("ingested_per_s"), 0),
+            ]
+        )
+    if rows:
+        page.add(
+            "### The zenoh backend\n\nThe same Odometry from bench/zenoh_pub.py (a Zenoh router on 127.0.0.1, "
+            "rmw_zenoh's key and attachment) into the relay's zenoh backend, same relay process and client.\n"
+        )
+        head = ["publisher", "published/s", "relay ingested/s", "client freshness p50 / p99 ms", "relay CPU"]
+        page.add(table([*head, "ros backend ingested/s"], rows))
+
+
 def ingest_section(page: Page, r: JsonDict) -> None:
     if not section(page, r, INGEST_DOC):
         return
@@ -352,6 +382,7 @@ def ingest_section(page: Page, r: JsonDict) -> None:
             rows,
         )
     )
+    zenoh_table(page, r)
     page.add("### Executors and decoding (bare subscribers)\n")
     variants: list[str] = []
     for run in r["runs"]:

@@ -16,7 +16,7 @@ from .config import load_config
 from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
 from .inspection.kml import KmlError
 from .inspection.store import StoreError
-from .options import BagOptions, Options
+from .options import BagOptions, Options, ZenohOptions
 
 EXIT_USAGE = 2
 
@@ -44,7 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=BACKENDS,
         default="sim",
         help="where robots come from: sim = built-in simulated fleet (default, no ROS needed), "
-        "ros = a live ROS 2 graph through rclpy, bag = recorded topics",
+        "ros = a live ROS 2 graph through rclpy, bag = recorded topics, zenoh = ROS 2 over a Zenoh network "
+        "(rmw_zenoh or zenoh-bridge-ros2dds; no ROS install needed)",
     )
     parser.add_argument(
         "--host",
@@ -80,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_access_options(parser.add_argument_group("access (docs/security.md)"))
     _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
     _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
+    _add_zenoh_options(parser.add_argument_group("Zenoh (--backend zenoh; docs/zenoh.md)"))
     parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
     return parser
 
@@ -161,6 +163,28 @@ def _add_bag_options(bag: argparse._ArgumentGroup) -> None:
     bag.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help="start this far into the recordings")
 
 
+def _add_zenoh_options(zenoh: argparse._ArgumentGroup) -> None:
+    zenoh.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="a Zenoh router (or peer) to connect to, e.g. tcp/10.0.0.5:7447; repeatable (default: robots.yaml's "
+        "zenoh.connect, else the local router tcp/127.0.0.1:7447)",
+    )
+    zenoh.add_argument("--zenoh-mode", choices=("client", "peer"), help="Zenoh session mode (default client)")
+    zenoh.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="a Zenoh JSON5 configuration file (TLS certificates, user/password, ...), passed to Zenoh as is",
+    )
+    zenoh.add_argument(
+        "--relay-id",
+        metavar="NAME",
+        help="this relay's name among the relays of one fleet (default: its Zenoh session id)",
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "record":
@@ -216,6 +240,12 @@ def main(argv: list[str] | None = None) -> int:
             max_message_rate=args.max_message_rate,
             lease_timeout=args.lease_timeout,
             bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
+            zenoh=ZenohOptions(
+                connect=tuple(args.zenoh_connect),
+                mode=args.zenoh_mode,
+                config=args.zenoh_config,
+                relay_id=args.relay_id,
+            ),
             audit_log=args.audit_log or None,
             database=args.database,
             images=args.images,

@@ -4,18 +4,24 @@
 stopped when its operator falls silent or disconnects, before a lease changes hands, and on an emergency stop.
 Commands that move a robot ask :meth:`Control.require_commandable` first. An emergency stop latches: the
 robots it stopped refuse every motion command (``estopped``) until an operator resets it.
+
+When the backend reaches other relays serving the same robots (``Backend.fleet_peer``, relay/fleet_peer.py), an
+estop made here is sent to them and theirs latch here, and a robot whose lease is held through another relay
+refuses this relay's commands. A reset lifts only this relay's latch: the operators of each relay reset their own.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections.abc import Awaitable, Callable, Sequence
 
 from .backends.base import Backend
 from .clients import Client
 from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
+from .fleet_peer import FleetPeer
 from .leases import LeaseTable
 from .messages import LeaseReason
 from .outbox import Outbox
@@ -35,6 +41,7 @@ class Control:
         *,
         deadman_timeout: float,
         lease_timeout: float,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.robots = list(robots)
         self.backend = backend
@@ -51,6 +58,12 @@ class Control:
         self.keep: Callable[[], set[str]] = set
         #: Told of every stop of a robot by these rules (reason, whether an estop): missions pause or abort.
         self.on_stopped: Callable[..., Awaitable[None]] | None = None
+        self.clock = clock
+        #: Other relays of the same fleet (None: this relay is alone, or its backend cannot reach them).
+        self.peer: FleetPeer | None = backend.fleet_peer()
+        self._remote_stops: set[asyncio.Task[dict[str, BaseException]]] = set()
+        if self.peer is not None:
+            self.peer.attach(self._remote_estop, self._remote_lease)
 
     def generation(self, robot: str) -> int:
         return self._generation.get(robot, 0)
@@ -91,6 +104,7 @@ class Control:
                 "an operator must reset it first (estop with action: reset)",
                 request_id,
             )
+        self._refuse_if_held_elsewhere(robot, identifier, request_id)
         allowed, before = self.leases.use(robot, client.client_id, now)
         if not allowed:
             raise CommandRejected(
@@ -100,6 +114,15 @@ class Control:
             )
         if before is None:
             self.lease_changed(robot, client.client_id, None, "acquired", now)
+
+    def _refuse_if_held_elsewhere(self, robot: str, identifier: str, request_id: RequestId | None) -> None:
+        holder = self.peer.held_elsewhere(robot) if self.peer is not None else None
+        if holder is not None:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {holder}; it must be released there (or that relay stop)",
+                request_id,
+            )
 
     # -- stops ------------------------------------------------------------------------------------
 
@@ -124,8 +147,11 @@ class Control:
             if self.on_stopped is not None:
                 await self.on_stopped(robot, reason, estop=False)
 
-    async def estop(self, robot: str | None, by: str | None, now: float) -> dict[str, BaseException]:
-        """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why.
+    async def estop(
+        self, robot: str | None, by: str | None, now: float, *, remote: bool = False
+    ) -> dict[str, BaseException]:
+        """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why. Unless the
+        estop came from another relay (``remote``), every other relay of the fleet is told to stop too.
 
         Every robot that can be reached is stopped even when another's stop raises: one broken robot must not
         keep the rest of the fleet moving. The ``estop`` broadcast names the robots that were stopped.
@@ -138,6 +164,12 @@ class Control:
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)
+        if self.peer is not None and not remote:
+            try:
+                self.peer.estop(robot, by)
+            except Exception:
+                # This relay's own robots stop whatever happens to the message for the others.
+                logger.exception("could not send the emergency stop to the other relays")
         results = await asyncio.gather(*(self.backend.stop_robot(name) for name in robots), return_exceptions=True)
         failed = {name: r for name, r in zip(robots, results, strict=True) if isinstance(r, BaseException)}
         stopped = [name for name in robots if name not in failed]
@@ -151,6 +183,23 @@ class Control:
             for name in robots:
                 await self.on_stopped(name, f"emergency stop by {by}", estop=True)
         return failed
+
+    def _remote_estop(self, robot: str | None, by: str | None) -> None:
+        """An estop made on another relay (on the loop): latched and carried out here like our own."""
+        if robot is not None and robot not in self.robots:
+            logger.warning("an emergency stop from another relay names %r, which this relay does not serve", robot)
+            return
+        task = asyncio.get_running_loop().create_task(self.estop(robot, by, self.clock(), remote=True))
+        self._remote_stops.add(task)
+        task.add_done_callback(self._remote_stops.discard)
+
+    def _remote_lease(self, robot: str, holder: str | None) -> None:
+        """Another relay's operator took or left ``robot``: every client here sees who controls it."""
+        if robot not in self.robots:
+            return
+        local = self.leases.holder(robot)
+        self.fleet.set_controller(robot, local if local is not None else holder)
+        self.outbox.status(robot, self.clock())
 
     def reset_estop(self, robot: str | None, by: str | None, now: float) -> list[str]:
         """Lift the latch of ``robot`` (or of every robot); they stay stopped until commanded. Returns them."""
@@ -191,6 +240,11 @@ class Control:
     ) -> None:
         logger.info("lease of %s: %s -> %s (%s)", robot, previous, holder, reason)
         self.fleet.set_controller(robot, holder)
+        if self.peer is not None:
+            try:
+                self.peer.lease_changed(robot, holder)
+            except Exception:
+                logger.exception("could not tell the other relays that %s's lease is now %s's", robot, holder)
         self.outbox.lease(robot, holder, previous, reason)
         self.outbox.status(robot, now)
 
@@ -208,6 +262,7 @@ class Control:
             self.leases.release(robot, client.client_id)
             self.lease_changed(robot, None, client.client_id, "released", now)
         elif holder is None or holder == client.client_id:
+            self._refuse_if_held_elsewhere(robot, identifier, command.id)
             self.leases.take(robot, client.client_id, now)
             if holder is None:
                 self.lease_changed(robot, client.client_id, None, "acquired", now)
@@ -218,6 +273,7 @@ class Control:
                 command.id,
             )
         else:
+            self._refuse_if_held_elsewhere(robot, identifier, command.id)
             await self.halt(robot, f"{client.client_id} takes over from {holder}")
             self.leases.take(robot, client.client_id, now)
             self.lease_changed(robot, client.client_id, holder, "taken_over", now)

@@ -105,6 +105,7 @@ class Relay:
             self.outbox,
             deadman_timeout=config.safety.deadman_timeout,
             lease_timeout=options.lease_timeout,
+            clock=clock,
         )
         self.streams = CameraStreams(self.robots, self.hub, self.backend)
         self.assets = GeneratedAssets(config.scene, self.robots, self.hub)

@@ -18,11 +18,22 @@ class BagOptions:
 
 
 @dataclass(frozen=True)
+class ZenohOptions:
+    """``--backend zenoh``: command-line settings that override robots.yaml's ``zenoh`` section."""
+
+    connect: tuple[str, ...] = ()
+    mode: str | None = None
+    config: str | None = None
+    relay_id: str | None = None
+
+
+@dataclass(frozen=True)
 class Options:
     backend: str = "sim"
     host: str = "127.0.0.1"
     port: int = 8080
     bag: BagOptions = field(default_factory=BagOptions)
+    zenoh: ZenohOptions = field(default_factory=ZenohOptions)
     #: JSON-lines file of every command accepted or refused (relay/audit.py); None: no audit log.
     audit_log: str | None = None
     #: Seconds without commands after which an idle robot's lease is released.

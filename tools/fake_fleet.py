@@ -1,6 +1,7 @@
 """A simulated fleet on a real ROS 2 graph: the ``sim`` backend's robots, over DDS.
 
     python tools/fake_fleet.py [--config robots.yaml]
+    python tools/fake_fleet.py --zenoh [--listen tcp/127.0.0.1:7447]   (over Zenoh, no ROS: fake_fleet_zenoh.py)
 
 For every robot of the config it publishes its pose (on the robot's pose topic, as Odometry,
 PoseWithCovarianceStamped or PoseStamped according to its pose source), its sensors (with the configured
@@ -16,6 +17,7 @@ as ``--backend sim``.
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import signal
 import sys
@@ -266,9 +268,16 @@ class FakeFleet:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if "--zenoh" in argv:
+        # The same fleet as robots under rmw_zenoh would show it, its own Zenoh router (no ROS install needed).
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        sibling = importlib.import_module("fake_fleet_zenoh")
+        return int(sibling.main([a for a in argv if a != "--zenoh"]))
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", type=Path, default=ROOT / "robots.yaml", help="fleet file (default: robots.yaml)")
     parser.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    parser.add_argument("--zenoh", action="store_true", help="over Zenoh instead of DDS (tools/fake_fleet_zenoh.py)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:

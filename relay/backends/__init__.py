@@ -1,4 +1,5 @@
-"""Backends connect the relay to robots: ``sim`` (built in), ``ros`` (rclpy) and ``bag`` (recordings).
+"""Backends connect the relay to robots: ``sim`` (built in), ``ros`` (rclpy), ``bag`` (recordings) and ``zenoh``
+(ROS 2 over Zenoh, no ROS install).
 
 ``create_backend`` imports the chosen one lazily, so that ROS is only needed when it is used.
 """
@@ -11,7 +12,7 @@ from ..events import EventSink
 from ..options import Options
 from .base import Backend
 
-BACKENDS = ("sim", "ros", "bag")
+BACKENDS = ("sim", "ros", "bag", "zenoh")
 
 
 def create_backend(config: FleetConfig, sink: EventSink, options: Options) -> Backend:
@@ -28,4 +29,8 @@ def create_backend(config: FleetConfig, sink: EventSink, options: Options) -> Ba
         from .bag import BagBackend
 
         return BagBackend(config, sink, options.bag)
+    if name == "zenoh":
+        from .zenoh import ZenohBackend
+
+        return ZenohBackend(config, sink, options.zenoh)
     raise BackendUnavailable(f"unknown backend {name!r}; expected one of {', '.join(BACKENDS)}")

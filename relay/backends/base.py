@@ -9,6 +9,7 @@ from typing import ClassVar
 from ..config import FleetConfig
 from ..errors import CommandRejected
 from ..events import EventSink, FrameEvent
+from ..fleet_peer import FleetPeer
 from ..occupancy import OccupancyGrid
 from ..protocol import ErrorCode
 
@@ -84,6 +85,10 @@ class Backend(abc.ABC):
 
     async def recover(self) -> None:  # noqa: B027 - optional hook: most backends have nothing to rebuild
         """Re-create what a failure took away; called by the relay while ``failure`` is set."""
+
+    def fleet_peer(self) -> FleetPeer | None:
+        """Other relays serving the same robots (shared estop and leases), when this backend reaches them."""
+        return None
 
     def health(self) -> dict[str, object]:
         """Extra fields for ``/healthz`` (JSON-serialisable, cheap: called on the loop); none by default."""

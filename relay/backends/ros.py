@@ -39,18 +39,16 @@ from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
 from ..rosmsg import (
     POSE_MESSAGES,
-    POSE_TYPES,
-    SCAN_TYPE,
     SENSOR_TYPES,
     header_stamp,
     message_stamp,
-    transform_of,
 )
-from ..scan import RateCap, scan_event
+from ..scan import RateCap
 from ..tf import TfPose
 from . import dds_profile
 from .base import Backend
 from .goal_watch import GoalWatch
+from .raw_readers import read_scan, read_tf
 from .ros_cameras import RosCameras
 from .ros_ingest import Inbox, RawDecoder, Spinner, pose_reader
 
@@ -361,33 +359,10 @@ class RosBackend(Backend):
         return self._decode(data, type_name)
 
     def _on_tf(self, robot: str, data: bytes) -> None:
-        try:
-            message = self._decode_raw(data, POSE_TYPES["tf"])
-        except ValueError as exc:
-            logger.warning("%s: %s", robot, exc)
-            return
-        tracker = self._tf[robot]
-        latest = None
-        for t in message.transforms:
-            if tracker.feed(t.header.frame_id, t.child_frame_id, transform_of(t)):
-                latest = header_stamp(t.header)
-        if latest is None:
-            return
-        result = tracker.pose()
-        if result is not None:
-            frame, pose = result
-            (x, y, z), (qx, qy, qz, qw) = pose.translation, pose.rotation
-            self._post(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
+        read_tf(robot, self._tf[robot], data, self._decode_raw, self._post)
 
     def _on_scan(self, robot: str, data: bytes) -> None:
-        if not self._scan_cap.allow(robot, time.monotonic()):
-            return  # over the wire's rate: not even decoded
-        try:
-            message = self._decode_raw(data, SCAN_TYPE)
-        except ValueError as exc:
-            logger.warning("%s: %s", robot, exc)
-            return
-        self._post(scan_event(robot, header_stamp(message.header), message))
+        read_scan(robot, self._scan_cap, data, self._decode_raw, self._post)
 
     def _on_map(self, message: Any) -> None:
         try:
@@ -466,8 +441,3 @@ class RosBackend(Backend):
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         return await self._cameras.snapshot(robot, camera)
-
-
-def path_points(message: Any) -> tuple[tuple[float, float], ...]:
-    """A nav_msgs/Path's positions, map frame (the planner's frame: Nav2's global plan is in ``map``)."""
-    return tuple((float(p.pose.position.x), float(p.pose.position.y)) for p in message.poses)

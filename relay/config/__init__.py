@@ -12,10 +12,11 @@ topic is resolved inside the robot's namespace and an absolute one is used as wr
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import yaml
-from yaml.nodes import MappingNode, Node
+from yaml.nodes import MappingNode, Node, ScalarNode
 
 from ..errors import ConfigError
 from ..inspection.kml import Georeference
@@ -24,6 +25,8 @@ from .model import (
     LENS_MODELS,
     POSE_SOURCES,
     QOS_NAMES,
+    ZENOH_KEYS,
+    ZENOH_MODES,
     Camera,
     Field,
     FleetConfig,
@@ -42,6 +45,7 @@ from .model import (
     Scene,
     Sensor,
     Sim,
+    Zenoh,
 )
 from .reader import _Reader, _topic, resolve_topic
 from .robots import _robot
@@ -68,6 +72,7 @@ __all__ = [
     "Scene",
     "Sensor",
     "Sim",
+    "Zenoh",
     "load_config",
     "parse_config",
     "resolve_topic",
@@ -101,7 +106,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
 
     top = reader.mapping(
-        root, "", ("robots", "scene", "map", "sim", "safety", "ros", "georeference"), required=("robots",)
+        root, "", ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference"), required=("robots",)
     )
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
     map_path: Path | None = None
@@ -112,6 +117,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     sim = _sim(reader, top["sim"], base_dir) if "sim" in top else Sim()
     safety = _safety(reader, top["safety"]) if "safety" in top else Safety()
     ros = _ros(reader, top["ros"], base_dir) if "ros" in top else Ros()
+    zenoh = _zenoh(reader, top["zenoh"]) if "zenoh" in top else Zenoh()
     georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
 
     robots: list[Robot] = []
@@ -124,7 +130,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
     return FleetConfig(
         source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros,
-        georeference=georeference,
+        zenoh=zenoh, georeference=georeference,
     )  # fmt: skip
 
 
@@ -224,6 +230,39 @@ def _safety(reader: _Reader, node: Node) -> Safety:
     return Safety(
         deadman_timeout=reader.get(f, "deadman_timeout", "safety", positive, 0.5),
         offline_after=reader.get(f, "offline_after", "safety", positive, 2.0),
+    )
+
+
+#: A Zenoh key chunk: no wildcards, separators or verbatim marker.
+_KEY_CHUNK = re.compile(r"^[^/*$#?@\s]+$")
+_KEY = re.compile(r"^[^*$#?@\s/]+(/[^*$#?@\s/]+)*$")
+
+
+def _zenoh(reader: _Reader, node: Node) -> Zenoh:
+    path = "zenoh"
+    f = reader.mapping(node, path, ("connect", "mode", "config", "keys", "domain_id", "fleet_key", "relay_id"))
+    connect: list[str] = []
+    if "connect" in f:
+        for i, n in reader.sequence(f["connect"], "zenoh.connect"):
+            connect.append(reader.string(n, f"zenoh.connect[{i}]", expected="a Zenoh endpoint such as tcp/HOST:7447"))
+    domain_id = None
+    if "domain_id" in f:
+        node_id = f["domain_id"]
+        domain_id = reader.value(node_id) if isinstance(node_id, ScalarNode) else None
+        if not isinstance(domain_id, int) or isinstance(domain_id, bool) or not 0 <= domain_id <= 232:
+            raise reader.fail(node_id, "zenoh.domain_id", f"expected a ROS domain id 0-232, got {reader.show(node_id)}")
+    return Zenoh(
+        connect=tuple(connect),
+        mode=reader.get(f, "mode", path, lambda n, p: reader.choice(n, p, ZENOH_MODES), Zenoh.mode),
+        config=reader.get(f, "config", path, lambda n, p: reader.string(n, p, expected="a Zenoh JSON5 file"), None),
+        keys=reader.get(f, "keys", path, lambda n, p: reader.choice(n, p, ZENOH_KEYS), Zenoh.keys),
+        domain_id=domain_id,
+        fleet_key=reader.get(
+            f, "fleet_key", path, lambda n, p: reader.string(n, p, pattern=_KEY, expected="a Zenoh key"), "xr_relay"
+        ),
+        relay_id=reader.get(
+            f, "relay_id", path, lambda n, p: reader.string(n, p, pattern=_KEY_CHUNK, expected="a key chunk"), None
+        ),
     )
 
 

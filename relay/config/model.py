@@ -191,6 +191,30 @@ class Ros:
         return dict(self.qos)[kind]
 
 
+ZENOH_MODES = ("client", "peer")
+ZENOH_KEYS = ("rmw_zenoh", "bridge")
+
+
+@dataclass(frozen=True)
+class Zenoh:
+    """Settings of the ``zenoh`` backend (docs/zenoh.md); ``--zenoh-*`` on the command line override them."""
+
+    #: Zenoh endpoints to connect to (``tcp/HOST:7447``); empty: the local router, tcp/127.0.0.1:7447.
+    connect: tuple[str, ...] = ()
+    #: ``client`` (through a router: one link to watch) or ``peer``.
+    mode: str = "client"
+    #: A Zenoh JSON5 configuration file (TLS, user/password, ...), read first; the settings above go on top.
+    config: str | None = None
+    #: ``rmw_zenoh`` (``<domain>/<topic>/<type>/<hash>``) or ``bridge`` (zenoh-bridge-ros2dds: ``<topic>``).
+    keys: str = "rmw_zenoh"
+    #: The ROS domain of rmw_zenoh's keys; None: $ROS_DOMAIN_ID, else 0.
+    domain_id: int | None = None
+    #: Where relays of one fleet share estops and leases: ``<fleet_key>/estop``, ``<fleet_key>/lease/...``.
+    fleet_key: str = "xr_relay"
+    #: This relay's name among the others; None: its Zenoh session id.
+    relay_id: str | None = None
+
+
 @dataclass(frozen=True)
 class FleetConfig:
     source: str
@@ -200,6 +224,7 @@ class FleetConfig:
     sim: Sim = field(default_factory=Sim)
     safety: Safety = field(default_factory=Safety)
     ros: Ros = field(default_factory=Ros)
+    zenoh: Zenoh = field(default_factory=Zenoh)
     #: Where the map frame is on Earth (relay.inspection.kml.Georeference), for KML/KMZ placemarks; None: unknown.
     georeference: Any = None
 

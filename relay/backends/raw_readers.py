@@ -1,0 +1,95 @@
+"""Serialized (CDR) messages to the relay's events, shared by the backends that receive bytes (``ros`` with
+``raw=True``, ``zenoh``): TF chains, laser scans, and the low-rate types decoded whole by rosbags.
+
+Each reader runs on the receiving thread (the ROS executor's, a Zenoh callback's), decodes, and hands an immutable
+event to ``put`` (the backend's one thread crossing). Bytes that are not the message get one warning naming the
+robot and the type; nothing is raised to the middleware's thread.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from ..events import Event, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..rosmsg import POSE_TYPES, SCAN_TYPE, SENSOR_TYPES, header_stamp, message_stamp, transform_of
+from ..scan import RateCap, scan_event
+from ..tf import TfPose
+
+logger = logging.getLogger(__name__)
+
+#: ``decode(data, type_name)``: the message (rosbags, rclpy's attribute names); ValueError naming the type.
+Decode = Callable[[bytes, str], Any]
+Put = Callable[[Event], None]
+
+PATH_TYPE = "nav_msgs/msg/Path"
+STRING_TYPE = "std_msgs/msg/String"
+
+
+def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put) -> None:
+    """A tf2_msgs/TFMessage: the robot's pose once the chain map -> odom -> base is known (relay.tf)."""
+    try:
+        message = decode(data, POSE_TYPES["tf"])
+    except ValueError as exc:
+        logger.warning("%s: %s", robot, exc)
+        return
+    latest = None
+    for t in message.transforms:
+        if tracker.feed(t.header.frame_id, t.child_frame_id, transform_of(t)):
+            latest = header_stamp(t.header)
+    if latest is None:
+        return
+    result = tracker.pose()
+    if result is not None:
+        frame, pose = result
+        (x, y, z), (qx, qy, qz, qw) = pose.translation, pose.rotation
+        put(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
+
+
+def read_scan(robot: str, cap: RateCap, data: bytes, decode: Decode, put: Put) -> None:
+    """A sensor_msgs/LaserScan, at most the wire's scan rate (over it: not even decoded)."""
+    if not cap.allow(robot, time.monotonic()):
+        return
+    try:
+        message = decode(data, SCAN_TYPE)
+    except ValueError as exc:
+        logger.warning("%s: %s", robot, exc)
+        return
+    put(scan_event(robot, header_stamp(message.header), message))
+
+
+def read_sensor(robot: str, sensor: str, type_name: str, data: bytes, decode: Decode, put: Put) -> None:
+    """A sensor reading of one of relay.rosmsg.SENSOR_TYPES."""
+    try:
+        message = decode(data, type_name)
+        value = SENSOR_TYPES[type_name].value(message)
+    except ValueError as exc:
+        logger.warning("%s sensor %s: %s", robot, sensor, exc)
+        return
+    put(SensorEvent(robot, sensor, value, message_stamp(message)))
+
+
+def path_points(message: Any) -> tuple[tuple[float, float], ...]:
+    """A nav_msgs/Path's positions, map frame (the planner's frame: Nav2's global plan is in ``map``)."""
+    return tuple((float(p.pose.position.x), float(p.pose.position.y)) for p in message.poses)
+
+
+def read_path(robot: str, data: bytes, decode: Decode, put: Put) -> None:
+    try:
+        message = decode(data, PATH_TYPE)
+    except ValueError as exc:
+        logger.warning("%s plan: %s", robot, exc)
+        return
+    put(PathEvent(robot, path_points(message)))
+
+
+def read_model(robot: str, data: bytes, decode: Decode, put: Put) -> None:
+    """robot_state_publisher's robot_description (std_msgs/String, URDF)."""
+    try:
+        message = decode(data, STRING_TYPE)
+    except ValueError as exc:
+        logger.warning("%s robot description: %s", robot, exc)
+        return
+    put(RobotModelEvent(robot, str(message.data)))

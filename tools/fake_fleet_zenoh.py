@@ -1,0 +1,391 @@
+"""A simulated fleet on a Zenoh network, as robots under rmw_zenoh would show it: no ROS install needed.
+
+    python tools/fake_fleet_zenoh.py [--config robots.yaml] [--listen tcp/127.0.0.1:7447]
+    python tools/fake_fleet.py --zenoh ...          (the same)
+
+It is its own Zenoh router, listening where rmw_zenoh's router does by default (tcp/127.0.0.1:7447), which is
+where ``xr-relay --backend zenoh`` looks when neither ``--zenoh-connect`` nor robots.yaml's ``zenoh.connect`` says
+otherwise: ``make run ARGS="--backend zenoh"`` beside it shows the demo. For every robot of the config it publishes
+what tools/fake_fleet.py publishes over DDS (poses, sensors, laser scans, the map with a cache for late joiners,
+camera images while someone subscribes), as CDR built by rosbags on rmw_zenoh's keys with its attachment, and
+follows cmd_vel, goal_pose and, for robots with ``cmd_vel.watchdog``, the watchdog's topic and the relay's
+heartbeat with the watchdog's own rules (relay/watchdog/rules.py): a relay that dies stops its robots here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import itertools
+import json
+import logging
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from relay.backends.zenoh_keys import GID_SIZE, Attachment, topic_key, topic_selector  # noqa: E402
+from relay.config import FleetConfig, Robot, load_config  # noqa: E402
+from relay.errors import ConfigError  # noqa: E402
+from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
+from relay.record import typestore  # noqa: E402
+from relay.rosmsg import POSE_TYPES, image_type  # noqa: E402
+from relay.sim.laser import LaserScanner  # noqa: E402
+from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
+from relay.watchdog.rules import WatchdogRules  # noqa: E402
+
+logger = logging.getLogger("fake_fleet_zenoh")
+
+DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+SCAN_RATE = 10.0
+#: Sensor values as their messages carry them (ratios where ROS uses them: relay.rosmsg reports percent).
+_SENSOR_FIELDS = {
+    "Float32": ("data", 1.0),
+    "Float64": ("data", 1.0),
+    "Temperature": ("temperature", 1.0),
+    "RelativeHumidity": ("relative_humidity", 0.01),
+    "FluidPressure": ("fluid_pressure", 1.0),
+    "Illuminance": ("illuminance", 1.0),
+    "BatteryState": ("percentage", 0.01),
+}
+
+
+class FakeZenohFleet:
+    def __init__(self, zenoh: Any, session: Any, config: FleetConfig, domain: int) -> None:
+        self.zenoh, self.session, self.config, self.domain = zenoh, session, config, domain
+        self.store = typestore()
+        self.t = self.store.types
+        self.lock = threading.Lock()  # the world is stepped here and commanded from Zenoh's threads
+        self.world = SimWorld(config, self._on_nav)
+        self.scanner = LaserScanner(self.world.grid)
+        self.running = True
+        self._sequence = itertools.count(1)
+        self._gid = bytes(range(GID_SIZE))
+        self.watchdogs: dict[str, WatchdogRules] = {
+            r.name: WatchdogRules(config.safety.deadman_timeout) for r in config.robots if r.watchdog_topic
+        }
+        self.publishers: dict[str, Any] = {}
+        for robot in config.robots:
+            self._declare(robot)
+        if self.watchdogs:
+            session.declare_subscriber(self._selector(config.ros.heartbeat_topic), self._on_heartbeat)
+        map_key = self._key(config.ros.map_topic, "nav_msgs/msg/OccupancyGrid")
+        ext = importlib.import_module("zenoh.ext")
+        # Transient local, as rmw_zenoh does it: a publisher cache that a late subscriber's history query reads.
+        self.map_pub = ext.declare_advanced_publisher(
+            session, map_key, cache=ext.CacheConfig(max_samples=1), publisher_detection=True
+        )
+        self._publish_map()
+
+    # -- keys and publishing ----------------------------------------------------------------------
+
+    def _key(self, topic: str, type_name: str) -> str:
+        return topic_key("rmw_zenoh", self.domain, topic, type_name, self.store.hash_rihs01(type_name))
+
+    def _selector(self, topic: str) -> str:
+        return topic_selector("rmw_zenoh", self.domain, topic)
+
+    def _put(self, publisher: Any, message: Any, type_name: str) -> None:
+        attachment = Attachment(next(self._sequence), time.time_ns(), self._gid).encode()
+        publisher.put(bytes(self.store.serialize_cdr(message, type_name)), attachment=attachment)
+
+    def _header(self, frame: str) -> Any:
+        now = time.time()
+        stamp = self.t["builtin_interfaces/msg/Time"](sec=int(now), nanosec=int((now - int(now)) * 1e9))
+        return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+    def _declare(self, robot: Robot) -> None:
+        name = robot.name
+        if robot.pose.source == "tf":
+            logger.warning("%s: pose source tf is not simulated; publishing nothing", name)
+        else:
+            self.publishers[f"{name}/pose"] = self.session.declare_publisher(
+                self._key(robot.pose.topic, POSE_TYPES[robot.pose.source])
+            )
+        for sensor in robot.sensors:
+            self.publishers[f"{name}/{sensor.name}"] = self.session.declare_publisher(
+                self._key(sensor.topic, sensor.type)
+            )
+        if robot.scan_topic is not None:
+            self.publishers[f"{name}/scan"] = self.session.declare_publisher(
+                self._key(robot.scan_topic, "sensor_msgs/msg/LaserScan")
+            )
+        for camera in robot.cameras:
+            self.publishers[f"{name}/camera/{camera.name}"] = self.session.declare_publisher(
+                self._key(camera.topic, image_type(camera.compressed))
+            )
+        cmd_topic = robot.watchdog_topic or robot.cmd_vel_topic
+        self.session.declare_subscriber(self._selector(cmd_topic), lambda s, r=robot: self._on_cmd_vel(r, s))
+        self.session.declare_subscriber(self._selector(robot.goal_topic), lambda s, r=robot: self._on_goal(r, s))
+
+    # -- commands (Zenoh's threads) ---------------------------------------------------------------
+
+    def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
+        logger.info("%s: %s %s", robot, outcome, goal)
+
+    def _on_heartbeat(self, sample: Any) -> None:
+        now = time.time()
+        for rules in self.watchdogs.values():
+            rules.heartbeat(now)
+
+    def _on_cmd_vel(self, robot: Robot, sample: Any) -> None:
+        stamped = robot.watchdog_topic is not None or robot.cmd_vel_stamped
+        type_name = "geometry_msgs/msg/TwistStamped" if stamped else "geometry_msgs/msg/Twist"
+        try:
+            message = self.store.deserialize_cdr(sample.payload.to_bytes(), type_name)
+        except Exception as exc:  # rosbags raises several kinds on bytes that are not the type
+            logger.warning("%s: %s on %s is not a %s: %s", robot.name, sample.key_expr, robot.name, type_name, exc)
+            return
+        twist = message.twist if stamped else message
+        linear, angular = float(twist.linear.x), float(twist.angular.z)
+        rules = self.watchdogs.get(robot.name)
+        if rules is not None:
+            stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+            with self.lock:
+                verdict = rules.command(linear, angular, stamp, time.time())
+            if not verdict.forward:
+                logger.warning("%s: watchdog dropped a command: %s", robot.name, verdict.reason)
+                return
+        with self.lock:
+            self.world.set_velocity(robot.name, linear, angular)
+
+    def _on_goal(self, robot: Robot, sample: Any) -> None:
+        try:
+            message = self.store.deserialize_cdr(sample.payload.to_bytes(), "geometry_msgs/msg/PoseStamped")
+        except Exception as exc:
+            logger.warning("%s: a goal on %s is not a PoseStamped: %s", robot.name, sample.key_expr, exc)
+            return
+        p, q = message.pose.position, message.pose.orientation
+        with self.lock:
+            try:
+                path = self.world.plan(robot.name, float(p.x), float(p.y))
+            except NoPathError as exc:
+                logger.warning("%s: goal refused: %s", robot.name, exc)
+                return
+            self.world.follow(robot.name, path, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+
+    # -- the simulation (main thread) -------------------------------------------------------------
+
+    def run(self) -> None:
+        sim = self.config.sim
+        dt = 1.0 / max(sim.physics_rate, 50.0)
+        periods = {"pose": 1.0 / sim.pose_rate, "sensor": 1.0 / sim.sensor_rate, "scan": 1.0 / SCAN_RATE}
+        due = dict.fromkeys(periods, 0.0)
+        last = time.monotonic()
+        self._start_cameras()
+        while self.running:
+            now = time.monotonic()
+            with self.lock:
+                self.world.step(min(now - last, 0.2))
+                for name, rules in self.watchdogs.items():
+                    if (reason := rules.tick(time.time())) is not None:
+                        logger.warning("%s: watchdog stop: %s", name, reason)
+                        self.world.set_velocity(name, 0.0, 0.0)
+            last = now
+            for kind, period in periods.items():
+                if now >= due[kind]:
+                    due[kind] = now + period
+                    getattr(self, f"_publish_{kind}s")()
+            time.sleep(dt)
+
+    def _publish_poses(self) -> None:
+        t = self.t
+        for robot in self.config.robots:
+            publisher = self.publishers.get(f"{robot.name}/pose")
+            if publisher is None:
+                continue
+            state = self.world.robots[robot.name].state
+            qx, qy, qz, qw = yaw_to_quaternion(float(state.yaw))
+            pose = t["geometry_msgs/msg/Pose"](
+                position=t["geometry_msgs/msg/Point"](x=float(state.x), y=float(state.y), z=0.0),
+                orientation=t["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw),
+            )
+            source = robot.pose.source
+            covariance = np.zeros(36)
+            if source == "odom":
+                vector = t["geometry_msgs/msg/Vector3"]
+                twist = t["geometry_msgs/msg/Twist"](
+                    linear=vector(x=float(state.linear), y=0.0, z=0.0),
+                    angular=vector(x=0.0, y=0.0, z=float(state.angular)),
+                )
+                message = t["nav_msgs/msg/Odometry"](
+                    header=self._header(robot.pose.odom_frame),
+                    child_frame_id=robot.pose.base_frame,
+                    pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
+                    twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=covariance),
+                )
+            elif source == "amcl_pose":
+                message = t["geometry_msgs/msg/PoseWithCovarianceStamped"](
+                    header=self._header(robot.pose.map_frame),
+                    pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
+                )
+            else:
+                message = t["geometry_msgs/msg/PoseStamped"](header=self._header(robot.pose.map_frame), pose=pose)
+            self._put(publisher, message, POSE_TYPES[source])
+
+    def _publish_sensors(self) -> None:
+        for robot in self.config.robots:
+            with self.lock:
+                readings = self.world.readings(robot.name)
+            for sensor_name, value in readings:
+                sensor = next(s for s in robot.sensors if s.name == sensor_name)
+                cls = sensor.type.rsplit("/", 1)[-1]
+                fields: dict[str, Any]
+                if cls == "Int32":
+                    fields = {"data": round(value)}
+                else:
+                    field, scale = _SENSOR_FIELDS[cls]
+                    fields = {field: float(value) * scale}
+                    if cls not in ("Float32", "Float64"):
+                        fields = self._full(sensor.type, {"header": self._header(f"{robot.name}/base_link"), **fields})
+                message = self.t[sensor.type](**fields)
+                self._put(self.publishers[f"{robot.name}/{sensor_name}"], message, sensor.type)
+
+    def _full(self, type_name: str, given: dict[str, Any]) -> dict[str, Any]:
+        """Every field of a message type, zero/empty where not ``given`` (BatteryState has many)."""
+        out: dict[str, Any] = {}
+        for name, field in self.t[type_name].__dataclass_fields__.items():
+            if name == "__msgtype__":
+                continue
+            if name in given:
+                out[name] = given[name]
+            elif field.type in ("float", "int"):
+                out[name] = 0 if field.type == "int" else 0.0
+            elif field.type == "bool":
+                out[name] = False
+            elif field.type == "str":
+                out[name] = ""
+            else:
+                out[name] = np.zeros(0, np.float32) if "ndarray" in str(field.type) else []
+        return out
+
+    def _publish_scans(self) -> None:
+        for robot in self.config.robots:
+            publisher = self.publishers.get(f"{robot.name}/scan")
+            if publisher is None:
+                continue
+            state = self.world.robots[robot.name].state
+            ranges = self.scanner.scan(state.x, state.y, state.yaw).astype(np.float32)
+            s = self.scanner
+            message = self.t["sensor_msgs/msg/LaserScan"](
+                header=self._header(f"{robot.name}/base_scan"), angle_min=s.angle_min,
+                angle_max=s.angle_min + s.angle_increment * (len(ranges) - 1), angle_increment=s.angle_increment,
+                time_increment=0.0, scan_time=1.0 / SCAN_RATE, range_min=s.range_min, range_max=s.range_max,
+                ranges=ranges, intensities=np.zeros(0, np.float32),
+            )  # fmt: skip
+            self._put(publisher, message, "sensor_msgs/msg/LaserScan")
+
+    def _publish_map(self) -> None:
+        grid, t = self.world.grid, self.t
+        origin = t["geometry_msgs/msg/Pose"](
+            position=t["geometry_msgs/msg/Point"](x=grid.origin_x, y=grid.origin_y, z=0.0),
+            orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        )
+        zero = t["builtin_interfaces/msg/Time"](sec=0, nanosec=0)
+        info = t["nav_msgs/msg/MapMetaData"](
+            map_load_time=zero, resolution=grid.resolution, width=grid.width, height=grid.height, origin=origin
+        )
+        data = (grid.occupied.astype(np.int8) * 100).ravel()
+        message = t["nav_msgs/msg/OccupancyGrid"](
+            header=self._header(self.config.robots[0].pose.map_frame), info=info, data=data
+        )
+        attachment = Attachment(next(self._sequence), time.time_ns(), self._gid).encode()
+        self.map_pub.put(bytes(self.store.serialize_cdr(message, "nav_msgs/msg/OccupancyGrid")), attachment=attachment)
+
+    def _start_cameras(self) -> None:
+        """Render each camera in a thread of its own, only while a relay subscribes to it (ray casting is dear)."""
+        cameras = [(r, c) for r in self.config.robots for c in r.cameras]
+        if not cameras or self.world.scene_glb is None:
+            return
+        from relay.sim.camera import SimCamera
+        from relay.twin.frames import map_to_scene_matrix
+
+        m = self.config.scene.map_to_scene
+        self.camera = SimCamera.load(self.world.scene_glb, map_to_scene=map_to_scene_matrix(m.x, m.y, m.z, m.yaw))
+        for robot, spec in cameras:
+            lens = self.camera.fit_lens(spec.lens, spec.width, spec.height)
+            args = (
+                robot.name,
+                spec,
+                self.publishers[f"{robot.name}/camera/{spec.name}"],
+                lens,
+                1.0 / min(spec.rate, 10.0),
+            )
+            threading.Thread(target=self._camera_loop, args=args, daemon=True).start()
+
+    def _camera_loop(self, robot: str, spec: Any, publisher: Any, lens: Any, period: float) -> None:
+        from relay.sim.camera import rgb_to_jpeg
+
+        while self.running:
+            started = time.monotonic()
+            if publisher.matching_status.matching:
+                state = self.world.robots[robot].state
+                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
+                header = self._header(f"{robot}/camera_{spec.name}")
+                if spec.compressed:
+                    message = self.t["sensor_msgs/msg/CompressedImage"](
+                        header=header, format="jpeg", data=np.frombuffer(rgb_to_jpeg(rgb), np.uint8)
+                    )
+                else:
+                    message = self.t["sensor_msgs/msg/Image"](
+                        header=header, height=rgb.shape[0], width=rgb.shape[1], encoding="rgb8", is_bigendian=0,
+                        step=rgb.shape[1] * 3, data=np.ascontiguousarray(rgb).reshape(-1),
+                    )  # fmt: skip
+                self._put(publisher, message, image_type(spec.compressed))
+            time.sleep(max(0.05, period - (time.monotonic() - started)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", type=Path, default=ROOT / "robots.yaml", help="fleet file (default: robots.yaml)")
+    parser.add_argument(
+        "--listen", action="append", default=[], metavar="ENDPOINT", help=f"where to listen (default {DEFAULT_LISTEN})"
+    )
+    parser.add_argument("--domain", type=int, default=0, help="the ROS domain of the keys (default 0)")
+    parser.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        config = load_config(args.config)
+    except ConfigError as exc:
+        logger.error("%s", exc)
+        return 2
+    try:
+        import zenoh
+    except ImportError:
+        logger.error("fake_fleet_zenoh needs the Zenoh Python API: `pip install '.[zenoh]'`")
+        return 2
+    listen = args.listen or [DEFAULT_LISTEN]
+    zconfig = zenoh.Config()
+    zconfig.insert_json5("mode", '"router"')
+    zconfig.insert_json5("listen/endpoints", json.dumps(listen))
+    zconfig.insert_json5("scouting/multicast/enabled", "false")
+    try:
+        session: Any = zenoh.open(zconfig)
+    except zenoh.ZError as exc:
+        logger.error("cannot listen on %s: %s", ", ".join(listen), exc)
+        return 2
+    fleet = FakeZenohFleet(zenoh, session, config, args.domain)
+
+    def stop(*_: object) -> None:
+        fleet.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    print(f"fake_fleet_zenoh: {len(config.robots)} robots, a Zenoh router on {', '.join(listen)}", flush=True)  # noqa: T201
+    try:
+        fleet.run()
+    finally:
+        session.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
