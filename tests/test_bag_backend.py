@@ -578,6 +578,37 @@ async def test_cameras_sensors_and_dense_scans_replay_from_a_bag(scout: ScoutRec
             ), (got, want)
 
 
+async def test_a_recorded_raw_camera_streams_as_h264_with_no_jpeg_encoded(scout: ScoutRecording) -> None:
+    """Only H.264 viewers of a recorded raw camera: the bag backend skips the JPEG encode (set_jpeg), every packet
+    decodes with FFmpeg's decoder into the recorded photo, and a snapshot meanwhile is still a JPEG."""
+    import av
+
+    config = parse_config(SCOUT_FLEET, "scout.yaml")
+    async with replay(config, scout.path, rate=2.0) as (running, client):
+        await client.hello()
+        reply = await client.request({"identifier": "scout/stream", "camera": "front", "fps": 5, "codec": "h264"})
+        assert reply["identifier"] == "ack", reply
+        deadline = time.monotonic() + 20
+        video: list[tuple[dict[str, Any], bytes]] = []
+        while time.monotonic() < deadline and len(video) < 4:
+            await asyncio.sleep(0.1)
+            video = [(h, p) for _, h, p in client.frames if h["identifier"] == "scout/camera/front"]
+        assert len(video) >= 4 and all(h["encoding"] == "h264" for h, _ in video), [h for h, _ in video]
+        decoder: Any = av.CodecContext.create("h264", "r")
+        for _, payload in video:
+            (picture,) = decoder.decode(av.Packet(payload))
+            image = picture.to_ndarray(format="bgr24")
+            assert image.shape == (180, 320, 3)
+            assert float(np.mean(cv2.absdiff(image, scout.photo))) < 12.0, "the recorded photo"
+        frames = running.relay.backend._cameras[("scout", "front")]  # type: ignore[attr-defined]
+        assert frames.last is None, "no JPEG made for a video-only stream (a frame with one would be kept as last)"
+        reply = await client.request({"identifier": "scout/snapshot", "camera": "front"}, timeout=15)
+        assert reply["identifier"] == "ack", reply
+        header, payload = await wait_frame(client, "scout/camera/front", reply["id"])
+        assert header["encoding"] == "jpeg"
+        assert cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_COLOR) is not None
+
+
 async def test_robot_description_in_a_bag_becomes_the_robot_model() -> None:
     """robots.yaml asks for the model from robot_description: the URDF recorded in the walker bag (TurtleBot3
     Waffle Pi) becomes a glTF served by the relay, with the meshes of the shared turtlebot3_description."""

@@ -82,6 +82,8 @@ class BagBackend(Backend):
         self._last_pose: dict[str, PoseEvent] = {}
         self._scan_cap = RateCap(MAX_SCAN_RATE)
         self._cameras: dict[tuple[str, str], LatestFrameEncoder[_Image]] = {}
+        #: Streamed cameras whose viewers all take H.264: their raw images are not JPEG-encoded (set_jpeg).
+        self._no_jpeg: set[tuple[str, str]] = set()
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="bag-jpeg")
 
     # -- lifecycle --------------------------------------------------------------------------------
@@ -334,7 +336,10 @@ class BagBackend(Backend):
 
     def _frame_encoder(self, robot: str, camera: str) -> LatestFrameEncoder[_Image]:
         def convert(image: _Image) -> FrameEvent:
-            return image_to_frame(image.robot, image.camera, image.stamp, image.message, image.compressed)
+            # Worker thread: a snapshot waiting for this frame needs its JPEG whatever the stream's viewers take.
+            frames = self._cameras[(robot, camera)]
+            jpeg = (robot, camera) not in self._no_jpeg or frames.waiting
+            return image_to_frame(image.robot, image.camera, image.stamp, image.message, image.compressed, jpeg=jpeg)
 
         loop = asyncio.get_running_loop()
         return LatestFrameEncoder(
@@ -345,6 +350,12 @@ class BagBackend(Backend):
         frames = self._cameras.get((robot, camera))
         if frames is not None:
             frames.fps = fps
+
+    def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:
+        if wanted:
+            self._no_jpeg.discard((robot, camera))
+        else:
+            self._no_jpeg.add((robot, camera))
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         """The JPEG of the camera's image at the playback position (also while paused), or None."""
