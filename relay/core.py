@@ -33,6 +33,7 @@ from .config import FleetConfig
 from .control import Control
 from .description import describe_robot
 from .events import (
+    CameraError,
     Event,
     EventSink,
     FrameEvent,
@@ -65,7 +66,7 @@ from .messages import (
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .outbox import Outbox
-from .protocol import PROTOCOL_VERSION, Role
+from .protocol import PROTOCOL_VERSION, Role, camera_identifier
 from .ratelimit import TokenBucket
 from .streams import CameraStreams
 from .supervision import Supervisor
@@ -308,3 +309,5 @@ class Relay:
             self.outbox.state(scan)
         elif isinstance(event, FrameEvent):
             self.streams.on_frame(event, now)
+        elif isinstance(event, CameraError):
+            self.streams.camera_failed(camera_identifier(event.robot, event.camera), event.message)

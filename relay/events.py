@@ -72,6 +72,16 @@ class FrameEvent:
 
 
 @dataclass(frozen=True, slots=True)
+class CameraError:
+    """A streamed camera's images cannot be read (an encoding the relay does not know, a size that does not match
+    the bytes): its viewers are told, and their streams end."""
+
+    robot: str
+    camera: str
+    message: str
+
+
+@dataclass(frozen=True, slots=True)
 class ScanEvent:
     """A laser scan, already decimated, in the robot's scan frame (ranges in metres, NaN = no return)."""
 
@@ -119,6 +129,15 @@ class PlaybackEvent:
 
 
 Event = (
-    PoseEvent | SensorEvent | NavEvent | PathEvent | FrameEvent | ScanEvent | MapEvent | PlaybackEvent | RobotModelEvent
+    PoseEvent
+    | SensorEvent
+    | NavEvent
+    | PathEvent
+    | FrameEvent
+    | CameraError
+    | ScanEvent
+    | MapEvent
+    | PlaybackEvent
+    | RobotModelEvent
 )
 EventSink = Callable[[Event], None]

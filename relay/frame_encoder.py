@@ -54,9 +54,12 @@ class LatestFrameEncoder(Generic[Image]):
         clock: Callable[[], float] = time.monotonic,
         *,
         keep_latest: bool = False,
+        fail: Callable[[str], None] | None = None,
     ) -> None:
         self.name = name
         self._convert, self._pool, self._hop, self._deliver = convert, pool, hop, deliver
+        #: Told (on the loop) why an image of a streamed camera could not be read: its viewers hear it.
+        self._fail = fail
         self._clock, self._keep_latest = clock, keep_latest
         self._lock = threading.Lock()
         #: The stream rate clients ask for (0: nobody streams this camera).
@@ -127,13 +130,15 @@ class LatestFrameEncoder(Generic[Image]):
         """Worker thread: convert, hand the result to the loop, then take the newest pending image."""
         while True:
             frame: FrameEvent | None = None
+            error: str | None = None
             try:
                 frame = self._convert(image)
             except (ImageError, ValueError) as exc:
                 logger.warning("%s: %s", self.name, exc)
+                error = str(exc)
             with self._lock:
                 self._in_transit += 1
-            self._hop(lambda f=frame, i=image, n=sequence: self.done(f, i, n))  # type: ignore[misc]
+            self._hop(lambda f=frame, i=image, n=sequence, e=error: self.done(f, i, n, e))  # type: ignore[misc]
             with self._lock:
                 if self._pending is None:
                     self._in_flight -= 1
@@ -142,11 +147,13 @@ class LatestFrameEncoder(Generic[Image]):
                 self._submitted += 1
                 sequence = self._submitted
 
-    def done(self, frame: FrameEvent | None, image: Image, sequence: int) -> None:
-        """On the loop: a frame (or None: the image could not be read) is ready; ``sequence`` orders the images
-        submitted (a frame older than one already delivered is dropped)."""
+    def done(self, frame: FrameEvent | None, image: Image, sequence: int, error: str | None = None) -> None:
+        """On the loop: a frame (or None: the image could not be read, ``error`` says why) is ready; ``sequence``
+        orders the images submitted (a frame older than one already delivered is dropped)."""
         with self._lock:
             self._in_transit = max(0, self._in_transit - 1)
+        if frame is None and error is not None and self.fps > 0 and self._fail is not None:
+            self._fail(error)
         if frame is not None:
             if sequence < self._delivered:
                 self.out_of_order += 1

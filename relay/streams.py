@@ -122,6 +122,16 @@ class CameraStreams:
                 channel.put_priority(data)
         self.update_demand(identifier)
 
+    def camera_failed(self, identifier: str, message: str) -> None:
+        """A streamed camera's images cannot be read: every viewer of it (JPEG or video) is told why, by name, and
+        its stream ends (the backend stops reading the camera when nobody streams it). Other cameras go on."""
+        data = encode(error_message(None, ErrorCode.UNSUPPORTED, f"{identifier}: {message}"))
+        for channel in self._hub:
+            if identifier in channel.streams:
+                self._hub.set_stream(channel, identifier, 0)
+                channel.put_priority(data)
+        self.update_demand(identifier)
+
     def _hop(self, call: Callable[[], None]) -> None:
         loop = self._loop
         if loop is not None and not loop.is_closed():

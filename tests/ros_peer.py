@@ -89,6 +89,21 @@ def main() -> int:
         )
         emit({"compressed_bytes": len(compressed.data)})
 
+    for item in spec.get("raw_images", []):
+        # Raw images of any size and encoding: the photo's bytes as they are (an encoding the relay cannot read
+        # is still a well-formed message: its bytes are the right count for two bytes a pixel or three).
+        photo = cv2.imread(item["file"])
+        assert photo is not None, item["file"]
+        bgr = cv2.resize(photo, (item["width"], item["height"]))
+        raw = Image()
+        raw.height, raw.width = bgr.shape[:2]
+        raw.encoding = item.get("encoding", "rgb8")
+        channels = 2 if raw.encoding.startswith("yuv422") else 3
+        raw.step = raw.width * channels
+        raw.data = bgr.tobytes()[: raw.step * raw.height]
+        raw.header.frame_id = "camera"
+        publishers.append((node.create_publisher(Image, item["topic"], reliable), raw))
+
     def publish_all() -> None:
         stamp = node.get_clock().now().to_msg()
         for publisher, message in publishers:

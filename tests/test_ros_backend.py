@@ -52,6 +52,9 @@ robots:
     cameras:
       - {name: front, lens: {model: equidistant, fov: 180}, width: 640, height: 480}
       - {name: jpeg, compressed: true, topic: camera/jpeg/compressed}
+      - {name: odd, topic: camera/odd/image_raw, width: 641, height: 481}
+      - {name: yuyv, topic: camera/yuyv/image_raw, width: 640, height: 480}
+      - {name: misfit, topic: camera/misfit/image_raw, width: 640, height: 480}
     sensors:
       - {name: gas, type: std_msgs/Float32, unit: ppm, warn_above: 400}
       - {name: temperature, type: sensor_msgs/Temperature, warn_above: 45}
@@ -439,6 +442,48 @@ async def test_a_raw_camera_streams_as_h264_with_no_jpeg_encoded_and_snapshots_s
             header["encoding"] == "jpeg"
             and cv2.imdecode(np.frombuffer(payload, np.uint8), cv2.IMREAD_COLOR) is not None
         )
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+@pytest.mark.skipif(not FISHEYE.exists(), reason="../shared/data/fisheye is absent")
+async def test_cameras_that_cannot_be_video_say_why_by_name_and_the_other_stream_goes_on(
+    ros_relay: RunningRelay, tmp_path: Path
+) -> None:
+    """A camera configured at an odd size (H.264 needs even) is refused at once; one whose images turn out of odd
+    size, and one in an encoding the relay cannot read, end their video viewers' streams with an ``error`` naming
+    the camera and the reason; a good camera's video streamed to the same client meanwhile goes on."""
+    spec = {
+        **CAMERAS,
+        "raw_images": [
+            {"topic": "/alpha/camera/misfit/image_raw", "file": str(FISHEYE), "width": 641, "height": 481},
+            {"topic": "/alpha/camera/yuyv/image_raw", "file": str(FISHEYE), "width": 640, "height": 480,
+             "encoding": "yuv422_yuy2"},
+        ],
+    }  # fmt: skip
+    peer = await start_peer(spec, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        odd = await client.request({"identifier": "alpha/stream", "camera": "odd", "fps": 15, "codec": "h264"})
+        assert odd["identifier"] == "error" and odd["code"] == "unsupported", odd
+        assert "camera odd is 641x481" in odd["message"] and "even" in odd["message"], odd
+        for camera in ("front", "misfit", "yuyv"):
+            reply = await client.request({"identifier": "alpha/stream", "camera": camera, "fps": 15, "codec": "h264"})
+            assert reply["identifier"] == "ack", reply
+        misfit = await client.wait_for(
+            lambda m: m["identifier"] == "error" and "alpha/camera/misfit" in m["message"], 45
+        )
+        assert misfit["code"] == "unsupported" and "641x481" in misfit["message"], misfit
+        yuyv = await client.wait_for(lambda m: m["identifier"] == "error" and "alpha/camera/yuyv" in m["message"], 45)
+        assert yuyv["code"] == "unsupported" and "yuv422_yuy2" in yuyv["message"], yuyv
+        seen = len(client.frames)
+        await asyncio.sleep(2.0)  # 15 fps asked: ~30 frames of the good camera
+        later = [h for _, h, _ in client.frames[seen:]]
+        assert len(later) >= 10, "the good camera's video went on"
+        assert {h["identifier"] for h in later} == {"alpha/camera/front"} and all(
+            h["encoding"] == "h264" for h in later
+        ), "nothing of the failed cameras, all of the good one"
     finally:
         await client.close()
         await peer.stop()

@@ -17,7 +17,7 @@ from typing import Any
 
 from ..cdr import cdr_stamp
 from ..config import Camera, FleetConfig
-from ..events import FrameEvent
+from ..events import CameraError, EventSink, FrameEvent
 from ..frame_encoder import LatestFrameEncoder
 from ..rosmsg import image_to_frame, image_type
 
@@ -49,7 +49,7 @@ class RosCameras:
         config: FleetConfig,
         pool: Executor,
         hop: Callable[[Callable[[], None]], object],
-        deliver: Callable[[FrameEvent], None],
+        deliver: EventSink,
         subscribe: Subscribe,
         unsubscribe: Unsubscribe,
         decode: Decode,
@@ -129,7 +129,7 @@ def _encoder(
     camera: Camera,
     pool: Executor,
     hop: Callable[[Callable[[], None]], object],
-    deliver: Callable[[FrameEvent], None],
+    deliver: EventSink,
     decode: Decode,
     wants_jpeg: Callable[[str, str], bool],
 ) -> LatestFrameEncoder[tuple[bytes, float]]:
@@ -140,4 +140,7 @@ def _encoder(
         jpeg = wants_jpeg(robot, camera.name)
         return image_to_frame(robot, camera.name, image[1], message, camera.compressed, jpeg=jpeg)
 
-    return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, pool, hop, deliver)
+    def fail(message: str) -> None:
+        deliver(CameraError(robot, camera.name, message))
+
+    return LatestFrameEncoder(f"{robot} camera {camera.name}", convert, pool, hop, deliver, fail=fail)

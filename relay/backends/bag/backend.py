@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 from ...config import FleetConfig
 from ...errors import BackendUnavailable, CommandRejected
 from ...events import (
+    CameraError,
     EventSink,
     FrameEvent,
     PlaybackEvent,
@@ -341,9 +342,18 @@ class BagBackend(Backend):
             jpeg = (robot, camera) not in self._no_jpeg or frames.waiting
             return image_to_frame(image.robot, image.camera, image.stamp, image.message, image.compressed, jpeg=jpeg)
 
+        def fail(message: str) -> None:
+            self.sink(CameraError(robot, camera, message))
+
         loop = asyncio.get_running_loop()
         return LatestFrameEncoder(
-            f"{robot} camera {camera}", convert, self._pool, loop.call_soon_threadsafe, self.sink, keep_latest=True
+            f"{robot} camera {camera}",
+            convert,
+            self._pool,
+            loop.call_soon_threadsafe,
+            self.sink,
+            keep_latest=True,
+            fail=fail,
         )
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
