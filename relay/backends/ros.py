@@ -50,7 +50,7 @@ from .base import Backend
 from .goal_watch import GoalWatch
 from .raw_readers import read_scan, read_tf
 from .ros_cameras import RosCameras
-from .ros_ingest import Inbox, RawDecoder, Spinner, pose_reader
+from .ros_ingest import Inbox, LoopCrossing, RawDecoder, Spinner, pose_reader
 
 logger = logging.getLogger(__name__)
 
@@ -119,7 +119,7 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
     return classes
 
 
-class RosBackend(Backend):
+class RosBackend(LoopCrossing, Backend):
     name = "ros"
 
     def __init__(self, config: FleetConfig, sink: EventSink) -> None:
@@ -331,18 +331,6 @@ class RosBackend(Backend):
         )
 
     # -- the thread boundary ----------------------------------------------------------------------
-
-    def _post(self, event: Event) -> None:
-        """THE crossing from the executor (or worker) thread to the loop; ``event`` is immutable."""
-        if self._inbox is not None:
-            self._inbox.put(event)
-
-    def _hop(self, call: Callable[[], None]) -> None:
-        """The same crossing for the camera encoders' results (a worker thread's finished frame)."""
-        loop = self._loop
-        if loop is not None and not loop.is_closed():
-            with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(call)
 
     def _deliver(self, event: Event) -> None:
         """On the loop: the relay's sink, then whether the pose reached the robot's goal."""

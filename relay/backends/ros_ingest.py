@@ -55,6 +55,26 @@ INBOX_LIMIT = 10_000
 BATCH_INTERVAL = 0.002
 
 
+class LoopCrossing:
+    """The thread boundary of a backend fed from another thread (rclpy's executor, Zenoh's callbacks, a worker):
+    the backend sets ``_inbox`` and ``_loop`` when it starts."""
+
+    _inbox: Inbox | None
+    _loop: asyncio.AbstractEventLoop | None
+
+    def _post(self, event: Event) -> None:
+        """THE crossing from another thread to the loop; ``event`` is immutable."""
+        if self._inbox is not None:
+            self._inbox.put(event)
+
+    def _hop(self, call: Callable[[], None]) -> None:
+        """The same crossing for a call: a camera encoder's finished frame, another relay's estop or lease."""
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            with contextlib.suppress(RuntimeError):  # the loop closed under a late call (shutdown)
+                loop.call_soon_threadsafe(call)
+
+
 class Inbox:
     """Events from the executor (or a worker) thread to the loop, one wake-up per batch.
 

@@ -48,7 +48,7 @@ from .cdr_encode import HEADER, POSE_STAMPED, TWIST, TWIST_STAMPED, CommandEncod
 from .goal_watch import GoalWatch
 from .raw_readers import PATH_TYPE, STRING_TYPE, read_model, read_path, read_scan, read_sensor, read_tf
 from .ros_cameras import RosCameras
-from .ros_ingest import Inbox, RawDecoder, pose_reader
+from .ros_ingest import Inbox, LoopCrossing, RawDecoder, pose_reader
 from .zenoh_fleet import ZenohFleet
 from .zenoh_keys import GID_SIZE, Attachment, key_type, topic_key, topic_selector
 from .zenoh_session import ZenohSettings, connected, load_zenoh, open_session, settings
@@ -91,7 +91,7 @@ class _Publisher:
             self._publisher.undeclare()
 
 
-class ZenohBackend(Backend):
+class ZenohBackend(LoopCrossing, Backend):
     name = "zenoh"
 
     def __init__(self, config: FleetConfig, sink: EventSink, options: ZenohOptions | None = None) -> None:
@@ -365,18 +365,6 @@ class ZenohBackend(Backend):
             entity.undeclare()
 
     # -- the thread boundary ----------------------------------------------------------------------
-
-    def _post(self, event: Event) -> None:
-        """THE crossing from a Zenoh (or worker) thread to the loop; ``event`` is immutable."""
-        if self._inbox is not None:
-            self._inbox.put(event)
-
-    def _hop(self, call: Callable[[], None]) -> None:
-        """The same crossing for a camera's finished frame and the fleet's estops and leases."""
-        loop = self._loop
-        if loop is not None and not loop.is_closed():
-            with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(call)
 
     def _deliver(self, event: Event) -> None:
         self.sink(event)
