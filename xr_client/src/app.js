@@ -44,6 +44,7 @@ import { Overlay } from './view/overlay.js';
 import { snapshotState } from './view/state_snapshot.js';
 import { povCaption, sensorPanelData } from './view/captions.js';
 import { FrameTimer } from './frame_timer.js';
+import { VoiceControl } from './view/voice_control.js';
 
 const TIMING_SAMPLES = 1200;
 /** A part the constructor builds: see the declarations in App. */
@@ -54,7 +55,8 @@ const UNBUILT = /** @type {any} */ (null);
  * @typedef {{toggleMenu: () => void, pressMenu: (id: string) => void, selectRobot: (name: string) => void,
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
  *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string) => void,
- *   offerTakeOver: (goal: import('./command_sender.js').Goal) => void}} OperatorActions
+ *   offerTakeOver: (goal: import('./command_sender.js').Goal) => void, goalTo: (robot: string, goal: import('./command_sender.js').Goal) => void,
+ *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void}} OperatorActions
  */
 
 export class App {
@@ -91,6 +93,7 @@ export class App {
   /** @type {FleetView} */ fleetView = UNBUILT;
   /** @type {Map<string, import('./view/robot_view.js').RobotView>} */ robotViews = UNBUILT;
   /** @type {CameraFeed} */ feed = UNBUILT;
+  /** @type {VoiceControl} */ voice = UNBUILT;
   /** @type {XRInput} */ xrInput = UNBUILT;
   /** @type {XRInteraction} */ interaction = UNBUILT;
   /** @type {FindingCard} */ findingCard = UNBUILT;
@@ -131,6 +134,7 @@ export class App {
       enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
       say: (text) => this.#notify(text, 'info', false),
       offerTakeOver: (goal) => this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
+      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects),
     };
     this.#buildScene(options);
     this.#buildViews(container);
@@ -196,6 +200,8 @@ export class App {
     this.scene.add(this.hemisphere.group);
     // JPEG pictures and H.264 video onto the hemisphere; a fallback from video to JPEG is said once.
     this.feed = new CameraFeed({ hemisphere: this.hemisphere, sender: this.sender, say: (text) => this.#notify(text, 'warning'), params: new URLSearchParams(location.search) });
+    const inspection = this.router.inspection; // voice: its targets are places, its missions can be paused
+    this.voice = new VoiceControl({ actions: this.actions, menu: this.menu, fleet: this.fleet, targets: () => [...inspection.targets.values()], activeMission: (r) => Boolean(inspection.active(r)), presenting: () => this.presenting });
     this.xrInput = new XRInput(this.renderer, this.rig, this.scene);
     const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
     this.findingCard = new FindingCard(token);
@@ -418,19 +424,13 @@ export class App {
         case 'snapshot':
           this.sender.snapshot(effect.robot, this.fleet.camera(effect.robot)?.name ?? null);
           break;
-        case 'cancel':
-          this.sender.cancel(effect.robot);
-          break;
-        case 'takeover':
-          this.operatorUi.offer(effect.robot, effect.holder, null);
-          break;
+        case 'cancel': this.sender.cancel(effect.robot); break;
+        case 'takeover': this.operatorUi.offer(effect.robot, effect.holder, null); break;
         case 'estop':
           this.driver.stop(performance.now(), true);
           this.sender.estop(effect.robot);
           break;
-        case 'estop_reset':
-          this.sender.estopReset();
-          break;
+        case 'estop_reset': this.sender.estopReset(); break;
         case 'mission':
           this.inspectionUi.command(effect, this.menu);
           break;

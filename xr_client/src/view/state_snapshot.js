@@ -99,6 +99,7 @@ export function snapshotState(app) {
     },
     // The live stream's codec and the H.264 decoder's counts (view/camera_feed.js, video_decoder.js).
     video: app.feed.state(),
+    voice: app.voice.state(),
     timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles, pixelRatio: app.renderer.getPixelRatio(), maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null },

@@ -1,0 +1,120 @@
+"""Voice commands (issue #17) in Chromium: a fake Web Speech recogniser injected into the page says what an operator
+would, push-to-talk is the V key held, and the relay's side shows what the phrases did: a goal that waited for
+"confirm" and then reached the backend for the right robot and room, "stop all" latching every robot at once. Without
+a recogniser the Talk button says so. Screenshots go to test-artifacts/."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from playwright.async_api import Browser
+
+from .conftest import SOFTWARE_GL, Client, Station, wait_until
+
+ROBOTS = ("robot1", "robot2", "robot3")
+
+#: A stand-in for the browser's SpeechRecognition: start() records the instance; the test makes it "hear" a phrase
+#: with window.__speech.say(text), delivered as the Web Speech API delivers a final result, then ends.
+FAKE_SPEECH = """
+(() => {
+  const speech = { started: 0, stopped: 0, current: null };
+  class FakeRecognition {
+    constructor() { this.lang = ''; this.continuous = false; this.interimResults = false;
+      this.onresult = null; this.onerror = null; this.onend = null; }
+    start() { speech.started++; speech.current = this; }
+    stop() { speech.stopped++; }
+    abort() { speech.stopped++; }
+  }
+  speech.say = (text) => {
+    const r = speech.current;
+    if (!r) throw new Error('nobody is listening');
+    const result = [{ transcript: text, confidence: 0.9 }];
+    result.isFinal = true;
+    r.onresult && r.onresult({ resultIndex: 0, results: [result] });
+    r.onend && r.onend();
+    speech.current = null;
+  };
+  window.SpeechRecognition = FakeRecognition;
+  window.webkitSpeechRecognition = FakeRecognition;
+  window.__speech = speech;
+})();
+"""
+
+NO_SPEECH = "delete window.SpeechRecognition; delete window.webkitSpeechRecognition;"
+
+
+async def open_page(browser: Browser, url: str, name: str, script: str) -> Client:
+    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+    await page.add_init_script(script)
+    client = Client(page, name)
+    await page.goto(f"{url}/?{SOFTWARE_GL}&name=Vera")
+    await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
+    return client
+
+
+async def say(client: Client, text: str) -> dict[str, Any]:
+    """Hold V, say ``text``, release V; returns the voice state once the phrase was handled."""
+    page = client.page
+    await page.keyboard.down("v")
+    await client.wait("s.voice.listening", 10)
+    await page.evaluate("(text) => window.__speech.say(text)", text)
+    await page.keyboard.up("v")
+    state: dict[str, Any] = await client.wait("s.voice.heard === arg && !s.voice.listening && s.voice", 10, text)
+    return state
+
+
+def latched(station: Station) -> list[str]:
+    return [r for r in ROBOTS if station.status(r)["estopped"]]
+
+
+async def test_a_spoken_goal_waits_for_confirm_and_stop_all_latches_every_robot(
+    station: Station, browser: Browser
+) -> None:
+    client = await open_page(browser, station.url, "voice-goal", FAKE_SPEECH)
+    try:
+        assert (await client.state())["voice"]["available"] is True
+        heard = await say(client, "robot two go to power distribution")
+        assert heard["pending"] == "robot2 go to Power distribution", heard
+        assert "confirm" in heard["result"], heard
+        caption = await client.page.text_content("#voice-caption")
+        assert caption is not None and 'heard "robot two go to power distribution"' in caption, caption
+        await client.shot("voice-pending")
+        assert [g for g in station.goals if g[0] == "robot2"] == [], "nothing moves before the confirmation"
+
+        confirmed = await say(client, "confirm")
+        assert confirmed["pending"] is None and confirmed["done"].get("goto") == 1, confirmed
+        await wait_until(lambda: any(g[0] == "robot2" for g in station.goals), 10, "robot2's goal at the backend")
+        _, x, y, _ = next(g for g in station.goals if g[0] == "robot2")
+        # Power distribution's bounds in scenes/facility.yaml are x 6-12, y 3-10: its middle.
+        assert (x, y) == (9.0, 6.5), (x, y)
+        assert all(g[0] == "robot2" for g in station.goals), "no other robot was sent anywhere"
+
+        refused = await say(client, "robot seven go to plumbing")
+        assert "no robot 7 in this fleet" in refused["result"], refused
+
+        stopped = await say(client, "stop all")
+        assert stopped["result"] == "emergency stop of every robot", stopped
+        await wait_until(lambda: latched(station) == list(ROBOTS), 5, "every robot latched by voice")
+        await client.wait("s.estop.latched.length === 3", 10)
+        caption = await client.page.text_content("#voice-caption")
+        assert caption is not None and 'heard "stop all"' in caption, caption
+        await client.shot("voice-stop-all")
+        # Released as an operator releases it, for the tests that share this station.
+        await client.page.click('#estop-banner button[data-button="estop:reset"]')
+        await wait_until(lambda: latched(station) == [], 5, "every robot released")
+    finally:
+        await client.page.close()
+
+
+async def test_without_speech_recognition_the_talk_button_says_so(station: Station, browser: Browser) -> None:
+    client = await open_page(browser, station.url, "voice-none", NO_SPEECH)
+    try:
+        voice = (await client.state())["voice"]
+        assert voice["available"] is False
+        assert voice["button"] == {"text": "Voice: not in this browser", "disabled": True}, voice
+        await client.page.keyboard.down("v")
+        await client.wait("s.voice.result === 'voice: this browser has no speech recognition'", 10)
+        await client.page.keyboard.up("v")
+        await client.shot("voice-unavailable")
+    finally:
+        await client.page.close()
