@@ -10,6 +10,7 @@ from typing import Any
 from playwright.async_api import Browser
 
 from .conftest import SOFTWARE_GL, Client, Station, wait_until
+from .xr_helpers import button
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -43,11 +44,13 @@ FAKE_SPEECH = """
 NO_SPEECH = "delete window.SpeechRecognition; delete window.webkitSpeechRecognition;"
 
 
-async def open_page(browser: Browser, url: str, name: str, script: str) -> Client:
-    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+async def open_page(
+    browser: Browser, url: str, name: str, script: str, *, vr: bool = False, size: tuple[int, int] = (1280, 760)
+) -> Client:
+    page = await browser.new_page(viewport={"width": size[0], "height": size[1]})
     await page.add_init_script(script)
     client = Client(page, name)
-    await page.goto(f"{url}/?{SOFTWARE_GL}&name=Vera")
+    await page.goto(f"{url}/?{'emulate=quest3&' if vr else ''}{SOFTWARE_GL}&name=Vera")
     await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
     return client
 
@@ -116,5 +119,26 @@ async def test_without_speech_recognition_the_talk_button_says_so(station: Stati
         await client.wait("s.voice.result === 'voice: this browser has no speech recognition'", 10)
         await client.page.keyboard.up("v")
         await client.shot("voice-unavailable")
+    finally:
+        await client.page.close()
+
+
+async def test_in_vr_a_thumbstick_held_in_is_push_to_talk_and_the_hud_says_what_was_heard(
+    station: Station, browser: Browser
+) -> None:
+    client = await open_page(browser, station.url, "voice-vr", FAKE_SPEECH, vr=True, size=(640, 400))
+    try:
+        await client.wait("s.vr.available", 10)
+        await client.page.click("#enter-vr")
+        await client.wait("s.presenting", 20)
+        await client.frames(3)
+        await button(client, "right", "thumbstick", 1)
+        await client.wait("s.voice.listening", 10)
+        await client.page.evaluate("window.__speech.say('robot three')")
+        await button(client, "right", "thumbstick", 0)
+        s = await client.wait("s.voice.heard === 'robot three' && s", 10)
+        assert s["menu"]["selected"] == "robot3" and s["voice"]["result"] == "selected robot3", s["voice"]
+        assert s["voice"]["toast"] is True, "the headset's HUD shows what was heard"
+        await client.shot("voice-vr")
     finally:
         await client.page.close()

@@ -45,6 +45,7 @@ import { snapshotState } from './view/state_snapshot.js';
 import { povCaption, sensorPanelData } from './view/captions.js';
 import { FrameTimer } from './frame_timer.js';
 import { VoiceControl } from './view/voice_control.js';
+import { SoundControl } from './view/sound_control.js';
 
 const TIMING_SAMPLES = 1200;
 /** A part the constructor builds: see the declarations in App. */
@@ -54,9 +55,9 @@ const UNBUILT = /** @type {any} */ (null);
  * What the operator can do, as the views call it: the only way a view acts on the station.
  * @typedef {{toggleMenu: () => void, pressMenu: (id: string) => void, selectRobot: (name: string) => void,
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
- *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string) => void,
+ *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string, toast?: boolean) => void,
  *   offerTakeOver: (goal: import('./command_sender.js').Goal) => void, goalTo: (robot: string, goal: import('./command_sender.js').Goal) => void,
- *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void}} OperatorActions
+ *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void}} OperatorActions
  */
 
 export class App {
@@ -94,6 +95,7 @@ export class App {
   /** @type {Map<string, import('./view/robot_view.js').RobotView>} */ robotViews = UNBUILT;
   /** @type {CameraFeed} */ feed = UNBUILT;
   /** @type {VoiceControl} */ voice = UNBUILT;
+  /** @type {SoundControl} */ sound = UNBUILT;
   /** @type {XRInput} */ xrInput = UNBUILT;
   /** @type {XRInteraction} */ interaction = UNBUILT;
   /** @type {FindingCard} */ findingCard = UNBUILT;
@@ -132,9 +134,9 @@ export class App {
       sendGoal: (goal) => this.#sendGoal(goal),
       driveStick: (source, x, y) => this.#driveStick(source, x, y),
       enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
-      say: (text) => this.#notify(text, 'info', false),
+      say: (text, toast = false) => this.#notify(text, 'info', toast),
       offerTakeOver: (goal) => this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
-      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects),
+      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects), talk: (down) => this.voice.talk(down),
     };
     this.#buildScene(options);
     this.#buildViews(container);
@@ -201,7 +203,8 @@ export class App {
     // JPEG pictures and H.264 video onto the hemisphere; a fallback from video to JPEG is said once.
     this.feed = new CameraFeed({ hemisphere: this.hemisphere, sender: this.sender, say: (text) => this.#notify(text, 'warning'), params: new URLSearchParams(location.search) });
     const inspection = this.router.inspection; // voice: its targets are places, its missions can be paused
-    this.voice = new VoiceControl({ actions: this.actions, menu: this.menu, fleet: this.fleet, targets: () => [...inspection.targets.values()], activeMission: (r) => Boolean(inspection.active(r)), presenting: () => this.presenting });
+    this.voice = new VoiceControl({ actions: this.actions, menu: this.menu, fleet: this.fleet, targets: () => [...inspection.targets.values()], activeMission: (r) => Boolean(inspection.active(r)), presenting: () => this.presenting, toast: (text) => this.#notify(text, 'info') });
+    this.sound = new SoundControl({ fleet: this.fleet, menu: this.menu, goals: this.goals, camera: this.camera, robotViews: this.robotViews, inputSources: () => this.renderer.xr.getSession()?.inputSources ?? [] });
     this.xrInput = new XRInput(this.renderer, this.rig, this.scene);
     const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
     this.findingCard = new FindingCard(token);
@@ -407,12 +410,8 @@ export class App {
           if (effect.open) this.interaction.placeMenu();
           this.menuPanel.mesh.visible = effect.open && this.presenting;
           break;
-        case 'mode':
-          this.#setMode(effect.mode);
-          break;
-        case 'select':
-          this.#syncSelection();
-          break;
+        case 'mode': this.#setMode(effect.mode); break;
+        case 'select': this.#syncSelection(); break;
         case 'tool':
           this.goalPointer.cancel();
           break;
@@ -577,6 +576,7 @@ export class App {
     this.xrSession.dispose();
     this.connection.dispose();
     this.feed.dispose();
+    this.sound.dispose();
     this.desktop.dispose();
     this.overlay.dispose();
     this.interaction.dispose();

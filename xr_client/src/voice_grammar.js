@@ -10,8 +10,9 @@
  * Recognisers hear "robot two" as "robot to" or "robot too": after "robot", those count as the number.
  *
  * Safety: stops act at once and are never held for confirmation; anything that makes a robot move (a goal, a
- * mission start or resume) is shown and waits for "confirm" (or "yes", "go", a pinch or a trigger) for
- * CONFIRM_MS, then lapses. What was heard is always returned, with the command or the reason it was refused.
+ * mission start or resume) is shown and waits for "confirm" (or "yes", "go") for CONFIRM_MS, then lapses
+ * (`VoiceConfirm.confirm` is there for a pinch or a trigger to confirm too, once hands are wired). What was heard
+ * is always returned, with the command or the reason it was refused.
  */
 
 /** How long a motion command waits for its confirmation (ms). */
@@ -245,7 +246,7 @@ export class VoiceConfirm {
     return [{ type: 'run', command }];
   }
 
-  /** "Confirm", a pinch or a trigger while a command waits. @param {number} now @returns {VoiceEffect[]} */
+  /** "Confirm" (or, later, a pinch) while a command waits. @param {number} now @returns {VoiceEffect[]} */
   confirm(now) {
     this.expire(now);
     const pending = this.pending;

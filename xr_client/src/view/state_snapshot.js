@@ -99,7 +99,11 @@ export function snapshotState(app) {
     },
     // The live stream's codec and the H.264 decoder's counts (view/camera_feed.js, video_decoder.js).
     video: app.feed.state(),
-    voice: app.voice.state(),
+    voice: { ...app.voice.state(), toast: app.hud.toast.sprite.visible },
+    /** The message line (and, in VR, the HUD's toast) says this now. */
+    notice: app.overlay.message.textContent,
+    sound: app.sound.state(),
+    hands: app.interaction.handInput.state(),
     timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles, pixelRatio: app.renderer.getPixelRatio(), maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null },

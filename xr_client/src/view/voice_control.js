@@ -14,7 +14,7 @@ import { VoiceConfirm, describe, parse } from '../voice_grammar.js';
  *   onresult: ((event: any) => void) | null, onerror: ((event: any) => void) | null, onend: (() => void) | null}} Recognition
  * @typedef {{actions: import('../app.js').OperatorActions, menu: import('../menu_state.js').MenuState,
  *   fleet: import('../fleet_model.js').FleetModel, targets: () => {name: string, x: number, y: number}[],
- *   activeMission: (robot: string) => boolean, presenting: () => boolean}} VoiceHost
+ *   activeMission: (robot: string) => boolean, presenting: () => boolean, toast: (text: string) => void}} VoiceHost
  */
 
 /** The browser's recogniser class, or null. @returns {(new () => Recognition) | null} */
@@ -114,17 +114,10 @@ export class VoiceControl {
     for (const effect of this.confirm.hear(parsed, performance.now())) this.#effect(effect, parsed.heard);
   }
 
-  /** A pinch or a trigger while a motion command waits for its confirmation: it goes. @returns {boolean} whether one waited */
-  confirmPending() {
-    if (!this.confirm.pending) return false;
-    for (const effect of this.confirm.confirm(performance.now())) this.#effect(effect, 'confirmed');
-    return true;
-  }
-
   /** @param {import('../voice_grammar.js').VoiceEffect} effect @param {string} heard */
   #effect(effect, heard) {
     if (effect.type === 'say') this.#show(heard, effect.text);
-    else if (effect.type === 'ask') this.#show(heard, `${describe(effect.command)}? say "confirm" or pinch (cancel: "cancel")`);
+    else if (effect.type === 'ask') this.#show(heard, `${describe(effect.command)}? say "confirm" (or "cancel")`);
     else this.#show(heard, this.#run(effect.command));
   }
 
@@ -180,7 +173,7 @@ export class VoiceControl {
       this.caption.textContent = text;
       this.caption.hidden = false;
     }
-    if (this.host.presenting()) this.host.actions.say(text); // the page's caption is not seen in the headset: its HUD line
+    if (this.host.presenting()) this.host.toast(text); // the page's caption is not seen in the headset: the HUD's toast
   }
 
   #paintButton() {

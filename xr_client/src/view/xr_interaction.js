@@ -9,6 +9,7 @@
  */
 import * as THREE from 'three';
 import { ButtonEdge } from '../menu_state.js';
+import { HandInput } from './hand_input.js';
 import { SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../locomotion.js';
 import { goalVerdict, robotSpots } from '../goal_verdict.js';
 
@@ -16,6 +17,8 @@ import { goalVerdict, robotSpots } from '../goal_verdict.js';
 export const MENU_BUTTON = 5;
 /** xr-standard index of the lower face button (X on the left controller, A on the right): E-STOP, on either hand. */
 export const ESTOP_BUTTON = 4;
+/** A thumbstick pressed in and held: push-to-talk (view/voice_control.js). */
+export const TALK_BUTTON = 3;
 const MENU_DISTANCE = 0.75;
 
 export class XRInteraction {
@@ -32,8 +35,14 @@ export class XRInteraction {
   constructor(host) {
     this.host = host;
     this.raycaster = new THREE.Raycaster();
+    /** Pinch-drag teleop and the palm-up wrist button (view/hand_input.js). */
+    this.handInput = new HandInput({ xrInput: host.xrInput, menu: host.menu, actions: host.actions }, host.rig.parent ?? host.rig);
     /** @type {Map<number, ButtonEdge>} */
     this.menuEdges = new Map();
+    /** Whether a thumbstick is held in (push-to-talk). */
+    this.talking = false;
+    /** What the operator's inputs are, hands or controllers, as last seen (null: not yet in VR). @type {string | null} */
+    this.inputKinds = null;
     /** @type {Map<number, ButtonEdge>} */
     this.estopEdges = new Map();
     /** @type {Map<number, string | null>} */
@@ -72,6 +81,7 @@ export class XRInteraction {
     this.#point();
     this.#goalPointer();
     this.#sticks(dt);
+    this.handInput.update(this.headYaw);
     this.#comfort(dt);
     this.#placeTab(dt);
   }
@@ -84,6 +94,20 @@ export class XRInteraction {
     for (const slot of input.active()) {
       if (edgeOf(this.menuEdges, slot.index).update(input.pressed(slot, MENU_BUTTON))) host.actions.toggleMenu();
       if (edgeOf(this.estopEdges, slot.index).update(input.pressed(slot, ESTOP_BUTTON))) host.actions.pressMenu('estop');
+    }
+    // 1a. Hands and controllers may swap at any moment (the operator puts the controllers down): a robot driven by
+    // the stick that went away must not keep the last command, so teleop stops at once, and says so.
+    const kinds = [...new Set(input.active().map((slot) => (slot.source?.hand ? 'hands' : 'controllers')))].sort().join(' and ');
+    if (this.inputKinds !== null && kinds !== this.inputKinds && host.menu.tool === 'teleop' && host.menu.selected) {
+      host.actions.apply([{ type: 'stop_teleop', robot: host.menu.selected }]);
+      host.actions.say(`teleop stopped: input changed to ${kinds || 'nothing'}`, true);
+    }
+    this.inputKinds = kinds;
+    // 1b. Push-to-talk while either thumbstick is held in.
+    const talking = input.active().some((slot) => input.pressed(slot, TALK_BUTTON));
+    if (talking !== this.talking) {
+      this.talking = talking;
+      host.actions.talk(talking);
     }
   }
 
@@ -365,6 +389,7 @@ export class XRInteraction {
   }
 
   dispose() {
+    this.handInput.dispose();
     this.menuEdges.clear();
     this.estopEdges.clear();
     this.hover.clear();

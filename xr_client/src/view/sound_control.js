@@ -1,0 +1,172 @@
+// @ts-check
+/**
+ * Sound and haptics on the page: every 100 ms (a timer, off the render path) the fleet's state goes through
+ * cue_rules.js; its cues play as earcons at their robots' places (sound.js) and pulse the controllers in VR. The
+ * AudioContext is made on the operator's first gesture (browsers allow sound only after one). The listener follows
+ * the camera (the headset in VR). The header's Sound button mutes, its slider sets the volume; M mutes too; G
+ * switches the Geiger-like ticking of the selected robot's hazard reading (its first sensor with a warning level).
+ */
+import * as THREE from 'three';
+import { CueRules, hapticFor } from '../cue_rules.js';
+import { Soundscape } from './sound.js';
+
+const POLL_MS = 100;
+
+/**
+ * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
+ *   goals: import('../goal_pointer.js').GoalTracker, camera: THREE.Camera,
+ *   robotViews: Map<string, import('./robot_view.js').RobotView>, inputSources: () => Iterable<XRInputSource>}} SoundHost
+ */
+
+export class SoundControl {
+  /** @param {SoundHost} host */
+  constructor(host) {
+    this.host = host;
+    this.rules = new CueRules();
+    /** @type {Soundscape | null} */
+    this.scape = null;
+    this.muted = false;
+    this.disposed = false;
+    this.volume = 0.6;
+    this.geiger = false;
+    /** Cues played and pulses sent, by kind (the state snapshot shows them). @type {Record<string, number>} */
+    this.played = {};
+    this.pulses = 0;
+    this.ticks = 0;
+    this.button = /** @type {HTMLButtonElement | null} */ (document.getElementById('sound-toggle'));
+    this.slider = /** @type {HTMLInputElement | null} */ (document.getElementById('sound-volume'));
+    const start = () => this.#start();
+    this.onGesture = start;
+    window.addEventListener('pointerdown', start, { capture: true });
+    window.addEventListener('keydown', start, { capture: true });
+    this.onKey = (/** @type {KeyboardEvent} */ e) => {
+      if (e.target instanceof HTMLInputElement || e.repeat) return;
+      if (e.key === 'm' || e.key === 'M') this.setMuted(!this.muted);
+      if (e.key === 'g' || e.key === 'G') this.setGeiger(!this.geiger);
+    };
+    window.addEventListener('keydown', this.onKey);
+    this.button?.addEventListener('click', () => this.setMuted(!this.muted));
+    this.slider?.addEventListener('input', () => this.setVolume(Number(this.slider?.value ?? 60) / 100));
+    this.timer = setInterval(() => this.poll(performance.now()), POLL_MS);
+    this.#paint();
+  }
+
+  /** The first gesture: sound may start now. */
+  #start() {
+    if (this.disposed) return;
+    window.removeEventListener('pointerdown', this.onGesture, { capture: true });
+    window.removeEventListener('keydown', this.onGesture, { capture: true });
+    if (this.scape || typeof AudioContext === 'undefined') return;
+    this.scape = new Soundscape(new AudioContext());
+    this.scape.setVolume(this.volume);
+    this.scape.setMuted(this.muted);
+  }
+
+  /** @param {boolean} muted */
+  setMuted(muted) {
+    this.muted = muted;
+    this.scape?.setMuted(muted);
+    this.#paint();
+  }
+
+  /** @param {number} volume 0..1 */
+  setVolume(volume) {
+    this.volume = volume;
+    this.scape?.setVolume(volume);
+    this.#paint();
+  }
+
+  /** @param {boolean} on */
+  setGeiger(on) {
+    this.geiger = on;
+    if (!on) this.rules.stopTicks();
+    this.#paint();
+  }
+
+  #paint() {
+    if (this.button) this.button.textContent = this.muted ? 'Sound: off' : `Sound${this.geiger ? ' + ticks' : ''}`;
+    if (this.slider) this.slider.value = String(Math.round(this.volume * 100));
+  }
+
+  /** @param {string} name @returns {{x: number, y: number, z: number} | null} */
+  #place(name) {
+    const view = this.host.robotViews.get(name);
+    return view ? view.group.getWorldPosition(new THREE.Vector3()) : null;
+  }
+
+  /** One look at the fleet: cues to play and pulse, and the hazard tick. @param {number} now ms */
+  poll(now) {
+    const { fleet, menu, goals } = this.host;
+    /** @type {import('../cue_rules.js').RobotView[]} */
+    const robots = [];
+    for (const [name, entry] of fleet.robots) {
+      const warnings = [...entry.sensors.values()].filter((r) => r.warning).map((r) => r.name);
+      robots.push({
+        name, x: entry.pose?.x ?? 0, y: entry.pose?.y ?? 0, warnings,
+        goal: goals.goals.get(name)?.state ?? null,
+        controller: entry.status?.controller ?? null,
+        latched: menu.latched.includes(name),
+      });
+    }
+    const cues = this.rules.update(robots, fleet.clientId, now);
+    const scape = this.scape;
+    if (scape) {
+      const camera = this.host.camera;
+      const at = camera.getWorldPosition(new THREE.Vector3());
+      const forward = camera.getWorldDirection(new THREE.Vector3());
+      const up = new THREE.Vector3(0, 1, 0).applyQuaternion(camera.getWorldQuaternion(new THREE.Quaternion()));
+      scape.listen(at, forward, up);
+    }
+    const selected = menu.selected ? fleet.robot(menu.selected) : null;
+    for (const cue of cues) {
+      this.played[cue.kind] = (this.played[cue.kind] ?? 0) + 1;
+      scape?.play(cue.kind, cue.robot ? this.#place(cue.robot) : null);
+      const robot = cue.robot ? fleet.robot(cue.robot) : null;
+      const pulse = hapticFor(cue, {
+        selected: selected?.pose && menu.selected ? { name: menu.selected, x: selected.pose.x, y: selected.pose.y } : null,
+        at: robot?.pose ?? null,
+      });
+      if (pulse) this.#pulse(pulse);
+    }
+    if (this.geiger && selected && menu.selected) {
+      const sensor = selected.description.sensors.find((s) => s.warn_above !== null);
+      const reading = sensor ? selected.sensors.get(sensor.name) : undefined;
+      if (sensor && reading && sensor.warn_above !== null && this.rules.tick(reading.value, sensor.warn_above, now)) {
+        this.ticks++;
+        scape?.play('tick', this.#place(menu.selected));
+      }
+    }
+  }
+
+  /** @param {{intensity: number, ms: number, pulses: number}} pulse */
+  #pulse(pulse) {
+    for (const source of this.host.inputSources()) {
+      const gamepad = /** @type {any} */ (source.gamepad);
+      const actuator = gamepad?.hapticActuators?.[0] ?? gamepad?.vibrationActuator;
+      if (!actuator) continue;
+      this.pulses++;
+      for (let i = 0; i < pulse.pulses; i++) {
+        setTimeout(() => {
+          if (typeof actuator.pulse === 'function') actuator.pulse(pulse.intensity, pulse.ms);
+          else actuator.playEffect?.('dual-rumble', { duration: pulse.ms, strongMagnitude: pulse.intensity, weakMagnitude: pulse.intensity });
+        }, i * (pulse.ms + 60));
+      }
+    }
+  }
+
+  /** What the state snapshot shows (`window.__xrRelay.state.sound`). */
+  state() {
+    return {
+      started: this.scape !== null, muted: this.muted, volume: this.volume, geiger: this.geiger,
+      played: { ...this.played }, pulses: this.pulses, ticks: this.ticks,
+    };
+  }
+
+  dispose() {
+    clearInterval(this.timer);
+    window.removeEventListener('keydown', this.onKey);
+    this.disposed = true;
+    const ctx = /** @type {AudioContext | undefined} */ (this.scape?.ctx);
+    void ctx?.close();
+  }
+}
