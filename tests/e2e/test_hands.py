@@ -10,7 +10,7 @@ from playwright.async_api import Page
 
 from .conftest import OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
-from .xr_helpers import press_menu_button, set_menu
+from .xr_helpers import teleop_on
 
 
 async def hand(page: Page, side: str, position: list[float], pinch: float | None = None) -> None:
@@ -26,11 +26,7 @@ async def test_pinch_drag_drives_the_robot_and_letting_go_stops_it_at_once(
     station: Station, open_client: OpenClient
 ) -> None:
     client = await enter_vr(open_client, station.url)
-    await set_menu(client, True)
-    await press_menu_button(client, "robot:robot2")
-    await press_menu_button(client, "tool:teleop")
-    await client.wait("s.menu.selected === 'robot2' && s.menu.tool === 'teleop'")
-    await set_menu(client, False)
+    await teleop_on(client, "robot2")
     await client.page.evaluate("window.__iwer.primaryInputMode = 'hand'")
     await client.frames(3)
     # The hand held low and to the side: its ray on no menu or robot while it pinches.

@@ -9,18 +9,14 @@ import time
 
 from .conftest import OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
-from .xr_helpers import press_menu_button, set_menu, stick
+from .xr_helpers import stick, teleop_on
 
 
 async def test_switching_to_hands_while_driving_stops_the_robot_and_says_so(
     station: Station, open_client: OpenClient
 ) -> None:
     client = await enter_vr(open_client, station.url)
-    await set_menu(client, True)
-    await press_menu_button(client, "robot:robot2")
-    await press_menu_button(client, "tool:teleop")
-    await client.wait("s.menu.selected === 'robot2' && s.menu.tool === 'teleop'")
-    await set_menu(client, False)
+    await teleop_on(client, "robot2")
     pushed = time.monotonic()
     await stick(client, "right", 0.0, -1.0)
     await wait_until(

@@ -113,3 +113,12 @@ async def set_menu(client: Client, open_: bool) -> None:
     assert (await client.state())["menu"]["open"] == open_
     await button(client, "left", "y-button", 0)
     await client.frames(2)
+
+
+async def teleop_on(client: Client, robot: str) -> None:
+    """In VR, from the menu: select ``robot`` and turn Teleop on, then close the menu."""
+    await set_menu(client, True)
+    await press_menu_button(client, f"robot:{robot}")
+    await press_menu_button(client, "tool:teleop")
+    await client.wait("s.menu.selected === arg && s.menu.tool === 'teleop'", 20, robot)
+    await set_menu(client, False)

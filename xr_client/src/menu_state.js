@@ -58,6 +58,8 @@ export class MenuState {
     this.overview = true;
     /** Laser scans drawn around the robots that have one (an RViz user expects them). */
     this.scans = true;
+    /** Accessibility: resting the head's gaze on a menu button presses it (off: a dwell only marks image points). */
+    this.dwellPress = false;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -232,6 +234,7 @@ export class MenuState {
       { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
       { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
       { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
+      { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: this.dwellPress, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -268,6 +271,7 @@ export class MenuState {
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
     else if (id === 'opt:overview') this.overview = !this.overview;
     else if (id === 'opt:scans') this.scans = !this.scans;
+    else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];

@@ -104,6 +104,7 @@ export function snapshotState(app) {
     notice: app.overlay.message.textContent,
     sound: app.sound.state(),
     hands: app.interaction.handInput.state(),
+    gaze: { ...app.interaction.gaze },
     timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
     textures: app.renderer.info.memory.textures,
     draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles, pixelRatio: app.renderer.getPixelRatio(), maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null },

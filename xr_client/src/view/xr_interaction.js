@@ -10,6 +10,7 @@
 import * as THREE from 'three';
 import { ButtonEdge } from '../menu_state.js';
 import { HandInput } from './hand_input.js';
+import { Dwell } from '../gestures.js';
 import { SnapTurn, TeleportGesture, smoothVelocity, vignetteStrength } from '../locomotion.js';
 import { goalVerdict, robotSpots } from '../goal_verdict.js';
 
@@ -35,6 +36,12 @@ export class XRInteraction {
   constructor(host) {
     this.host = host;
     this.raycaster = new THREE.Raycaster();
+    /** Head-gaze dwell: a reticle at the centre of view fills while the gaze rests on a point (gestures.js). */
+    this.dwell = new Dwell();
+    this.reticle = new Reticle();
+    host.camera.add(this.reticle.group);
+    /** The dwell's last state, for the state snapshot. */
+    this.gaze = { id: /** @type {string | null} */ (null), fill: 0, fired: 0 };
     /** Pinch-drag teleop and the palm-up wrist button (view/hand_input.js). */
     this.handInput = new HandInput({ xrInput: host.xrInput, menu: host.menu, actions: host.actions }, host.rig.parent ?? host.rig);
     /** @type {Map<number, ButtonEdge>} */
@@ -155,6 +162,7 @@ export class XRInteraction {
 
       this.#select(slot, id, hit);
     }
+    this.#gaze(targets);
     host.inspect.setHover([...this.hover.values()]);
     const onTable = input.active().find((slot) => this.wimHits.has(slot.index));
     const at = onTable ? this.#wimAt(onTable) : null;
@@ -163,6 +171,34 @@ export class XRInteraction {
     const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && !h.startsWith('insp:') && h !== 'menu:tab') ?? null;
     panel.setTabHover([...this.hover.values()].includes('menu:tab'));
     panel.update(menu, menuHover, host.link());
+  }
+
+  /**
+   * The head's gaze, for a dwell: on a point of a finding's image it selects there (a region from that point, or a
+   * target where that pixel looks, as the card's mode says), and on a menu button it presses it only when the menu's
+   * **Gaze press** option is on. @param {THREE.Object3D[]} targets what rays can hit now
+   */
+  #gaze(targets) {
+    const host = this.host;
+    const camera = host.camera;
+    this.raycaster.set(camera.getWorldPosition(new THREE.Vector3()), camera.getWorldDirection(new THREE.Vector3()));
+    this.raycaster.far = 20;
+    const first = this.raycaster.intersectObjects(targets, true)[0] ?? null;
+    let id = null;
+    if (first?.object === host.menuPanel.mesh && first.uv) id = host.menu.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
+    else if (first) {
+      const name = host.inspect.idOf(first);
+      id = name === 'insp:image' ? name : null;
+    }
+    const point = first ? /** @type {[number, number, number]} */ (first.point.toArray()) : null;
+    const { fill, fire } = this.dwell.update(id && point ? { id, point } : null, performance.now());
+    this.reticle.setFill(fill);
+    this.gaze.id = id;
+    this.gaze.fill = fill;
+    if (!fire || !first || !id) return;
+    this.gaze.fired++;
+    if (id === 'insp:image') host.inspect.select(id, first);
+    else host.actions.pressMenu(id);
   }
 
   /**
@@ -390,6 +426,7 @@ export class XRInteraction {
 
   dispose() {
     this.handInput.dispose();
+    this.reticle.dispose();
     this.menuEdges.clear();
     this.estopEdges.clear();
     this.hover.clear();
@@ -410,4 +447,43 @@ const QUIET_HOVER = ['pick:', 'insp:floor', 'insp:image', 'wim'];
 function robotOf(object) {
   for (let o = object; o; o = o.parent) if (typeof o.userData.robot === 'string') return `pick:${o.userData.robot}`;
   return null;
+}
+
+/** The gaze reticle: a faint ring at the centre of view, and an arc that fills while a dwell runs. */
+class Reticle {
+  constructor() {
+    this.group = new THREE.Group();
+    this.group.position.set(0, 0, -1);
+    const material = new THREE.MeshBasicMaterial({ color: 0xffffff, transparent: true, opacity: 0.5, depthTest: false });
+    this.ring = new THREE.Mesh(new THREE.RingGeometry(0.008, 0.011, 32), material);
+    this.arcMaterial = new THREE.MeshBasicMaterial({ color: 0x3d8bff, depthTest: false });
+    this.arc = new THREE.Mesh(new THREE.RingGeometry(0.012, 0.017, 32, 1, Math.PI / 2, 0.001), this.arcMaterial);
+    this.ring.renderOrder = this.arc.renderOrder = 20;
+    // Only the headset's eyes see it (three.js's XR cameras enable layers 1 and 2; the desktop camera has 0 alone).
+    for (const mesh of [this.ring, this.arc]) {
+      mesh.layers.disableAll();
+      mesh.layers.enable(1);
+      mesh.layers.enable(2);
+    }
+    this.group.add(this.ring, this.arc);
+    this.fill = 0;
+  }
+
+  /** @param {number} fill 0..1 */
+  setFill(fill) {
+    const rounded = Math.round(fill * 24) / 24; // a new ring at most 24 times a dwell
+    if (rounded === this.fill) return;
+    this.fill = rounded;
+    this.arc.geometry.dispose();
+    this.arc.geometry = new THREE.RingGeometry(0.012, 0.017, 32, 1, Math.PI / 2, Math.max(0.001, rounded * Math.PI * 2));
+    this.arc.visible = rounded > 0;
+  }
+
+  dispose() {
+    this.group.removeFromParent();
+    this.ring.geometry.dispose();
+    this.arc.geometry.dispose();
+    /** @type {THREE.Material} */ (this.ring.material).dispose();
+    this.arcMaterial.dispose();
+  }
 }
