@@ -55,6 +55,11 @@ async def test_the_page_plays_the_estop_earcon_after_the_first_gesture_and_mutes
     await client.wait("s.sound.muted", 5)
     await page.keyboard.press("m")
     await client.wait("!s.sound.muted", 5)
+    # The menu's Mute (the same button in VR) mutes, and the key unmutes it: one state.
+    await page.click('#menu button[data-button="opt:mute"]')
+    await client.wait("s.sound.muted && s.menu.buttons.some((b) => b.id === 'opt:mute' && b.active)", 5)
+    await page.keyboard.press("m")
+    await client.wait("!s.sound.muted && s.menu.buttons.some((b) => b.id === 'opt:mute' && !b.active)", 5)
     await page.click('#menu button[data-button="estop"]')
     await client.wait("s.sound.played.estop === 1", 5)
     await wait_until(lambda: all(station.status(r)["estopped"] for r in ("robot1", "robot2", "robot3")), 5, "latched")

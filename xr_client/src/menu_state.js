@@ -60,6 +60,8 @@ export class MenuState {
     this.scans = true;
     /** Accessibility: resting the head's gaze on a menu button presses it (off: a dwell only marks image points). */
     this.dwellPress = false;
+    /** The station's sounds off (view/sound_control.js follows it; its header button and M set it too). */
+    this.muted = false;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -235,6 +237,7 @@ export class MenuState {
       { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
       { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
       { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: this.dwellPress, enabled: true },
+      { id: 'opt:mute', label: 'Mute', group: 'options', active: this.muted, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -272,6 +275,7 @@ export class MenuState {
     else if (id === 'opt:overview') this.overview = !this.overview;
     else if (id === 'opt:scans') this.scans = !this.scans;
     else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
+    else if (id === 'opt:mute') this.muted = !this.muted;
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];

@@ -3,7 +3,8 @@
  * Sound and haptics on the page: every 100 ms (a timer, off the render path) the fleet's state goes through
  * cue_rules.js; its cues play as earcons at their robots' places (sound.js) and pulse the controllers in VR. The
  * AudioContext is made on the operator's first gesture (browsers allow sound only after one). The listener follows
- * the camera (the headset in VR). The header's Sound button mutes, its slider sets the volume; M mutes too; G
+ * the camera (the headset in VR). The header's Sound button, the menu's Mute (VR too) and M mute; the header's
+ * slider sets the volume; G
  * switches the Geiger-like ticking of the selected robot's hazard reading (its first sensor with a warning level).
  */
 import * as THREE from 'three';
@@ -65,6 +66,7 @@ export class SoundControl {
   /** @param {boolean} muted */
   setMuted(muted) {
     this.muted = muted;
+    this.host.menu.muted = muted; // the menu's Mute shows it, in VR too
     this.scape?.setMuted(muted);
     this.#paint();
   }
@@ -97,6 +99,7 @@ export class SoundControl {
   /** One look at the fleet: cues to play and pulse, and the hazard tick. @param {number} now ms */
   poll(now) {
     const { fleet, menu, goals } = this.host;
+    if (menu.muted !== this.muted) this.setMuted(menu.muted); // the menu's Mute (VR, the desktop menu)
     /** @type {import('../cue_rules.js').RobotView[]} */
     const robots = [];
     for (const [name, entry] of fleet.robots) {
