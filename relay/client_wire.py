@@ -16,6 +16,7 @@ from .inspection.wire import (
     MissionTargetsCommand,
     RegionCommand,
     TargetAddCommand,
+    TargetFromLiveCommand,
     TargetFromPixelCommand,
 )
 from .protocol import RequestId
@@ -120,4 +121,5 @@ ClientMessage: TypeAlias = (
     | RegionCommand
     | TargetAddCommand
     | TargetFromPixelCommand
+    | TargetFromLiveCommand
 )

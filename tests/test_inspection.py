@@ -5,6 +5,7 @@ missions are refused before any robot moves; viewers create nothing; an estop ab
 from __future__ import annotations
 
 import asyncio
+import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -237,6 +238,68 @@ async def test_a_locked_database_refuses_the_mission_naming_it_and_no_robot_move
         reply = await client.request({"identifier": "mission/start", "file": "demo"}, timeout=30)
         assert reply["identifier"] == "ack", reply  # works again once the lock is gone
         assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_and_a_proposed_region(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """What a gaze dwell on the live hemisphere sends (issue #17): robot1 looks along its heading; the pixel below
+    its image's centre looks at the floor a little ahead of it. The relay captures the camera now, adds the target
+    there, makes a finding to review about that capture, and proposes the region around the pixel before the ack."""
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        camera = fleet_config.robots[0].cameras[0]
+        await asyncio.sleep(0.5)  # the sim's first rendered frame
+        reply = await client.request(
+            {"identifier": "target/add", "target": "spot-1", "robot": "robot1",
+             "u": camera.width / 2, "v": camera.height * 0.75},
+            timeout=30,
+        )  # fmt: skip
+        assert reply["identifier"] == "ack", reply
+        finding = next(m for _, m in client.messages if m["identifier"] == "finding" and m["target"] == "spot-1")
+        store = running.relay.inspection.store
+        assert store is not None
+        capture = store.capture(finding["capture"])
+        assert capture is not None and capture.robot == "robot1" and capture.width == camera.width
+        pose = {"x": capture.x, "y": capture.y, "yaw": capture.yaw}
+        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        spot = next(t for t in targets if t["id"] == "spot-1")
+        ahead = (spot["x"] - pose["x"]) * math.cos(pose["yaw"]) + (spot["y"] - pose["y"]) * math.sin(pose["yaw"])
+        aside = -(spot["x"] - pose["x"]) * math.sin(pose["yaw"]) + (spot["y"] - pose["y"]) * math.cos(pose["yaw"])
+        assert 0.2 < ahead < 3.0 and abs(aside) < 0.2, (spot, pose)  # on the floor straight ahead
+        assert (finding["status"], finding["source"], finding["robot"]) == ("needs_review", "operator", "robot1")
+        assert "gas" in finding["readings"] and "robot1" in finding["note"], finding
+        region = next(m for _, m in client.messages if m["identifier"] == "region")
+        assert region["id"] == reply["id"] and region["capture"] == finding["capture"]
+        assert len(region["outline"]) >= 3, region
+        url = f"{running.url}{finding['image']}?token={TOKEN}"
+        async with aiohttp.ClientSession() as http, http.get(url) as response:
+            assert response.status == 200 and (await response.read()).startswith(b"\xff\xd8")
+        # Refused, naming why, and nothing added or stored: an unknown robot, a pixel outside the fisheye's circle, a
+        # viewer.
+        captures = len(store.captures())
+        for fields, code, text in (
+            ({"robot": "robot9", "u": 10, "v": 10}, "unknown_robot", "robot9"),
+            ({"robot": "robot1", "u": 2, "v": 2}, "bad_request", "outside the field of camera 'front'"),
+            ({"robot": "robot1", "u": 10}, "bad_request", "'v'"),
+        ):
+            refused = await client.request({"identifier": "target/add", "target": "spot-2", **fields}, timeout=30)
+            assert (refused.get("code"), text in refused.get("message", "")) == (code, True), (fields, refused)
+        viewer = await TestClient.open(running.ws_url)
+        await viewer.hello()
+        refused = await viewer.request(
+            {"identifier": "target/add", "target": "spot-2", "robot": "robot1", "u": 240, "v": 300}
+        )
+        assert refused.get("code") == "forbidden", refused
+        await asyncio.sleep(0.3)
+        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        assert "spot-2" not in {t["id"] for t in targets}
+        assert len(store.captures()) == captures
+        await viewer.close()
         await client.close()
     finally:
         await running.runner.cleanup()

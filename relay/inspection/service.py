@@ -158,7 +158,7 @@ class Inspection:
         elif isinstance(command, RegionRequest):
             await self._region(client, command)
         elif isinstance(command, TargetAdd):
-            await self._add_target(command)
+            await self._add_target(client, command)
 
     async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
         from .store import StoreError
@@ -334,23 +334,9 @@ class Inspection:
 
     async def _capture(self, record: MissionRecord, step: Step) -> None:
         robot = self.robots[record.robot]
-        camera = robot.camera(None)
-        frame = None
-        if camera is not None:
-            try:
-                frame = await self.backend.snapshot(robot.name, camera.name)
-            except CommandRejected as exc:  # the rendering pool is full: the readings still count
-                logger.warning("mission %s: no image at step %d: %s", record.id, record.current + 1, exc)
-        state = self.fleet.snapshot(self.clock())[robot.name]
-        pose, sensors = state["pose"], state["sensors"]
-        wall = self.wall()
-        capture = CaptureRecord(
-            _new_id("c"), robot.name, wall,
-            pose["x"] if pose else 0.0, pose["y"] if pose else 0.0, pose["yaw"] if pose else 0.0,
-            {name: m["value"] for name, m in sensors.items()}, record.id, step.target,
-            None, frame.width if frame else 0, frame.height if frame else 0,
-        )  # fmt: skip
-        stored = await self._store(lambda s: s.add_capture(capture, frame.jpeg if frame else None))
+        capture, jpeg, sensors = await self._snap(robot.name, record.id, step.target)
+        stored = await self._store(lambda s: s.add_capture(capture, jpeg))
+        wall = stored.t
         warnings = [m for m in sensors.values() if m["warning"]]
         if step.kind != "inspect" and not warnings:
             return
@@ -377,6 +363,29 @@ class Inspection:
             "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
         )  # fmt: skip
         await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
+
+    async def _snap(
+        self, robot_name: str, mission: str | None, target: str | None
+    ) -> tuple[CaptureRecord, bytes | None, dict[str, Any]]:
+        """A capture of the robot now, not yet stored: its camera image (none when it has no camera, or the rendering
+        pool is full: the readings still count), its pose and readings; and the sensors' state at that moment."""
+        robot = self.robots[robot_name]
+        camera = robot.camera(None)
+        frame = None
+        if camera is not None:
+            try:
+                frame = await self.backend.snapshot(robot.name, camera.name)
+            except CommandRejected as exc:
+                logger.warning("capture of %s: no image: %s", robot.name, exc)
+        state = self.fleet.snapshot(self.clock())[robot.name]
+        pose, sensors = state["pose"], state["sensors"]
+        capture = CaptureRecord(
+            _new_id("c"), robot.name, self.wall(),
+            pose["x"] if pose else 0.0, pose["y"] if pose else 0.0, pose["yaw"] if pose else 0.0,
+            {name: m["value"] for name, m in sensors.items()}, mission, target,
+            None, frame.width if frame else 0, frame.height if frame else 0,
+        )  # fmt: skip
+        return capture, frame.jpeg if frame else None, sensors
 
     async def _announce(self, finding: FindingRecord, capture: CaptureRecord) -> None:
         from ..messages import encode
@@ -457,7 +466,10 @@ class Inspection:
             raise CommandRejected(ErrorCode.BUSY, f"region: {exc}; try again shortly", command.id) from None
         client.channel.put_priority(encode(region_message(command.id, capture.id, outline)))
 
-    async def _add_target(self, command: TargetAdd) -> None:
+    async def _add_target(self, client: Client, command: TargetAdd) -> None:
+        if command.robot is not None:
+            await self._target_from_live(client, command)
+            return
         x, y = command.x, command.y
         if command.capture is not None:
             assert command.u is not None and command.v is not None
@@ -475,6 +487,55 @@ class Inspection:
         assert x is not None and y is not None
         target = Target(command.target, command.name or command.target, command.kind or "point", x, y, command.facing)
         self._add_targets([target])
+
+    async def _target_from_live(self, client: Client, command: TargetAdd) -> None:
+        """A target where pixel (u, v) of the robot's live camera looks (pixels of the camera's configured size, as
+        its lens model has them): a capture now, the target from its pose, a ``needs_review`` finding about it for
+        the operator to review, and the region around that pixel proposed to the requester (GrabCut) before the
+        ``ack``. Nothing is stored or added when the pixel looks at nothing; a region that cannot be segmented
+        leaves the target and the finding, and the ``ack`` comes without an outline."""
+        from ..messages import encode
+        from .segment import SegmentError, region_from_point
+
+        assert command.robot is not None and command.u is not None and command.v is not None
+        robot = self.robots.get(command.robot)
+        if robot is None:
+            raise CommandRejected(
+                ErrorCode.UNKNOWN_ROBOT,
+                f"target/add: unknown robot {command.robot[:80]!r}; the robots are {', '.join(sorted(self.robots))}",
+                command.id,
+            )
+        camera = robot.camera(None)
+        if camera is None:
+            raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: {robot.name} has no camera", command.id)
+        capture, jpeg, sensors = await self._snap(robot.name, None, command.target)
+        if jpeg is None or not capture.width:
+            raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: no image from {robot.name} yet", command.id)
+        # The operator's pixel is of the configured size; the capture may be of another (a camera set to publish
+        # smaller images than its calibration): the same point of the picture.
+        u, v = command.u * capture.width / camera.width, command.v * capture.height / camera.height
+        try:
+            x, y = pixel_to_map(
+                camera, capture.width, capture.height, (capture.x, capture.y, capture.yaw), u, v, self.map_grid()
+            )
+        except ValueError as exc:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
+        stored = await self._store(lambda s: s.add_capture(capture, jpeg), command.id)
+        target = Target(command.target, command.name or command.target, command.kind or "point", x, y, None)
+        self._add_targets([target])
+        readings = ", ".join(f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values())
+        note = f"marked on {robot.name}'s camera" + (f"; {readings}" if readings else "")
+        finding = FindingRecord(
+            _new_id("f"), stored.id, robot.name, x, y, "needs_review", note, "operator", stored.t, stored.t,
+            None, target.id,
+        )  # fmt: skip
+        await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), stored)
+        try:
+            outline = await self._segmenting.run(lambda: region_from_point(jpeg, int(u), int(v)))
+        except (SegmentError, Busy) as exc:
+            logger.info("target/add %s: no region proposed: %s", command.target, exc)
+            return
+        client.channel.put_priority(encode(region_message(command.id, stored.id, outline)))
 
 
 def _planner(grid: OccupancyGrid | None) -> Any:

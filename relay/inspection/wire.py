@@ -71,7 +71,8 @@ class RegionRequest:
 
 @dataclass(frozen=True, slots=True)
 class TargetAdd:
-    """A target at (x, y), or where pixel (u, v) of ``capture``'s image looks (relay.inspection.pixel)."""
+    """A target at (x, y), or where pixel (u, v) of ``capture``'s image looks (relay.inspection.pixel), or where pixel
+    (u, v) of ``robot``'s live camera looks (a capture taken now, and a finding about it to review)."""
 
     id: RequestId
     target: str
@@ -83,6 +84,7 @@ class TargetAdd:
     capture: str | None = None
     u: float | None = None
     v: float | None = None
+    robot: str | None = None
 
 
 InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
@@ -157,6 +159,17 @@ class TargetFromPixelCommand(TypedDict):
     id: RequestId
     target: str
     capture: str
+    u: float
+    v: float
+    name: NotRequired[str]
+    kind: NotRequired[str]
+
+
+class TargetFromLiveCommand(TypedDict):
+    identifier: Literal["target/add"]
+    id: RequestId
+    target: str
+    robot: str
     u: float
     v: float
     name: NotRequired[str]
@@ -241,8 +254,15 @@ def _parse(obj: dict[str, Any], identifier: str, rid: RequestId) -> InspectionCo
         u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
         v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
         return TargetAdd(rid, target, None, None, name, kind, None, capture, u, v)
+    if obj.get("robot") is not None:
+        robot = _string(obj, "robot", identifier, required=True)
+        u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
+        v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
+        return TargetAdd(rid, target, None, None, name, kind, None, None, u, v, robot)
     if obj.get("x") is None or obj.get("y") is None:
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: give x and y, or a capture with u and v")
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{identifier}: give x and y, a capture with u and v, or a robot with u and v"
+        )
     x = _number(obj, "x", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
     y = _number(obj, "y", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
     facing = _number(obj, "facing", identifier, required=False, low=-MAX_YAW, high=MAX_YAW)

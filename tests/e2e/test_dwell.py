@@ -5,10 +5,11 @@ off, the same gaze presses nothing (accessibility, opt-in). IWER turns the heads
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 from typing import Any
 
-from .conftest import Client, OpenClient, Station
+from .conftest import Client, OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
 from .xr_helpers import aim, press_menu_button, set_menu
 
@@ -75,3 +76,66 @@ async def test_a_gaze_resting_on_a_menu_button_presses_it_only_when_gaze_press_i
     s = await client.state()
     assert s["gaze"]["fired"] == fired + 1 and not active(s, "opt:scans"), "once per rest, not again while it stays"
     await set_menu(client, False)
+
+
+#: Look straight ahead, then this far below (rad): the Robot POV image's centre column, its lower half (the floor).
+PITCH_DOWN = math.radians(25)
+
+
+async def test_a_gaze_resting_on_the_live_robot_pov_image_marks_a_target_where_it_looks_and_proposes_its_region(
+    station: Station, open_client: OpenClient
+) -> None:
+    """In Robot POV with the Inspect tool, the head's gaze resting on a point of robot1's image for the dwell time:
+    the relay captures the camera, adds a target where that pixel looks (on the floor ahead of robot1), makes a
+    finding to review, and the finding's card opens in front of the operator with the region proposed around the
+    point. Without the Inspect tool, the same gaze marks nothing."""
+    client = await enter_vr(open_client, station.url)
+    targets = station.running.relay.inspection.targets
+    await client.wait("s.inspection.targets === 3", 20)
+    await client.page.evaluate("window.__iwer.quaternion.set(0, 0, 0, 1)")  # straight ahead: POV's forward
+    await client.frames(2)
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot1")
+    await press_menu_button(client, "mode:pov")
+    await client.wait("s.menu.mode === 'pov' && s.pov.identifier !== ''", 30)
+    await set_menu(client, False)
+    for hand in ("left", "right"):
+        await aim(client, hand, [0.0, -5.0, 0.0])
+    half = PITCH_DOWN / 2
+    await client.page.evaluate(f"window.__iwer.quaternion.set({-math.sin(half)}, 0, 0, {math.cos(half)})")
+    # Without the Inspect tool: a glance that rests is only a glance.
+    await asyncio.sleep(2.5)
+    s = await client.state()
+    assert s["gaze"]["id"] is None and s["gaze"]["fired"] == 0 and len(targets) == 3, s["gaze"]
+    # With it (pressed with the controller, the gaze straight ahead meanwhile).
+    await client.page.evaluate("window.__iwer.quaternion.set(0, 0, 0, 1)")
+    await set_menu(client, True)
+    await press_menu_button(client, "tool:inspect")
+    await client.wait("s.menu.tool === 'inspect'", 10)
+    await set_menu(client, False)
+    for hand in ("left", "right"):
+        await aim(client, hand, [0.0, -5.0, 0.0])
+    looked = time.monotonic()
+    await client.page.evaluate(f"window.__iwer.quaternion.set({-math.sin(half)}, 0, 0, {math.cos(half)})")
+    await client.wait("s.gaze.id === 'pov:image' && s.gaze.fill > 0.3", 10)
+    await client.shot("dwell-live-filling")
+    await client.wait("s.gaze.fired === 1", 10)
+    assert time.monotonic() - looked >= DWELL_MS / 1000, "marked by a dwell, not at a glance"
+    await wait_until(lambda: len(targets) == 4, 20, "the target marked on the live image")
+    [name] = [t for t in targets if t not in ("spill", "panels", "leak")]
+    x, y = targets[name].x, targets[name].y
+    pose = station.running.relay.fleet.snapshot(time.monotonic())["robot1"]["pose"]
+    assert pose is not None
+    ahead = (x - pose["x"]) * math.cos(pose["yaw"]) + (y - pose["y"]) * math.sin(pose["yaw"])
+    aside = -(x - pose["x"]) * math.sin(pose["yaw"]) + (y - pose["y"]) * math.cos(pose["yaw"])
+    # 25 degrees below the axis of a camera 0.3 m up: the floor 0.64 m ahead, straight ahead.
+    assert 0.4 < ahead < 0.9 and abs(aside) < 0.15, (name, x, y, pose)
+    s = await client.wait(
+        "s.inspection.review.selected && s.inspection.review.proposal && s.inspection.card.visible && s", 30
+    )
+    finding = next(f for f in s["inspection"]["findings"] if f["id"] == s["inspection"]["review"]["selected"])
+    assert (finding["target"], finding["status"]) == (name, "needs_review"), finding
+    await client.frames(3)
+    await client.shot("dwell-live-marked")
+    assert s["gaze"]["fired"] == 1 and len(targets) == 4, "once per rest"
+    assert client.errors == [], client.errors

@@ -209,7 +209,7 @@ export class App {
     const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
     this.findingCard = new FindingCard(token);
     this.scene.add(this.findingCard.mesh);
-    const inspect = new XRInspection({ ui: this.inspectionUi, card: this.findingCard, picking, menu, camera, notify: (text) => this.#notify(text, 'info'), operator: () => menu.canCommand });
+    const inspect = new XRInspection({ ui: this.inspectionUi, card: this.findingCard, picking, menu, camera, screen: this.hemisphere, notify: (text) => this.#notify(text, 'info'), operator: () => menu.canCommand });
     this.xrInspection = inspect;
     this.interaction = new XRInteraction({
       xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions, inspect, estop: this.hud.estop, miniature: this.hud.miniature,

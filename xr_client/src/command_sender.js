@@ -178,6 +178,15 @@ export class CommandSender {
     return this.#send({ identifier: 'target/add', target, capture, u: Math.round(u), v: Math.round(v) });
   }
 
+  /**
+   * A target where a pixel of a robot's live camera image looks (pixels of the camera's configured size): the relay
+   * captures now, adds the target and a finding to review, and proposes the region around the pixel.
+   * @param {string} target @param {string} robot @param {number} u @param {number} v
+   */
+  targetFromLive(target, robot, u, v) {
+    return this.#send({ identifier: 'target/add', target, robot, u: Math.round(u), v: Math.round(v) });
+  }
+
   /** Ask the relay to segment the region around a pixel of a capture's image. @param {string} capture @param {number} u @param {number} v */
   region(capture, u, v) {
     return this.#send({ identifier: 'region', capture, u: Math.round(u), v: Math.round(v) });

@@ -26,6 +26,10 @@ export class InspectionModel {
   findings = new Map();
   /** Outlines the relay segmented, by the request id that asked (region). @type {Map<string, number[][]>} */
   regions = new Map();
+  /** Requests the review waits on (a target from the live image), until their ack or error. @type {Set<string>} */
+  awaiting = new Set();
+  /** How each awaited request ended (true: ack), the newest few. @type {Map<string, boolean>} */
+  settled = new Map();
   /** Bumped on every change, so views redraw only when something changed. */
   version = 0;
 
@@ -100,8 +104,27 @@ export class InspectionModel {
       .sort((a, b) => b.created - a.created);
   }
 
+  /** Wait for a request's answer (`settle`). @param {string} request */
+  await(request) {
+    this.awaiting.add(request);
+  }
+
+  /**
+   * An `ack` (ok) or `error` arrived: whether it answered a request the review waits on (then views update).
+   * @param {string} request @param {boolean} ok
+   */
+  settle(request, ok) {
+    if (!this.awaiting.delete(request)) return false;
+    this.settled.set(request, ok);
+    for (const old of this.settled.keys()) if (this.settled.size > 16) this.settled.delete(old);
+    this.version++;
+    return true;
+  }
+
   /** A new relay (hello after a reconnect): what it sends next replaces everything. */
   reset() {
+    this.awaiting.clear();
+    this.settled.clear();
     this.targets.clear();
     this.missions.clear();
     this.findings.clear();

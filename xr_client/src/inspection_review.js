@@ -13,6 +13,7 @@
  *   | {type: 'region', capture: string, u: number, v: number}
  *   | {type: 'target_pixel', target: string, capture: string, u: number, v: number}
  *   | {type: 'target_at', target: string, x: number, y: number}
+ *   | {type: 'target_live', target: string, robot: string, u: number, v: number}
  *   | {type: 'mission_targets', targets: string[], robot: string | null}} ReviewCommand
  */
 
@@ -34,6 +35,10 @@ export class InspectionReview {
   imageAction = 'region';
   /** Targets picked for a new mission, in order. @type {string[]} */
   picked = [];
+  /** A target marked on the live image, awaiting its finding and region. @type {{request: string, target: string} | null} */
+  live = null;
+  /** What went wrong with the last region asked, said under the image until the next act. */
+  note = '';
   /** Bumped on every change, so views redraw only when something changed. */
   version = 0;
 
@@ -46,8 +51,25 @@ export class InspectionReview {
     const picked = this.picked.filter((t) => model.targets.has(t));
     if (picked.length !== this.picked.length) this.#change(() => (this.picked = picked));
     if (this.selected !== null && !model.findings.has(this.selected)) this.select(null);
+    // A target marked on the live image: its finding opens (the relay sent it, and the region it proposes, before
+    // the ack); refused, the relay's error says why (a toast) and nothing opens.
+    const live = this.live;
+    const ok = live ? model.settled.get(live.request) : undefined;
+    if (live && ok === undefined && !model.awaiting.has(live.request)) this.#change(() => (this.live = null)); // a new relay
+    else if (live && ok !== undefined) {
+      const finding = ok ? model.list().find((f) => f.target === live.target && f.source === 'operator') : undefined;
+      this.#change(() => (this.live = null));
+      if (finding) {
+        this.select(finding.id);
+        this.#change(() => (this.pending = { request: live.request, finding: finding.id }));
+      }
+    }
     const outline = this.pending ? model.regions.get(this.pending.request) : undefined;
     if (outline) this.#change(() => ((this.proposal = outline), (this.pending = null)));
+    else if (this.pending && model.settled.has(this.pending.request)) {
+      // Answered without an outline: nothing to segment there (or refused); the next point asks again.
+      this.#change(() => ((this.pending = null), (this.note = 'no region found there: select a point of the image to mark one')));
+    }
   }
 
   /** Open a finding (null: close); a region being marked on another one is dropped. @param {string | null} finding */
@@ -57,8 +79,26 @@ export class InspectionReview {
       this.selected = finding;
       this.proposal = null;
       this.pending = null;
+      this.note = '';
       this.imageAction = 'region';
     });
+  }
+
+  /**
+   * A point of the selected robot's live camera image (a gaze dwell on the hemisphere): a new target where it
+   * looks, a finding about a capture taken now, and the region around the point proposed on it.
+   * @param {import('./inspection_model.js').InspectionModel} model @param {string} robot
+   * @param {number} u @param {number} v pixel of the camera's configured size
+   * @returns {ReviewCommand[]}
+   */
+  liveClick(model, robot, u, v) {
+    if (this.live) return []; // one at a time: the first is still being captured
+    return [{ type: 'target_live', target: nextName(model, 'spot'), robot, u, v }];
+  }
+
+  /** The target from the live image was asked (its request id, for the answer). @param {string} request @param {string} target */
+  liveAsked(request, target) {
+    this.#change(() => (this.live = { request, target }));
   }
 
   /** Pick a target for the next mission, or unpick it. @param {string} target */
@@ -104,6 +144,7 @@ export class InspectionReview {
       this.setImageAction('region');
       return [{ type: 'target_pixel', target: name, capture: finding.capture, u, v }];
     }
+    if (this.note) this.#change(() => (this.note = ''));
     return [{ type: 'region', capture: finding.capture, u, v }];
   }
 
@@ -134,6 +175,7 @@ export class InspectionReview {
   /** What the operator is asked to do next with the open finding's image (a hint under it). */
   hint() {
     if (this.pending) return 'segmenting…';
+    if (this.note) return this.note;
     if (this.proposal) return 'keep this region? Accept, or Redo and point again';
     return this.imageAction === 'target' ? 'select a point of the image: a new target there' : 'select a point of the image to mark a region';
   }

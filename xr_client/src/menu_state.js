@@ -216,7 +216,8 @@ export class MenuState {
         active: this.tool === 'goal',
         enabled: command && !pov,
       },
-      { id: 'tool:inspect', label: pov ? 'Inspect (free roam only)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: !pov },
+      // In Robot POV, Inspect is the head-gaze dwell on the live image (a target where it looks, and its region).
+      { id: 'tool:inspect', label: pov ? 'Inspect (gaze on image)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: true },
       { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive && !held },
       ...(held && selected ? [{ id: 'lease:take', label: `Take over from ${this.holder}`, group: 'tools', active: false, enabled: command }] : []),
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
@@ -339,7 +340,7 @@ export class MenuState {
     if (mode === 'pov' && !this.robot(this.selected)?.hasCamera) return [];
     /** @type {MenuEffect[]} */
     const effects = [...this.#stopDriving(), ...this.#stopLive()];
-    if (mode === 'pov' && (this.tool === 'goal' || this.tool === 'inspect')) {
+    if (mode === 'pov' && this.tool === 'goal') {
       this.tool = 'none';
       effects.push({ type: 'tool', tool: 'none' });
     }

@@ -128,7 +128,7 @@ export class MessageRouter {
       case 'ack':
         this.goals.acked(String(message.id));
         this.commands.acked(message.id);
-        return [];
+        return this.inspection.settle(String(message.id), true) ? [{ type: 'inspection' }] : [];
       case 'error':
         return this.#error(message, now);
       case 'estop': {
@@ -218,6 +218,7 @@ export class MessageRouter {
       if (robot !== null && this.fleet.robots.has(robot)) effects.push({ type: 'offer_takeover', robot, text: error.message, goal });
     }
     this.commands.failed(error);
+    if (error.id !== null && this.inspection.settle(String(error.id), false)) effects.push({ type: 'inspection' });
     const shownAtMarker = this.goals.failed(error.id === null ? null : String(error.id), error.code, error.message, now);
     effects.push({ type: 'notify', text: `${error.code}: ${error.message}`, kind: 'error', toast: !shownAtMarker });
     return effects;

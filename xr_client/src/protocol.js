@@ -86,9 +86,10 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, u: number, v: number}} RegionCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, x: number, y: number, name?: string, kind?: string, facing?: number}} TargetAddCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, capture: string, u: number, v: number, name?: string, kind?: string}} TargetFromPixelCommand */
+/** @typedef {{identifier: 'target/add', id: RequestId, target: string, robot: string, u: number, v: number, name?: string, kind?: string}} TargetFromLiveCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand | TargetFromPixelCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EstopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

@@ -143,5 +143,60 @@ test('the menu offers Inspect in free roam to viewers too, and the picked target
   menu.press('estop');
   assert.equal(menu.tool, 'inspect');
   menu.press('mode:pov');
-  assert.equal(menu.tool, 'none', 'no floor to point at in Robot POV');
+  assert.equal(menu.tool, 'inspect', 'in Robot POV, Inspect is the gaze on the live image');
+  assert.equal(menu.buttons().find((b) => b.id === 'tool:inspect')?.label, 'Inspect (gaze on image)');
+});
+
+test('a point of the live image asks for a target there; its finding opens with the proposed region once the ack comes', () => {
+  const model = new InspectionModel();
+  model.apply(targets(['spill', 'spot-1']));
+  const review = new InspectionReview();
+  const [command] = review.liveClick(model, 'robot2', 300, 410);
+  assert.deepEqual(command, { type: 'target_live', target: 'spot-3', robot: 'robot2', u: 300, v: 410 }, 'named without a keyboard');
+  model.await('r-9');
+  review.liveAsked('r-9', 'spot-3');
+  assert.deepEqual(review.liveClick(model, 'robot2', 10, 10), [], 'one at a time');
+  // The relay's answer, in its order: targets, the finding, the region, then the ack.
+  model.apply(targets(['spill', 'spot-1', 'spot-3']));
+  model.apply(finding({ id: 'f-9', capture: 'c-9', target: 'spot-3', robot: 'robot2', status: 'needs_review', source: 'operator', mission: null }));
+  const outline = [[280, 390], [320, 390], [320, 430], [280, 430]];
+  model.apply({ identifier: 'region', id: 'r-9', capture: 'c-9', outline });
+  review.sync(model);
+  assert.equal(review.selected, null, 'nothing opens before the ack');
+  assert.equal(model.settle('r-9', true), true);
+  review.sync(model);
+  assert.equal(review.selected, 'f-9');
+  assert.deepEqual(review.proposal, outline);
+  assert.deepEqual(review.accept(), [{ type: 'finding_update', finding: 'f-9', fields: { region: outline } }]);
+  assert.equal(review.live, null);
+  assert.equal(review.liveClick(model, 'robot2', 10, 10).length, 1, 'the next one may go');
+});
+
+test('a refused live target opens nothing, and a region answered without an outline says so and asks again', () => {
+  const model = new InspectionModel();
+  model.apply(finding({}));
+  const review = new InspectionReview();
+  model.await('r-1');
+  review.liveAsked('r-1', 'spot-1');
+  assert.equal(model.settle('r-1', false), true);
+  review.sync(model);
+  assert.equal(review.selected, null);
+  assert.equal(review.live, null);
+  assert.equal(model.settle('r-1', true), false, 'answered once; other acks are not the review\'s');
+  review.select('f-1');
+  review.imageClick(model, 5, 5);
+  model.await('r-2');
+  review.regionAsked('r-2');
+  model.settle('r-2', false);
+  review.sync(model);
+  assert.equal(review.pending, null);
+  assert.match(review.hint(), /no region found there/);
+  assert.deepEqual(review.imageClick(model, 240, 260), [{ type: 'region', capture: 'c-1', u: 240, v: 260 }]);
+  assert.match(review.hint(), /select a point of the image to mark a region/, 'the note goes with the next point');
+  // A new relay forgets what was awaited: a live target asked before it is not waited on forever.
+  model.await('r-3');
+  review.liveAsked('r-3', 'spot-2');
+  model.reset();
+  review.sync(model);
+  assert.equal(review.live, null);
 });

@@ -20,7 +20,7 @@
  * layer, the main desktop camera never does, and in VR the layer is switched on while in Robot POV.
  */
 import * as THREE from 'three';
-import { hemisphereGeometry } from '../lens.js';
+import { fieldHalfAngle, hemisphereGeometry, projectOptical } from '../lens.js';
 import { font } from './canvas_text.js';
 
 export const POV_LAYER = 5;
@@ -59,6 +59,8 @@ export class HemisphereScreen {
     floor.layers.set(POV_LAYER);
     this.group.add(floor);
     this.lensKey = '';
+    /** The lens the cap was built for, and the image size its intrinsics are in. @type {{lens: import('../lens.js').Lens, width: number, height: number} | null} */
+    this.lens = null;
     /** @type {ImageBitmap | VideoFrame | null} the picture on the texture (closed when replaced) */
     this.source = null;
     /** @type {(() => {frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null) | null} */
@@ -134,6 +136,7 @@ export class HemisphereScreen {
     const key = JSON.stringify([lens, imageWidth, imageHeight]);
     if (key === this.lensKey) return;
     this.lensKey = key;
+    this.lens = { lens, width: imageWidth, height: imageHeight };
     const { positions, uvs, indices } = hemisphereGeometry(lens, imageWidth, imageHeight, { radius: RADIUS, rings: 48, segments: 96 });
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
@@ -181,6 +184,23 @@ export class HemisphereScreen {
     // Uploaded at the next render or replaced before it: either way nobody needs the old one. (A VideoFrame
     // uploaded already was closed then: closing twice is harmless.)
     previous?.close();
+  }
+
+  /**
+   * The pixel of the picture shown in a world direction from the screen's centre (where the eyes are in VR), in
+   * pixels of the camera's configured size (what the relay's lens model takes), top-down; null when no picture is
+   * shown or the direction is outside the image. The lens's exact projection, not the mesh's interpolated UVs.
+   * @param {THREE.Vector3} direction world
+   * @returns {[number, number] | null}
+   */
+  pixelAt(direction) {
+    const shown = this.lens;
+    if (!shown || !this.calibration || !this.lastIdentifier || !this.group.visible) return null;
+    const local = direction.clone().applyQuaternion(this.group.getWorldQuaternion(new THREE.Quaternion()).invert()).normalize();
+    if (Math.acos(Math.max(-1, Math.min(1, -local.z))) > fieldHalfAngle(shown.lens)) return null;
+    const [u, v] = projectOptical(shown.lens, local.x, -local.y, -local.z, shown.width, shown.height);
+    if (!(u >= 0 && u < shown.width && v >= 0 && v < shown.height)) return null;
+    return [(u * this.calibration.width) / shown.width, (v * this.calibration.height) / shown.height];
   }
 
   /** Back to the placeholder (another robot selected). @param {string} text */

@@ -31,11 +31,21 @@ export class InspectionUi {
       if (c.type === 'finding_update') sender.findingUpdate(c.finding, c.fields);
       else if (c.type === 'target_at') sender.targetAt(c.target, c.x, c.y);
       else if (c.type === 'target_pixel') sender.targetFromPixel(c.target, c.capture, c.u, c.v);
+      else if (c.type === 'target_live') {
+        const request = sender.targetFromLive(c.target, c.robot, c.u, c.v);
+        if (request) {
+          this.model.await(String(request));
+          this.review.liveAsked(String(request), c.target);
+        }
+      }
       else if (c.type === 'mission_targets') {
         if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
       } else if (c.type === 'region') {
         const request = sender.region(c.capture, c.u, c.v);
-        if (request) this.review.regionAsked(String(request));
+        if (request) {
+          this.model.await(String(request));
+          this.review.regionAsked(String(request));
+        }
       }
     }
   }

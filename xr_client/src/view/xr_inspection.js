@@ -8,6 +8,10 @@
  * may meet (`pickables`, `floorAt`), names a hit (`idOf`), and hands selects over (`select`); what is decided
  * is the inspection review's (pure), carried out by InspectionUi.
  *
+ * In Robot POV the Inspect tool is the head-gaze dwell on the live image (xr_interaction.js's reticle): where the
+ * dwell rests, a target where that pixel looks, a finding about a capture taken then, and the region around the point
+ * proposed on its card, which opens in front of the operator when the relay has answered.
+ *
  * Pins and rings are picked through walls: they are the operator's marks, drawn over the twin like RViz markers,
  * and an operator in the corridor reviews the rooms' findings without walking into each.
  */
@@ -17,12 +21,15 @@ export class XRInspection {
   /**
    * @param {{ui: import('./inspection_ui.js').InspectionUi, card: import('./finding_card.js').FindingCard,
    *   picking: import('./picking.js').Picking, menu: import('../menu_state.js').MenuState,
+   *   screen: import('./hemisphere_screen.js').HemisphereScreen,
    *   camera: import('three').Camera, notify: (text: string) => void, operator: () => boolean}} host
    */
   constructor(host) {
     this.host = host;
     /** The card button a ray hovers, for its highlight. @type {string | null} */
     this.hover = null;
+    /** The finding the card was last placed for (a newly opened one is placed in front of the operator). @type {string | null} */
+    this.placedFor = null;
   }
 
   /** The Inspect tool is on, in free roam, with the menu closed. */
@@ -67,6 +74,28 @@ export class XRInspection {
     return hit?.floor ? { id: 'insp:floor', point: hit.point } : null;
   }
 
+  /**
+   * In Robot POV with the Inspect tool, the pixel of the live image in a world direction from the eyes (null: not
+   * here, not now, or off the image). @param {import('three').Vector3} direction
+   * @returns {[number, number] | null}
+   */
+  liveAt(direction) {
+    const { menu, screen } = this.host;
+    if (menu.tool !== 'inspect' || menu.mode !== 'pov' || menu.open || !menu.selected || !this.host.operator()) return null;
+    return screen.pixelAt(direction);
+  }
+
+  /** A dwell on the live image at a pixel (from liveAt): a target there, and its region. @param {[number, number]} pixel */
+  markLive(pixel) {
+    const { ui, menu } = this.host;
+    if (!menu.selected) return;
+    const commands = ui.review.liveClick(ui.model, menu.selected, pixel[0], pixel[1]);
+    const first = commands[0];
+    if (!first || first.type !== 'target_live') return;
+    ui.run(commands);
+    this.host.notify(`marking ${first.target} where ${menu.selected} looks…`);
+  }
+
   /** The ids the rays hover now (the card highlights its button). @param {(string | null)[]} hovered */
   setHover(hovered) {
     const button = hovered.find((h) => h?.startsWith('insp:card:'));
@@ -87,7 +116,6 @@ export class XRInspection {
       if (what && 'pixel' in what && this.host.operator()) ui.run(review.imageClick(model, what.pixel[0], what.pixel[1]));
     } else if (id.startsWith('insp:finding:')) {
       review.select(id.slice('insp:finding:'.length));
-      card.place(this.host.camera);
     } else if (id.startsWith('insp:target:')) {
       const target = id.slice('insp:target:'.length);
       review.togglePick(target);
@@ -115,6 +143,10 @@ export class XRInspection {
   /** Draw the card for this frame (it redraws only on a change). @param {boolean} presenting */
   update(presenting) {
     const { ui, card } = this.host;
+    if (ui.review.selected !== this.placedFor) {
+      this.placedFor = ui.review.selected;
+      if (presenting && this.placedFor) card.place(this.host.camera);
+    }
     card.update(ui.review, ui.model, { operator: this.host.operator(), presenting, hover: this.hover });
   }
 }

@@ -185,19 +185,25 @@ export class XRInteraction {
     this.raycaster.far = 20;
     const first = this.raycaster.intersectObjects(targets, true)[0] ?? null;
     let id = null;
+    /** @type {[number, number] | null} */
+    let live = null;
     if (first?.object === host.menuPanel.mesh && first.uv) id = host.menu.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
     else if (first) {
       const name = host.inspect.idOf(first);
       id = name === 'insp:image' ? name : null;
-    }
-    const point = first ? /** @type {[number, number, number]} */ (first.point.toArray()) : null;
+    } else if ((live = host.inspect.liveAt(this.raycaster.ray.direction))) id = 'pov:image';
+    // On the live image (5 m away, around the eyes) the gaze's steadiness is judged 1 m out: 3 degrees of wander.
+    const at = first ? first.point : live ? this.raycaster.ray.at(1, new THREE.Vector3()) : null;
+    const point = at ? /** @type {[number, number, number]} */ (at.toArray()) : null;
     const { fill, fire } = this.dwell.update(id && point ? { id, point } : null, performance.now());
     this.reticle.setFill(fill);
     this.gaze.id = id;
     this.gaze.fill = fill;
-    if (!fire || !first || !id) return;
+    if (!fire || !id) return;
     this.gaze.fired++;
-    if (id === 'insp:image') host.inspect.select(id, first);
+    if (id === 'pov:image' && live) host.inspect.markLive(live);
+    else if (!first) return;
+    else if (id === 'insp:image') host.inspect.select(id, first);
     else host.actions.pressMenu(id);
   }
 
