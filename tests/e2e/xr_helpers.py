@@ -122,3 +122,92 @@ async def teleop_on(client: Client, robot: str) -> None:
     await press_menu_button(client, "tool:teleop")
     await client.wait("s.menu.selected === arg && s.menu.tool === 'teleop'", 20, robot)
     await set_menu(client, False)
+
+
+#: Vision Pro's gaze-and-pinch, which IWER does not emulate: a `transient-pointer` XRInputSource made of IWER's own
+#: classes (iwer exports XRInputSource, XRSpace, XRInputSourceEvent and its private symbols). IWER's session diffs
+#: `device.inputSources` every frame (XRSession.updateActiveInputSources, which fires `inputsourceschange`), so the
+#: source is added to that list; its target ray is an XRSpace under IWER's global space, aimed from the headset. The
+#: events are fired from inside IWER's frame start, before the page's frame callback, in the order a real device
+#: gives them: added, selectstart; while held, the ray follows `move`; select, selectend, removed.
+_TRANSIENT_INSTALL = """
+async () => {
+  if (window.__transient) return;
+  const iwer = await import('iwer');
+  const { P_DEVICE, P_SESSION, P_SPACE, XRInputSource, XRSpace, XRInputSourceEvent } = iwer;
+  const { XRRigidTransform, lookRotation } = iwer;
+  const device = window.__iwer;
+  const D = device[P_DEVICE];
+  const extra = [];
+  const base = Object.getOwnPropertyDescriptor(iwer.XRDevice.prototype, 'inputSources').get;
+  Object.defineProperty(device, 'inputSources', {
+    configurable: true,
+    get() { return [...base.call(this), ...extra]; },
+  });
+  const state = { source: null, space: null, dir: null, pending: [], frames: 0 };
+  const aim = () => {
+    const pose = new XRRigidTransform(device.position, lookRotation(state.dir));
+    state.space[P_SPACE].offsetMatrix.set(pose.matrix);
+  };
+  const orig = D.onFrameStart;
+  D.onFrameStart = (frame) => {
+    orig(frame);
+    if (state.source) { aim(); state.frames++; }
+    const S = device.activeSession?.[P_SESSION];
+    const fire = (type) => device.activeSession.dispatchEvent(
+      new XRInputSourceEvent(type, { frame, inputSource: state.source }),
+    );
+    for (const act of state.pending.splice(0)) {
+      if (act.kind === 'begin') {
+        state.space = new XRSpace(D.globalSpace);
+        state.source = new XRInputSource(
+          'none', 'transient-pointer', ['generic-button'], state.space, null, null, null,
+        );
+        state.dir = act.dir;
+        state.frames = 0;
+        aim();
+        extra.push(state.source);
+        S.updateActiveInputSources();
+        fire('selectstart');
+      } else if (state.source) {
+        fire('select');
+        fire('selectend');
+        extra.splice(extra.indexOf(state.source), 1);
+        S.updateActiveInputSources();
+        state.source = null;
+      }
+      act.done();
+    }
+  };
+  /** A world (scene) point to a direction in IWER's global space: from the eyes, the rig's turn undone. */
+  const toward = async (target) => {
+    const THREE = await import('three');
+    const s = window.__xrRelay.state;
+    const rig = new THREE.Quaternion(...s.rig.quaternion);
+    const d = new THREE.Vector3(...target).sub(new THREE.Vector3(...s.eye));
+    d.normalize().applyQuaternion(rig.invert());
+    return { x: d.x, y: d.y, z: d.z };
+  };
+  window.__transient = {
+    state,
+    begin: async (target) => {
+      const dir = await toward(target);
+      await new Promise((done) => state.pending.push({ kind: 'begin', dir, done }));
+    },
+    move: async (target) => { state.dir = await toward(target); },
+    end: () => new Promise((done) => state.pending.push({ kind: 'end', done })),
+  };
+}
+"""
+
+
+async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] | None = None, hold: int = 3) -> None:
+    """Look at a scene point and pinch (a transient pointer): held ``hold`` frames, dragged to ``drag_to`` if given."""
+    await client.page.evaluate(_TRANSIENT_INSTALL)
+    await client.page.evaluate("(t) => window.__transient.begin(t)", target)
+    await client.frames(hold)
+    if drag_to is not None:
+        await client.page.evaluate("(t) => window.__transient.move(t)", drag_to)
+        await client.frames(hold)
+    await client.page.evaluate("() => window.__transient.end()")
+    await client.frames(2)

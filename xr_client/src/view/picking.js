@@ -59,8 +59,24 @@ export class Picking {
    *   `hit` the floor it lands on, `surface` whatever it meets first (a wall too: the pointer says why not)
    */
   arcToFloor(origin, direction) {
-    const floorY = this.twin.box.isEmpty() ? 0 : this.twin.box.min.y;
-    const { points } = arcPoints([origin.x, origin.y, origin.z], [direction.x, direction.y, direction.z], { floorY: floorY - 1, maxPoints: 64 });
+    return this.#along(arcPoints([origin.x, origin.y, origin.z], [direction.x, direction.y, direction.z], { floorY: this.#floorY() - 1, maxPoints: 64 }).points);
+  }
+
+  /**
+   * A straight ray to what it meets first (a gaze-and-pinch pointer: the goal is where the eyes are, not where an
+   * arc thrown from them would land). Same shape as arcToFloor. @param {THREE.Vector3} origin @param {THREE.Vector3} direction
+   */
+  rayToFloor(origin, direction) {
+    const end = origin.clone().addScaledVector(direction.clone().normalize(), 30);
+    return this.#along([/** @type {[number, number, number]} */ (origin.toArray()), /** @type {[number, number, number]} */ (end.toArray())]);
+  }
+
+  #floorY() {
+    return this.twin.box.isEmpty() ? 0 : this.twin.box.min.y;
+  }
+
+  /** The first twin surface along a polyline, and the polyline cut there. @param {[number, number, number][]} points */
+  #along(points) {
     const a = new THREE.Vector3();
     const b = new THREE.Vector3();
     for (let i = 1; i < points.length; i++) {

@@ -15,7 +15,7 @@ const SLOTS = 4;
 /**
  * @typedef {{index: number, controller: THREE.XRTargetRaySpace, grip: THREE.XRGripSpace, hand: THREE.XRHandSpace,
  *   ray: THREE.Line, cursor: THREE.Mesh, source: XRInputSource | null, events: ('selectstart' | 'selectend')[],
- *   selecting: boolean, pointer: boolean}} InputSlot
+ *   selecting: boolean, pointer: boolean, mode: XRTargetRayMode | null}} InputSlot
  */
 
 export class XRInput {
@@ -52,10 +52,12 @@ export class XRInput {
       rig.add(controller, grip, hand);
       scene.add(cursor);
       /** @type {InputSlot} */
-      const slot = { index, controller, grip, hand, ray, cursor, source: null, events: [], selecting: false, pointer: false };
+      const slot = { index, controller, grip, hand, ray, cursor, source: null, events: [], selecting: false, pointer: false, mode: null };
       this.slots.push(slot);
       this.#listen(controller, 'connected', (/** @type {any} */ event) => {
         slot.source = event.data;
+        // Kept after a disconnect: a transient pointer's selectend is handled after it went, as what it was.
+        slot.mode = event.data.targetRayMode;
         // Transient pointers (gaze-and-pinch) draw no ray: the operator looks where they point.
         slot.pointer = event.data.targetRayMode === 'tracked-pointer' || Boolean(event.data.hand);
         ray.visible = slot.pointer;
@@ -99,6 +101,9 @@ export class XRInput {
 
   /** The slot's ray in world space. @param {InputSlot} slot */
   ray(slot) {
+    // Its world matrix as of this frame's pose, not the last render's: a transient pointer (gaze-and-pinch) is born
+    // with its selectstart, and the frame that brings both would otherwise ray from where nothing was.
+    slot.controller.updateWorldMatrix(true, false);
     const origin = new THREE.Vector3().setFromMatrixPosition(slot.controller.matrixWorld);
     const direction = new THREE.Vector3(0, 0, -1).transformDirection(slot.controller.matrixWorld);
     return { origin, direction };

@@ -387,7 +387,9 @@ export class XRInteraction {
       return;
     }
     const { origin, direction } = this.host.xrInput.ray(slot);
-    const { points, surface } = this.host.picking.arcToFloor(origin, direction);
+    const picking = this.host.picking;
+    const gaze = slot.mode === 'transient-pointer';
+    const { points, surface } = gaze ? picking.rayToFloor(origin, direction) : picking.arcToFloor(origin, direction);
     this.lastArc = points;
     const { point, verdict } = this.host.picking.verdictAt(surface, this.host.menu.selected, this.host.menu.holder);
     this.host.goalPointer.aim(point, verdict);
