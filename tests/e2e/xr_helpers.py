@@ -29,7 +29,7 @@ async ([hand, origin, target]) => {
 # Aim so that the client's pointer arc (src/arc.js, the same function the client uses) lands on a point of
 # the floor: bisect the pitch, the yaw pointing at the target.
 _AIM_ARC = """
-async ([hand, origin, target]) => {
+async ([hand, origin, target, kind]) => {
   const THREE = await import('three');
   const { arcPoints } = await import('/src/arc.js');
   const s = window.__xrRelay.state;
@@ -53,7 +53,7 @@ async ([hand, origin, target]) => {
   const world = dir((lo + hi) / 2);
   const local = world.applyQuaternion(rigRotation.clone().invert());
   const q = new THREE.Quaternion().setFromUnitVectors(new THREE.Vector3(0, 0, -1), local);
-  const c = window.__iwer.controllers[hand];
+  const c = kind === 'hand' ? window.__iwer.hands[hand] : window.__iwer.controllers[hand];
   c.position.set(...origin);
   c.quaternion.set(q.x, q.y, q.z, q.w);
 }
@@ -65,8 +65,9 @@ async def aim(client: Client, hand: str, target: list[float]) -> None:
     await client.frames(2)
 
 
-async def aim_arc(client: Client, hand: str, target: list[float]) -> None:
-    await client.page.evaluate(_AIM_ARC, [hand, HAND_ORIGIN[hand], target])
+async def aim_arc(client: Client, hand: str, target: list[float], kind: str = "controller") -> None:
+    """Aim so that the pointer arc lands on a floor point; ``kind`` 'hand' turns IWER's emulated hand instead."""
+    await client.page.evaluate(_AIM_ARC, [hand, HAND_ORIGIN[hand], target, kind])
     await client.frames(2)
 
 

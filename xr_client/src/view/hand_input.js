@@ -42,6 +42,8 @@ export class HandInput {
     this.buttonHand = null;
     /** What the state snapshot shows. */
     this.stats = { pinches: 0, drives: 0, releases: 0, menuPresses: 0 };
+    /** Each tracked hand's index fingertip this frame (world), by handedness: where a press comes from. @type {Record<string, number[]>} */
+    this.tips = {};
   }
 
   /** One XR frame. @param {number} headYaw the head's yaw (rad) */
@@ -49,6 +51,7 @@ export class HandInput {
     const { xrInput, menu, actions } = this.host;
     const hands = xrInput.active().filter((slot) => slot.source?.hand);
     const seen = new Set();
+    this.tips = {};
     /** @type {{index: number, tip: [number, number, number]}[]} */
     const tips = [];
     let palmSlot = null;
@@ -63,6 +66,7 @@ export class HandInput {
       const wrist = joints.wrist;
       if (!thumb || !index || !wrist) continue;
       tips.push({ index: slot.index, tip: index });
+      this.tips[slot.source?.handedness ?? String(slot.index)] = index;
       const { pinched, changed } = state.pinch.update(distance(thumb, index));
       const source = `hand-${slot.source?.handedness ?? slot.index}`;
       // Teleop by pinch-drag: the pinch's place is the stick's centre; its release is the deadman.
@@ -119,7 +123,13 @@ export class HandInput {
 
   /** What the state snapshot shows (`s.hands`). */
   state() {
-    return { ...this.stats, wristButton: this.button.visible, driving: [...this.hands.values()].some((h) => h.driving !== null) };
+    return {
+      ...this.stats,
+      wristButton: this.button.visible,
+      button: this.button.visible ? this.button.position.toArray() : null,
+      tips: this.tips,
+      driving: [...this.hands.values()].some((h) => h.driving !== null),
+    };
   }
 
   dispose() {

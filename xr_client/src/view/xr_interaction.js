@@ -61,6 +61,8 @@ export class XRInteraction {
     this.snapLeft = new SnapTurn();
     this.snapRight = new SnapTurn();
     this.teleport = new TeleportGesture();
+    /** A hand pinching where nothing is to select: its arc aims a teleport, its release lands it. @type {import('./xr_input.js').InputSlot | null} */
+    this.handTeleport = null;
     /** @type {THREE.Vector3 | null} */
     this.teleportHit = null;
     this.vignette = 0;
@@ -235,7 +237,14 @@ export class XRInteraction {
           else if (verdict?.kind === 'takeover' && host.goalPointer.hover) host.actions.offerTakeOver({ ...host.goalPointer.hover, yaw: null });
           else if (host.goalPointer.press()) this.goalSlot = slot;
           else if (verdict?.kind === 'refused') input.pulse(slot, 0.3, 60);
+        } else if (slot.source?.hand && this.#handTeleports()) {
+          // Point and pinch: a hand's pinch on nothing to select aims a teleport; letting go lands it.
+          this.handTeleport = slot;
         }
+      } else if (slot === this.handTeleport) {
+        this.handTeleport = null;
+        if (this.teleportHit) host.locomotion.teleportTo(this.teleportHit, this.head);
+        this.teleportHit = null;
       } else if (slot === this.goalSlot) {
         this.#aimGoal(slot);
         const goal = host.goalPointer.release();
@@ -304,6 +313,14 @@ export class XRInteraction {
       if (Math.abs(ly) < 0.5 || !free) this.#turn(this.snapLeft.update(lx));
     } else {
       this.teleport.cancel();
+    }
+    const hand = this.handTeleport;
+    if (hand && (!hand.source || !this.#handTeleports())) this.handTeleport = null; // tracking lost, menu opened
+    else if (hand && !teleportPoints) {
+      const { origin, direction } = input.ray(hand);
+      const arc = host.picking.arcToFloor(origin, direction);
+      teleportPoints = arc.points;
+      this.teleportHit = arc.hit;
     }
     host.teleportView.set(teleportPoints, teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null);
   }
@@ -393,6 +410,12 @@ export class XRInteraction {
     this.lastArc = points;
     const { point, verdict } = this.host.picking.verdictAt(surface, this.host.menu.selected, this.host.menu.holder);
     this.host.goalPointer.aim(point, verdict);
+  }
+
+  /** Whether a hand's pinch on nothing may aim a teleport: free roam, the menu closed, no tool that pinches itself. */
+  #handTeleports() {
+    const menu = this.host.menu;
+    return menu.mode === 'free_roam' && !menu.open && menu.tool !== 'teleop' && menu.tool !== 'goal';
   }
 
   #goalActive() {
