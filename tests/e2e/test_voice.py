@@ -10,7 +10,7 @@ from typing import Any
 from playwright.async_api import Browser
 
 from .conftest import SOFTWARE_GL, Client, Station, wait_until
-from .xr_helpers import button
+from .xr_helpers import aim, button, click
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -92,6 +92,17 @@ async def test_a_spoken_goal_waits_for_confirm_and_stop_all_latches_every_robot(
         assert (x, y) == (9.0, 6.5), (x, y)
         assert all(g[0] == "robot2" for g in station.goals), "no other robot was sent anywhere"
 
+        # Enter is the desktop's pinch: a waiting goal goes at once; with none waiting, Enter confirms nothing.
+        heard = await say(client, "robot one go to chemical storage")
+        assert heard["pending"] is not None and "press Enter" in heard["result"], heard
+        await client.page.keyboard.press("Enter")
+        s = await client.wait("s.voice.pending === null && s.voice", 10)
+        assert s["done"].get("goto") == 2 and "(confirmed: Enter)" in s["result"], s
+        await wait_until(lambda: any(g[0] == "robot1" for g in station.goals), 10, "robot1's goal at the backend")
+        await client.page.keyboard.press("Enter")
+        await client.frames(2)
+        assert (await client.state())["voice"]["done"].get("goto") == 2
+
         refused = await say(client, "robot seven go to plumbing")
         assert "no robot 7 in this fleet" in refused["result"], refused
 
@@ -140,5 +151,20 @@ async def test_in_vr_a_thumbstick_held_in_is_push_to_talk_and_the_hud_says_what_
         assert s["menu"]["selected"] == "robot3" and s["voice"]["result"] == "selected robot3", s["voice"]
         assert s["voice"]["toast"] is True, "the headset's HUD shows what was heard"
         await client.shot("voice-vr")
+        # A spoken goal waits; the trigger pulled on nothing (the ray on the floor, no tool) is its "confirm".
+        await button(client, "right", "thumbstick", 1)
+        await client.wait("s.voice.listening", 10)
+        await client.page.evaluate("window.__speech.say('robot three go to power distribution')")
+        await button(client, "right", "thumbstick", 0)
+        s = await client.wait("s.voice.pending !== null && s", 10)
+        assert "pull the trigger" in s["voice"]["result"] and not any(g[0] == "robot3" for g in station.goals)
+        await aim(client, "right", [0.0, -5.0, 0.0])
+        await client.wait("s.xr.hover.right === null", 10)
+        await click(client, "right")
+        s = await client.wait("s.voice.pending === null && s", 10)
+        assert "(confirmed: trigger)" in s["voice"]["result"], s["voice"]
+        await wait_until(lambda: any(g[0] == "robot3" for g in station.goals), 10, "robot3's goal at the backend")
+        _, x, y, _ = next(g for g in station.goals if g[0] == "robot3")
+        assert (x, y) == (9.0, 6.5), (x, y)
     finally:
         await client.page.close()

@@ -57,7 +57,8 @@ const UNBUILT = /** @type {any} */ (null);
  *   sendGoal: (goal: import('./command_sender.js').Goal) => void, driveStick: (source: string, x: number, y: number) => void,
  *   enterVR: () => void, addTarget: (point: {x: number, y: number}) => void, say: (text: string, toast?: boolean) => void,
  *   offerTakeOver: (goal: import('./command_sender.js').Goal) => void, goalTo: (robot: string, goal: import('./command_sender.js').Goal) => void,
- *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void}} OperatorActions
+ *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void,
+ *   confirmVoice: (how: string) => boolean}} OperatorActions
  */
 
 export class App {
@@ -136,7 +137,7 @@ export class App {
       enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
       say: (text, toast = false) => this.#notify(text, 'info', toast),
       offerTakeOver: (goal) => this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
-      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects), talk: (down) => this.voice.talk(down),
+      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects), talk: (down) => this.voice.talk(down), confirmVoice: (how) => this.voice.confirmByGesture(how),
     };
     this.#buildScene(options);
     this.#buildViews(container);

@@ -58,6 +58,10 @@ export class VoiceControl {
     window.addEventListener('keydown', (e) => {
       if ((e.key === 'v' || e.key === 'V') && !e.repeat && !(e.target instanceof HTMLInputElement)) this.talk(true);
     });
+    window.addEventListener('keydown', (e) => {
+      // Enter confirms a spoken command that waits (the desktop's pinch); typing in a field is not a confirmation.
+      if (e.key === 'Enter' && !e.repeat && !(e.target instanceof HTMLInputElement) && this.confirmByGesture('Enter')) e.preventDefault();
+    });
     window.addEventListener('keyup', (e) => {
       if (e.key === 'v' || e.key === 'V') this.talk(false);
     });
@@ -117,8 +121,26 @@ export class VoiceControl {
   /** @param {import('../voice_grammar.js').VoiceEffect} effect @param {string} heard */
   #effect(effect, heard) {
     if (effect.type === 'say') this.#show(heard, effect.text);
-    else if (effect.type === 'ask') this.#show(heard, `${describe(effect.command)}? say "confirm" (or "cancel")`);
+    else if (effect.type === 'ask') {
+      const gesture = this.host.presenting() ? 'pinch or pull the trigger on nothing' : 'press Enter';
+      this.#show(heard, `${describe(effect.command)}? say "confirm" or ${gesture} ("cancel" drops it)`);
+    }
     else this.#show(heard, this.#run(effect.command));
+  }
+
+  /**
+   * A pinch, a trigger or Enter while a spoken motion command waits for its "confirm": carried out, and said so;
+   * false (nothing done) when none waits, so that the gesture does what it otherwise would.
+   * @param {string} how what confirmed it, for the caption
+   */
+  confirmByGesture(how) {
+    const now = performance.now();
+    this.confirm.expire(now);
+    if (!this.confirm.pending) return false;
+    for (const effect of this.confirm.confirm(now)) {
+      if (effect.type === 'run') this.#show(this.heard, `${this.#run(effect.command)} (confirmed: ${how})`);
+    }
+    return true;
   }
 
   /** Carry a command out through the host's actions; returns what it did. @param {import('../voice_grammar.js').VoiceCommand} c */

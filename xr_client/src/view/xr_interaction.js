@@ -223,6 +223,9 @@ export class XRInteraction {
         if (id === 'menu:tab') host.actions.toggleMenu();
         else if (id?.startsWith('pick:')) host.actions.selectRobot(id.slice(5));
         else if (id === 'wim') this.#wimSelect(slot);
+        else if (!id && host.actions.confirmVoice(slot.source?.hand ? 'pinch' : slot.mode === 'transient-pointer' ? 'look and pinch' : 'trigger')) {
+          input.pulse(slot, 0.6, 30); // a spoken goal waited: this select on nothing is its "confirm"
+        }
         else if (id?.startsWith('insp:')) {
           input.pulse(slot, 0.6, 30);
           host.inspect.select(id, hit);
