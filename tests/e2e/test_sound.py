@@ -60,6 +60,14 @@ async def test_the_page_plays_the_estop_earcon_after_the_first_gesture_and_mutes
     await client.wait("s.sound.muted && s.menu.buttons.some((b) => b.id === 'opt:mute' && b.active)", 5)
     await page.keyboard.press("m")
     await client.wait("!s.sound.muted && s.menu.buttons.some((b) => b.id === 'opt:mute' && !b.active)", 5)
+    # The menu's Volume − and + (in VR too) and the header's slider are one volume.
+    await page.click('#menu button[data-button="opt:volume-"]')
+    await client.wait("s.sound.volume === 0.4", 5)
+    assert await page.input_value("#sound-volume") == "40"
+    await page.fill("#sound-volume", "80")
+    await client.wait("s.menu.buttons.some((b) => b.id === 'opt:volume-' && b.label === 'Volume − (80 %)')", 5)
+    await page.click('#menu button[data-button="opt:volume+"]')
+    await client.wait("s.sound.volume === 1", 5)
     await page.click('#menu button[data-button="estop"]')
     await client.wait("s.sound.played.estop === 1", 5)
     await wait_until(lambda: all(station.status(r)["estopped"] for r in ("robot1", "robot2", "robot3")), 5, "latched")

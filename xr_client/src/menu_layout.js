@@ -12,6 +12,7 @@ export const MENU_ROWS = Object.freeze([
   ['camera', 'Camera'],
   ['mission', 'Mission'],
   ['options', 'Options'],
+  ['sound', 'Sound'],
   ['estop', ''],
 ]);
 

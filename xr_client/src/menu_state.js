@@ -42,6 +42,9 @@ import { MAX_STREAM_FPS } from './protocol.js';
 export const MODE_FREE_ROAM = 'free_roam';
 export const MODE_POV = 'pov';
 
+/** The menu's volume buttons step in fifths of full volume. */
+const VOLUME_STEPS = 5;
+
 export class MenuState {
   constructor() {
     this.open = false;
@@ -62,6 +65,8 @@ export class MenuState {
     this.dwellPress = false;
     /** The station's sounds off (view/sound_control.js follows it; its header button and M set it too). */
     this.muted = false;
+    /** The sound's volume (0..1), shared with the header's slider (view/sound_control.js). */
+    this.volume = 0.6;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -238,7 +243,9 @@ export class MenuState {
       { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
       { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
       { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: this.dwellPress, enabled: true },
-      { id: 'opt:mute', label: 'Mute', group: 'options', active: this.muted, enabled: true },
+      { id: 'opt:mute', label: 'Mute', group: 'sound', active: this.muted, enabled: true },
+      { id: 'opt:volume-', label: `Volume − (${Math.round(this.volume * 100)} %)`, group: 'sound', active: false, enabled: this.volume > 0 },
+      { id: 'opt:volume+', label: 'Volume +', group: 'sound', active: false, enabled: this.volume < 1 },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -277,6 +284,11 @@ export class MenuState {
     else if (id === 'opt:scans') this.scans = !this.scans;
     else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
     else if (id === 'opt:mute') this.muted = !this.muted;
+    else if (id === 'opt:volume-' || id === 'opt:volume+') {
+      // Steps of a fifth, landing on them whatever the slider left (0.63 - a step is 0.4, not 0.43).
+      const steps = Math.round(this.volume * VOLUME_STEPS) + (id === 'opt:volume+' ? 1 : -1);
+      this.volume = Math.max(0, Math.min(VOLUME_STEPS, steps)) / VOLUME_STEPS;
+    }
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];

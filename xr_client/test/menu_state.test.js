@@ -168,3 +168,22 @@ test('the mission buttons: the demo, every target for the selected robot or the 
   menu.setConnected(false);
   assert.deepEqual(menu.press('mission:demo'), []); // disabled while disconnected
 });
+
+test('the volume steps in fifths from wherever the slider left it, and its buttons stop at the ends', () => {
+  const m = menu();
+  assert.equal(button(m, 'opt:volume-')?.label, 'Volume − (60 %)');
+  m.press('opt:volume+');
+  m.press('opt:volume+');
+  assert.equal(m.volume, 1);
+  assert.equal(button(m, 'opt:volume+')?.enabled, false, 'full: + is off');
+  m.press('opt:volume+');
+  assert.equal(m.volume, 1);
+  m.volume = 0.63; // the header's slider
+  m.press('opt:volume-');
+  assert.equal(m.volume, 0.4);
+  m.press('opt:volume-');
+  m.press('opt:volume-');
+  assert.equal(m.volume, 0);
+  assert.equal(button(m, 'opt:volume-')?.enabled, false, 'silent: − is off');
+  assert.equal(button(m, 'opt:volume-')?.label, 'Volume − (0 %)');
+});

@@ -4,7 +4,7 @@
  * cue_rules.js; its cues play as earcons at their robots' places (sound.js) and pulse the controllers in VR. The
  * AudioContext is made on the operator's first gesture (browsers allow sound only after one). The listener follows
  * the camera (the headset in VR). The header's Sound button, the menu's Mute (VR too) and M mute; the header's
- * slider sets the volume; G
+ * slider and the menu's Volume − and + (VR too) set the volume; G
  * switches the Geiger-like ticking of the selected robot's hazard reading (its first sensor with a warning level).
  */
 import * as THREE from 'three';
@@ -74,6 +74,7 @@ export class SoundControl {
   /** @param {number} volume 0..1 */
   setVolume(volume) {
     this.volume = volume;
+    this.host.menu.volume = volume; // the menu's Volume buttons step from it, in VR too
     this.scape?.setVolume(volume);
     this.#paint();
   }
@@ -100,6 +101,7 @@ export class SoundControl {
   poll(now) {
     const { fleet, menu, goals } = this.host;
     if (menu.muted !== this.muted) this.setMuted(menu.muted); // the menu's Mute (VR, the desktop menu)
+    if (menu.volume !== this.volume) this.setVolume(menu.volume); // its Volume − and +
     /** @type {import('../cue_rules.js').RobotView[]} */
     const robots = [];
     for (const [name, entry] of fleet.robots) {
