@@ -66,7 +66,7 @@ export function snapshotState(app) {
       [...app.robotViews].map(([name, v]) => [
         name,
         {
-          position: v.group.position.toArray(), visible: v.group.visible, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
+          position: v.group.position.toArray(), visible: v.group.visible, controller: app.fleet.robot(name)?.status?.controller ?? null, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
           scan: { points: v.scanCount, visible: v.scanVisible },
           // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
           heading: headingOf(app, v),
