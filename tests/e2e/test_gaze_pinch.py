@@ -2,7 +2,7 @@
 emulated headset: IWER has no such source, so xr_helpers.gaze_pinch makes one of IWER's own classes, which the page
 receives through the real WebXR paths (inputsourceschange, selectstart, the target ray's pose each frame, select,
 selectend, removed). Nothing depends on hover, which that input does not give: each act is one look and one pinch.
-The operator looks at robot2 and pinches: selected. At the menu tab: the menu opens; at Goal: the tool is on. At the
+The operator looks at the floor ahead and pinches: teleported there. At robot2: selected. At the menu tab: the menu opens; at Goal: the tool is on. At the
 floor, pinch, look further along the corridor while pinched, let go: robot2's goal is where the eyes were, facing
 that way. Before the fix that came with this test, the first frame of a transient pointer rayed from the last
 render's matrix (nowhere), so its pinch selected nothing."""
@@ -22,6 +22,14 @@ async def test_a_look_and_a_pinch_select_a_robot_press_the_menu_and_send_a_goal_
     client = await enter_vr(open_client, station.url)
     for hand in ("left", "right"):
         await aim(client, hand, [0.0, -5.0, 0.0])  # the controllers lie on the floor, pointing at nothing
+    # A teleport: the eyes on the corridor's floor 2.5 m ahead, where nothing is to select; the pinch's release lands
+    # the operator there (a straight ray: where the eyes were).
+    s = await client.state()
+    yaw, eye = s["rig"]["yaw"], s["eye"]
+    ahead = [eye[0] - 2.5 * math.sin(yaw), 0.0, eye[2] - 2.5 * math.cos(yaw)]
+    await gaze_pinch(client, ahead)
+    s = await client.wait("Math.hypot(s.eye[0] - arg[0], s.eye[2] - arg[2]) > 2 && s", 10, eye)
+    assert math.hypot(s["eye"][0] - ahead[0], s["eye"][2] - ahead[2]) < 0.05, (s["eye"], ahead)
     # A robot: the eyes on robot2's body (as drawn: a 14 cm tall TurtleBot, its middle).
     drawn = (await client.state())["robots"]["robot2"]["position"]
     body = [drawn[0], drawn[1] + 0.07, drawn[2]]

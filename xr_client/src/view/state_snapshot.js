@@ -40,7 +40,7 @@ export function snapshotState(app) {
     xr: {
       hover: app.presenting ? interaction.hovered() : {},
       vignette: app.vignette.strength,
-      teleport: interaction.teleport.aiming || interaction.handTeleport ? (interaction.teleportHit?.toArray() ?? 'no floor') : null,
+      teleport: interaction.teleport.aiming || interaction.pinchTeleport ? (interaction.teleportHit?.toArray() ?? 'no floor') : null,
     },
     estop: {
       latched: [...menu.latched],

@@ -61,8 +61,9 @@ export class XRInteraction {
     this.snapLeft = new SnapTurn();
     this.snapRight = new SnapTurn();
     this.teleport = new TeleportGesture();
-    /** A hand pinching where nothing is to select: its arc aims a teleport, its release lands it. @type {import('./xr_input.js').InputSlot | null} */
-    this.handTeleport = null;
+    /** A hand (or the eyes) pinching where nothing is to select: its arc (the eyes: a straight ray) aims a teleport,
+     * its release lands it. @type {import('./xr_input.js').InputSlot | null} */
+    this.pinchTeleport = null;
     /** @type {THREE.Vector3 | null} */
     this.teleportHit = null;
     this.vignette = 0;
@@ -240,12 +241,12 @@ export class XRInteraction {
           else if (verdict?.kind === 'takeover' && host.goalPointer.hover) host.actions.offerTakeOver({ ...host.goalPointer.hover, yaw: null });
           else if (host.goalPointer.press()) this.goalSlot = slot;
           else if (verdict?.kind === 'refused') input.pulse(slot, 0.3, 60);
-        } else if (slot.source?.hand && this.#handTeleports()) {
-          // Point and pinch: a hand's pinch on nothing to select aims a teleport; letting go lands it.
-          this.handTeleport = slot;
+        } else if ((slot.source?.hand || slot.mode === 'transient-pointer') && this.#pinchTeleports()) {
+          // Point (or look) and pinch: a pinch on nothing to select aims a teleport; letting go lands it.
+          this.pinchTeleport = slot;
         }
-      } else if (slot === this.handTeleport) {
-        this.handTeleport = null;
+      } else if (slot === this.pinchTeleport) {
+        this.pinchTeleport = null;
         if (this.teleportHit) host.locomotion.teleportTo(this.teleportHit, this.head);
         this.teleportHit = null;
       } else if (slot === this.goalSlot) {
@@ -317,11 +318,11 @@ export class XRInteraction {
     } else {
       this.teleport.cancel();
     }
-    const hand = this.handTeleport;
-    if (hand && (!hand.source || !this.#handTeleports())) this.handTeleport = null; // tracking lost, menu opened
+    const hand = this.pinchTeleport;
+    if (hand && (!hand.source || !this.#pinchTeleports())) this.pinchTeleport = null; // tracking lost, menu opened
     else if (hand && !teleportPoints) {
       const { origin, direction } = input.ray(hand);
-      const arc = host.picking.arcToFloor(origin, direction);
+      const arc = hand.mode === 'transient-pointer' ? host.picking.rayToFloor(origin, direction) : host.picking.arcToFloor(origin, direction);
       teleportPoints = arc.points;
       this.teleportHit = arc.hit;
     }
@@ -416,7 +417,7 @@ export class XRInteraction {
   }
 
   /** Whether a hand's pinch on nothing may aim a teleport: free roam, the menu closed, no tool that pinches itself. */
-  #handTeleports() {
+  #pinchTeleports() {
     const menu = this.host.menu;
     return menu.mode === 'free_roam' && !menu.open && menu.tool !== 'teleop' && menu.tool !== 'goal';
   }
