@@ -4,8 +4,8 @@ receives through the real WebXR paths (inputsourceschange, selectstart, the targ
 selectend, removed). Nothing depends on hover, which that input does not give: each act is one look and one pinch.
 The operator looks at the floor ahead and pinches: teleported there. At robot2: selected. At the menu tab: the menu
 opens; at Goal: the tool is on. At the floor, pinch, look further along the corridor while pinched, let go: robot2's
-goal is where the eyes were, facing that way. Before the fix that came with this test, the first frame of a transient pointer rayed from the last
-render's matrix (nowhere), so its pinch selected nothing."""
+goal is where the eyes were, facing that way. Before the fix that came with this test, the first frame of a transient
+pointer rayed from the last render's matrix (nowhere), so its pinch selected nothing."""
 
 from __future__ import annotations
 
