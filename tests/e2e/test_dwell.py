@@ -9,7 +9,7 @@ import math
 import time
 from typing import Any
 
-from .conftest import Client, OpenClient, Station, wait_until
+from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
 from .xr_helpers import aim, press_menu_button, set_menu
 
@@ -137,5 +137,51 @@ async def test_a_gaze_resting_on_the_live_robot_pov_image_marks_a_target_where_i
     assert (finding["target"], finding["status"]) == (name, "needs_review"), finding
     await client.frames(3)
     await client.shot("dwell-live-marked")
+    # The card opened in front of the eyes, perhaps under the gaze: nothing more is dwelt on until the head turns.
+    await asyncio.sleep(2.5)
+    s = await client.state()
     assert s["gaze"]["fired"] == 1 and len(targets) == 4, "once per rest"
+    assert s["inspection"]["review"]["proposal"], "the proposed region still waits for Accept or Redo"
+    assert client.errors == [], client.errors
+
+
+async def test_on_the_desktop_a_click_on_the_robot_pov_image_with_inspect_marks_a_target_where_it_looks(
+    station: Station, open_client: OpenClient
+) -> None:
+    """The desktop's counterpart of the dwell: with Inspect on in Robot POV, a click (not a drag) on the POV panel's
+    image, below its centre, marks a target on the floor ahead of robot1, and its finding opens with the region."""
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "pov-inspect", 1280, 800)
+    page = client.page
+    targets = station.running.relay.inspection.targets
+    await client.wait("s.inspection.targets === 3", 20)
+    await page.click('#menu button[data-button="robot:robot1"]')
+    await page.click('#menu button[data-button="mode:pov"]')
+    await client.wait("s.menu.mode === 'pov' && s.pov.identifier !== ''", 30)
+    box = await page.locator("#pov-panel").bounding_box()
+    assert box is not None
+    below = (box["x"] + box["width"] / 2, box["y"] + box["height"] * 0.7)
+    await page.mouse.click(*below)  # without Inspect: nothing
+    await asyncio.sleep(1.0)
+    assert len(targets) == 3
+    await page.click('#menu button[data-button="tool:inspect"]')
+    await client.wait("s.menu.tool === 'inspect'", 10)
+    # A drag looks around and marks nothing.
+    await page.mouse.move(*below)
+    await page.mouse.down()
+    await page.mouse.move(below[0] + 40, below[1], steps=4)
+    await page.mouse.up()
+    await asyncio.sleep(1.0)
+    assert len(targets) == 3, "a drag only looks around"
+    await page.mouse.click(*below)
+    await wait_until(lambda: len(targets) == 4, 20, "the target marked on the POV image")
+    [name] = [t for t in targets if t not in ("spill", "panels", "leak")]
+    pose = station.running.relay.fleet.snapshot(time.monotonic())["robot1"]["pose"]
+    assert pose is not None
+    x, y = targets[name].x - pose["x"], targets[name].y - pose["y"]
+    ahead = x * math.cos(pose["yaw"]) + y * math.sin(pose["yaw"])
+    assert 0.0 < ahead < 3.0, (name, targets[name], pose)
+    s = await client.wait("s.inspection.review.selected && s.inspection.review.proposal && s", 30)
+    finding = next(f for f in s["inspection"]["findings"] if f["id"] == s["inspection"]["review"]["selected"])
+    assert finding["target"] == name
+    await client.shot("pov-click-marked")
     assert client.errors == [], client.errors

@@ -218,7 +218,7 @@ export class App {
       link: () => this.linkText,
     });
     this.overlay = new Overlay({ menu, actions, sensorPanelData: (now) => this.sensorPanelData(now), povText: () => povCaption(this) });
-    const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting, fleet };
+    const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting, fleet, markPov: (/** @type {number} */ x, /** @type {number} */ y) => inspect.clickPov(x, y) };
     this.desktop = new DesktopControls(host, container, this.overlay.povPanel);
   }
 

@@ -221,8 +221,8 @@ export class MenuState {
         active: this.tool === 'goal',
         enabled: command && !pov,
       },
-      // In Robot POV, Inspect is the head-gaze dwell on the live image (a target where it looks, and its region).
-      { id: 'tool:inspect', label: pov ? 'Inspect (gaze on image)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: true },
+      // In Robot POV, Inspect marks a target on the live image: a gaze dwell in VR, a click on the desktop.
+      { id: 'tool:inspect', label: pov ? 'Inspect (on the image)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: true },
       { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive && !held },
       ...(held && selected ? [{ id: 'lease:take', label: `Take over from ${this.holder}`, group: 'tools', active: false, enabled: command }] : []),
       { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },

@@ -144,7 +144,7 @@ test('the menu offers Inspect in free roam to viewers too, and the picked target
   assert.equal(menu.tool, 'inspect');
   menu.press('mode:pov');
   assert.equal(menu.tool, 'inspect', 'in Robot POV, Inspect is the gaze on the live image');
-  assert.equal(menu.buttons().find((b) => b.id === 'tool:inspect')?.label, 'Inspect (gaze on image)');
+  assert.equal(menu.buttons().find((b) => b.id === 'tool:inspect')?.label, 'Inspect (on the image)');
 });
 
 test('a point of the live image asks for a target there; its finding opens with the proposed region once the ack comes', () => {

@@ -22,7 +22,8 @@ export class DesktopControls {
    * @param {{camera: THREE.PerspectiveCamera, canvas: HTMLCanvasElement, menu: import('../menu_state.js').MenuState,
    *   goalPointer: import('../goal_pointer.js').GoalPointer, picking: import('./picking.js').Picking,
    *   robotViews: Map<string, import('./robot_view.js').RobotView>, actions: import('../app.js').OperatorActions,
-   *   presenting: () => boolean, fleet: import('../fleet_model.js').FleetModel}} host what the desktop controls read
+   *   presenting: () => boolean, fleet: import('../fleet_model.js').FleetModel,
+   *   markPov: (x: number, y: number) => boolean}} host what the desktop controls read
    *   and drive, and nothing more
    * @param {HTMLElement} element the canvas' container (listens in the capture phase, before OrbitControls)
    * @param {HTMLElement} povPanel
@@ -80,7 +81,14 @@ export class DesktopControls {
       this.povLook.yaw = this.povDrag.yaw + (e.clientX - this.povDrag.x) * k;
       this.povLook.pitch = Math.max(-1.4, Math.min(1.4, this.povDrag.pitch + (e.clientY - this.povDrag.y) * k));
     });
-    on(povPanel, 'pointerup', () => (this.povDrag = null));
+    on(povPanel, 'pointerup', (e) => {
+      // A click that did not drag the view: with the Inspect tool, a target where that point of the image looks.
+      const drag = this.povDrag;
+      this.povDrag = null;
+      if (!drag || Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 4) return;
+      const rect = povPanel.getBoundingClientRect();
+      this.host.markPov(((e.clientX - rect.left) / rect.width) * 2 - 1, 1 - ((e.clientY - rect.top) / rect.height) * 2);
+    });
     on(povPanel, 'wheel', (e) => {
       e.preventDefault();
       this.povLook.fov = Math.max(40, Math.min(140, this.povLook.fov + e.deltaY * 0.05));

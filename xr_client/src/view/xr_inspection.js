@@ -15,6 +15,7 @@
  * Pins and rings are picked through walls: they are the operator's marks, drawn over the twin like RViz markers,
  * and an operator in the corridor reviews the rooms' findings without walking into each.
  */
+import { Raycaster, Vector2 } from 'three';
 import { nextName } from '../inspection_review.js';
 
 export class XRInspection {
@@ -83,6 +84,20 @@ export class XRInspection {
     const { menu, screen } = this.host;
     if (menu.tool !== 'inspect' || menu.mode !== 'pov' || menu.open || !menu.selected || !this.host.operator()) return null;
     return screen.pixelAt(direction);
+  }
+
+  /**
+   * A click on the desktop's Robot POV panel with the Inspect tool (x, y: the panel's normalised device coordinates):
+   * what a dwell does in the headset. Whether it marked anything. @param {number} x @param {number} y
+   */
+  clickPov(x, y) {
+    const { menu, screen } = this.host;
+    if (menu.tool !== 'inspect' || menu.mode !== 'pov' || !menu.selected || !this.host.operator()) return false;
+    const raycaster = new Raycaster();
+    raycaster.setFromCamera(new Vector2(x, y), screen.povCamera);
+    const pixel = screen.pixelAt(raycaster.ray.direction);
+    if (pixel) this.markLive(pixel);
+    return pixel !== null;
   }
 
   /** A dwell on the live image at a pixel (from liveAt): a target there, and its region. @param {[number, number]} pixel */

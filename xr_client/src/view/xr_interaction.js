@@ -21,6 +21,8 @@ export const ESTOP_BUTTON = 4;
 /** A thumbstick pressed in and held: push-to-talk (view/voice_control.js). */
 export const TALK_BUTTON = 3;
 const MENU_DISTANCE = 0.75;
+/** After a dwell acts, how far the head turns before the next can start (rad). */
+const GAZE_AWAY_RAD = (5 * Math.PI) / 180;
 
 export class XRInteraction {
   /**
@@ -40,6 +42,9 @@ export class XRInteraction {
     this.dwell = new Dwell();
     this.reticle = new Reticle();
     host.camera.add(this.reticle.group);
+    /** The gaze's direction when a dwell last acted: the next dwell waits until the head has turned away from it.
+     * @type {THREE.Vector3 | null} */
+    this.spentGaze = null;
     /** The dwell's last state, for the state snapshot. */
     this.gaze = { id: /** @type {string | null} */ (null), fill: 0, fired: 0 };
     /** Pinch-drag teleop and the palm-up wrist button (view/hand_input.js). */
@@ -198,12 +203,18 @@ export class XRInteraction {
     // On the live image (5 m away, around the eyes) the gaze's steadiness is judged 1 m out: 3 degrees of wander.
     const at = first ? first.point : live ? this.raycaster.ray.at(1, new THREE.Vector3()) : null;
     const point = at ? /** @type {[number, number, number]} */ (at.toArray()) : null;
+    // What a dwell opens may appear under the gaze (the finding card, in front of the eyes): nothing more is dwelt
+    // on until the head turns away, 5 degrees, from where the last dwell acted.
+    const spent = this.spentGaze !== null && this.raycaster.ray.direction.angleTo(this.spentGaze) < GAZE_AWAY_RAD;
+    if (!spent) this.spentGaze = null;
+    if (spent) id = null;
     const { fill, fire } = this.dwell.update(id && point ? { id, point } : null, performance.now());
     this.reticle.setFill(fill);
     this.gaze.id = id;
     this.gaze.fill = fill;
     if (!fire || !id) return;
     this.gaze.fired++;
+    this.spentGaze = this.raycaster.ray.direction.clone();
     if (id === 'pov:image' && live) host.inspect.markLive(live);
     else if (!first) return;
     else if (id === 'insp:image') host.inspect.select(id, first);
