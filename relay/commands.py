@@ -26,7 +26,7 @@ from .control import Control
 from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
 from .inspection.service import Inspection
-from .inspection.wire import MissionStart
+from .inspection.wire import MissionStart, TargetAdd
 from .messages import encode, pong_message
 from .occupancy import OccupancyGrid
 from .outbox import Outbox
@@ -109,7 +109,18 @@ class CommandHandler:
             return
         if isinstance(command, InspectionCommands):
             # Starting a mission plans every step; a region is segmented: both take a while, so they run apart.
-            client.spawn(self._run_apart(client, command, self._inspection(client, command, now)))
+            work = self._inspection(client, command, now)
+            if isinstance(command, TargetAdd) and command.robot is not None:
+                # A target from the live image takes a snapshot first: within the snapshots' budget.
+                refusal = self.snapshots.take(client.client_id, client.role, now)
+                if refusal is not None:
+                    work.close()
+                    error = ProtocolError(ErrorCode.BUSY, f"target/add: refused: {refusal}", command.id)
+                    self.outbox.error(client, command.id, error.code, error.message)
+                    self.audit.command(client, command, error)
+                    return
+                work = self._budgeted(client, work)
+            client.spawn(self._run_apart(client, command, work))
             return
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
@@ -147,6 +158,12 @@ class CommandHandler:
             self._require_record("mission/start", command.id)
         await self.inspection.handle(client, command, now)
         self.outbox.ack(client, getattr(command, "id"))  # noqa: B009 - every inspection command has an id
+
+    async def _budgeted(self, client: Client, work: Awaitable[None]) -> None:
+        try:
+            await work
+        finally:
+            self.snapshots.done(client.client_id, client.role)
 
     async def _run_apart(self, client: Client, command: Command, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""

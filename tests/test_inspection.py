@@ -289,6 +289,15 @@ async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_a
         ):
             refused = await client.request({"identifier": "target/add", "target": "spot-2", **fields}, timeout=30)
             assert (refused.get("code"), text in refused.get("message", "")) == (code, True), (fields, refused)
+        # Each takes a snapshot: an operator may have two at once (relay/budget.py); a third is refused at once.
+        asked = [
+            {"identifier": "target/add", "target": f"burst-{k}", "robot": "robot1", "u": 240, "v": 360}
+            for k in range(3)
+        ]
+        replies = await asyncio.gather(*(client.request(m, timeout=30) for m in asked))
+        busy = [r for r in replies if r.get("code") == "busy"]
+        assert len(busy) == 1 and "2 snapshot(s) of this client already in progress" in busy[0]["message"], replies
+        captures += 2
         viewer = await TestClient.open(running.ws_url)
         await viewer.hello()
         refused = await viewer.request(

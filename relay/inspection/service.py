@@ -365,10 +365,11 @@ class Inspection:
         await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
 
     async def _snap(
-        self, robot_name: str, mission: str | None, target: str | None
+        self, robot_name: str, mission: str | None, target: str | None, request_id: RequestId | None = None
     ) -> tuple[CaptureRecord, bytes | None, dict[str, Any]]:
-        """A capture of the robot now, not yet stored: its camera image (none when it has no camera, or the rendering
-        pool is full: the readings still count), its pose and readings; and the sensors' state at that moment."""
+        """A capture of the robot now, not yet stored: its camera image (for a mission, none when it has no camera or
+        the rendering pool is full: the readings still count; for an operator's request, ``request_id``, a full pool
+        is a refusal), its pose and readings; and the sensors' state at that moment."""
         robot = self.robots[robot_name]
         camera = robot.camera(None)
         frame = None
@@ -376,6 +377,8 @@ class Inspection:
             try:
                 frame = await self.backend.snapshot(robot.name, camera.name)
             except CommandRejected as exc:
+                if request_id is not None:
+                    raise CommandRejected(exc.code, f"target/add: {exc}", request_id) from None
                 logger.warning("capture of %s: no image: %s", robot.name, exc)
         state = self.fleet.snapshot(self.clock())[robot.name]
         pose, sensors = state["pose"], state["sensors"]
@@ -508,7 +511,7 @@ class Inspection:
         camera = robot.camera(None)
         if camera is None:
             raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: {robot.name} has no camera", command.id)
-        capture, jpeg, sensors = await self._snap(robot.name, None, command.target)
+        capture, jpeg, sensors = await self._snap(robot.name, None, command.target, command.id)
         if jpeg is None or not capture.width:
             raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: no image from {robot.name} yet", command.id)
         # The operator's pixel is of the configured size; the capture may be of another (a camera set to publish
