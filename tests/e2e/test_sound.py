@@ -68,6 +68,11 @@ async def test_the_page_plays_the_estop_earcon_after_the_first_gesture_and_mutes
     await client.wait("s.menu.buttons.some((b) => b.id === 'opt:volume-' && b.label === 'Volume − (80 %)')", 5)
     await page.click('#menu button[data-button="opt:volume+"]')
     await client.wait("s.sound.volume === 1", 5)
+    # The hazard ticks: the menu's button (in VR too) and G are one switch.
+    await page.click('#menu button[data-button="opt:ticks"]')
+    await client.wait("s.sound.geiger && s.menu.buttons.some((b) => b.id === 'opt:ticks' && b.active)", 5)
+    await page.keyboard.press("g")
+    await client.wait("!s.sound.geiger && s.menu.buttons.some((b) => b.id === 'opt:ticks' && !b.active)", 5)
     await page.click('#menu button[data-button="estop"]')
     await client.wait("s.sound.played.estop === 1", 5)
     await wait_until(lambda: all(station.status(r)["estopped"] for r in ("robot1", "robot2", "robot3")), 5, "latched")

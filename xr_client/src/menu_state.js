@@ -67,6 +67,8 @@ export class MenuState {
     this.muted = false;
     /** The sound's volume (0..1), shared with the header's slider (view/sound_control.js). */
     this.volume = 0.6;
+    /** The selected robot's hazard ticks (the Geiger-like sonification), shared with the G key. */
+    this.ticks = false;
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -246,6 +248,7 @@ export class MenuState {
       { id: 'opt:mute', label: 'Mute', group: 'sound', active: this.muted, enabled: true },
       { id: 'opt:volume-', label: `Volume − (${Math.round(this.volume * 100)} %)`, group: 'sound', active: false, enabled: this.volume > 0 },
       { id: 'opt:volume+', label: 'Volume +', group: 'sound', active: false, enabled: this.volume < 1 },
+      { id: 'opt:ticks', label: 'Hazard ticks', group: 'sound', active: this.ticks, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
@@ -284,6 +287,7 @@ export class MenuState {
     else if (id === 'opt:scans') this.scans = !this.scans;
     else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
     else if (id === 'opt:mute') this.muted = !this.muted;
+    else if (id === 'opt:ticks') this.ticks = !this.ticks;
     else if (id === 'opt:volume-' || id === 'opt:volume+') {
       // Steps of a fifth, landing on them whatever the slider left (0.63 - a step is 0.4, not 0.43).
       const steps = Math.round(this.volume * VOLUME_STEPS) + (id === 'opt:volume+' ? 1 : -1);

@@ -186,4 +186,8 @@ test('the volume steps in fifths from wherever the slider left it, and its butto
   assert.equal(m.volume, 0);
   assert.equal(button(m, 'opt:volume-')?.enabled, false, 'silent: − is off');
   assert.equal(button(m, 'opt:volume-')?.label, 'Volume − (0 %)');
+  assert.equal(button(m, 'opt:ticks')?.active, false);
+  m.press('opt:ticks');
+  assert.equal(m.ticks, true, 'the hazard ticks switch on from the menu, in VR too');
+  assert.equal(button(m, 'opt:ticks')?.group, 'sound');
 });

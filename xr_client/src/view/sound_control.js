@@ -82,6 +82,7 @@ export class SoundControl {
   /** @param {boolean} on */
   setGeiger(on) {
     this.geiger = on;
+    this.host.menu.ticks = on; // the menu's Hazard ticks shows it, in VR too
     if (!on) this.rules.stopTicks();
     this.#paint();
   }
@@ -102,6 +103,7 @@ export class SoundControl {
     const { fleet, menu, goals } = this.host;
     if (menu.muted !== this.muted) this.setMuted(menu.muted); // the menu's Mute (VR, the desktop menu)
     if (menu.volume !== this.volume) this.setVolume(menu.volume); // its Volume − and +
+    if (menu.ticks !== this.geiger) this.setGeiger(menu.ticks); // its Hazard ticks
     /** @type {import('../cue_rules.js').RobotView[]} */
     const robots = [];
     for (const [name, entry] of fleet.robots) {
