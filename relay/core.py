@@ -49,6 +49,7 @@ from .events import (
 from .fleet import FleetState
 from .hub import Hub, Transport
 from .inspection.service import Inspection
+from .loop_lag import LoopLag
 from .messages import (
     GoalDescription,
     HelloMessage,
@@ -127,6 +128,8 @@ class Relay:
         )  # fmt: skip
         self.commands.inspection = self.inspection
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
+        #: The loop's stalls: /healthz's figures, and the dates of client frames read after one (relay.loop_lag).
+        self.loop_lag = LoopLag(clock)
         self.started_at = clock()
         self._clients: dict[str, Client] = {}
         self.commands.clients = self._clients
@@ -152,6 +155,7 @@ class Relay:
         await self.inspection.start(facility)
         self.audit.started(f"{self.options.host}:{self.options.port}")
         self.supervisor.start()
+        self.loop_lag.start()
         logger.info("backend %s started with %d robots", self.backend.name, len(self.robots))
 
     async def stop(self) -> None:
@@ -160,6 +164,7 @@ class Relay:
         await self.inspection.stop()
         self.assets.close()
         await self.supervisor.stop()
+        self.loop_lag.stop()
         for client in list(self._clients.values()):
             await self._drop_client(client)
         await self.backend.stop()

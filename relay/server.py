@@ -24,6 +24,7 @@ from .clients import Client
 from .config import FleetConfig
 from .core import BackendFactory, Relay
 from .guard import ConnectionGuard
+from .loop_lag import ArrivalDates, date_reads
 from .options import Options
 from .tls import fingerprint, server_context
 
@@ -181,12 +182,15 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     request.app[SOCKETS_KEY].add(ws)
     batch = request.query.get("batch") == "1"  # the client reads JSON arrays of state messages (relay.hub)
     client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch)
+    # Each frame is dated by the read that brought it, a read after a stall of the loop to the stall's start: a
+    # motion command that waited longer than the deadman's timeout, in a frozen relay's socket buffer or before the
+    # relay got to it, is dropped (relay.commands), stamped by its client or not (relay.loop_lag).
+    dates = ArrivalDates(relay.clock())
+    date_reads(request.transport, lambda: dates.read(relay.loop_lag.arrival(relay.clock())))
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
-                # The time the frame was taken from the connection: a motion command that waited longer than the
-                # deadman's timeout before the relay got to it is dropped (relay.commands).
-                await relay.handle_text(client, msg.data, relay.clock())
+                await relay.handle_text(client, msg.data, min(dates.frame(), relay.clock()))
             elif msg.type == WSMsgType.BINARY:
                 relay.handle_binary(client)
             elif msg.type == WSMsgType.ERROR:
@@ -281,6 +285,8 @@ async def healthz(request: web.Request) -> web.Response:
             "robots_online": relay.fleet.robots_online(now),
             "clients": relay.clients,
             "uptime": round(relay.uptime(), 3),
+            # How late the loop's 10 ms beat ran (relay.loop_lag): the delay any estop could have met just now.
+            "loop_lag": relay.loop_lag.stats.report(),
             **relay.backend.health(),  # e.g. the bag backend's playback position and duration
         }
     )
@@ -290,6 +296,7 @@ async def metrics(request: web.Request) -> web.Response:
     relay = request.app[RELAY_KEY]
     c = relay.hub.counters
     guard = request.app[GUARD_KEY].counts
+    lag = relay.loop_lag.stats
     now = time.monotonic()
     lines = [
         ("xr_relay_messages_in_total", "counter", "Frames received from clients", c.messages_in),
@@ -317,6 +324,9 @@ async def metrics(request: web.Request) -> web.Response:
             "accept() failures (out of descriptors)",
             guard["accept_failures"],
         ),
+        ("xr_relay_loop_lag_p99_seconds", "gauge", "Event loop lag, p99 of ~10 s", lag.p99()),
+        ("xr_relay_loop_lag_worst_seconds", "gauge", "Event loop lag, worst of ~10 s", lag.worst()),
+        ("xr_relay_loop_lag_worst_ever_seconds", "gauge", "Event loop lag, worst since start", lag.worst_ever),
     ]
     text = "".join(f"# HELP {n} {h}\n# TYPE {n} {t}\n{n} {v}\n" for n, t, h, v in lines)
     return web.Response(

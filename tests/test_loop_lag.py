@@ -1,0 +1,104 @@
+"""The loop's stalls measured, and client frames dated by the read that brought them (relay.loop_lag).
+
+Pure rules first (times passed in), then a real relay process frozen by SIGSTOP while a client that does not stamp
+its commands keeps driving: none of the commands that waited reaches the robot.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import signal
+import time
+
+import pytest
+
+from relay.loop_lag import ArrivalDates, LagStats, LoopLag
+from tests.conftest import ROOT, relay_process
+from tests.wsclient import TestClient
+
+
+def test_lag_stats_give_p99_worst_and_worst_ever() -> None:
+    stats = LagStats(window=100)
+    for _ in range(98):
+        stats.add(0.001)
+    stats.add(0.2)
+    stats.add(0.05)
+    assert stats.worst() == 0.2
+    assert stats.p99() == 0.05  # the 99th of 100 ordered values
+    for _ in range(100):
+        stats.add(-0.001)  # a beat that ran early counts as on time
+    assert stats.worst() == 0.0 and stats.worst_ever == 0.2
+    assert stats.report() == {"p99_ms": 0.0, "worst_ms": 0.0, "worst_ever_ms": 200.0}
+
+
+def test_bytes_read_after_a_stall_are_dated_to_its_start() -> None:
+    lag = LoopLag(clock=lambda: 0.0, period=0.01, stall=0.05)
+    lag.last_beat = 100.0
+    assert lag.arrival(100.02) == 100.02  # an ordinary read: now
+    assert lag.arrival(103.0) == 100.0  # the loop did not run for 3 s: the bytes may have waited all of it
+
+
+def test_frames_are_never_dated_later_than_the_read_that_brought_them() -> None:
+    dates = ArrivalDates(now=0.0)
+    dates.read(10.0)  # a read after a stall, dated to its start, bringing three frames
+    dates.read(12.9)  # and another read before the handler got to the first frame
+    assert [dates.frame(), dates.frame(), dates.frame()] == [10.0, 10.0, 10.0]
+    dates.read(13.0)
+    assert dates.frame() == 13.0  # a later read dates the frames after it
+
+
+def drive(robot: str, rid: str) -> dict[str, object]:
+    # What README's example sends: no `t`. The relay alone must tell how long it waited.
+    return {"identifier": f"{robot}/cmd_vel", "id": rid, "linear": 0.0, "angular": 1.0}
+
+
+@pytest.mark.slow
+async def test_unstamped_teleop_that_waited_in_a_frozen_relay_never_moves_the_robot() -> None:
+    """Issue #28, finding 4: a client that does not stamp cmd_vel had 9-14 stale commands replayed after a 3 s
+    SIGSTOP of the relay, and the robot turned 0.3-0.4 rad. Now every command read after the freeze is dated to
+    its start, refused as ``stale``, and the robot does not turn."""
+    token = "a" * 32
+    relay, base = await relay_process(
+        "--backend", "sim", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", ""
+    )
+    try:
+        client = await TestClient.open(base.replace("http", "ws") + f"/ws?token={token}")
+        await client.hello()
+        first = await client.request(drive("robot1", "x"))
+        assert first["identifier"] == "ack", first  # fresh teleop is taken
+        await asyncio.sleep(1.5)  # the deadman stops it; the robot rests
+        before = client.pose("robot1")
+        assert before is not None
+
+        relay.send_signal(signal.SIGSTOP)
+        ids = [f"frozen{i}" for i in range(60)]
+        for rid in ids:  # the operator keeps driving for 3 s: the frames wait in the frozen relay's socket
+            await client.send(drive("robot1", rid))
+            await asyncio.sleep(0.05)
+        relay.send_signal(signal.SIGCONT)
+        replies: dict[str, dict[str, object]] = {}
+        deadline = time.monotonic() + 20
+        while len(replies) < len(ids) and time.monotonic() < deadline:
+            message = await client.wait_for(
+                lambda m: m["identifier"] in ("ack", "error") and m.get("id") in ids and m["id"] not in replies, 20
+            )
+            replies[message["id"]] = message
+        accepted = [rid for rid, m in replies.items() if m["identifier"] == "ack"]
+        assert not accepted, f"{len(accepted)} commands that waited out the freeze were carried out: {accepted[:5]}"
+        assert {m["code"] for m in replies.values()} == {"stale"}, list(replies.values())[:3]
+        await asyncio.sleep(1.0)
+        after = client.pose("robot1")
+        assert after is not None
+        turned = abs(math.remainder(after["yaw"] - before["yaw"], math.tau))
+        assert turned < 0.01, f"the robot turned {turned:.3f} rad on commands that waited out a freeze"
+
+        # A fresh command drives again at once: the relay recovered by itself.
+        again = await client.request(drive("robot1", "y"))
+        assert again["identifier"] == "ack", again
+        await client.close()
+    finally:
+        if relay.returncode is None:
+            relay.send_signal(signal.SIGCONT)
+            relay.kill()
+            await relay.wait()
