@@ -15,7 +15,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Callable, Sequence
 
 from .backends.base import Backend
 from .clients import Client
@@ -56,8 +56,9 @@ class Control:
         self._generation: dict[str, int] = {}
         #: Robots whose lease must not expire although idle (on a mission: dwelling, capturing).
         self.keep: Callable[[], set[str]] = set
-        #: Told of every stop of a robot by these rules (reason, whether an estop): missions pause or abort.
-        self.on_stopped: Callable[..., Awaitable[None]] | None = None
+        #: Told of every stop of a robot by these rules (reason, whether an estop): missions pause or abort. It
+        #: must return at once: it runs on the estop's path (relay.inspection.write_behind stores after).
+        self.on_stopped: Callable[..., None] | None = None
         self.clock = clock
         #: Other relays of the same fleet (None: this relay is alone, or its backend cannot reach them).
         self.peer: FleetPeer | None = backend.fleet_peer()
@@ -144,8 +145,7 @@ class Control:
         try:
             await self.backend.stop_robot(robot)
         finally:
-            if self.on_stopped is not None:
-                await self.on_stopped(robot, reason, estop=False)
+            self._tell_stopped(robot, reason, estop=False)
 
     async def estop(
         self, robot: str | None, by: str | None, now: float, *, remote: bool = False
@@ -179,10 +179,18 @@ class Control:
         self.outbox.estop(stopped, by)
         for name in robots:
             self.outbox.status(name, now)
-        if self.on_stopped is not None:
-            for name in robots:
-                await self.on_stopped(name, f"emergency stop by {by}", estop=True)
+        for name in robots:
+            self._tell_stopped(name, f"emergency stop by {by}", estop=True)
         return failed
+
+    def _tell_stopped(self, robot: str, reason: str, *, estop: bool) -> None:
+        """Whoever follows the robot's stops learns of this one; their failure is theirs, not the stop's."""
+        if self.on_stopped is None:
+            return
+        try:
+            self.on_stopped(robot, reason, estop=estop)
+        except Exception:
+            logger.exception("after stopping %s (%s), telling its mission failed", robot, reason)
 
     def _remote_estop(self, robot: str | None, by: str | None) -> None:
         """An estop made on another relay (on the loop): latched and carried out here like our own."""

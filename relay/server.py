@@ -274,13 +274,15 @@ async def healthz(request: web.Request) -> web.Response:
     now = time.monotonic()
     failure = relay.backend.failure
     audit_failure = relay.audit.failure
+    store_failure = relay.inspection.store_failure
     return web.json_response(
         {
-            "status": "degraded" if failure or audit_failure else "ok",
+            "status": "degraded" if failure or audit_failure or store_failure else "ok",
             "version": __version__,
             "backend": relay.backend.name,
             "backend_error": failure,
             "audit_error": audit_failure,
+            "inspection_error": store_failure,
             "robots": {r: relay.fleet.online(r, now) for r in relay.config.names},
             "robots_online": relay.fleet.robots_online(now),
             "clients": relay.clients,

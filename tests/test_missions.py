@@ -130,7 +130,7 @@ class FakeFleet:
     async def capture(self, record: MissionRecord, step: Step) -> None:
         self.calls.append(("capture", record.robot, step.target or ""))
 
-    async def publish(self, record: MissionRecord) -> None:
+    def publish(self, record: MissionRecord) -> None:
         self.published.append(record)
 
     def release(self, record: MissionRecord) -> None:
@@ -181,7 +181,7 @@ async def test_pause_resume_skip_abort_and_stops() -> None:
     fleet.arrive("robot1", "failed", "no path: blocked")
     await fleet.settle()
     assert run.record.state == "paused" and "blocked" in run.record.reason  # a failed goal pauses, with why
-    await fleet.runner.robot_stopped("robot1", "emergency stop by c3", estop=True)
+    fleet.runner.robot_stopped("robot1", "emergency stop by c3", estop=True)
     await fleet.settle()
     record: MissionRecord = run.record  # the runner replaced it
     assert record.state == "aborted" and record.reason == "emergency stop by c3"

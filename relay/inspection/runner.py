@@ -4,7 +4,8 @@ A mission goes on when its operator disconnects (the fleet is semi-autonomous): 
 held by the mission itself (``mission:<id>``), so the operator's leaving does not stop it and another operator
 must take the lease over (``force``) to drive the robot by hand, which pauses the mission. Any operator may pause,
 resume, skip or abort a mission whose robot the mission holds (or that they hold). An emergency stop aborts the
-missions of the robots it stops; a take-over, a release or any other stop of the relay pauses them.
+missions of the robots it stops; a take-over, a release or any other stop of the relay pauses them. A change of state
+is announced at once and stored after (``publish``): nothing of a stop waits for the database.
 
 Each step: ``inspect`` and ``goto`` send a goal through the same rules as an operator's (generations: a goal
 overtaken by a stop is dropped) and wait for the robot to reach it; ``inspect`` and ``capture`` then take the
@@ -61,7 +62,7 @@ class MissionRunner:
         go: Callable[[str, float, float, float | None], Awaitable[None]],
         stop: Callable[[str], Awaitable[None]],
         capture: Callable[[MissionRecord, Step], Awaitable[None]],
-        publish: Callable[[MissionRecord], Awaitable[None]],
+        publish: Callable[[MissionRecord], None],
         release: Callable[[MissionRecord], None],
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
@@ -93,29 +94,30 @@ class MissionRunner:
         if state in ("done", "aborted"):
             raise ValueError(f"mission {run.record.id} has ended ({state})")
         if action == "pause" and state == "running":
-            await self._set(run, "paused", f"paused by {by}")
+            self._set(run, "paused", f"paused by {by}")
             await self._stop(run.record.robot)
         elif action == "resume" and state == "paused":
-            await self._set(run, "running", "")
+            self._set(run, "running", "")
         elif action == "skip":
             run.skip = True
             await self._stop(run.record.robot)
             if state == "paused":
-                await self._set(run, "running", "")
+                self._set(run, "running", "")
         elif action == "abort":
-            await self._set(run, "aborted", f"aborted by {by}")
+            self._set(run, "aborted", f"aborted by {by}")
             await self._stop(run.record.robot)
         run.changed.set()
 
-    async def robot_stopped(self, robot: str, reason: str, *, estop: bool) -> None:
-        """Control stopped the robot (an estop, a take-over, a release): its mission is aborted or paused."""
+    def robot_stopped(self, robot: str, reason: str, *, estop: bool) -> None:
+        """Control stopped the robot (an estop, a take-over, a release): its mission is aborted or paused. On the
+        estop's path: it awaits nothing (the record is written after, relay.inspection.write_behind)."""
         run = self.active(robot)
         if run is None:
             return
         if estop:
-            await self._set(run, "aborted", reason)
+            self._set(run, "aborted", reason)
         elif run.record.state == "running":
-            await self._set(run, "paused", reason)
+            self._set(run, "paused", reason)
         run.changed.set()
 
     def on_nav(self, event: NavEvent) -> None:
@@ -127,7 +129,7 @@ class MissionRunner:
         """Shutdown: every running mission is left paused (stored so), its task cancelled."""
         for run in list(self.runs.values()):
             if run.record.state == "running":
-                await self._set(run, "paused", "the relay stopped")
+                self._set(run, "paused", "the relay stopped")
             if run.task is not None:
                 run.task.cancel()
                 with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -135,7 +137,7 @@ class MissionRunner:
 
     # -- the run ----------------------------------------------------------------------------------
 
-    async def _set(self, run: MissionRun, state: str, reason: str, current: int | None = None) -> None:
+    def _set(self, run: MissionRun, state: str, reason: str, current: int | None = None) -> None:
         run.record = replace(
             run.record,
             state=state,  # type: ignore[arg-type]
@@ -145,11 +147,11 @@ class MissionRunner:
         )
         if state in ("done", "aborted"):
             self._release(run.record)
-        await self._publish(run.record)
+        self._publish(run.record)
 
     async def _run(self, run: MissionRun) -> None:
         try:
-            await self._publish(run.record)
+            self._publish(run.record)
             while run.record.current < len(run.record.steps):
                 if run.record.state == "aborted":
                     return
@@ -163,16 +165,16 @@ class MissionRunner:
                 except _Interrupted:
                     if run.skip:
                         run.skip = False
-                        await self._set(run, run.record.state, f"step {index + 1} skipped", current=index + 1)
+                        self._set(run, run.record.state, f"step {index + 1} skipped", current=index + 1)
                     continue
-                await self._set(run, "running", "", current=index + 1)
-            await self._set(run, "done", "")
+                self._set(run, "running", "", current=index + 1)
+            self._set(run, "done", "")
         except asyncio.CancelledError:
             raise
         except Exception as exc:  # a store that is full, a camera that fails: the operator must learn why
             logger.exception("mission %s failed", run.record.id)
             with contextlib.suppress(Exception):
-                await self._set(run, "paused", f"the relay failed on this step: {exc}")
+                self._set(run, "paused", f"the relay failed on this step: {exc}")
                 await self._stop(run.record.robot)
 
     def _check(self, run: MissionRun) -> None:
@@ -209,11 +211,11 @@ class MissionRunner:
             raise _Interrupted()  # paused and resumed meanwhile: the step starts over
         if run.nav not in done:
             await self._stop(run.record.robot)
-            await self._set(run, "paused", f"step {run.record.current + 1}: the goal took over {GOAL_TIMEOUT:g} s")
+            self._set(run, "paused", f"step {run.record.current + 1}: the goal took over {GOAL_TIMEOUT:g} s")
             raise _Interrupted()
         event = run.nav.result()
         if event.outcome != "reached":
-            await self._set(
+            self._set(
                 run, "paused", f"step {run.record.current + 1}: {event.outcome}: {event.message or 'goal not reached'}"
             )
             raise _Interrupted()

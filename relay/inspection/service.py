@@ -34,6 +34,7 @@ from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
 from .runner import MissionRunner, holder
 from .targets import TARGET_ID, facility_targets, load_targets
 from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd, inspection_identifier
+from .write_behind import WriteBehind
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
@@ -79,6 +80,8 @@ class Inspection:
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
         self._temporary: tempfile.TemporaryDirectory[str] | None = None
         self._recent: list[Any] = []  # the newest finding messages, for clients that connect later
+        #: Mission records are stored after their change is announced: a stop never waits for the database.
+        self._records = WriteBehind(self._save)
         self.runner = MissionRunner(
             go=self._go, stop=self._stop, capture=self._capture, publish=self._publish, release=self._release,
             wall_clock=wall_clock,
@@ -99,6 +102,7 @@ class Inspection:
         if images is None:
             images = str(Path(database).with_name(Path(database).stem + "-images")) if "://" not in database else "."
         self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
+        self._records.start()
         if facility is not None:
             self.targets.update((t.id, t) for t in facility_targets(facility))
         if self.options.targets is not None:
@@ -119,7 +123,8 @@ class Inspection:
     async def stop(self) -> None:
         await self.runner.stop()
         for run in self.runner.runs.values():
-            await self._save(run.record)
+            self._records.put(run.record)
+        await self._records.close()
         if self.store is not None:
             store = self.store
             await self._store_pool.run(store.close)
@@ -315,11 +320,16 @@ class Inspection:
         self.control.supersede(robot)
         await self.backend.stop_robot(robot)
 
-    async def _publish(self, record: MissionRecord) -> None:
+    def _publish(self, record: MissionRecord) -> None:
         from ..messages import encode
 
         self.hub.broadcast_priority(encode(mission_message(record)))
-        await self._save(record)
+        self._records.put(record)
+
+    @property
+    def store_failure(self) -> str | None:
+        """Why mission records wait to be stored (``/healthz``), or None."""
+        return self._records.failure
 
     async def _save(self, record: MissionRecord) -> None:
         store = self.store
