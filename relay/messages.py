@@ -16,7 +16,13 @@ import numpy as np
 import orjson
 
 from .errors import ProtocolError
-from .inspection.messages import FindingMessage, MissionMessage, RegionMessage, TargetsMessage
+from .inspection.messages import (
+    FindingMessage,
+    MissionMessage,
+    RegionMessage,
+    TargetsChangedMessage,
+    TargetsMessage,
+)
 from .protocol import FRAME_PREFIX, ErrorCode, Mode, RequestId, Role, robot_identifier, sensor_key
 
 if TYPE_CHECKING:
@@ -274,6 +280,7 @@ ServerMessage = (
     | LeaseMessage
     | ModelMessage
     | TargetsMessage
+    | TargetsChangedMessage
     | MissionMessage
     | FindingMessage
     | RegionMessage
@@ -428,8 +435,18 @@ def ack_message(request_id: RequestId) -> AckMessage:
     return {"identifier": "ack", "id": request_id}
 
 
+#: No text the relay writes to a client is longer (docs/security.md): an error once echoed 139 kB of target ids.
+MAX_TEXT = 400
+
+
+def clip(text: str, limit: int = MAX_TEXT) -> str:
+    """``text`` cut to ``limit`` characters, the cut marked."""
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
 def error_message(request_id: RequestId | None, code: str, message: str) -> ErrorMessage:
-    return {"identifier": "error", "id": request_id, "code": code, "message": message}
+    # Clipped here, where every error is made: whatever an error path puts in, no client gets a long one.
+    return {"identifier": "error", "id": request_id, "code": code, "message": clip(message)}
 
 
 def pong_message(t: float, server_time: float) -> PongMessage:
@@ -438,7 +455,8 @@ def pong_message(t: float, server_time: float) -> PongMessage:
 
 def backend_message(name: str, failure: str | None) -> BackendMessage:
     """Whether the backend works; sent to every client when that changes (and in ``hello``)."""
-    return {"identifier": "backend", "name": name, "ok": failure is None, "message": failure}
+    message = None if failure is None else clip(failure)
+    return {"identifier": "backend", "name": name, "ok": failure is None, "message": message}
 
 
 def model_message(robot: str, url: str) -> ModelMessage:

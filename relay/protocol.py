@@ -135,8 +135,8 @@ MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
 #: Global identifiers the server sends.
 SERVER_GLOBAL_KINDS: Final = (
-    "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region",
-    "operators",
+    "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission",
+    "finding", "region", "operators",
 )  # fmt: skip
 #: Longest operator name (``name``): a person's name or a call sign.
 MAX_NAME_LENGTH: Final = 40

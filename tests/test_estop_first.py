@@ -8,6 +8,7 @@ needs is in it (the ack takes ~10 ms on a quiet machine: bench/ measures it).
 from __future__ import annotations
 
 import asyncio
+import math
 import os
 import shutil
 import socket
@@ -16,15 +17,18 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import aiohttp
+import orjson
 import pytest
+import websockets.asyncio.client
 
 from relay.config import FleetConfig
 from relay.options import Options
-from tests.conftest import RunningRelay, start_relay
+from tests.conftest import ROOT, RunningRelay, relay_process, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "op"
@@ -180,5 +184,157 @@ async def test_an_estop_with_postgresql_stopped_is_acknowledged_and_the_connecti
         tracebacks = [r for r in caplog.records if r.exc_info is not None]
         assert not tracebacks, [r.getMessage() for r in tracebacks]
         await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def other_operator_estop_during(
+    running: RunningRelay, client: TestClient, busy: Callable[[], bool], timeout: float = 30
+) -> tuple[dict[str, Any], float, float]:
+    """Wait until ``busy()`` says the relay is at its busiest, then a timed estop from ``client``."""
+    deadline = time.monotonic() + timeout
+    while not busy():
+        assert time.monotonic() < deadline, "the relay never got busy: the test measures nothing"
+        await asyncio.sleep(0.01)
+    return await timed_estop(client, running)
+
+
+async def test_a_flood_of_targets_neither_delays_an_estop_nor_grows_without_bound(tmp_path: Path) -> None:
+    """Finding 2: operators adding targets (8 connections, each under the rate limit, ~2300 targets) delayed another
+    operator's estop to 9.7 s: every `target/add` re-sent the whole list, and nothing capped the count. Now each add
+    sends only what changed, the site holds at most `inspection.max_targets` (2000), and the estop comes at once.
+    The relay runs in a process of its own, so that the nine clients' reading is not counted as the relay's."""
+    token = "f" * 32
+    relay, base = await relay_process(
+        "--backend", "sim", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+        "--database", str(tmp_path / "i.sqlite"),
+    )  # fmt: skip
+    url = base.replace("http", "ws") + f"/ws?token={token}"
+    try:
+        flooders = [await websockets.asyncio.client.connect(url, max_size=None) for _ in range(8)]
+        refusals: list[str] = []
+
+        async def drain(ws: Any) -> None:  # reads what the relay sends, parsing only the refusals
+            async for data in ws:
+                if '"error"' in data[:40]:
+                    refusals.append(orjson.loads(data)["message"])
+
+        readers = [asyncio.ensure_future(drain(ws)) for ws in flooders]
+        victim = await TestClient.open(url)
+        await victim.hello()
+        goal = await victim.request({"identifier": "robot1/goal_pose", "x": 3.0, "y": 8.0})  # robot1 drives
+        assert goal["identifier"] == "ack", goal
+
+        async def flood(index: int, ws: Any) -> None:
+            for n in range(375):  # 8 x 375 = 3000 targets, each client at 40 a second (under its 60)
+                add = {"identifier": "target/add", "id": f"a{n}", "target": f"t{index}-{n}", "x": 3.0, "y": 4.0}
+                await ws.send(orjson.dumps(add).decode())
+                await asyncio.sleep(1 / 40)
+
+        floods = asyncio.gather(*(flood(i, ws) for i, ws in enumerate(flooders)))
+        await asyncio.sleep(5.0)  # ~1600 targets sent: the relay is at its busiest
+        sent = time.monotonic()
+        reply = await victim.request({"identifier": "estop"}, timeout=30)
+        acked = next(t for t, m in victim.messages if m.get("id") == reply["id"]) - sent
+        assert reply["identifier"] == "ack", reply
+        assert acked < ESTOP_BOUND, f"the estop's ack took {acked:.3f} s during the flood"
+        await asyncio.sleep(ESTOP_BOUND)
+        still = victim.pose("robot1")
+        await asyncio.sleep(1.0)
+        moved = victim.pose("robot1")
+        # At most 5 cm from 0.3 s after the estop on (issue #27's bound; the sim brakes within its limits).
+        assert still and moved and math.hypot(moved["x"] - still["x"], moved["y"] - still["y"]) < 0.05, (still, moved)
+        await floods
+        await asyncio.sleep(1.0)
+        targets = victim.targets()
+        assert len(targets) == 2000, len(targets)  # the cap; the deltas add up to what the relay holds
+        assert len(refusals) == 3000 + 3 - 2000 and all("inspection.max_targets" in m for m in refusals)
+        biggest = max(len(orjson.dumps(m)) for _, m in victim.messages if m["identifier"] == "targets_changed")
+        assert biggest < 300, f"a change of one target took {biggest} bytes: the list is being re-sent"
+
+        # An unknown target in a mission names a few of them, not the site's 2000 (a 139 kB error once).
+        asked = [f"nowhere-{i}" for i in range(200)]  # the most a request may name
+        error = await victim.request({"identifier": "mission/start", "targets": asked}, timeout=10)
+        assert error["code"] == "bad_request" and "nowhere-0" in error["message"], error
+        assert len(error["message"]) <= 400, len(error["message"])
+        for ws in flooders:
+            await ws.close()
+        await asyncio.gather(*readers)
+        await victim.close()
+    finally:
+        relay.kill()
+        await relay.wait()
+
+
+async def test_reading_a_big_kmz_mission_does_not_delay_an_estop(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    """Finding 3: a KMZ mission of 6000 placemarks was parsed and assigned (quadratically) on the loop: another
+    operator's estop waited 9.8 s. Now the file is read, parsed and assigned on the planning pool; this one has
+    10 000 placemarks (the importer's limit), more than the site may hold: refused, and nothing added."""
+    import simplekml  # type: ignore[import-untyped]
+
+    from relay.inspection.kml import Georeference
+
+    geo = Georeference(lat=48.137, lon=11.575)
+    missions_dir = tmp_path / "missions"
+    missions_dir.mkdir()
+
+    def write() -> None:
+        kml = simplekml.Kml()
+        for i in range(10_000):
+            kml.newpoint(name=f"Valve {i}", coords=[(geo.lon + (i % 100) * 1e-6, geo.lat + (i // 100) * 1e-6)])
+        kml.savekmz(str(missions_dir / "rounds.kmz"))
+
+    await asyncio.to_thread(write)
+    options = Options(token=TOKEN, database=str(tmp_path / "i.sqlite"), missions_dir=missions_dir)
+    running = await start_relay(replace(fleet_config, georeference=geo), options=options)
+    try:
+        lead, victim = await operator(running), await operator(running)
+        before = dict(running.relay.inspection.targets)
+        start = asyncio.ensure_future(lead.request({"identifier": "mission/start", "file": "rounds"}, timeout=60))
+        pool = running.relay.inspection._planning  # the file is being read there
+        reply, acked, stopped = await other_operator_estop_during(running, victim, lambda: pool.pending > 0)
+        assert reply["identifier"] == "ack", reply
+        assert acked < ESTOP_BOUND and stopped < ESTOP_BOUND, f"estop acked {acked:.3f} s, stopped {stopped:.3f} s"
+        refused = await start
+        assert refused["code"] == "bad_request" and "inspection.max_targets" in refused["message"], refused
+        assert running.relay.inspection.targets == before  # all or nothing
+        for client in (lead, victim):
+            await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_planning_six_long_missions_does_not_delay_an_estop(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    """Finding 3: mission planning used asyncio's default pool: an estop waited up to 0.4 s while six 200-step
+    missions were checked. Planning has its own bounded pool now: what does not fit is refused as `busy` at once."""
+    robots = tuple(
+        replace(fleet_config.robots[i % 3], name=f"robot{i + 1}", initial_pose=replace(
+            fleet_config.robots[i % 3].initial_pose, y=1.5 + 0.6 * (i // 3)))
+        for i in range(6)
+    )  # fmt: skip
+    running = await start_relay(
+        replace(fleet_config, robots=robots), options=Options(token=TOKEN, database=str(tmp_path / "i.sqlite"))
+    )
+    try:
+        leads = [await operator(running) for _ in range(6)]
+        victim = await operator(running)
+        # Across the facility and back, 100 times: every leg planned through the doors.
+        steps = [{"goto": {"x": 15.0 if k % 2 else 3.0, "y": 8.0 if k % 2 else 2.5}} for k in range(200)]
+        starts = [
+            asyncio.ensure_future(
+                lead.request({"identifier": "mission/start", "robot": f"robot{i + 1}", "steps": steps}, timeout=120)
+            )
+            for i, lead in enumerate(leads)
+        ]
+        pool = running.relay.inspection._planning
+        reply, acked, stopped = await other_operator_estop_during(running, victim, lambda: pool.pending >= 2)
+        assert reply["identifier"] == "ack", reply
+        assert acked < ESTOP_BOUND and stopped < ESTOP_BOUND, f"estop acked {acked:.3f} s, stopped {stopped:.3f} s"
+        answers = await asyncio.gather(*starts)
+        codes = sorted(a.get("code", a["identifier"]) for a in answers)
+        # Planned missions meet the latch (`estopped`) or start before it; the pool's overflow is `busy` at once.
+        assert set(codes) <= {"ack", "busy", "estopped"}, answers
+        for client in [*leads, victim]:
+            await client.close()
     finally:
         await running.runner.cleanup()

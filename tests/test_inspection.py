@@ -85,8 +85,7 @@ async def test_the_demo_mission_survives_its_operator_and_leaves_three_findings(
             {"identifier": "target/add", "target": "drum-3", "capture": spill["capture"], "u": 239.5, "v": 300}
         )
         assert added["identifier"] == "ack", added
-        targets = [m for _, m in second.messages if m["identifier"] == "targets"][-1]["targets"]
-        drum = next(t for t in targets if t["id"] == "drum-3")
+        drum = second.targets()["drum-3"]
         assert 0.5 < drum["x"] < 3.0 and 6.5 < drum["y"] < 9.0, drum  # in front of the spill's standoff pose
         async with aiohttp.ClientSession() as http:
             for finding in findings:
@@ -197,7 +196,7 @@ async def test_a_kmz_of_placemarks_becomes_a_fleet_mission(fleet_config: FleetCo
         client = await operator(running)
         reply = await client.request({"identifier": "mission/start", "file": "rounds"}, timeout=30)
         assert reply["identifier"] == "ack", reply
-        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        targets = list(client.targets().values())
         placed = {t["id"]: (round(t["x"], 2), round(t["y"], 2), t["kind"]) for t in targets}
         assert placed["drum-7"] == (1.8, 8.2, "drum") and placed["valve-12"] == (15.6, 7.6, "valve")
         await client.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running")
@@ -266,7 +265,7 @@ async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_a
         capture = store.capture(finding["capture"])
         assert capture is not None and capture.robot == "robot1" and capture.width == camera.width
         pose = {"x": capture.x, "y": capture.y, "yaw": capture.yaw}
-        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        targets = list(client.targets().values())
         spot = next(t for t in targets if t["id"] == "spot-1")
         ahead = (spot["x"] - pose["x"]) * math.cos(pose["yaw"]) + (spot["y"] - pose["y"]) * math.sin(pose["yaw"])
         aside = -(spot["x"] - pose["x"]) * math.sin(pose["yaw"]) + (spot["y"] - pose["y"]) * math.cos(pose["yaw"])
@@ -305,7 +304,7 @@ async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_a
         )
         assert refused.get("code") == "forbidden", refused
         await asyncio.sleep(0.3)
-        targets = [m for _, m in client.messages if m["identifier"] == "targets"][-1]["targets"]
+        targets = list(client.targets().values())
         assert "spot-2" not in {t["id"] for t in targets}
         assert len(store.captures()) == captures
         await viewer.close()

@@ -329,11 +329,21 @@ def test_bad_value_is_not_echoed_in_full() -> None:
 
 
 def test_inspection_messages_are_pinned() -> None:
-    from relay.inspection.messages import finding_message, mission_message, region_message, targets_message
+    from relay.inspection.messages import (
+        finding_message,
+        mission_message,
+        region_message,
+        targets_changed_message,
+        targets_message,
+    )
     from relay.inspection.records import FindingRecord, MissionRecord, Step, Target
 
     assert encode(targets_message([Target("spill", "Spill", "gas", 1.8, 8.2)])) == (
         b'{"identifier":"targets","targets":[{"id":"spill","name":"Spill","kind":"gas","x":1.8,"y":8.2,"facing":null}]}'
+    )
+    assert encode(targets_changed_message([Target("valve-12", "Valve 12", "valve", 15.6, 7.6)])) == (
+        b'{"identifier":"targets_changed","added":[{"id":"valve-12","name":"Valve 12","kind":"valve","x":15.6,"y":7.6,'
+        b'"facing":null}],"removed":[]}'
     )
     mission = MissionRecord("m-1.robot1", "Demo", "robot1", (Step("dwell", seconds=2.0),), "paused", 0, "c2", 1.0, 2.5)
     assert encode(mission_message(mission)) == (

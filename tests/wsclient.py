@@ -101,6 +101,18 @@ class TestClient:
     async def hello(self) -> dict[str, Any]:
         return await self.wait_for(lambda m: m["identifier"] == "hello")
 
+    def targets(self) -> dict[str, dict[str, Any]]:
+        """The site's targets by id as this client knows them: the `targets` list, then every `targets_changed`."""
+        known: dict[str, dict[str, Any]] = {}
+        for _, message in self.messages:
+            if message["identifier"] == "targets":
+                known = {t["id"]: t for t in message["targets"]}
+            elif message["identifier"] == "targets_changed":
+                for target_id in message["removed"]:
+                    known.pop(target_id, None)
+                known.update((t["id"], t) for t in message["added"])
+        return known
+
     def pose(self, robot: str) -> dict[str, Any] | None:
         return self.latest.get(f"{robot}/pose")
 

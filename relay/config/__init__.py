@@ -31,6 +31,7 @@ from .model import (
     Field,
     FleetConfig,
     Hazard,
+    InspectionSettings,
     Lens,
     Limits,
     MapToScene,
@@ -58,6 +59,7 @@ __all__ = [
     "Field",
     "FleetConfig",
     "Hazard",
+    "InspectionSettings",
     "Lens",
     "Limits",
     "MapToScene",
@@ -106,7 +108,10 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
 
     top = reader.mapping(
-        root, "", ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference"), required=("robots",)
+        root,
+        "",
+        ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference", "inspection"),
+        required=("robots",),
     )
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
     map_path: Path | None = None
@@ -119,6 +124,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     ros = _ros(reader, top["ros"], base_dir) if "ros" in top else Ros()
     zenoh = _zenoh(reader, top["zenoh"]) if "zenoh" in top else Zenoh()
     georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
+    inspection = _inspection(reader, top["inspection"]) if "inspection" in top else InspectionSettings()
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
@@ -130,7 +136,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
     return FleetConfig(
         source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros,
-        zenoh=zenoh, georeference=georeference,
+        zenoh=zenoh, georeference=georeference, inspection=inspection,
     )  # fmt: skip
 
 
@@ -218,6 +224,13 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
         scan_rate=reader.get(f, "scan_rate", path, scan_rate, 5.0),
         hazards=tuple(hazards),
         fields=tuple(fields),
+    )
+
+
+def _inspection(reader: _Reader, node: Node) -> InspectionSettings:
+    f = reader.mapping(node, "inspection", ("max_targets",))
+    return InspectionSettings(
+        max_targets=reader.get(f, "max_targets", "inspection", reader.integer, InspectionSettings.max_targets)
     )
 
 

@@ -216,6 +216,13 @@ class Zenoh:
 
 
 @dataclass(frozen=True)
+class InspectionSettings:
+    #: Targets a site may hold, however they are made (operators, mission files, the scene): each is sent to every
+    #: client that connects, so the count is bounded (an estop once waited 9.7 s behind ~2300 targets re-sent).
+    max_targets: int = 2000
+
+
+@dataclass(frozen=True)
 class FleetConfig:
     source: str
     robots: tuple[Robot, ...]
@@ -227,6 +234,7 @@ class FleetConfig:
     zenoh: Zenoh = field(default_factory=Zenoh)
     #: Where the map frame is on Earth (relay.inspection.kml.Georeference), for KML/KMZ placemarks; None: unknown.
     georeference: Any = None
+    inspection: InspectionSettings = field(default_factory=InspectionSettings)
 
     def robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)

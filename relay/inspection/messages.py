@@ -7,6 +7,7 @@ latest findings right after ``hello``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal, TypedDict
 
 from ..protocol import RequestId
@@ -28,6 +29,12 @@ class TargetDescription(TypedDict):
 class TargetsMessage(TypedDict):
     identifier: Literal["targets"]
     targets: list[TargetDescription]
+
+
+class TargetsChangedMessage(TypedDict):
+    identifier: Literal["targets_changed"]
+    added: list[TargetDescription]  # new, or replacing the target of the same id
+    removed: list[str]
 
 
 class StepDescription(TypedDict):
@@ -78,13 +85,18 @@ class RegionMessage(TypedDict):
     outline: list[list[int]]
 
 
+def _target(t: Target) -> TargetDescription:
+    return {"id": t.id, "name": t.name, "kind": t.kind, "x": t.x, "y": t.y, "facing": t.facing}
+
+
 def targets_message(targets: list[Target]) -> TargetsMessage:
-    return {
-        "identifier": "targets",
-        "targets": [
-            {"id": t.id, "name": t.name, "kind": t.kind, "x": t.x, "y": t.y, "facing": t.facing} for t in targets
-        ],
-    }
+    """Every target: what a client gets after its ``hello``."""
+    return {"identifier": "targets", "targets": [_target(t) for t in targets]}
+
+
+def targets_changed_message(added: list[Target], removed: Sequence[str] = ()) -> TargetsChangedMessage:
+    """What changed since: every client gets this, never the whole list again (it grew with every add)."""
+    return {"identifier": "targets_changed", "added": [_target(t) for t in added], "removed": list(removed)}
 
 
 def mission_message(record: MissionRecord) -> MissionMessage:

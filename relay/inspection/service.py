@@ -22,12 +22,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from ..errors import CommandRejected
+from ..errors import CommandRejected, ConfigError
 from ..events import NavEvent
 from ..protocol import ErrorCode, RequestId
 from ..work import Busy, WorkPool
 from .kml import KmlError, targets_from_kml
-from .messages import FINDINGS_ON_CONNECT, finding_message, mission_message, region_message, targets_message
+from .messages import (
+    FINDINGS_ON_CONNECT,
+    finding_message,
+    mission_message,
+    region_message,
+    targets_changed_message,
+    targets_message,
+)
 from .missions import MissionError, MissionPlan, assign, load_mission, resolve, steps_from_wire
 from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
@@ -78,6 +85,9 @@ class Inspection:
         self.store: Store | None = None
         self._store_pool = WorkPool("store", workers=1, queue=256)
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
+        #: Reading mission files and planning missions: their own thread, never asyncio's shared pool (six 200-step
+        #: missions checked there once held an estop 0.4 s), and a bounded queue (``busy`` beyond it).
+        self._planning = WorkPool("planning", workers=1, queue=4)
         self._temporary: tempfile.TemporaryDirectory[str] | None = None
         self._recent: list[Any] = []  # the newest finding messages, for clients that connect later
         #: Mission records are stored after their change is announced: a stop never waits for the database.
@@ -106,9 +116,12 @@ class Inspection:
         if facility is not None:
             self.targets.update((t.id, t) for t in facility_targets(facility))
         if self.options.targets is not None:
-            self.targets.update(
-                (t.id, t) for t in await asyncio.to_thread(self._load_targets, Path(self.options.targets))
-            )
+            loaded = await asyncio.to_thread(self._load_targets, Path(self.options.targets))
+            try:
+                self._check_room(loaded, "the targets file")
+            except MissionError as exc:
+                raise ConfigError(str(self.options.targets), None, "", str(exc)) from None
+            self.targets.update((t.id, t) for t in loaded)
         logger.info("inspection: %d targets, database %s", len(self.targets), database)
 
     def _load_targets(self, path: Path) -> list[Target]:
@@ -130,6 +143,7 @@ class Inspection:
             await self._store_pool.run(store.close)
         self._store_pool.shutdown()
         self._segmenting.shutdown()
+        self._planning.shutdown()
         if self._temporary is not None:
             self._temporary.cleanup()
 
@@ -177,22 +191,30 @@ class Inspection:
             raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
 
     async def _start(self, client: Client, command: MissionStart, now: float) -> None:
-        plan = self._plan(command)
+        plan, placemarks = await self._plan(command)
+        if placemarks:
+            self._add_room_for(placemarks, f"mission/start: {command.file}", command.id)
         robots: dict[str, tuple[Step, ...]]
         if plan.targets:
             unknown = [t for t in plan.targets if t not in self.targets]
             if unknown:
+                # Named, a few of them: the site's targets are in the `targets` list every client holds.
+                more = f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""
                 raise CommandRejected(
                     ErrorCode.BAD_REQUEST,
-                    f"mission/start: unknown target(s) {', '.join(unknown)}; the targets are "
-                    f"{', '.join(sorted(self.targets)) or 'none'}",
+                    f"mission/start: unknown target(s) {', '.join(t[:64] for t in unknown[:5])}{more}; "
+                    f"the site has {len(self.targets)} targets (the `targets` list)",
                     command.id,
                 )
             free = {r: self._position(r) for r in self.robots if self._free(client, r, now)}
+            where = dict(self.targets)
+            positions = {r: p for r, p in free.items() if p is not None}
             try:
-                assigned = assign(plan.targets, {r: p for r, p in free.items() if p is not None}, self.targets)
+                assigned = await self._planning.run(lambda: assign(plan.targets, positions, where))
             except MissionError as exc:
                 raise CommandRejected(ErrorCode.BAD_REQUEST, f"mission/start: {exc}", command.id) from None
+            except Busy as exc:
+                raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
             robots = {r: tuple(Step("inspect", target=t) for t in ts) for r, ts in assigned.items()}
         else:
             robots = dict(plan.robots)
@@ -206,14 +228,21 @@ class Inspection:
                 )
         # Every step of every robot is checked before any robot moves.
         grid = self.map_grid()
-        planner = await asyncio.to_thread(_planner, grid)
-        waypoints = {}
-        for robot, steps in robots.items():
-            start = self._position(robot) or (self.robots[robot].initial_pose.x, self.robots[robot].initial_pose.y)
-            try:
-                waypoints[robot] = await asyncio.to_thread(resolve, robot, steps, self.targets, start, grid, planner)
-            except MissionError as exc:
-                raise CommandRejected(ErrorCode.NO_PATH, f"mission/start: {exc}", command.id) from None
+        where = dict(self.targets)
+        starts = {
+            r: self._position(r) or (self.robots[r].initial_pose.x, self.robots[r].initial_pose.y) for r in robots
+        }
+
+        def check() -> dict[str, list[Any]]:
+            planner = _planner(grid)
+            return {r: resolve(r, steps, where, starts[r], grid, planner) for r, steps in robots.items()}
+
+        try:
+            waypoints = await self._planning.run(check)
+        except MissionError as exc:
+            raise CommandRejected(ErrorCode.NO_PATH, f"mission/start: {exc}", command.id) from None
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
         group = _new_id("m")
         wall = self.wall()
         records = [
@@ -230,20 +259,26 @@ class Inspection:
             self.runner.start(record, waypoints[robot])
             logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(record.steps))
 
-    def _plan(self, command: MissionStart) -> MissionPlan:
+    async def _plan(self, command: MissionStart) -> tuple[MissionPlan, list[Target]]:
+        """The mission asked for, and the targets its file brings (KML/KMZ placemarks): a file is read and parsed
+        on the planning pool (a 6000-placemark KMZ once held the loop, and an estop, for 9.8 s)."""
         try:
             if command.file is not None:
-                return self._mission_file(command.file)
+                file = command.file
+                return await self._planning.run(lambda: self._mission_file(file))
             name = command.name or "mission"
             if command.targets is not None:
-                return MissionPlan(name, targets=command.targets)
+                return MissionPlan(name, targets=command.targets), []
             assert command.robot is not None
-            return MissionPlan(name, robots=((command.robot, steps_from_wire(command.steps, "mission/start")),))
+            return MissionPlan(name, robots=((command.robot, steps_from_wire(command.steps, "mission/start")),)), []
         except (MissionError, KmlError) as exc:
             raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), command.id) from None
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
 
-    def _mission_file(self, name: str) -> MissionPlan:
-        """``missions/<name>.yaml``, or ``<name>.kmz``/``.kml``: its placemarks are targets, visited by the fleet."""
+    def _mission_file(self, name: str) -> tuple[MissionPlan, list[Target]]:
+        """``missions/<name>.yaml``, or ``<name>.kmz``/``.kml``: its placemarks are targets, visited by the fleet.
+        Runs on the planning pool: reads files and the config only."""
         if not TARGET_ID.match(name):
             raise MissionError(f"mission/start: no mission file named {name[:64]!r}")
         folder = self.options.missions_dir
@@ -252,19 +287,31 @@ class Inspection:
             if not path.is_file():
                 continue
             if suffix == ".yaml":
-                return load_mission(path)
-            targets = self._add_targets(targets_from_kml(path.read_bytes(), path.name, self.config.georeference))
+                return load_mission(path), []
+            targets = targets_from_kml(path.read_bytes(), path.name, self.config.georeference)
             if not targets:
                 raise MissionError(f"{path.name}: no placemark with a point: nothing to inspect")
-            return MissionPlan(name, targets=tuple(t.id for t in targets))
+            return MissionPlan(name, targets=tuple(t.id for t in targets)), targets
         available = sorted({p.stem for p in folder.glob("*") if p.suffix in (".yaml", ".kmz", ".kml")})
         raise MissionError(f"mission/start: no mission file {name!r}; there are {', '.join(available) or 'none'}")
 
-    def _add_targets(self, targets: list[Target]) -> list[Target]:
+    def _check_room(self, targets: list[Target], source: str) -> None:
+        """Raises MissionError when adding ``targets`` would pass robots.yaml's ``inspection.max_targets``."""
+        cap = self.config.inspection.max_targets
+        new = len({t.id for t in targets} - self.targets.keys())
+        if len(self.targets) + new > cap:
+            raise MissionError(
+                f"{source}: {new} new targets would make {len(self.targets) + new}, more than the site's "
+                f"{cap} (robots.yaml inspection.max_targets); nothing was added"
+            )
+
+    def _add_targets(self, targets: list[Target], source: str) -> list[Target]:
+        """Add or replace ``targets``, all or none; every client gets what changed, never the whole list again."""
         from ..messages import encode
 
+        self._check_room(targets, source)
         self.targets.update((t.id, t) for t in targets)
-        self.hub.broadcast_priority(encode(targets_message(list(self.targets.values()))))
+        self.hub.broadcast_priority(encode(targets_changed_message(targets)))
         return targets
 
     def _free(self, client: Client, robot: str, now: float) -> bool:
@@ -499,7 +546,22 @@ class Inspection:
                 raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
         assert x is not None and y is not None
         target = Target(command.target, command.name or command.target, command.kind or "point", x, y, command.facing)
-        self._add_targets([target])
+        self._add_room(target, command.id)
+
+    def _add_room(self, target: Target, request_id: RequestId, *, check_only: bool = False) -> None:
+        if check_only:
+            try:
+                self._check_room([target], "target/add")
+            except MissionError as exc:
+                raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
+        else:
+            self._add_room_for([target], "target/add", request_id)
+
+    def _add_room_for(self, targets: list[Target], source: str, request_id: RequestId) -> None:
+        try:
+            self._add_targets(targets, source)
+        except MissionError as exc:
+            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
 
     async def _target_from_live(self, client: Client, command: TargetAdd) -> None:
         """A target where pixel (u, v) of the robot's live camera looks (pixels of the camera's configured size, as
@@ -533,9 +595,10 @@ class Inspection:
             )
         except ValueError as exc:
             raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
-        stored = await self._store(lambda s: s.add_capture(capture, jpeg), command.id)
         target = Target(command.target, command.name or command.target, command.kind or "point", x, y, None)
-        self._add_targets([target])
+        self._add_room(target, command.id, check_only=True)  # before anything is stored
+        stored = await self._store(lambda s: s.add_capture(capture, jpeg), command.id)
+        self._add_room(target, command.id)
         readings = ", ".join(f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values())
         note = f"marked on {robot.name}'s camera" + (f"; {readings}" if readings else "")
         finding = FindingRecord(

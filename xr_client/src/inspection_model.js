@@ -35,7 +35,7 @@ export class InspectionModel {
 
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
-   * @param {import('./protocol.js').TargetsMessage | Mission | Finding | Region} message
+   * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding | Region} message
    * @returns {InspectionNotice[]}
    */
   apply(message) {
@@ -43,6 +43,10 @@ export class InspectionModel {
     switch (message.identifier) {
       case 'targets':
         this.targets = new Map(message.targets.map((t) => [t.id, t]));
+        return [];
+      case 'targets_changed': // what changed since the whole list came with the hello
+        for (const id of message.removed) this.targets.delete(id);
+        for (const target of message.added) this.targets.set(target.id, target);
         return [];
       case 'mission':
         return this.#mission(message);

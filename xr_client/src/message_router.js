@@ -15,6 +15,7 @@ import { displayName } from './operator_names.js';
  * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
  *   | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage | import('./protocol.js').PlaybackMessage
  *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
+ *   | import('./protocol.js').TargetsChangedMessage
  *   | import('./protocol.js').MissionMessage | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage | import('./protocol.js').OperatorsMessage} GlobalMessage the messages whose
  *   identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
@@ -154,6 +155,7 @@ export class MessageRouter {
         this.fleet.names = new Map(Object.entries(message.names));
         return [{ type: 'names' }];
       case 'targets':
+      case 'targets_changed':
       case 'mission':
       case 'finding':
       case 'region': {

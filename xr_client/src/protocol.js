@@ -11,7 +11,7 @@ export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailabl
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "mission", "finding", "region", "operators"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "region", "operators"]);
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
@@ -55,13 +55,14 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null, keyframe?: boolean, codec?: string}} FrameHeader */
 /** @typedef {{id: string, name: string, kind: string, x: number, y: number, facing: number | null}} TargetDescription */
 /** @typedef {{identifier: 'targets', targets: TargetDescription[]}} TargetsMessage */
+/** @typedef {{identifier: 'targets_changed', added: TargetDescription[], removed: string[]}} TargetsChangedMessage */
 /** @typedef {{kind: StepKind, target: string | null, x: number | null, y: number | null, yaw: number | null, seconds: number | null}} StepDescription */
 /** @typedef {{identifier: 'mission', id: string, name: string, robot: string, state: MissionState, current: number, steps: StepDescription[], reason: string, owner: string, updated: number}} MissionMessage */
 /** @typedef {{identifier: 'finding', id: string, capture: string, mission: string | null, target: string | null, robot: string, x: number, y: number, status: FindingStatus, note: string, source: 'operator' | 'rule', region: number[][] | null, image: string | null, readings: Object<string, number>, created: number, updated: number}} FindingMessage */
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | MissionMessage | FindingMessage | RegionMessage | OperatorsMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | OperatorsMessage} ServerMessage
  */
 
 // Client to server

@@ -65,6 +65,17 @@ test('the router hands inspection messages to the model and resets it on hello',
   const targets = { identifier: /** @type {'targets'} */ ('targets'), targets: [{ id: 'spill', name: 'Spill', kind: 'gas', x: 1.8, y: 8.2, facing: null }] };
   assert.deepEqual(router.route(targets, 0), [{ type: 'inspection' }]);
   assert.equal(inspection.targets.get('spill')?.name, 'Spill');
+  // Later changes come as deltas: a target added or replaced, another removed; the rest stays.
+  const changed = {
+    identifier: /** @type {'targets_changed'} */ ('targets_changed'),
+    added: [{ id: 'valve', name: 'Valve 12', kind: 'valve', x: 15.6, y: 7.6, facing: null }, { id: 'spill', name: 'Drum 7', kind: 'gas', x: 1.8, y: 8.2, facing: null }],
+    removed: [],
+  };
+  assert.deepEqual(router.route(changed, 0), [{ type: 'inspection' }]);
+  assert.deepEqual([...inspection.targets.keys()].sort(), ['spill', 'valve']);
+  assert.equal(inspection.targets.get('spill')?.name, 'Drum 7');
+  router.route({ ...changed, added: [], removed: ['valve'] }, 0);
+  assert.deepEqual([...inspection.targets.keys()], ['spill']);
   const effects = router.route(finding({}), 0);
   assert.equal(effects[0].type, 'inspection');
   assert.equal(effects[1].type, 'notify');
