@@ -180,13 +180,15 @@ class Inspection:
             await self._add_target(client, command)
 
     async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
-        from .store import StoreError
+        from .store import StoreError, UnknownRecord
 
         store = self.store
         if store is None:
             raise CommandRejected(ErrorCode.INTERNAL, "the inspection database is not open", request_id)
         try:
             return await self._store_pool.run(lambda: work(store))
+        except UnknownRecord as exc:  # the client named something that is not there: its mistake, not the relay's
+            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
         except (StoreError, Busy) as exc:
             raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
 

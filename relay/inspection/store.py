@@ -397,7 +397,7 @@ class Store:
             (status, note, None if region is None else json.dumps(region), updated, finding_id),
         )
         if not rows:
-            raise UnknownRecord(f"database {self.name}: no finding {finding_id[:80]!r}")
+            raise UnknownRecord(f"no finding {finding_id[:80]!r}")
         return _record(FindingRecord, rows[0])
 
     def findings(
