@@ -93,6 +93,23 @@ class Control:
     ) -> None:
         """Operator role, a robot that is not a recording, no latched estop when the command ``moves`` the robot,
         and the robot's lease (taken when free)."""
+        self.require_movable(client, robot, identifier, request_id, moves=moves)
+        self._refuse_if_held_elsewhere(robot, identifier, request_id)
+        allowed, before = self.leases.use(robot, client.client_id, now)
+        if not allowed:
+            raise CommandRejected(
+                ErrorCode.LEASED,
+                f"{identifier}: {robot} is controlled by {before}; send {robot}/lease with force: true to take over",
+                request_id,
+            )
+        if before is None:
+            self.lease_changed(robot, client.client_id, None, "acquired", now)
+
+    def require_movable(
+        self, client: Client, robot: str, identifier: str, request_id: RequestId | None, *, moves: bool = True
+    ) -> None:
+        """Every rule of :meth:`require_commandable` but the lease: for what acts through a lease it does not hold
+        (an operator resuming a mission that holds the robot)."""
         self.require_operator(client, identifier, request_id)
         refusal = self.backend.command_refusal(robot)
         if refusal is not None:
@@ -105,16 +122,6 @@ class Control:
                 "an operator must reset it first (estop with action: reset)",
                 request_id,
             )
-        self._refuse_if_held_elsewhere(robot, identifier, request_id)
-        allowed, before = self.leases.use(robot, client.client_id, now)
-        if not allowed:
-            raise CommandRejected(
-                ErrorCode.LEASED,
-                f"{identifier}: {robot} is controlled by {before}; send {robot}/lease with force: true to take over",
-                request_id,
-            )
-        if before is None:
-            self.lease_changed(robot, client.client_id, None, "acquired", now)
 
     def _refuse_if_held_elsewhere(self, robot: str, identifier: str, request_id: RequestId | None) -> None:
         holder = self.peer.held_elsewhere(robot) if self.peer is not None else None
@@ -142,10 +149,10 @@ class Control:
         self.supersede(robot)
         self.deadman.release_robot(robot)
         self.fleet.set_teleop(robot, False)
-        try:
-            await self.backend.stop_robot(robot)
-        finally:
-            self._tell_stopped(robot, reason, estop=False)
+        # Its mission learns first why the robot stops, so that the goal's cancellation the stop causes reads as
+        # this stop, not as a goal that failed.
+        self._tell_stopped(robot, reason, estop=False)
+        await self.backend.stop_robot(robot)
 
     async def estop(
         self, robot: str | None, by: str | None, now: float, *, remote: bool = False
@@ -164,6 +171,7 @@ class Control:
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)
+            self._tell_stopped(name, f"emergency stop by {by}", estop=True)  # returns at once (see halt)
         if self.peer is not None and not remote:
             try:
                 self.peer.estop(robot, by)
@@ -179,8 +187,6 @@ class Control:
         self.outbox.estop(stopped, by)
         for name in robots:
             self.outbox.status(name, now)
-        for name in robots:
-            self._tell_stopped(name, f"emergency stop by {by}", estop=True)
         return failed
 
     def _tell_stopped(self, robot: str, reason: str, *, estop: bool) -> None:

@@ -86,7 +86,7 @@ async def timed_estop(client: TestClient, running: RunningRelay) -> tuple[dict[s
 async def test_an_estop_does_not_wait_for_a_locked_database(fleet_config: FleetConfig, tmp_path: Path) -> None:
     """Finding 1: with the SQLite file locked by another process mid-mission, the estop's ack came after 15.0 s
     (the missions' abort written one after another, 5 s busy timeout each), and every later frame of that operator
-    waited behind it. Now the ack and the stop come at once; the aborts are stored once the lock is gone."""
+    waited behind it. Now the ack and the stop come at once; the missions, held, are stored once the lock is gone."""
     database = tmp_path / "inspection.sqlite"
     running = await start_relay(fleet_config, options=Options(token=TOKEN, database=str(database)))
     other = None
@@ -99,8 +99,8 @@ async def test_an_estop_does_not_wait_for_a_locked_database(fleet_config: FleetC
         assert reply["identifier"] == "ack", reply
         assert acked < ESTOP_BOUND, f"the estop's ack took {acked:.3f} s with the database locked"
         assert stopped < ESTOP_BOUND, f"the robots stopped {stopped:.3f} s after the estop"
-        aborted = {m["id"] for _, m in client.messages if m["identifier"] == "mission" and m["state"] == "aborted"}
-        assert aborted == set(ids)  # every client is told at once, whatever the database does
+        held = {m["id"] for _, m in client.messages if m["identifier"] == "mission" and "held" in m["reason"]}
+        assert held == set(ids)  # every client is told at once, whatever the database does
         sent = time.monotonic()
         assert (await client.request({"identifier": "name", "name": "Ana"}))["identifier"] == "ack"
         assert time.monotonic() - sent < ESTOP_BOUND, "a later frame of the same operator waited"
@@ -110,15 +110,15 @@ async def test_an_estop_does_not_wait_for_a_locked_database(fleet_config: FleetC
         other.execute("ROLLBACK")
         other.close()
         other = None
-        deadline = time.monotonic() + 30  # nothing is lost: the aborts are written once the lock is gone
+        deadline = time.monotonic() + 30  # nothing is lost: the holds are written once the lock is gone
         states: dict[str, str] = {}
         while time.monotonic() < deadline:
             with sqlite3.connect(database) as reader:
-                states = dict(reader.execute("SELECT id, state FROM missions").fetchall())
-            if all(states.get(i) == "aborted" for i in ids):
+                states = dict(reader.execute("SELECT id, reason FROM missions").fetchall())
+            if all("held" in states.get(i, "") for i in ids):
                 break
             await asyncio.sleep(0.2)
-        assert all(states.get(i) == "aborted" for i in ids), states
+        assert all("held" in states.get(i, "") for i in ids), states
         await client.close()
     finally:
         if other is not None:

@@ -278,7 +278,8 @@ async def test_every_command_kind_with_hostile_values(role: str, fleet_config: F
             else:
                 # Frames go one at a time, so the next reply is this frame's (its id may be the hostile value).
                 try:
-                    reply = await client.wait_for(lambda m: m["identifier"] in ("ack", "error"), start=start)
+                    # 30 s: a live target renders a snapshot, and a loaded CI machine takes its time.
+                    reply = await client.wait_for(lambda m: m["identifier"] in ("ack", "error"), 30, start=start)
                 except TimeoutError:
                     raise AssertionError(f"no reply to {frame[:300]}") from None
             key = reply.get("code") or "ack"

@@ -1,6 +1,6 @@
 """Inspection missions end to end on the sim, over /ws: the demo mission runs without a hand on the stick, goes on
 when its operator's client is killed, and leaves three findings with images in the database and the report; bad
-missions are refused before any robot moves; viewers create nothing; an estop aborts."""
+missions are refused before any robot moves; viewers create nothing; an estop holds a mission until the reset."""
 
 from __future__ import annotations
 
@@ -146,7 +146,9 @@ async def test_bad_missions_are_refused_before_any_robot_moves(fleet_config: Fle
         await running.runner.cleanup()
 
 
-async def test_an_estop_aborts_a_mission_and_a_take_over_pauses_it(fleet_config: FleetConfig, tmp_path: Path) -> None:
+async def test_an_estop_holds_a_mission_until_the_reset_and_a_take_over_pauses_it(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
     running = await relay_with_database(fleet_config, tmp_path)
     try:
         first = await operator(running)
@@ -166,9 +168,19 @@ async def test_an_estop_aborts_a_mission_and_a_take_over_pauses_it(fleet_config:
         await first.wait_for(
             lambda m: m["identifier"] == "mission" and m["state"] == "running", start=len(first.messages) - 5
         )
+        mark = len(first.messages)
         assert (await first.request({"identifier": "estop"}))["identifier"] == "ack"
-        aborted = await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "aborted")
-        assert "emergency stop" in aborted["reason"]
+        held = await first.wait_for(lambda m: m["identifier"] == "mission" and "held" in m["reason"], start=mark)
+        assert held["reason"].startswith("emergency stop by") and "held" in held["reason"]
+        # Held while latched: it cannot be resumed before the reset, and keeps its robot meanwhile.
+        reply = await first.request({"identifier": "mission/resume", "mission": mission_id})
+        assert reply["code"] == "estopped", reply
+        assert running.relay.control.leases.holder("robot1") == f"mission:{mission_id}"
+        assert (await first.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"
+        reply = await first.request({"identifier": "mission/resume", "mission": mission_id})
+        assert reply["identifier"] == "ack", reply
+        await first.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running", start=mark)
+        assert (await first.request({"identifier": "mission/abort", "mission": mission_id}))["identifier"] == "ack"
         assert running.relay.control.leases.holder("robot1") is None  # the mission let go of the robot
         reply = await first.request({"identifier": "mission/resume", "mission": mission_id})
         assert reply["code"] == "bad_request" and "ended" in reply["message"]
@@ -308,6 +320,62 @@ async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_a
         assert "spot-2" not in {t["id"] for t in targets}
         assert len(store.captures()) == captures
         await viewer.close()
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_a_restarted_relay_shows_what_it_had_and_a_held_mission_resumes_where_it_was(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """Issue #30: after a restart the page showed "Findings (0)" while the database held 13 findings and 10
+    missions, and targets operators had added were gone; an estop aborted a mission for good. Now a relay started on
+    the same database shows every target, finding (with its image) and mission as before, and a mission an estop
+    held resumes from the step it was at."""
+    camera = fleet_config.robots[0].cameras[0]
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        await asyncio.sleep(0.5)  # the sim's first rendered frame
+        spot = {"identifier": "target/add", "target": "spot-1", "robot": "robot1",
+                "u": camera.width / 2, "v": camera.height * 0.75}  # fmt: skip
+        assert (await client.request(spot, timeout=30))["identifier"] == "ack"
+        pose = {"identifier": "target/add", "target": "drum-9", "name": "Drum 9", "kind": "drum", "x": 2.0, "y": 8.0}
+        assert (await client.request(pose))["identifier"] == "ack"
+        steps = [{"goto": {"x": 3.0, "y": 2.0}}, {"dwell": 30}, {"goto": {"x": 3.0, "y": 2.5}}]
+        reply = await client.request({"identifier": "mission/start", "robot": "robot1", "steps": steps}, timeout=30)
+        assert reply["identifier"] == "ack", reply
+        await client.wait_for(lambda m: m["identifier"] == "mission" and m["current"] == 1, timeout=30)  # dwelling
+        assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        await client.wait_for(lambda m: m["identifier"] == "mission" and "held" in m["reason"])
+        before = {
+            "targets": client.targets(),
+            "findings": {m["id"]: m for _, m in client.messages if m["identifier"] == "finding"},
+            "missions": missions(client),
+        }
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        await client.wait_for(lambda m: m["identifier"] == "mission")
+        assert client.targets() == before["targets"]  # the scene's, the point and the pixel's
+        findings = {m["id"]: m for _, m in client.messages if m["identifier"] == "finding"}
+        assert findings == before["findings"] and findings
+        async with aiohttp.ClientSession() as http:
+            for finding in findings.values():
+                async with http.get(f"{running.url}{finding['image']}?token={TOKEN}") as response:
+                    assert response.status == 200 and (await response.read()).startswith(b"\xff\xd8")
+        [(mission_id, mission)] = missions(client).items()
+        assert mission == before["missions"][mission_id]  # held, at its second step, as it was left
+        mark = len(client.messages)
+        reply = await client.request({"identifier": "mission/resume", "mission": mission_id}, timeout=30)
+        assert reply["identifier"] == "ack", reply
+        resumed = await client.wait_for(lambda m: m["identifier"] == "mission", start=mark)
+        assert (resumed["state"], resumed["current"]) == ("running", 1)  # from the dwell it was at
+        assert (await client.request({"identifier": "mission/abort", "mission": mission_id}))["identifier"] == "ack"
         await client.close()
     finally:
         await running.runner.cleanup()

@@ -181,11 +181,20 @@ async def test_pause_resume_skip_abort_and_stops() -> None:
     fleet.arrive("robot1", "failed", "no path: blocked")
     await fleet.settle()
     assert run.record.state == "paused" and "blocked" in run.record.reason  # a failed goal pauses, with why
+    await fleet.runner.act(run, "resume", "c2")
+    await fleet.settle()
     fleet.runner.robot_stopped("robot1", "emergency stop by c3", estop=True)
     await fleet.settle()
     record: MissionRecord = run.record  # the runner replaced it
-    assert record.state == "aborted" and record.reason == "emergency stop by c3"
-    assert fleet.released == ["m1.robot1"]
+    # Held, not aborted: the lead resumes it after the reset, from the step it was at, or aborts it.
+    assert record.state == "paused" and record.reason.startswith("emergency stop by c3; held")
+    assert fleet.released == [] and record.current == 1
+    goes = fleet.calls.count(("go", "robot1", "2,2"))
+    await fleet.runner.act(run, "resume", "c1")
+    await fleet.settle()
+    assert run.record.state == "running" and fleet.calls.count(("go", "robot1", "2,2")) == goes + 1
+    await fleet.runner.act(run, "abort", "c1")
+    assert run.record.state == "aborted" and fleet.released == ["m1.robot1"]
     with pytest.raises(ValueError, match="has ended"):
         await fleet.runner.act(run, "resume", "c1")
 

@@ -173,7 +173,7 @@ def _version(url: str) -> int:
 
 
 def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
-    assert store.schema_version == SCHEMA_VERSION == 1
+    assert store.schema_version == SCHEMA_VERSION == 2
     assert store.mission("m-1.robot1") is None and store.missions() == []
     store.save_mission(_mission())
     assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
@@ -297,7 +297,7 @@ def test_a_newer_database_is_refused_untouched(url: str, tmp_path: Path) -> None
     raw = _raw(url)
     raw.execute("UPDATE schema_version SET version = 99")
     raw.close()
-    with pytest.raises(StoreError, match=r"has schema version 99, newer than this relay's 1: use a newer relay"):
+    with pytest.raises(StoreError, match=r"has schema version 99, newer than this relay's 2: use a newer relay"):
         Store.open(url, tmp_path / "images")
     assert _version(url) == 99
 
@@ -310,17 +310,17 @@ def test_a_second_migration_applies_or_changes_nothing(
         store.add_finding(_finding())
     broken = ("CREATE TABLE extra (id TEXT)", "ALTER TABLE no_such_table ADD COLUMN x INTEGER")
     monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS, broken))
-    with pytest.raises(StoreError, match=r"no_such_table.*\(in migration 2; nothing changed\)"):
+    with pytest.raises(StoreError, match=r"no_such_table.*\(in migration 3; nothing changed\)"):
         Store.open(url, tmp_path / "images")
     raw = _raw(url)
     with pytest.raises(Exception, match="extra"):  # its first statement was rolled back with the rest
         raw.execute("SELECT id FROM extra")
     raw.close()
-    assert _version(url) == 1
+    assert _version(url) == 2
     added = ("ALTER TABLE findings ADD COLUMN severity INTEGER", "UPDATE findings SET severity = 2")
-    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS[:1], added))
+    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS[:2], added))
     with Store.open(url, tmp_path / "images") as store:
-        assert store.schema_version == 2 and _version(url) == 2
+        assert store.schema_version == 3 and _version(url) == 3
         assert store.findings() == [_finding()]  # the code reads the columns it knows
     raw = _raw(url)
     assert raw.execute("SELECT id, severity FROM findings").fetchall() == [("f-1", 2)]

@@ -15,6 +15,8 @@ from .records import FindingRecord, FindingStatus, MissionRecord, MissionState, 
 
 #: Findings a newly connected client is sent (the newest); the rest are in the report and the database.
 FINDINGS_ON_CONNECT = 200
+#: Missions a client gets after its ``hello``: every active one, and the newest of those that ended.
+MISSIONS_ON_CONNECT = 100
 
 
 class TargetDescription(TypedDict):

@@ -3,9 +3,11 @@
 A mission goes on when its operator disconnects (the fleet is semi-autonomous): while it runs, the robot's lease is
 held by the mission itself (``mission:<id>``), so the operator's leaving does not stop it and another operator
 must take the lease over (``force``) to drive the robot by hand, which pauses the mission. Any operator may pause,
-resume, skip or abort a mission whose robot the mission holds (or that they hold). An emergency stop aborts the
-missions of the robots it stops; a take-over, a release or any other stop of the relay pauses them. A change of state
-is announced at once and stored after (``publish``): nothing of a stop waits for the database.
+resume, skip or abort a mission whose robot the mission holds (or that they hold). An emergency stop holds the
+missions of the robots it stops (paused: after the reset an operator resumes or aborts each); a take-over, a
+release or any other stop of the relay pauses them. Missions outlive the relay: a restarted relay shows them as
+they were (``restore``), paused, and a resume plans the rest again and goes on from the step it was at. A change of
+state is announced at once and stored after (``publish``): nothing of a stop waits for the database.
 
 Each step: ``inspect`` and ``goto`` send a goal through the same rules as an operator's (generations: a goal
 overtaken by a stop is dropped) and wait for the robot to reach it; ``inspect`` and ``capture`` then take the
@@ -24,6 +26,7 @@ from dataclasses import replace
 from typing import Literal
 
 from ..events import NavEvent
+from .messages import MISSIONS_ON_CONNECT
 from .missions import Waypoint
 from .records import MissionRecord, Step
 
@@ -78,16 +81,44 @@ class MissionRunner:
             None,
         )
 
-    def records(self) -> list[MissionRecord]:
-        return [run.record for run in self.runs.values()]
+    def records(self, ended: int = MISSIONS_ON_CONNECT) -> list[MissionRecord]:
+        """Every active mission, and the newest ``ended`` of those that ended, oldest first."""
+        active = [r.record for r in self.runs.values() if r.record.state not in ("done", "aborted")]
+        over = sorted((r.record for r in self.runs.values() if r.record.state in ("done", "aborted")),
+                      key=lambda record: record.updated)  # fmt: skip
+        return sorted([*active, *over[-ended:]], key=lambda record: record.updated) if ended else active
+
+    def _forget_old(self) -> None:
+        """Runs that ended long ago leave memory (they stay in the database and its reports)."""
+        ended = [r for r in self.runs.values() if r.record.state in ("done", "aborted")]
+        if len(ended) > 2 * MISSIONS_ON_CONNECT:
+            for run in sorted(ended, key=lambda r: r.record.updated)[: len(ended) - MISSIONS_ON_CONNECT]:
+                del self.runs[run.record.id]
 
     # -- control ----------------------------------------------------------------------------------
 
     def start(self, record: MissionRecord, waypoints: list[Waypoint | None]) -> MissionRun:
         run = MissionRun(replace(record, state="running", updated=self._wall()), waypoints)
         self.runs[record.id] = run
+        self._forget_old()
         run.task = asyncio.ensure_future(self._run(run))
         return run
+
+    def restore(self, record: MissionRecord) -> MissionRun:
+        """A mission from the database (a relay restarted): shown as it was, with no task until it is resumed."""
+        run = MissionRun(record, [])
+        self.runs[record.id] = run
+        return run
+
+    def revive(self, run: MissionRun, waypoints: list[Waypoint | None]) -> None:
+        """Resume a restored mission from its current step, with the waypoints planned again from where the robot
+        stands now."""
+        run.waypoints = waypoints
+        self._set(run, "running", "")
+        run.task = asyncio.ensure_future(self._run(run))
+
+    def needs_task(self, run: MissionRun) -> bool:
+        return run.task is None or run.task.done()
 
     async def act(self, run: MissionRun, action: MissionAction, by: str) -> None:
         state = run.record.state
@@ -109,13 +140,14 @@ class MissionRunner:
         run.changed.set()
 
     def robot_stopped(self, robot: str, reason: str, *, estop: bool) -> None:
-        """Control stopped the robot (an estop, a take-over, a release): its mission is aborted or paused. On the
+        """Control stopped the robot (an estop, a take-over, a release): its mission is paused (held). On the
         estop's path: it awaits nothing (the record is written after, relay.inspection.write_behind)."""
         run = self.active(robot)
         if run is None:
             return
         if estop:
-            self._set(run, "aborted", reason)
+            # Held, not aborted: after the reset an operator resumes it from where it was, or aborts it.
+            self._set(run, "paused", f"{reason}; held: resume after the reset, or abort")
         elif run.record.state == "running":
             self._set(run, "paused", reason)
         run.changed.set()

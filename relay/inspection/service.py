@@ -19,6 +19,7 @@ import secrets
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -29,16 +30,16 @@ from ..work import Busy, WorkPool
 from .kml import KmlError, targets_from_kml
 from .messages import (
     FINDINGS_ON_CONNECT,
+    MISSIONS_ON_CONNECT,
     finding_message,
     mission_message,
     region_message,
-    targets_changed_message,
-    targets_message,
 )
-from .missions import MissionError, MissionPlan, assign, load_mission, resolve, steps_from_wire
+from .missions import MissionError, MissionPlan, Waypoint, assign, load_mission, resolve, steps_from_wire
 from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
 from .runner import MissionRunner, holder
+from .target_book import TargetBook
 from .targets import TARGET_ID, facility_targets, load_targets
 from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd, inspection_identifier
 from .write_behind import WriteBehind
@@ -81,8 +82,9 @@ class Inspection:
         self.robots = {r.name: r for r in config.robots}
         self.backend, self.control, self.fleet, self.hub = backend, control, fleet, hub
         self.map_grid, self.clock, self.wall = map_grid, clock, wall_clock
-        self.targets: dict[str, Target] = {}
         self.store: Store | None = None
+        self.book = TargetBook(config.inspection.max_targets, hub, self._store_call)
+        self.targets = self.book.targets  # read-only here: changed through the book
         self._store_pool = WorkPool("store", workers=1, queue=256)
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
         #: Reading mission files and planning missions: their own thread, never asyncio's shared pool (six 200-step
@@ -113,16 +115,31 @@ class Inspection:
             images = str(Path(database).with_name(Path(database).stem + "-images")) if "://" not in database else "."
         self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
         self._records.start()
-        if facility is not None:
-            self.targets.update((t.id, t) for t in facility_targets(facility))
-        if self.options.targets is not None:
-            loaded = await asyncio.to_thread(self._load_targets, Path(self.options.targets))
-            try:
-                self._check_room(loaded, "the targets file")
-            except MissionError as exc:
-                raise ConfigError(str(self.options.targets), None, "", str(exc)) from None
-            self.targets.update((t.id, t) for t in loaded)
-        logger.info("inspection: %d targets, database %s", len(self.targets), database)
+        store = self.store
+        try:
+            if facility is not None:
+                self.book.load(facility_targets(facility), "the scene's hazards")
+            if self.options.targets is not None:
+                loaded = await asyncio.to_thread(self._load_targets, Path(self.options.targets))
+                self.book.load(loaded, f"--targets {self.options.targets}")
+            # What operators and mission files added, as they left it (a stored one replaces the scene's).
+            self.book.load(await self._store_pool.run(store.targets), f"the database {store.name}")
+        except ValueError as exc:
+            raise ConfigError(self.config.source, None, "inspection.max_targets", str(exc)) from None
+        await self._load_history(store)
+        # The store's name: a path, or the URL without its password.
+        logger.info("inspection: %d targets, database %s", len(self.targets), store.name)
+
+    async def _load_history(self, store: Store) -> None:
+        """What clients saw before the restart: the newest findings and missions. A mission that was running or
+        pending is paused ("the relay restarted"): an operator resumes it from its step, or aborts it."""
+        found = await self._store_pool.run(lambda: store.recent_findings(FINDINGS_ON_CONNECT))
+        self._recent = [finding_message(f, c.image, c.readings) for f, c in reversed(found)]
+        for record in reversed(await self._store_pool.run(lambda: store.missions(MISSIONS_ON_CONNECT))):
+            if record.state in ("running", "pending"):
+                record = replace(record, state="paused", reason="the relay restarted", updated=self.wall())
+                self._records.put(record)
+            self.runner.restore(record)
 
     def _load_targets(self, path: Path) -> list[Target]:
         """A targets file: YAML, or KML/KMZ placemarks placed by robots.yaml's georeference."""
@@ -154,7 +171,7 @@ class Inspection:
         """A new client learns the targets, the missions and the newest findings after its ``hello``."""
         from ..messages import encode
 
-        client.channel.put_priority(encode(targets_message(list(self.targets.values()))))
+        client.channel.put_priority(self.book.message())
         for record in self.runner.records():
             client.channel.put_priority(encode(mission_message(record)))
         for message in self._recent[-FINDINGS_ON_CONNECT:]:
@@ -192,10 +209,13 @@ class Inspection:
         except (StoreError, Busy) as exc:
             raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
 
+    async def _store_call(self, work: Callable[[Store], None], request_id: RequestId | None) -> None:
+        await self._store(work, request_id)
+
     async def _start(self, client: Client, command: MissionStart, now: float) -> None:
         plan, placemarks = await self._plan(command)
         if placemarks:
-            self._add_room_for(placemarks, f"mission/start: {command.file}", command.id)
+            await self.book.add(placemarks, f"mission/start: {command.file}", command.id)
         robots: dict[str, tuple[Step, ...]]
         if plan.targets:
             unknown = [t for t in plan.targets if t not in self.targets]
@@ -229,22 +249,7 @@ class Inspection:
                     ErrorCode.BAD_REQUEST, f"mission/start: {robot} is on a mission already", command.id
                 )
         # Every step of every robot is checked before any robot moves.
-        grid = self.map_grid()
-        where = dict(self.targets)
-        starts = {
-            r: self._position(r) or (self.robots[r].initial_pose.x, self.robots[r].initial_pose.y) for r in robots
-        }
-
-        def check() -> dict[str, list[Any]]:
-            planner = _planner(grid)
-            return {r: resolve(r, steps, where, starts[r], grid, planner) for r, steps in robots.items()}
-
-        try:
-            waypoints = await self._planning.run(check)
-        except MissionError as exc:
-            raise CommandRejected(ErrorCode.NO_PATH, f"mission/start: {exc}", command.id) from None
-        except Busy as exc:
-            raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
+        waypoints = await self._plan_all(robots, "mission/start", command.id)
         group = _new_id("m")
         wall = self.wall()
         records = [
@@ -260,6 +265,30 @@ class Inspection:
             self.control.lease_changed(robot, holder(record.id), previous, "acquired", now)
             self.runner.start(record, waypoints[robot])
             logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(record.steps))
+
+    async def _plan_all(
+        self, robots: dict[str, tuple[Step, ...]], identifier: str, request_id: RequestId
+    ) -> dict[str, list[Waypoint | None]]:
+        """Every step of every robot checked, from where each stands, on the planning pool."""
+        grid = self.map_grid()
+        where = dict(self.targets)
+        starts = {
+            r: self._position(r) or (self.robots[r].initial_pose.x, self.robots[r].initial_pose.y) for r in robots
+        }
+
+        def check() -> dict[str, list[Waypoint | None]]:
+            planner = _planner(grid)
+            return {r: resolve(r, steps, where, starts[r], grid, planner) for r, steps in robots.items()}
+
+        try:
+            return await self._planning.run(check)
+        except MissionError as exc:
+            raise CommandRejected(ErrorCode.NO_PATH, f"{identifier}: {exc}", request_id) from None
+        except Busy as exc:
+            raise CommandRejected(ErrorCode.BUSY, f"{identifier}: {exc}; try again shortly", request_id) from None
+
+    async def _plan_steps(self, robot: str, steps: tuple[Step, ...], request_id: RequestId) -> list[Waypoint | None]:
+        return (await self._plan_all({robot: steps}, "mission/resume", request_id))[robot]
 
     async def _plan(self, command: MissionStart) -> tuple[MissionPlan, list[Target]]:
         """The mission asked for, and the targets its file brings (KML/KMZ placemarks): a file is read and parsed
@@ -297,25 +326,6 @@ class Inspection:
         available = sorted({p.stem for p in folder.glob("*") if p.suffix in (".yaml", ".kmz", ".kml")})
         raise MissionError(f"mission/start: no mission file {name!r}; there are {', '.join(available) or 'none'}")
 
-    def _check_room(self, targets: list[Target], source: str) -> None:
-        """Raises MissionError when adding ``targets`` would pass robots.yaml's ``inspection.max_targets``."""
-        cap = self.config.inspection.max_targets
-        new = len({t.id for t in targets} - self.targets.keys())
-        if len(self.targets) + new > cap:
-            raise MissionError(
-                f"{source}: {new} new targets would make {len(self.targets) + new}, more than the site's "
-                f"{cap} (robots.yaml inspection.max_targets); nothing was added"
-            )
-
-    def _add_targets(self, targets: list[Target], source: str) -> list[Target]:
-        """Add or replace ``targets``, all or none; every client gets what changed, never the whole list again."""
-        from ..messages import encode
-
-        self._check_room(targets, source)
-        self.targets.update((t.id, t) for t in targets)
-        self.hub.broadcast_priority(encode(targets_changed_message(targets)))
-        return targets
-
     def _free(self, client: Client, robot: str, now: float) -> bool:
         holder_now = self.control.leases.holder(robot)
         return (
@@ -344,15 +354,25 @@ class Inspection:
             )
         robot = run.record.robot
         lease = self.control.leases.holder(robot)
-        if lease not in (holder(run.record.id), client.client_id):
+        # A mission restored after a restart holds no lease (leases live in memory): free is as good as its own.
+        if lease not in (None, holder(run.record.id), client.client_id):
             raise CommandRejected(
                 ErrorCode.LEASED, f"mission/{command.action}: {robot} is controlled by {lease}", command.id
             )
+        revive = None
         if command.action == "resume":
-            self.control.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
+            if lease == holder(run.record.id):  # held by the mission itself (an estop held it): the other rules
+                self.control.require_movable(client, robot, "mission/resume", command.id)
+            else:
+                self.control.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
+            if self.runner.needs_task(run):  # restored: the rest is planned again from where the robot stands
+                revive = await self._plan_steps(run.record.robot, run.record.steps, command.id)
             if lease != holder(run.record.id):  # an operator who took over hands the robot back to the mission
                 self.control.leases.take(robot, holder(run.record.id), now)
                 self.control.lease_changed(robot, holder(run.record.id), lease, "acquired", now)
+        if revive is not None:
+            self.runner.revive(run, revive)
+            return
         try:
             await self.runner.act(run, command.action, client.client_id)
         except ValueError as exc:
@@ -548,22 +568,7 @@ class Inspection:
                 raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
         assert x is not None and y is not None
         target = Target(command.target, command.name or command.target, command.kind or "point", x, y, command.facing)
-        self._add_room(target, command.id)
-
-    def _add_room(self, target: Target, request_id: RequestId, *, check_only: bool = False) -> None:
-        if check_only:
-            try:
-                self._check_room([target], "target/add")
-            except MissionError as exc:
-                raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
-        else:
-            self._add_room_for([target], "target/add", request_id)
-
-    def _add_room_for(self, targets: list[Target], source: str, request_id: RequestId) -> None:
-        try:
-            self._add_targets(targets, source)
-        except MissionError as exc:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
+        await self.book.add([target], "target/add", command.id)
 
     async def _target_from_live(self, client: Client, command: TargetAdd) -> None:
         """A target where pixel (u, v) of the robot's live camera looks (pixels of the camera's configured size, as
@@ -598,9 +603,9 @@ class Inspection:
         except ValueError as exc:
             raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
         target = Target(command.target, command.name or command.target, command.kind or "point", x, y, None)
-        self._add_room(target, command.id, check_only=True)  # before anything is stored
+        self.book.check([target], "target/add", command.id)  # before anything is stored
         stored = await self._store(lambda s: s.add_capture(capture, jpeg), command.id)
-        self._add_room(target, command.id)
+        await self.book.add([target], "target/add", command.id)
         readings = ", ".join(f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values())
         note = f"marked on {robot.name}'s camera" + (f"; {readings}" if readings else "")
         finding = FindingRecord(

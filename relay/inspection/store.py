@@ -59,13 +59,14 @@ import sqlite3
 import tempfile
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, fields, replace
+from dataclasses import fields, replace
 from pathlib import Path
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import Any
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
-from .records import FINDING_STATUSES, CaptureRecord, FindingRecord, MissionRecord, Step
+from .records import FINDING_STATUSES, CaptureRecord, FindingRecord, MissionRecord, Target
+from .rows import columns, record_of, row_of
 
 #: ``MIGRATIONS[i]`` takes version ``i`` to ``i + 1``. Shipped migrations are never edited (databases in the field
 #: have run them): a change is a new tuple at the end.
@@ -85,20 +86,25 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX captures_mission ON captures (mission)",
         "CREATE INDEX findings_mission ON findings (mission)",
     ),
+    (  # 2: targets outlive the relay (issue #30), and the findings list pages through time
+        """CREATE TABLE targets (id TEXT PRIMARY KEY, name TEXT NOT NULL, kind TEXT NOT NULL,
+        x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, facing DOUBLE PRECISION)""",
+        "CREATE INDEX findings_created ON findings (created)",
+        "CREATE INDEX missions_created ON missions (created)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 
 _SHA256 = re.compile(r"[0-9a-f]{64}")
 _MIGRATION_LOCK = 0x78725F696E7370  # any constant: the PostgreSQL advisory lock that serialises relays' migrations
-_R = TypeVar("_R", MissionRecord, CaptureRecord, FindingRecord)
 
 
-def _columns(record: type[Any]) -> str:
-    """The columns of a record's table are its fields, in order: a field without a column fails every insert."""
-    return ", ".join(f.name for f in fields(record))
-
-
-_MISSION, _CAPTURE, _FINDING = _columns(MissionRecord), _columns(CaptureRecord), _columns(FindingRecord)
+_MISSION, _CAPTURE, _FINDING, _TARGET = (
+    columns(MissionRecord),
+    columns(CaptureRecord),
+    columns(FindingRecord),
+    columns(Target),
+)
 
 # Primary SQLite result codes (https://sqlite.org/rescode.html) and PostgreSQL SQLSTATEs an operator can act on.
 _SQLITE_PROBLEMS = {
@@ -293,7 +299,7 @@ class Store:
 
     def save_mission(self, mission: MissionRecord) -> None:
         """Insert the mission, or replace the one with its id (every field: the record is the truth)."""
-        values = _values(mission)
+        values = row_of(mission)
         updates = ", ".join(f"{c} = excluded.{c}" for c in _MISSION.split(", ")[1:])
         marks = ", ".join("?" * len(values))
         self._write(
@@ -302,20 +308,34 @@ class Store:
 
     def mission(self, mission_id: str) -> MissionRecord | None:
         rows = self._read(f"SELECT {_MISSION} FROM missions WHERE id = ?", (mission_id,))
-        return _record(MissionRecord, rows[0]) if rows else None
+        return record_of(MissionRecord, rows[0]) if rows else None
 
-    def missions(self) -> list[MissionRecord]:
-        """Newest first."""
-        return [
-            _record(MissionRecord, r) for r in self._read(f"SELECT {_MISSION} FROM missions ORDER BY created DESC, id")
-        ]
+    def missions(self, limit: int | None = None) -> list[MissionRecord]:
+        """Newest first; the newest ``limit`` when given."""
+        sql = f"SELECT {_MISSION} FROM missions ORDER BY created DESC, id" + (" LIMIT ?" if limit is not None else "")
+        return [record_of(MissionRecord, r) for r in self._read(sql, () if limit is None else (limit,))]
+
+    # -- targets ----------------------------------------------------------------------------------
+
+    def save_targets(self, targets: Sequence[Target]) -> None:
+        """Insert the targets, or replace those with their ids; all in one transaction."""
+        updates = ", ".join(f"{c} = excluded.{c}" for c in _TARGET.split(", ")[1:])
+        sql = self._sql(
+            f"INSERT INTO targets ({_TARGET}) VALUES ({', '.join('?' * len(fields(Target)))}) "
+            f"ON CONFLICT (id) DO UPDATE SET {updates}"
+        )
+        with self._transaction() as cursor:
+            cursor.executemany(sql, [row_of(t) for t in targets])
+
+    def targets(self) -> list[Target]:
+        return [record_of(Target, r) for r in self._read(f"SELECT {_TARGET} FROM targets ORDER BY id")]
 
     # -- captures and images ----------------------------------------------------------------------
 
     def add_capture(self, capture: CaptureRecord, jpeg: bytes | None) -> CaptureRecord:
         """Keep the capture and its image (if any); the record as stored, ``image`` the JPEG's SHA-256 or None."""
         stored = replace(capture, image=None if jpeg is None else self._keep_image(jpeg))
-        values = _values(stored)
+        values = row_of(stored)
         self._write(f"INSERT INTO captures ({_CAPTURE}) VALUES ({', '.join('?' * len(values))})", values)
         return stored
 
@@ -358,13 +378,13 @@ class Store:
 
     def capture(self, capture_id: str) -> CaptureRecord | None:
         rows = self._read(f"SELECT {_CAPTURE} FROM captures WHERE id = ?", (capture_id,))
-        return _record(CaptureRecord, rows[0]) if rows else None
+        return record_of(CaptureRecord, rows[0]) if rows else None
 
     def captures(self, mission_id: str | None = None) -> list[CaptureRecord]:
         """Oldest first; those of one mission, or all."""
         where, args = ("WHERE mission = ?", (mission_id,)) if mission_id is not None else ("", ())
         return [
-            _record(CaptureRecord, r)
+            record_of(CaptureRecord, r)
             for r in self._read(f"SELECT {_CAPTURE} FROM captures {where} ORDER BY t, id", args)
         ]
 
@@ -374,7 +394,7 @@ class Store:
         """Keep a finding; its capture must be stored (StoreError otherwise)."""
         if finding.status not in FINDING_STATUSES:
             raise ValueError(f"status must be one of {', '.join(FINDING_STATUSES)}, got {finding.status!r}")
-        values = _values(finding)
+        values = row_of(finding)
         self._write(f"INSERT INTO findings ({_FINDING}) VALUES ({', '.join('?' * len(values))})", values)
         return finding
 
@@ -398,7 +418,7 @@ class Store:
         )
         if not rows:
             raise UnknownRecord(f"no finding {finding_id[:80]!r}")
-        return _record(FindingRecord, rows[0])
+        return record_of(FindingRecord, rows[0])
 
     def findings(
         self, *, mission: str | None = None, status: str | None = None, robot: str | None = None
@@ -407,7 +427,22 @@ class Store:
         conditions = [(c, v) for c, v in (("mission", mission), ("status", status), ("robot", robot)) if v is not None]
         where = " AND ".join(f"{c} = ?" for c, _ in conditions)
         sql = f"SELECT {_FINDING} FROM findings {'WHERE ' + where if where else ''} ORDER BY created, id"
-        return [_record(FindingRecord, r) for r in self._read(sql, [v for _, v in conditions])]
+        return [record_of(FindingRecord, r) for r in self._read(sql, [v for _, v in conditions])]
+
+    def recent_findings(self, limit: int, before: float | None = None) -> list[tuple[FindingRecord, CaptureRecord]]:
+        """The newest ``limit`` findings (created before ``before`` when given), newest first, each with its
+        capture: a page of the findings list."""
+        names = (
+            ", ".join(f"f.{c}" for c in _FINDING.split(", ")) + ", " + ", ".join(f"c.{c}" for c in _CAPTURE.split(", "))
+        )
+        where, args = ("WHERE f.created < ?", [before]) if before is not None else ("", [])
+        rows = self._read(
+            f"SELECT {names} FROM findings f JOIN captures c ON c.id = f.capture {where} "
+            "ORDER BY f.created DESC, f.id DESC LIMIT ?",
+            [*args, limit],
+        )
+        split = len(fields(FindingRecord))
+        return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
 
     # -- lifetime ---------------------------------------------------------------------------------
 
@@ -452,28 +487,3 @@ def _without_password(url: str) -> str:
         netloc = f"{user.split(':', 1)[0]}@{host}"
     query = urlencode([(k, v) for k, v in parse_qsl(parts.query) if k != "password"])
     return urlunsplit((parts.scheme, netloc, parts.path, query, parts.fragment))
-
-
-def _values(record: MissionRecord | CaptureRecord | FindingRecord) -> tuple[Any, ...]:
-    """The row of a record: its fields in order, steps, readings and region as JSON text."""
-    values: list[Any] = []
-    for f in fields(record):
-        value = getattr(record, f.name)
-        if f.name == "steps":
-            value = json.dumps([{k: v for k, v in asdict(step).items() if v is not None} for step in value])
-        elif f.name in ("readings", "region") and value is not None:
-            value = json.dumps(value)
-        values.append(value)
-    return tuple(values)
-
-
-def _record(kind: type[_R], row: Sequence[Any]) -> _R:
-    """The record of a row: the inverse of ``_values``."""
-    data = dict(zip((f.name for f in fields(kind)), row, strict=True))
-    if "steps" in data:
-        data["steps"] = tuple(Step(**step) for step in json.loads(data["steps"]))
-    if "readings" in data:
-        data["readings"] = json.loads(data["readings"])
-    if data.get("region") is not None:
-        data["region"] = tuple((int(u), int(v)) for u, v in json.loads(data["region"]))
-    return kind(**data)
