@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
+from .access import MIN_TOKEN_BITS, weak_token
 from .backends import BACKENDS
 from .config import load_config
 from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
@@ -89,9 +90,15 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_access_options(access: argparse._ArgumentGroup) -> None:
     access.add_argument(
         "--token",
-        default=os.environ.get("XR_RELAY_TOKEN"),
-        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start); the relay prints "
-        "its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start), of at least "
+        f"{MIN_TOKEN_BITS} bits of entropy (e.g. python3 -c 'import secrets; print(secrets.token_urlsafe(32))'); "
+        "the relay prints its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+    )
+    access.add_argument(
+        "--allow-weak-token",
+        action="store_true",
+        help=f"accept a --token (or $XR_RELAY_TOKEN) of fewer than {MIN_TOKEN_BITS} bits of entropy, for a closed "
+        "test network only; the relay says so at start-up",
     )
     access.add_argument(
         "--allow-viewers",
@@ -208,6 +215,22 @@ def main(argv: list[str] | None = None) -> int:
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
     log = logging.getLogger("relay")
+    token, source = (args.token, "--token") if args.token else (os.environ.get("XR_RELAY_TOKEN"), "$XR_RELAY_TOKEN")
+    why = weak_token(token) if token else None
+    if why is not None and not args.allow_weak_token:
+        log.error(
+            "%s: the operator token has %s. Give one of at least %d bits (python3 -c 'import secrets; "
+            "print(secrets.token_urlsafe(32))'), or none for a new random one each start; --allow-weak-token "
+            "accepts it anyway (a closed test network only)",
+            source, why, MIN_TOKEN_BITS,
+        )  # fmt: skip
+        return EXIT_USAGE
+    if why is not None:
+        log.warning(
+            "WEAK OPERATOR TOKEN, accepted because of --allow-weak-token: %s has %s. Anyone who can reach this "
+            "relay may guess it and command the robots: use it on a closed test network only",
+            source, why,
+        )  # fmt: skip
     try:
         config = load_config(args.config)
     except ConfigError as exc:
@@ -231,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
             backend=args.backend,
             host=args.host,
             port=port,
-            token=args.token or secrets.token_urlsafe(24),
+            token=token or secrets.token_urlsafe(24),
             allow_viewers=args.allow_viewers,
             allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
             allowed_hosts=tuple(args.allow_host),
