@@ -49,6 +49,11 @@ CSV_FIELDS = (
 )
 
 
+#: A cell starting with one of these is read as a formula by spreadsheets (CSV injection: a note "=HYPERLINK(...)"
+#: became a live link): such a cell gets a leading single quote, as OWASP advises, and is shown as typed.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
 @dataclass(frozen=True)
 class Report:
     missions: list[MissionRecord]
@@ -85,17 +90,24 @@ def as_json(report: Report) -> str:
 
 
 def as_csv(report: Report) -> str:
+    """The findings, one row each. Every text cell is neutralised (``_cell``); the numbers the report formats itself
+    (x, y, time) stay numbers."""
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(CSV_FIELDS)
     for f in report.findings:
         capture = report.captures.get(f.capture)
         readings = "; ".join(f"{k}={v:g}" for k, v in (capture.readings if capture else {}).items())
+        text = (f.id, f.status, f.source, f.mission or "", f.robot, f.target or "")
         writer.writerow(
-            (f.id, f.status, f.source, f.mission or "", f.robot, f.target or "", f"{f.x:.3f}", f"{f.y:.3f}",
-             f.created, f.note, readings, capture.image if capture and capture.image else "")
+            (*map(_cell, text), f"{f.x:.3f}", f"{f.y:.3f}", f.created, _cell(f.note), _cell(readings),
+             _cell(capture.image if capture and capture.image else ""))
         )  # fmt: skip
     return out.getvalue()
+
+
+def _cell(text: str) -> str:
+    return "'" + text if text.startswith(FORMULA_STARTS) else text
 
 
 def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
