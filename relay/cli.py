@@ -18,6 +18,7 @@ from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
 from .inspection.kml import KmlError
 from .inspection.store import StoreError
 from .options import BagOptions, Options, ZenohOptions
+from .redaction import redact_logs
 
 EXIT_USAGE = 2
 
@@ -75,9 +76,14 @@ def build_parser() -> argparse.ArgumentParser:
         default="xr-relay-inspection.sqlite",
         metavar="FILE_OR_URL",
         help="where missions, captures and findings are kept: a SQLite file (default ./xr-relay-inspection.sqlite, "
-        "images in ./xr-relay-inspection-images) or a postgresql:// URL",
+        "images in ./xr-relay-inspection-images) or a postgresql:// URL (better without its password: libpq reads "
+        "$PGPASSWORD and ~/.pgpass; a password in the URL is never logged)",
     )
-    inspection.add_argument("--images", metavar="DIR", help="capture images (default: beside a SQLite file)")
+    inspection.add_argument(
+        "--images",
+        metavar="DIR",
+        help="capture images (default: beside a SQLite file; for PostgreSQL ~/.local/share/xr-relay/images)",
+    )
     inspection.add_argument("--targets", metavar="FILE", help="a targets file besides the facility's own targets")
     _add_access_options(parser.add_argument_group("access (docs/security.md)"))
     _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
@@ -214,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         level=getattr(logging, args.log_level.upper()),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    redact_logs()  # a database URL's password or a token in a log line is written as *** (relay.redaction)
     log = logging.getLogger("relay")
     token, source = (args.token, "--token") if args.token else (os.environ.get("XR_RELAY_TOKEN"), "$XR_RELAY_TOKEN")
     why = weak_token(token) if token else None

@@ -203,18 +203,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     from ..errors import ConfigError
     from ..occupancy import from_map_yaml
     from ..twin.facility import load_facility
-    from .store import Store, StoreError
+    from .store import Store, StoreError, default_images
 
     parser = argparse.ArgumentParser(prog="xr-relay report", description=__doc__.split("\n\n")[0])
     parser.add_argument("--mission", required=True, help="a mission id, or the id a fleet mission's robots share")
     parser.add_argument("--database", default="xr-relay-inspection.sqlite", help="SQLite file or postgresql:// URL")
-    parser.add_argument("--images", help="capture images (default: beside a SQLite file, <name>-images)")
+    parser.add_argument(
+        "--images",
+        help="capture images (default: beside a SQLite file, <name>-images; for PostgreSQL "
+        "~/.local/share/xr-relay/images)",
+    )
     parser.add_argument("--config", type=Path, default=Path("robots.yaml"), help="for the plan of the site")
     parser.add_argument("--out", type=Path, default=Path("."), help="directory for the .html, .json and .csv")
     args = parser.parse_args(argv)
-    images = args.images or (
-        str(Path(args.database).with_name(Path(args.database).stem + "-images")) if "://" not in args.database else "."
-    )
+    images = args.images or str(default_images(args.database))
     try:
         if "://" not in args.database and not Path(args.database).is_file():
             raise StoreError(f"{args.database}: no such database (start the relay with --database, or name it here)")
