@@ -103,6 +103,13 @@ class Access:
             f"that name, start it with --allow-host {name[:80]}",
         )
 
+    def is_own_host(self, host: str) -> bool:
+        try:
+            self.check_host(host)
+        except Refused:
+            return False
+        return True
+
     def check_origin(self, origin: str | None, own_origin: str) -> None:
         if origin is None:
             return

@@ -24,6 +24,7 @@ from .clients import Client
 from .config import FleetConfig
 from .core import BackendFactory, Relay
 from .guard import ConnectionGuard
+from .headers import SecurityHeaders
 from .options import Options
 from .tls import fingerprint, server_context
 
@@ -407,6 +408,9 @@ def create_app(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
     )
     app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
+    # Every response, errors included: the CSP the client and the report pass, nosniff, no referrer, no framing.
+    headers = SecurityHeaders.for_pages(CLIENT_DIR, own_host=app[ACCESS_KEY].is_own_host)
+    app.on_response_prepare.append(headers.on_response_prepare)
     app.on_cleanup.append(_stop_guard)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)

@@ -15,9 +15,10 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+import aiohttp
 import pytest
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, RunningRelay
 from tests.test_store import _postgres_binaries
 from tests.wsclient import TestClient
 
@@ -142,3 +143,38 @@ def test_redaction_covers_urls_parameters_and_tracebacks() -> None:
     assert redact("GET /ws?token=abc&batch=1") == "GET /ws?token=***&batch=1"
     for harmless in ("http://127.0.0.1:8080/path@x", "postgresql://relay@db:5432/x", "a note: 3 m @ 2 s"):
         assert redact(harmless) == harmless
+
+
+async def test_every_response_carries_the_security_headers(relay_server: RunningRelay) -> None:
+    """Measured before: no Content-Security-Policy, X-Content-Type-Options, Referrer-Policy or frame-ancestors on
+    any page. Now every response has them, errors and refusals included; the page's import map is allowed by its
+    hash and nothing else inline is (tests/e2e/test_security_headers.py loads the pages in Chromium)."""
+    from relay.headers import inline_script_hashes
+
+    import_map = inline_script_hashes((ROOT / "xr_client" / "index.html").read_text())
+    assert len(import_map) == 1
+    paths = {
+        "/": 200, "/src/main.js": 200, "/scenes/facility.glb": 200, "/healthz": 200, "/metrics": 200,
+        "/package.json": 404, "/report/m-nothing.html": 404, f"/captures/{'0' * 64}.jpg": 404, "/ws": 400,
+    }  # fmt: skip
+    async with aiohttp.ClientSession() as http:
+        answers = []
+        for path, status in paths.items():
+            async with http.get(relay_server.url + path) as response:
+                answers.append((path, response.status, status, response.headers))
+        async with http.get(relay_server.url + "/", headers={"Host": "evil.example"}) as response:
+            answers.append(("/ (rebinding)", response.status, 403, response.headers))
+    for path, got, expected, headers in answers:
+        assert got == expected, (path, got)
+        assert headers.get("X-Content-Type-Options") == "nosniff", path
+        assert headers.get("Referrer-Policy") == "no-referrer", path
+        policy = dict(d.strip().split(" ", 1) for d in headers["Content-Security-Policy"].split(";"))
+        assert policy["frame-ancestors"] == "'none'" and policy["object-src"] == "'none'", path
+        assert policy["script-src"] == f"'self' 'wasm-unsafe-eval' {import_map[0]}", path
+        assert "'unsafe-inline'" not in headers["Content-Security-Policy"], path
+    host = relay_server.url.removeprefix("http://")
+    assert policy["connect-src"] == "'self' blob: data:"  # the rebinding Host is not named
+    assert (
+        dict(d.strip().split(" ", 1) for d in answers[0][3]["Content-Security-Policy"].split(";"))["connect-src"]
+        == f"'self' blob: data: ws://{host}"
+    )

@@ -32,7 +32,10 @@ if TYPE_CHECKING:
     from ..occupancy import OccupancyGrid
     from .store import Store
 
-COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}
+COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
+#: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
+#: this text by its hash (relay.headers), and the report sets no ``style`` attribute, which the policy would block.
+STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
 CSV_FIELDS = (
     "finding",
     "status",
@@ -124,7 +127,7 @@ def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
         image = (
             f'<image href="data:image/png;base64,{base64.b64encode(png.tobytes()).decode()}" x="0" y="0" '
             f'width="{(max_x - min_x) * 50:.0f}" height="{(max_y - min_y) * 50:.0f}" preserveAspectRatio="none" '
-            'style="image-rendering: pixelated"/>'
+            'class="grid"/>'
             if ok
             else ""
         )
@@ -166,7 +169,7 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
         capture = report.captures.get(f.capture)
         readings = "<br>".join(f"{html.escape(k)}: {v:.1f}" for k, v in (capture.readings if capture else {}).items())
         rows.append(
-            f'<tr><td>{i}</td><td><span class="status" style="background:{COLOURS[f.status]}">{f.status}</span></td>'
+            f'<tr><td>{i}</td><td><span class="status {f.status}">{f.status}</span></td>'
             f"<td>{html.escape(f.target or '')}</td><td>{html.escape(f.robot)}</td>"
             f"<td>({f.x:.2f}, {f.y:.2f})</td><td>{readings}</td><td>{html.escape(f.note)}</td>"
             f"{_image_cell(f, capture, store)}</tr>"
@@ -180,13 +183,8 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
     counts = {s: sum(f.status == s for f in report.findings) for s in COLOURS}
     summary = ", ".join(f"{n} {s.replace('_', ' ')}" for s, n in counts.items() if n) or "no findings"
     return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>{title}: inspection report</title>
-<style>
-body {{ font: 15px/1.4 system-ui, sans-serif; margin: 2em; color: #1b1f24; }}
-table {{ border-collapse: collapse; width: 100%; }}
-td, th {{ border-bottom: 1px solid #ddd; padding: 6px; text-align: left; vertical-align: top; }}
-.status {{ color: #fff; padding: 2px 8px; border-radius: 4px; }}
-</style></head><body>
+<html lang="en"><head><meta charset="utf-8"><title>{title}: inspection report</title><link rel="icon" href="data:,">
+<style>{STYLESHEET}</style></head><body>
 <h1>{title}</h1>
 <p>{len(report.findings)} findings: {summary}.</p>
 <ul>{missions}</ul>
