@@ -88,7 +88,8 @@ async def client_loop(index: int, url: str, deadline: float, rng: random.Random,
 
 async def soak(minutes: float, seed: int) -> dict[str, Any]:
     relay = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--port", "0", "--token", TOKEN, "--audit-log", "", "--log-level", "warning",
+        sys.executable, "-m", "relay", "--port", "0", "--token", TOKEN, "--allow-weak-token", "--audit-log", "",
+        "--log-level", "warning",
         cwd=ROOT, stdout=asyncio.subprocess.PIPE,
     )  # fmt: skip
     assert relay.stdout is not None

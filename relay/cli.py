@@ -11,12 +11,14 @@ import sys
 from pathlib import Path
 
 from . import __version__
+from .access import MIN_TOKEN_BITS, weak_token
 from .backends import BACKENDS
 from .config import load_config
 from .errors import AuditLogUnavailable, BackendUnavailable, ConfigError
 from .inspection.kml import KmlError
 from .inspection.store import StoreError
 from .options import BagOptions, Options, ZenohOptions
+from .redaction import redact_logs
 
 EXIT_USAGE = 2
 
@@ -74,9 +76,14 @@ def build_parser() -> argparse.ArgumentParser:
         default="xr-relay-inspection.sqlite",
         metavar="FILE_OR_URL",
         help="where missions, captures and findings are kept: a SQLite file (default ./xr-relay-inspection.sqlite, "
-        "images in ./xr-relay-inspection-images) or a postgresql:// URL",
+        "images in ./xr-relay-inspection-images) or a postgresql:// URL (better without its password: libpq reads "
+        "$PGPASSWORD and ~/.pgpass; a password in the URL is never logged)",
     )
-    inspection.add_argument("--images", metavar="DIR", help="capture images (default: beside a SQLite file)")
+    inspection.add_argument(
+        "--images",
+        metavar="DIR",
+        help="capture images (default: beside a SQLite file; for PostgreSQL ~/.local/share/xr-relay/images)",
+    )
     inspection.add_argument("--targets", metavar="FILE", help="a targets file besides the facility's own targets")
     _add_access_options(parser.add_argument_group("access (docs/security.md)"))
     _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
@@ -89,9 +96,15 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_access_options(access: argparse._ArgumentGroup) -> None:
     access.add_argument(
         "--token",
-        default=os.environ.get("XR_RELAY_TOKEN"),
-        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start); the relay prints "
-        "its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start), of at least "
+        f"{MIN_TOKEN_BITS} bits of entropy (e.g. python3 -c 'import secrets; print(secrets.token_urlsafe(32))'); "
+        "the relay prints its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+    )
+    access.add_argument(
+        "--allow-weak-token",
+        action="store_true",
+        help=f"accept a --token (or $XR_RELAY_TOKEN) of fewer than {MIN_TOKEN_BITS} bits of entropy, for a closed "
+        "test network only; the relay says so at start-up",
     )
     access.add_argument(
         "--allow-viewers",
@@ -207,7 +220,24 @@ def main(argv: list[str] | None = None) -> int:
         level=getattr(logging, args.log_level.upper()),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
+    redact_logs()  # a database URL's password or a token in a log line is written as *** (relay.redaction)
     log = logging.getLogger("relay")
+    token, source = (args.token, "--token") if args.token else (os.environ.get("XR_RELAY_TOKEN"), "$XR_RELAY_TOKEN")
+    why = weak_token(token) if token else None
+    if why is not None and not args.allow_weak_token:
+        log.error(
+            "%s: the operator token has %s. Give one of at least %d bits (python3 -c 'import secrets; "
+            "print(secrets.token_urlsafe(32))'), or none for a new random one each start; --allow-weak-token "
+            "accepts it anyway (a closed test network only)",
+            source, why, MIN_TOKEN_BITS,
+        )  # fmt: skip
+        return EXIT_USAGE
+    if why is not None:
+        log.warning(
+            "WEAK OPERATOR TOKEN, accepted because of --allow-weak-token: %s has %s. Anyone who can reach this "
+            "relay may guess it and command the robots: use it on a closed test network only",
+            source, why,
+        )  # fmt: skip
     try:
         config = load_config(args.config)
     except ConfigError as exc:
@@ -231,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
             backend=args.backend,
             host=args.host,
             port=port,
-            token=args.token or secrets.token_urlsafe(24),
+            token=token or secrets.token_urlsafe(24),
             allow_viewers=args.allow_viewers,
             allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
             allowed_hosts=tuple(args.allow_host),

@@ -54,7 +54,7 @@ class Options:
     tls_key: str | None = None
     #: The inspection database: a SQLite file or a postgresql:// URL; None: a temporary one for this run.
     database: str | None = None
-    #: Where capture images are kept (default: beside a SQLite file, ``<name>-images``).
+    #: Where capture images are kept (default: relay.inspection.store.default_images, never the working directory).
     images: str | None = None
     #: A targets file (relay/inspection/targets.py) besides the facility's own.
     targets: str | None = None

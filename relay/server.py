@@ -24,6 +24,7 @@ from .clients import Client
 from .config import FleetConfig
 from .core import BackendFactory, Relay
 from .guard import ConnectionGuard
+from .headers import SecurityHeaders
 from .loop_lag import ArrivalDates, date_reads
 from .options import Options
 from .tls import fingerprint, server_context
@@ -228,35 +229,45 @@ async def check_token(request: web.Request) -> web.Response:
     return web.json_response({"role": role})
 
 
-def _may_read_inspection(request: web.Request) -> None:
+#: What /captures and /report answer for what does not exist and for what the request may not read: the same
+#: status and words, so that a guesser cannot tell a wrong token from a right one by the answer (it was 401 for a
+#: wrong token, 404 for the right one and an unknown mission).
+NOT_FOUND = "no such {what}, or not for this token: open it from the relay's page, whose links carry the token\n"
+
+
+async def _may_read_inspection(request: web.Request) -> bool:
     """Capture images and reports: for the operator (the token in ``?token=``), and for anyone when viewers are
-    allowed (viewers see findings). Wrong tokens are slowed like wrong handshakes."""
+    allowed (viewers see findings). Wrong tokens are slowed as at the handshake (``Access.admit``: one count per
+    address, shared with /ws and /auth); a refusal is then answered as an unknown name is (``NOT_FOUND``)."""
     access = request.app[ACCESS_KEY]
     try:
         access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
-        access.admit(request.query.get("token"), request.remote or "unknown", time.monotonic())
+        _, delay = access.admit(request.query.get("token"), request.remote or "unknown", time.monotonic())
     except Refused as exc:
-        raise web.HTTPUnauthorized(text=exc.reason + "\n") from None
+        await asyncio.sleep(exc.delay)
+        return False
+    if delay > 0:
+        await asyncio.sleep(delay)
+    return True
 
 
 async def capture_image(request: web.Request) -> web.Response:
-    _may_read_inspection(request)
-    inspection = request.app[RELAY_KEY].inspection
-    sha = request.match_info["sha"]
-    jpeg = await inspection.image(sha)
+    allowed = await _may_read_inspection(request)
+    jpeg = await request.app[RELAY_KEY].inspection.image(request.match_info["sha"]) if allowed else None
     if jpeg is None:
-        raise web.HTTPNotFound(text="no such capture image\n")
+        raise web.HTTPNotFound(text=NOT_FOUND.format(what="capture image"))
     return web.Response(body=jpeg, content_type="image/jpeg", headers={"Cache-Control": "private, max-age=86400"})
 
 
 async def report(request: web.Request) -> web.Response:
-    _may_read_inspection(request)
+    if not await _may_read_inspection(request):
+        raise web.HTTPNotFound(text=NOT_FOUND.format(what="report"))
     inspection = request.app[RELAY_KEY].inspection
     mission, kind = request.match_info["mission"], request.match_info["kind"]
     try:
         text = await inspection.report(mission, kind)
-    except ValueError as exc:
-        raise web.HTTPNotFound(text=f"{exc}\n") from None
+    except ValueError:
+        raise web.HTTPNotFound(text=NOT_FOUND.format(what="report")) from None
     types = {"html": "text/html", "json": "application/json", "csv": "text/csv"}
     return web.Response(text=text, content_type=types[kind], charset="utf-8")
 
@@ -409,6 +420,9 @@ def create_app(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
     )
     app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
+    # Every response, errors included: the CSP the client and the report pass, nosniff, no referrer, no framing.
+    headers = SecurityHeaders.for_pages(CLIENT_DIR, own_host=app[ACCESS_KEY].is_own_host)
+    app.on_response_prepare.append(headers.on_response_prepare)
     app.on_cleanup.append(_stop_guard)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)

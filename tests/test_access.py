@@ -4,10 +4,12 @@ caps, control leases, and TLS. Every refusal is checked on the backend side too:
 from __future__ import annotations
 
 import asyncio
+import secrets
 import ssl
 import subprocess
 import sys
 import time
+from asyncio.subprocess import PIPE
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -21,7 +23,7 @@ from relay.backends.sim import SimBackend
 from relay.config import FleetConfig
 from relay.options import Options
 from relay.tls import ensure_certificate, fingerprint
-from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.conftest import ROOT, RunningRelay, relay_process, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "s3cret-operator-token"
@@ -126,22 +128,43 @@ def test_wrong_tokens_are_slowed_and_the_right_token_always_gets_in() -> None:
 
     access = Access(TOKEN)
     delays = []
-    for i in range(12):
+    now = 100.0
+    for _ in range(12):  # a guesser that waits for each answer before its next guess
         with pytest.raises(Refused) as refused:
-            access.admit("guess", "127.0.0.1", 100.0 + i)
+            access.admit("guess", "127.0.0.1", now)
         delays.append(refused.value.delay)
+        now += refused.value.delay + 0.01
     assert delays[:FREE_FAILURES] == [0.0] * FREE_FAILURES
     assert delays[FREE_FAILURES : FREE_FAILURES + 3] == [FIRST_DELAY, 2 * FIRST_DELAY, 4 * FIRST_DELAY]
     assert max(delays) == MAX_DELAY and delays == sorted(delays)
     # The right token, from the same address, right after: in at once (was: 429 for a minute).
-    assert access.admit(TOKEN, "127.0.0.1", 112.0) == ("operator", 0.0)
+    assert access.admit(TOKEN, "127.0.0.1", now) == ("operator", 0.0)
     # Another address is not slowed by this one, and a minute later this one is not either.
     with pytest.raises(Refused) as other:
-        access.admit("guess", "10.0.0.2", 112.0)
+        access.admit("guess", "10.0.0.2", now)
     assert other.value.delay == 0.0
     with pytest.raises(Refused) as later:
-        access.admit("guess", "127.0.0.1", 112.0 + access.window + 15)
+        access.admit("guess", "127.0.0.1", now + access.window + 15)
     assert later.value.delay == 0.0
+
+
+def test_guesses_at_once_are_answered_one_after_another_and_ipv6_counts_by_its_64() -> None:
+    """Each answer waiting on its own let 40 parallel guesses through within 0.02 s (issue 28, finding 5); the
+    answers to one address's wrong tokens now come one after another, MAX_DELAY apart at the most."""
+    from relay.access import MAX_DELAY, Access, Refused
+
+    access = Access(TOKEN)
+    answers = []
+    for i in range(40):  # 40 wrong tokens at the same instant, from addresses of one IPv6 /64
+        with pytest.raises(Refused) as refused:
+            access.admit("guess", f"2001:db8:1:2::{i + 1:x}", 100.0)
+        answers.append(100.0 + refused.value.delay)
+    assert answers == sorted(answers) and len(set(answers[FREE_FAILURES:])) == 40 - FREE_FAILURES
+    assert answers[-1] - 100.0 > 30 * MAX_DELAY  # 40 answers take over a minute, not 0.02 s
+    assert access.admit(TOKEN, "2001:db8:1:2::99", 100.0) == ("operator", 0.0)
+    with pytest.raises(Refused) as elsewhere:  # another /64 is another guesser
+        access.admit("guess", "2001:db8:1:3::1", 100.0)
+    assert elsewhere.value.delay == 0.0
 
 
 async def test_a_page_spraying_tokens_cannot_lock_the_operator_out(guarded: RunningRelay) -> None:
@@ -296,10 +319,11 @@ async def test_relay_serves_https_and_wss_with_tls_auto(tmp_path: Path) -> None:
 
 def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
     """The relay logs refusals and connections without the query string that carries the token."""
+    token = "tok-SECRET-" + secrets.token_urlsafe(32)
     script = (
         "import asyncio, sys\n"
         "from relay.cli import main\n"
-        "sys.exit(main(['--port', '0', '--token', 'tok-SECRET-123', '--log-level', 'debug', '--audit-log', '']))\n"
+        f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '']))\n"
     )
     process = subprocess.Popen(
         [sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -310,9 +334,9 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
         base = line.split("open ")[1].split("/#")[0]
         import websockets.sync.client as sync_client
 
-        for token in ("tok-SECRET-123", "wrong-SECRET-guess"):
+        for presented in (token, "wrong-SECRET-guess"):
             try:
-                with sync_client.connect(base.replace("http", "ws") + f"/ws?token={token}") as ws:
+                with sync_client.connect(base.replace("http", "ws") + f"/ws?token={presented}") as ws:
                     ws.recv(timeout=5)
             except Exception:
                 pass
@@ -353,3 +377,74 @@ async def test_the_page_can_ask_why_its_token_is_refused(fleet_config: FleetConf
             assert time.monotonic() - started < FIRST_DELAY
     finally:
         await running.runner.cleanup()
+
+
+async def test_guessing_at_report_is_slowed_as_at_the_handshake_and_learns_nothing(guarded: RunningRelay) -> None:
+    """Measured before (issue 28, finding 5): 40 wrong tokens at /report were answered within 0.02 s, a wrong token
+    got 401 where the right one got 404 (an oracle), and a 4-digit token was found so in 3.5 s. Now /report and
+    /captures ask what the handshake asks (one count of wrong tokens per address, answers one after another) and
+    answer a wrong token, no token, a foreign origin and an unknown name with the same 404."""
+    async with aiohttp.ClientSession() as http:
+
+        async def get(path: str, headers: dict[str, str] | None = None) -> tuple[int, str, str]:
+            async with http.get(guarded.url + path, headers=headers) as response:
+                return response.status, response.content_type, await response.text()
+
+        unknown = await get(f"/report/m-nothing.html?token={TOKEN}")
+        assert unknown[0] == 404
+        assert await get("/report/m-nothing.html") == unknown
+        assert await get("/report/m-nothing.html?token=guess") == unknown
+        assert await get(f"/report/m-nothing.html?token={TOKEN}", {"Origin": "https://evil.example"}) == unknown
+        image = await get(f"/captures/{'0' * 64}.jpg?token={TOKEN}")
+        assert image[0] == 404 and await get(f"/captures/{'0' * 64}.jpg?token=guess") == image
+        # Two wrong tokens so far from this address; 40 more at once.
+        guesses = [asyncio.ensure_future(get(f"/report/m-{i}.csv?token=guess-{i}")) for i in range(40)]
+        await asyncio.sleep(0.5)
+        started = time.monotonic()
+        assert (await get(f"/report/m-nothing.csv?token={TOKEN}"))[0] == 404  # the operator is not slowed
+        assert time.monotonic() - started < 1.0
+        done, pending = await asyncio.wait(guesses, timeout=3.0)
+        # 0.1 + 0.2 + 0.4 + 0.8 s apart after the free ones: 5 answered within 3 s (all 40 within 0.02 s before).
+        assert 1 <= len(done) <= 10, len(done)
+        assert all(task.result()[:2] == unknown[:2] for task in done)
+        for task in pending:
+            task.cancel()
+        await asyncio.gather(*pending, return_exceptions=True)
+    # The same count as the handshake's: a wrong handshake from here now waits behind those guesses.
+    with pytest.raises(TimeoutError):
+        await asyncio.wait_for(refused_status(guarded.ws_url + "?token=guess"), 1.0)
+    client = await TestClient.open(guarded.ws_url + "?token=" + TOKEN)
+    assert (await client.hello())["role"] == "operator"
+    await client.close()
+
+
+def test_a_weak_token_is_refused_with_a_clear_message(caplog: pytest.LogCaptureFixture, monkeypatch: Any) -> None:
+    """A 4-digit token was found through /report in 3.5 s and then opened /ws as operator (issue 28, finding 5):
+    --token and $XR_RELAY_TOKEN refuse a token under 128 bits (estimated from its length and alphabet)."""
+    from relay.access import weak_token
+    from relay.cli import main
+
+    monkeypatch.delenv("XR_RELAY_TOKEN", raising=False)
+    assert main(["--token", "4821", "--audit-log", ""]) == 2
+    assert "--token: the operator token has about 12 bits of entropy (4 characters)" in caplog.text
+    assert "--allow-weak-token" in caplog.text and "secrets.token_urlsafe(32)" in caplog.text
+    caplog.clear()
+    monkeypatch.setenv("XR_RELAY_TOKEN", "operator-secret")
+    assert main(["--audit-log", ""]) == 2
+    assert "$XR_RELAY_TOKEN: the operator token has about" in caplog.text and "operator-secret" not in caplog.text
+    # What the relay generates, and what the help suggests, always pass; so do 64 hexadecimal digits.
+    assert all(weak_token(secrets.token_urlsafe(24)) is None for _ in range(2000))
+    assert weak_token(secrets.token_urlsafe(32)) is None and weak_token(secrets.token_hex(32)) is None
+    assert all(weak_token(t) is not None for t in ("a" * 200, "ab" * 100, "password" * 8, "0123456789" * 20))
+
+
+async def test_a_weak_token_is_accepted_only_when_asked_and_said_loudly() -> None:
+    relay, base = await relay_process("--token", "4821", "--allow-weak-token", "--audit-log", "", stderr=PIPE)
+    try:
+        client = await TestClient.open(base.replace("http", "ws") + "/ws?token=4821")
+        assert (await client.hello())["role"] == "operator"
+        await client.close()
+    finally:
+        relay.terminate()
+        _, err = await relay.communicate()
+    assert "WEAK OPERATOR TOKEN, accepted because of --allow-weak-token: --token has about 12 bits" in err.decode()

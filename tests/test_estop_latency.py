@@ -156,8 +156,9 @@ async def test_estop_is_acked_and_stops_the_robot_within_100_ms_under_a_viewer_f
         tmp_path,
     )  # fmt: skip
     relay, base = await relay_process(
-        "--backend", "ros", "--config", str(config), "--token", TOKEN, "--allow-viewers", "--audit-log", ""
-    )
+        "--backend", "ros", "--config", str(config), "--token", TOKEN, "--allow-weak-token", "--allow-viewers",
+        "--audit-log", "",
+    )  # fmt: skip
     clients: list[TestClient] = []
     try:
         ws_url = base.replace("http", "ws") + "/ws"

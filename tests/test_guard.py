@@ -138,6 +138,7 @@ async def test_a_relay_short_of_descriptors_still_lets_the_operator_in(tmp_path:
     relay, base = await relay_process(
         "--token",
         TOKEN,
+        "--allow-weak-token",
         "--audit-log",
         str(tmp_path / "audit.jsonl"),
         stderr=asyncio.subprocess.PIPE,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import secrets
 import signal
 import time
 
@@ -58,7 +59,7 @@ async def test_unstamped_teleop_that_waited_in_a_frozen_relay_never_moves_the_ro
     """Issue #28, finding 4: a client that does not stamp cmd_vel had 9-14 stale commands replayed after a 3 s
     SIGSTOP of the relay, and the robot turned 0.3-0.4 rad. Now every command read after the freeze is dated to
     its start, refused as ``stale``, and the robot does not turn."""
-    token = "a" * 32
+    token = secrets.token_urlsafe(24)
     relay, base = await relay_process(
         "--backend", "sim", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", ""
     )

@@ -192,9 +192,11 @@ async def test_pause_resume_skip_abort_and_stops() -> None:
     goes = fleet.calls.count(("go", "robot1", "2,2"))
     await fleet.runner.act(run, "resume", "c1")
     await fleet.settle()
-    assert run.record.state == "running" and fleet.calls.count(("go", "robot1", "2,2")) == goes + 1
+    resumed: MissionRecord = run.record  # the runner replaced it
+    assert resumed.state == "running" and fleet.calls.count(("go", "robot1", "2,2")) == goes + 1
     await fleet.runner.act(run, "abort", "c1")
-    assert run.record.state == "aborted" and fleet.released == ["m1.robot1"]
+    ended: MissionRecord = run.record
+    assert ended.state == "aborted" and fleet.released == ["m1.robot1"]
     with pytest.raises(ValueError, match="has ended"):
         await fleet.runner.act(run, "resume", "c1")
 

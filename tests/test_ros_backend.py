@@ -333,7 +333,9 @@ async def test_relay_terminated_during_teleop_stops_the_robot_before_exiting(ros
     config = tmp_path / "fleet.yaml"
     config.write_text(FLEET)
     peer = await start_peer(POSES, tmp_path)
-    relay, base = await relay_process("--backend", "ros", "--config", str(config), "--token", "t", "--audit-log", "")
+    relay, base = await relay_process(
+        "--backend", "ros", "--config", str(config), "--token", "t", "--allow-weak-token", "--audit-log", ""
+    )
     try:
         client = await TestClient.open(base.replace("http", "ws") + "/ws?token=t")
         await client.hello()

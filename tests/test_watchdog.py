@@ -94,7 +94,9 @@ async def test_a_relay_frozen_mid_teleop_leaves_its_robot_stopped(ros_domain: in
         sys.executable, "-m", "relay", "watchdog", "--config", str(config), cwd=ROOT,
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=dict(os.environ),
     )  # fmt: skip
-    relay, base = await relay_process("--backend", "ros", "--config", str(config), "--token", "t", "--audit-log", "")
+    relay, base = await relay_process(
+        "--backend", "ros", "--config", str(config), "--token", "t", "--allow-weak-token", "--audit-log", ""
+    )
     try:
         assert watchdog.stdout is not None
         assert b"watching alpha" in await asyncio.wait_for(watchdog.stdout.readline(), 60)

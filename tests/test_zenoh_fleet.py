@@ -37,7 +37,7 @@ async def test_estop_and_leases_are_shared_by_two_relays_and_a_killed_relay_free
     config.write_text(FLEET)
     relay_b, base_b = await relay_process(
         "--backend", "zenoh", "--config", str(config), "--zenoh-connect", router.endpoint, "--relay-id", "B",
-        "--token", "t", "--audit-log", "", "--database", str(tmp_path / "b.sqlite"),
+        "--token", "t", "--allow-weak-token", "--audit-log", "", "--database", str(tmp_path / "b.sqlite"),
     )  # fmt: skip
     running_a = await zenoh_relay(router, relay_id="A")
     client_a = await TestClient.open(running_a.ws_url)
@@ -113,7 +113,8 @@ async def test_a_killed_relays_robot_is_stopped_by_its_watchdog_and_freed_for_th
         endpoint = f"tcp/127.0.0.1:{port}"
         relay_b, base_b = await relay_process(
             "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
-            "--relay-id", "B", "--token", "t", "--audit-log", "", "--database", str(tmp_path / "b.sqlite"),
+            "--relay-id", "B", "--token", "t", "--allow-weak-token", "--audit-log", "",
+            "--database", str(tmp_path / "b.sqlite"),
         )  # fmt: skip
         options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,), relay_id="A"))
         running_a = await start_relay(load_config(ROOT / "robots.yaml"), options=options)

@@ -32,7 +32,10 @@ if TYPE_CHECKING:
     from ..occupancy import OccupancyGrid
     from .store import Store
 
-COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}
+COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
+#: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
+#: this text by its hash (relay.headers), and the report sets no ``style`` attribute, which the policy would block.
+STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
 CSV_FIELDS = (
     "finding",
     "status",
@@ -47,6 +50,11 @@ CSV_FIELDS = (
     "readings",
     "image",
 )
+
+
+#: A cell starting with one of these is read as a formula by spreadsheets (CSV injection: a note "=HYPERLINK(...)"
+#: became a live link): such a cell gets a leading single quote, as OWASP advises, and is shown as typed.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
 
 @dataclass(frozen=True)
@@ -85,17 +93,24 @@ def as_json(report: Report) -> str:
 
 
 def as_csv(report: Report) -> str:
+    """The findings, one row each. Every text cell is neutralised (``_cell``); the numbers the report formats itself
+    (x, y, time) stay numbers."""
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(CSV_FIELDS)
     for f in report.findings:
         capture = report.captures.get(f.capture)
         readings = "; ".join(f"{k}={v:g}" for k, v in (capture.readings if capture else {}).items())
+        text = (f.id, f.status, f.source, f.mission or "", f.robot, f.target or "")
         writer.writerow(
-            (f.id, f.status, f.source, f.mission or "", f.robot, f.target or "", f"{f.x:.3f}", f"{f.y:.3f}",
-             f.created, f.note, readings, capture.image if capture and capture.image else "")
+            (*map(_cell, text), f"{f.x:.3f}", f"{f.y:.3f}", f.created, _cell(f.note), _cell(readings),
+             _cell(capture.image if capture and capture.image else ""))
         )  # fmt: skip
     return out.getvalue()
+
+
+def _cell(text: str) -> str:
+    return "'" + text if text.startswith(FORMULA_STARTS) else text
 
 
 def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
@@ -112,7 +127,7 @@ def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
         image = (
             f'<image href="data:image/png;base64,{base64.b64encode(png.tobytes()).decode()}" x="0" y="0" '
             f'width="{(max_x - min_x) * 50:.0f}" height="{(max_y - min_y) * 50:.0f}" preserveAspectRatio="none" '
-            'style="image-rendering: pixelated"/>'
+            'class="grid"/>'
             if ok
             else ""
         )
@@ -154,7 +169,7 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
         capture = report.captures.get(f.capture)
         readings = "<br>".join(f"{html.escape(k)}: {v:.1f}" for k, v in (capture.readings if capture else {}).items())
         rows.append(
-            f'<tr><td>{i}</td><td><span class="status" style="background:{COLOURS[f.status]}">{f.status}</span></td>'
+            f'<tr><td>{i}</td><td><span class="status {f.status}">{f.status}</span></td>'
             f"<td>{html.escape(f.target or '')}</td><td>{html.escape(f.robot)}</td>"
             f"<td>({f.x:.2f}, {f.y:.2f})</td><td>{readings}</td><td>{html.escape(f.note)}</td>"
             f"{_image_cell(f, capture, store)}</tr>"
@@ -168,13 +183,8 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
     counts = {s: sum(f.status == s for f in report.findings) for s in COLOURS}
     summary = ", ".join(f"{n} {s.replace('_', ' ')}" for s, n in counts.items() if n) or "no findings"
     return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>{title}: inspection report</title>
-<style>
-body {{ font: 15px/1.4 system-ui, sans-serif; margin: 2em; color: #1b1f24; }}
-table {{ border-collapse: collapse; width: 100%; }}
-td, th {{ border-bottom: 1px solid #ddd; padding: 6px; text-align: left; vertical-align: top; }}
-.status {{ color: #fff; padding: 2px 8px; border-radius: 4px; }}
-</style></head><body>
+<html lang="en"><head><meta charset="utf-8"><title>{title}: inspection report</title><link rel="icon" href="data:,">
+<style>{STYLESHEET}</style></head><body>
 <h1>{title}</h1>
 <p>{len(report.findings)} findings: {summary}.</p>
 <ul>{missions}</ul>
@@ -191,18 +201,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     from ..errors import ConfigError
     from ..occupancy import from_map_yaml
     from ..twin.facility import load_facility
-    from .store import Store, StoreError
+    from .store import Store, StoreError, default_images
 
     parser = argparse.ArgumentParser(prog="xr-relay report", description=__doc__.split("\n\n")[0])
     parser.add_argument("--mission", required=True, help="a mission id, or the id a fleet mission's robots share")
     parser.add_argument("--database", default="xr-relay-inspection.sqlite", help="SQLite file or postgresql:// URL")
-    parser.add_argument("--images", help="capture images (default: beside a SQLite file, <name>-images)")
+    parser.add_argument(
+        "--images",
+        help="capture images (default: beside a SQLite file, <name>-images; for PostgreSQL "
+        "~/.local/share/xr-relay/images)",
+    )
     parser.add_argument("--config", type=Path, default=Path("robots.yaml"), help="for the plan of the site")
     parser.add_argument("--out", type=Path, default=Path("."), help="directory for the .html, .json and .csv")
     args = parser.parse_args(argv)
-    images = args.images or (
-        str(Path(args.database).with_name(Path(args.database).stem + "-images")) if "://" not in args.database else "."
-    )
+    images = args.images or str(default_images(args.database))
     try:
         if "://" not in args.database and not Path(args.database).is_file():
             raise StoreError(f"{args.database}: no such database (start the relay with --database, or name it here)")

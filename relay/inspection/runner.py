@@ -25,6 +25,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import replace
 from typing import Literal
 
+from ..errors import CommandRejected
 from ..events import NavEvent
 from .messages import MISSIONS_ON_CONNECT
 from .missions import Waypoint
@@ -231,7 +232,11 @@ class MissionRunner:
         loop = asyncio.get_running_loop()
         run.nav = loop.create_future()
         run.changed.clear()
-        await self._go(run.record.robot, waypoint.x, waypoint.y, waypoint.yaw)
+        try:
+            await self._go(run.record.robot, waypoint.x, waypoint.y, waypoint.yaw)
+        except CommandRejected as exc:  # the backend refused the goal (no path now, a robot in the way): say why
+            self._set(run, "paused", f"step {run.record.current + 1}: {exc}")
+            raise _Interrupted() from None
         changed: asyncio.Future[object] = asyncio.ensure_future(run.changed.wait())
         waiting: set[asyncio.Future[object]] = {run.nav, changed}  # type: ignore[arg-type]
         try:

@@ -105,14 +105,14 @@ class Inspection:
 
     async def start(self, facility: Facility | None = None) -> None:
         """``facility``: the scene file (robots.yaml's ``sim.world``), whose hazards become targets."""
-        from .store import Store
+        from .store import Store, default_images
 
         database, images = self.options.database, self.options.images
         if database is None:  # library use and tests: a database of this run only
             self._temporary = tempfile.TemporaryDirectory(prefix="xr-relay-inspection-")
             database = str(Path(self._temporary.name) / "inspection.sqlite")
         if images is None:
-            images = str(Path(database).with_name(Path(database).stem + "-images")) if "://" not in database else "."
+            images = str(default_images(database))
         self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
         self._records.start()
         store = self.store

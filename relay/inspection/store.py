@@ -478,6 +478,16 @@ class Store:
         return f"database {self.name} {problem}: {detail}" if problem else f"database {self.name}: {detail}"
 
 
+def default_images(database: str) -> Path:
+    """Where capture images go unless ``--images`` says: beside a SQLite file (``<name>-images``); for a database
+    server, this user's data directory (``~/.local/share/xr-relay/images``, beside ``--tls auto``'s certificate),
+    never the working directory, where they went before. Images are named by their hash, so databases may share
+    the directory."""
+    if "://" in database:
+        return Path.home() / ".local" / "share" / "xr-relay" / "images"
+    return Path(database).with_name(Path(database).stem + "-images")
+
+
 def _without_password(url: str) -> str:
     """The URL for messages and logs: no password in the user part nor in a ``password=`` parameter."""
     parts = urlsplit(url)

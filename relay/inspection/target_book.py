@@ -31,6 +31,8 @@ class TargetBook:
         self._hub, self._store = hub, store
         #: By id. Read by missions (read-only); changed only through this class.
         self.targets: dict[str, Target] = {}
+        #: New ids being stored now: counted against the cap, so that additions checked at once cannot pass it.
+        self._coming: set[str] = set()
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -43,11 +45,12 @@ class TargetBook:
 
     def refusal(self, targets: list[Target], source: str) -> str | None:
         """Why adding ``targets`` would pass the cap, or None."""
-        new = len({t.id for t in targets} - self.targets.keys())
-        if len(self.targets) + new <= self.cap:
+        new = len({t.id for t in targets} - self.targets.keys() - self._coming)
+        total = len(self.targets) + len(self._coming) + new
+        if total <= self.cap:
             return None
         return (
-            f"{source}: {new} new targets would make {len(self.targets) + new}, more than the site's "
+            f"{source}: {new} new targets would make {total}, more than the site's "
             f"{self.cap} (robots.yaml inspection.max_targets); nothing was added"
         )
 
@@ -66,9 +69,12 @@ class TargetBook:
         from ..messages import encode
 
         self.check(targets, source, request_id)
-        # Two additions checked at once may both be stored: the book then passes its cap by the second's count,
-        # bounded by how many requests a client may have running (relay.budget), and the next one is refused.
-        await self._store(lambda store: store.save_targets(targets), request_id)
+        coming = {t.id for t in targets} - self.targets.keys() - self._coming
+        self._coming |= coming  # held against the cap while the database works
+        try:
+            await self._store(lambda store: store.save_targets(targets), request_id)
+        finally:
+            self._coming -= coming
         self.targets.update((t.id, t) for t in targets)
         self._hub.broadcast_priority(encode(targets_changed_message(targets)))
         return targets

@@ -222,9 +222,7 @@ def _parse(obj: dict[str, Any], identifier: str, rid: RequestId) -> InspectionCo
             )
         if action == "mark" and status is None:
             raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field 'status'")
-        note = _string(obj, "note", identifier, required=False)
-        if note is not None and len(note) > MAX_NOTE:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: a note has at most {MAX_NOTE} characters")
+        note = _note(obj.get("note"), identifier)
         return FindingMark(
             rid,
             action,  # type: ignore[arg-type]
@@ -299,6 +297,20 @@ def _outline(value: Any, identifier: str) -> tuple[tuple[int, int], ...] | None:
             f"{identifier}: field 'region' must be a list of 3 to {MAX_OUTLINE} [u, v] pixels",
         )
     return tuple(points)
+
+
+def _note(value: Any, identifier: str) -> str | None:
+    """A finding's note: up to MAX_NOTE characters, and ``""`` clears it (the generic string field is 1 to 64
+    characters, which cut notes at 64 where docs/protocol.md promises 1000 and left no way to clear one)."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or len(value) > MAX_NOTE:
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST,
+            f"{identifier}: field 'note' must be a string of at most {MAX_NOTE} characters (\"\" clears it), "
+            f"got {_show(value)}",
+        )
+    return value
 
 
 # Last: relay.protocol imports this module at its end, so either may be imported first; the helpers are used only

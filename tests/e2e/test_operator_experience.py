@@ -260,7 +260,7 @@ async def test_vr_starts_seeing_the_fleet_and_sends_robot1_to_chemical_storage_f
 async def test_a_frozen_relay_shows_old_data_as_old_and_a_restart_says_reconnected(
     browser: Browser, tmp_path: Path
 ) -> None:
-    args = ("--token", "t", "--audit-log", "", "--database", str(tmp_path / "inspection.sqlite"))
+    args = ("--token", "t", "--allow-weak-token", "--audit-log", "", "--database", str(tmp_path / "inspection.sqlite"))
     relay, base = await relay_process(*args)
     page = await browser.new_page(viewport={"width": 1280, "height": 760})
     client = Client(page, "stale")

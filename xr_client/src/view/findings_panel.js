@@ -45,7 +45,7 @@ export class FindingsPanel {
     const selected = this.review.selected;
     const options = ['', ...FINDING_STATUSES].map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`).join('');
     const items = findings
-      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" style="background:${STATUS_COLOURS[f.status]}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
+      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" data-status="${esc(f.status)}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
       .join('');
     // The report of the mission the selected (else the newest) finding came from: all robots of that start.
     const about = (selected ? this.model.findings.get(selected) : null) ?? findings[0] ?? null;
@@ -53,6 +53,11 @@ export class FindingsPanel {
     const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
     const report = group ? `<a href="/report/${encodeURIComponent(group)}.html${query}" target="_blank" rel="noopener">Report</a>` : '';
     this.root.innerHTML = `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>${report}<select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+    // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
+    for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
+      const span = /** @type {HTMLElement} */ (dot);
+      span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
+    }
   }
 
   /** The targets, picked in order for a new mission (click to pick or unpick). */

