@@ -124,11 +124,12 @@ class Control:
             )
 
     def _refuse_if_held_elsewhere(self, robot: str, identifier: str, request_id: RequestId | None) -> None:
-        holder = self.peer.held_elsewhere(robot) if self.peer is not None else None
-        if holder is not None:
+        lease = self.peer.held_elsewhere(robot) if self.peer is not None else None
+        if lease is not None:
             raise CommandRejected(
                 ErrorCode.LEASED,
-                f"{identifier}: {robot} is controlled by {holder}; it must be released there (or that relay stop)",
+                f"{identifier}: {robot} is controlled by {lease.holder} {lease.lapse()}; "
+                "it must be released there (or that relay stop)",
                 request_id,
             )
 

@@ -7,6 +7,9 @@ robot. tests/test_zenoh_backend.py has the router and the robots' side.
 from __future__ import annotations
 
 import asyncio
+import datetime
+import ipaddress
+import json
 import math
 import signal
 import sys
@@ -14,16 +17,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+import orjson
 import pytest
 
 pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
-from relay.config import load_config
+from relay.config import load_config, parse_config
 from relay.options import Options, ZenohOptions
 from tests.conftest import ROOT, relay_process, start_relay
-from tests.test_zenoh_backend import FLEET, Router, decode, router, until, zenoh_relay  # noqa: F401
+from tests.test_zenoh_backend import FLEET, ODOM, Router, decode, router, until, zenoh_relay  # noqa: F401
 from tests.wsclient import TestClient
-from tests.zenoh_robots import free_port
+from tests.zenoh_robots import attachment, free_port, key, odometry_by_hand
 
 pytestmark = pytest.mark.slow
 
@@ -90,6 +94,7 @@ async def test_estop_and_leases_are_shared_by_two_relays_and_a_killed_relay_free
 
 
 TWIST = "geometry_msgs/msg/Twist"
+ESTOP_KEY = "xr_relay/estop"
 
 
 def distance(a: dict[str, Any] | None, b: dict[str, Any] | None) -> float:
@@ -156,3 +161,146 @@ async def test_a_killed_relays_robot_is_stopped_by_its_watchdog_and_freed_for_th
             await relay_b.wait()
         fleet.terminate()
         await asyncio.wait_for(fleet.wait(), 10)
+
+
+# -- the fleet's keys for relays only: TLS, a user per relay, and the router's access control (docs/zenoh.md) -------
+
+
+def documented(name: str) -> str:
+    """The JSON5 file docs/zenoh.md shows under ``<!-- tested: NAME -->``, as written there."""
+    text = (ROOT / "docs" / "zenoh.md").read_text()
+    start = text.index(f"<!-- tested: {name} -->\n```json5\n") + len(f"<!-- tested: {name} -->\n```json5\n")
+    return text[start : text.index("\n```", start)]
+
+
+def certificates(directory: Path) -> tuple[Path, Path, Path]:
+    """A CA, and the router's certificate for localhost and 127.0.0.1 signed by it: (ca, certificate, key)."""
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    def name(common: str) -> x509.Name:
+        return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, common)])
+
+    now = datetime.datetime.now(datetime.UTC)
+    ca_key, key = ec.generate_private_key(ec.SECP256R1()), ec.generate_private_key(ec.SECP256R1())
+
+    def certificate(subject: str, public: Any, *, ca: bool) -> x509.CertificateBuilder:
+        builder = (
+            x509.CertificateBuilder()
+            .subject_name(name(subject))
+            .issuer_name(name("test fleet CA"))
+            .public_key(public)
+            .serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5))
+            .not_valid_after(now + datetime.timedelta(days=1))
+            .add_extension(x509.BasicConstraints(ca=ca, path_length=None), critical=True)
+        )
+        if not ca:
+            names = [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]
+            builder = builder.add_extension(x509.SubjectAlternativeName(names), critical=False)
+        return builder
+
+    paths = directory / "ca.pem", directory / "router.pem", directory / "router.key"
+    ca = certificate("test fleet CA", ca_key.public_key(), ca=True).sign(ca_key, hashes.SHA256())
+    leaf = certificate("localhost", key.public_key(), ca=False).sign(ca_key, hashes.SHA256())
+    paths[0].write_bytes(ca.public_bytes(serialization.Encoding.PEM))
+    paths[1].write_bytes(leaf.public_bytes(serialization.Encoding.PEM))
+    private = serialization.PrivateFormat.PKCS8
+    paths[2].write_bytes(key.private_bytes(serialization.Encoding.PEM, private, serialization.NoEncryption()))
+    return paths
+
+
+async def test_two_relays_over_tls_with_users_and_access_control_and_a_site_cannot_touch_the_fleet(
+    tmp_path: Path,
+) -> None:
+    """docs/zenoh.md's router.json5 and relay.json5 as written (paths and port changed): relays ops-1 (here) and
+    ops-2 (a process) share estop and leases over TLS through a router that asks every session for its user; a
+    site's user gets its robot's pose through but its estop, heartbeat and lease token never reach a relay."""
+    import zenoh
+
+    ca, certificate, private_key = certificates(tmp_path)
+    (tmp_path / "users.txt").write_text("ops-1:pw-1\nops-2:pw-2\nsite-a:pw-site\n")
+    port = free_port()
+    endpoint = f"tls/localhost:{port}"
+    router_config = zenoh.Config.from_json5(documented("router.json5"))
+    router_config.insert_json5("listen/endpoints", json.dumps([endpoint]))
+    tls = {
+        "listen_certificate": str(certificate),
+        "listen_private_key": str(private_key),
+        "root_ca_certificate": str(ca),
+    }
+    for field, path in tls.items():
+        router_config.insert_json5(f"transport/link/tls/{field}", json.dumps(path))
+    router_config.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(tmp_path / "users.txt")))
+    ops_router = await asyncio.to_thread(zenoh.open, router_config)
+
+    def relay_config(user: str, password: str) -> str:
+        text = documented("relay.json5").replace("/etc/xr-relay/ca.pem", str(ca))
+        text = text.replace('user: "ops-1", password: "CHANGE-ME"', f'user: "{user}", password: "{password}"')
+        (tmp_path / f"{user}.json5").write_text(text)
+        return str(tmp_path / f"{user}.json5")
+
+    (tmp_path / "fleet.yaml").write_text(FLEET)
+    relay_b, base_b = await relay_process(
+        "--backend", "zenoh", "--config", str(tmp_path / "fleet.yaml"), "--zenoh-connect", endpoint,
+        "--zenoh-config", relay_config("ops-2", "pw-2"), "--relay-id", "ops-2", "--token", "t", "--audit-log", "",
+        "--database", str(tmp_path / "b.sqlite"),
+    )  # fmt: skip
+    options = Options(
+        backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,), config=relay_config("ops-1", "pw-1"), relay_id="ops-1")
+    )
+    running_a = await start_relay(parse_config(FLEET, "fleet.yaml"), options=options)
+    client_a = await TestClient.open(running_a.ws_url)
+    client_b = await TestClient.open(base_b.replace("http", "ws") + "/ws?token=t")
+    site_config = zenoh.Config.from_file(relay_config("site-a", "pw-site"))
+    site_config.insert_json5("mode", '"client"')
+    site_config.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    site_config.insert_json5("scouting/multicast/enabled", "false")
+    site = await asyncio.to_thread(zenoh.open, site_config)
+    try:
+        await client_a.hello()
+        await client_b.hello()
+        # The site's user: its robot's pose reaches relay ops-1; its fleet samples are dropped by the router.
+        block = zenoh.CongestionControl.BLOCK
+        site.put(ESTOP_KEY, orjson.dumps({"relay": "R", "robot": None, "by": "c9"}), congestion_control=block)
+        site.put(
+            "xr_relay/heartbeat/R", orjson.dumps({"relay": "R", "leases": {"beta": "c9"}}), congestion_control=block
+        )
+        token: Any = site.liveliness().declare_token("xr_relay/lease/beta/R/c9")
+        pose = odometry_by_hand(1_700_000_000, 0, "odom", "base_link", (2.0, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+        deadline = time.monotonic() + 10
+        while client_a.pose("alpha") is None:
+            assert time.monotonic() < deadline, "the site's pose did not reach relay ops-1"
+            site.put(key(*ODOM), pose, attachment=attachment(1))
+            await asyncio.sleep(0.1)
+        await asyncio.sleep(1.0)  # what the site sent on the fleet's keys would have arrived by now
+        assert running_a.relay.control.latched == {}
+        fleet = running_a.relay.backend.health()["zenoh"]["fleet"]  # type: ignore[index]
+        assert fleet["refused"] == {"estop": 0, "heartbeat": 0, "lease": 0} and fleet["relays_heard"] == 1, fleet
+        assert (await client_a.request({"identifier": "beta/lease"}))["identifier"] == "ack"
+        assert (await client_a.request({"identifier": "beta/lease", "action": "release"}))["identifier"] == "ack"
+        token.undeclare()
+
+        # ops-2's operator drives alpha: ops-1 refuses it, naming the relay.
+        assert (await client_b.request({"identifier": "alpha/cmd_vel", "linear": 0.2, "angular": 0.0}))[
+            "identifier"
+        ] == "ack"
+        deadline = time.monotonic() + 10
+        while (reply := await client_a.request({"identifier": "alpha/lease"}))["identifier"] != "error":
+            assert time.monotonic() < deadline, reply
+            await client_a.request({"identifier": "alpha/lease", "action": "release"})
+            await asyncio.sleep(0.1)
+        assert reply["code"] == "leased" and "through relay ops-2 until" in reply["message"], reply
+        # An estop on ops-1 latches ops-2.
+        assert (await client_a.request({"identifier": "estop"}))["identifier"] == "ack"
+        estop = await client_b.wait_for(lambda m: m["identifier"] == "estop" and m.get("latched", True), timeout=5)
+        assert set(estop["robots"]) == {"alpha", "beta"} and "via relay ops-1" in str(estop["by"])
+    finally:
+        await asyncio.to_thread(site.close)
+        await client_a.close()
+        await running_a.runner.cleanup()
+        relay_b.kill()
+        await relay_b.wait()
+        await asyncio.to_thread(ops_router.close)

@@ -23,17 +23,20 @@ logger = logging.getLogger(__name__)
 #: ``decode(data, type_name)``: the message (rosbags, rclpy's attribute names); ValueError naming the type.
 Decode = Callable[[bytes, str], Any]
 Put = Callable[[Event], None]
+#: Where a reader's warning about bytes that are not the message goes (``logger.warning``'s signature): the zenoh
+#: backend passes its rate-limited log (relay/log_budget.py), anyone on the network can send such bytes.
+Warn = Callable[..., None]
 
 PATH_TYPE = "nav_msgs/msg/Path"
 STRING_TYPE = "std_msgs/msg/String"
 
 
-def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put) -> None:
+def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     """A tf2_msgs/TFMessage: the robot's pose once the chain map -> odom -> base is known (relay.tf)."""
     try:
         message = decode(data, POSE_TYPES["tf"])
     except ValueError as exc:
-        logger.warning("%s: %s", robot, exc)
+        warn("%s: %s", robot, exc)
         return
     latest = None
     for t in message.transforms:
@@ -48,25 +51,27 @@ def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put) 
         put(PoseEvent(robot, latest, frame, x, y, z, qx, qy, qz, qw))
 
 
-def read_scan(robot: str, cap: RateCap, data: bytes, decode: Decode, put: Put) -> None:
+def read_scan(robot: str, cap: RateCap, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     """A sensor_msgs/LaserScan, at most the wire's scan rate (over it: not even decoded)."""
     if not cap.allow(robot, time.monotonic()):
         return
     try:
         message = decode(data, SCAN_TYPE)
     except ValueError as exc:
-        logger.warning("%s: %s", robot, exc)
+        warn("%s: %s", robot, exc)
         return
     put(scan_event(robot, header_stamp(message.header), message))
 
 
-def read_sensor(robot: str, sensor: str, type_name: str, data: bytes, decode: Decode, put: Put) -> None:
+def read_sensor(
+    robot: str, sensor: str, type_name: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning
+) -> None:
     """A sensor reading of one of relay.rosmsg.SENSOR_TYPES."""
     try:
         message = decode(data, type_name)
         value = SENSOR_TYPES[type_name].value(message)
     except ValueError as exc:
-        logger.warning("%s sensor %s: %s", robot, sensor, exc)
+        warn("%s sensor %s: %s", robot, sensor, exc)
         return
     put(SensorEvent(robot, sensor, value, message_stamp(message)))
 
@@ -76,20 +81,20 @@ def path_points(message: Any) -> tuple[tuple[float, float], ...]:
     return tuple((float(p.pose.position.x), float(p.pose.position.y)) for p in message.poses)
 
 
-def read_path(robot: str, data: bytes, decode: Decode, put: Put) -> None:
+def read_path(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     try:
         message = decode(data, PATH_TYPE)
     except ValueError as exc:
-        logger.warning("%s plan: %s", robot, exc)
+        warn("%s plan: %s", robot, exc)
         return
     put(PathEvent(robot, path_points(message)))
 
 
-def read_model(robot: str, data: bytes, decode: Decode, put: Put) -> None:
+def read_model(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     """robot_state_publisher's robot_description (std_msgs/String, URDF)."""
     try:
         message = decode(data, STRING_TYPE)
     except ValueError as exc:
-        logger.warning("%s robot description: %s", robot, exc)
+        warn("%s robot description: %s", robot, exc)
         return
     put(RobotModelEvent(robot, str(message.data)))

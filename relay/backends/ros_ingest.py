@@ -139,15 +139,18 @@ class Inbox:
             return {"received": self.received, "coalesced": self.coalesced, "dropped": self.dropped}
 
 
-def pose_reader(robot: str, *, child_frame: bool, put: Callable[[Event], None]) -> Callable[[bytes], None]:
-    """The raw callback of one robot's Odometry (``child_frame``) or PoseStamped/PoseWithCovarianceStamped topic."""
+def pose_reader(
+    robot: str, *, child_frame: bool, put: Callable[[Event], None], warn: Callable[..., None] = logger.warning
+) -> Callable[[bytes], None]:
+    """The raw callback of one robot's Odometry (``child_frame``) or PoseStamped/PoseWithCovarianceStamped topic;
+    ``warn`` takes the line about bytes that are not one (the zenoh backend's is rate-limited)."""
 
     def on_bytes(data: bytes) -> None:
         try:
             # A publisher that leaves the stamp or the frame unset gets the receive time and the map frame.
             pose = stamped_pose(data, robot, child_frame=child_frame, received=time.time())
         except (ValueError, struct.error, UnicodeDecodeError) as exc:
-            logger.warning("%s: undecodable pose message (%d bytes): %s", robot, len(data), exc)
+            warn("%s: undecodable pose message (%d bytes): %s", robot, len(data), exc)
             return
         put(pose)
 

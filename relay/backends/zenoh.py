@@ -37,9 +37,11 @@ from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
 from ..events import Event, EventSink, FrameEvent, PoseEvent
 from ..fleet_peer import FleetPeer
+from ..log_budget import BudgetedLog
 from ..maps import map_event
 from ..options import ZenohOptions
 from ..protocol import MAX_SCAN_RATE
+from ..protocol import _show as show
 from ..rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, header_stamp, image_type
 from ..scan import RateCap
 from ..tf import TfPose
@@ -50,7 +52,7 @@ from .raw_readers import PATH_TYPE, STRING_TYPE, read_model, read_path, read_sca
 from .ros_cameras import RosCameras
 from .ros_ingest import Inbox, LoopCrossing, RawDecoder, pose_reader
 from .zenoh_fleet import ZenohFleet
-from .zenoh_keys import GID_SIZE, Attachment, key_type, topic_key, topic_selector
+from .zenoh_keys import GID_SIZE, Attachment, key_type, show_key, topic_key, topic_selector
 from .zenoh_session import ZenohSettings, connected, load_zenoh, open_session, settings
 
 logger = logging.getLogger(__name__)
@@ -114,9 +116,19 @@ class ZenohBackend(LoopCrossing, Backend):
             config, self._pool, self._hop, self.sink, self._subscribe_image, self._undeclare, self._decode_raw
         )
         self._goals = GoalWatch()
-        self._fleet = ZenohFleet(self.settings.fleet_key, self.settings.relay_id, self._hop)
+        #: Lines about what others send (robots' samples, other relays'): rate-limited, whatever they send.
+        self._peer_log = BudgetedLog(logger, "zenoh: lines about samples received")
+        self._fleet = ZenohFleet(
+            self.settings.fleet_key,
+            self.settings.relay_id,
+            self._hop,
+            [robot.name for robot in config.robots],
+            lease_timeout=self.settings.peer_lease_timeout,
+            log=self._peer_log,
+        )
         self._tasks: list[asyncio.Task[None]] = []
-        #: Keys already warned about (a wrong type, an undecodable body): one line each, not one per sample.
+        #: Keys already warned about (a wrong type, an undecodable body): one line each, not one per sample, and
+        #: those lines within the log budget (a sender can make up new keys).
         self._warned: set[str] = set()
         #: Robots whose pose has arrived at least once.
         self._heard: set[str] = set()
@@ -130,6 +142,7 @@ class ZenohBackend(LoopCrossing, Backend):
         if self._heartbeat is not None:
             self._tasks.append(asyncio.create_task(self._beat(), name="zenoh-heartbeat"))
         self._tasks.append(asyncio.create_task(self._watch_link(), name="zenoh-link"))
+        self._tasks.append(asyncio.create_task(self._fleet.run(), name="zenoh-fleet"))
         self._tasks.append(asyncio.create_task(self._name_silent_keys(), name="zenoh-silent"))
         s = self.settings
         logger.info(
@@ -239,6 +252,7 @@ class ZenohBackend(LoopCrossing, Backend):
             "zenoh": {
                 "mode": s.mode, "connect": list(s.connect), "keys": s.keys, "domain": s.domain,
                 "relay_id": self._fleet.relay_id, "connected": link, "silent": self.silent(),
+                "fleet": self._fleet.health(),
             }
         }  # fmt: skip
 
@@ -277,12 +291,14 @@ class ZenohBackend(LoopCrossing, Backend):
             key = str(sample.key_expr)
             sent = key_type(s.keys, key)
             if sent is not None and sent != type_name:
-                self._warn_once(key, f"{what}: a sample on {key} is a {sent}, not the {type_name} expected: ignored")
+                self._warn_once(
+                    key, f"{what}: a sample on {show_key(key)} is a {show(sent)}, not the {type_name} expected: ignored"
+                )
                 return
             try:
                 handle(sample.payload.to_bytes())
             except Exception as exc:  # never into Zenoh's thread: one line, and the next sample is read
-                self._warn_once(key, f"{what}: a sample on {key} could not be read: {exc!r}")
+                self._warn_once(key, f"{what}: a sample on {show_key(key)} could not be read: {show(repr(exc))}")
 
         if history:
             ext = importlib.import_module("zenoh.ext")
@@ -294,11 +310,12 @@ class ZenohBackend(LoopCrossing, Backend):
     def _warn_once(self, key: str, message: str) -> None:
         if key not in self._warned and len(self._warned) < 1000:
             self._warned.add(key)
-            logger.warning("zenoh: %s", message)
+            self._peer_log.warning("zenoh: %s", message)
 
     def _declare_robot(self, robot: Robot) -> None:
         name, source = robot.name, robot.pose.source
         add = self._entities.append
+        warn = self._peer_log.warning
         if source == "tf":
             self._tf[name] = TfPose(robot.pose.map_frame, robot.pose.odom_frame, robot.pose.base_frame)
             tracker = self._tf[name]
@@ -308,12 +325,12 @@ class ZenohBackend(LoopCrossing, Backend):
 
             def on_tf(data: bytes) -> None:
                 with lock:
-                    read_tf(name, tracker, data, self._decode_raw, self._post)
+                    read_tf(name, tracker, data, self._decode_raw, self._post, warn=self._peer_log.warning)
 
             add(self._subscribe(f"{name} tf", robot.pose.topic, POSE_TYPES["tf"], on_tf))
             add(self._subscribe(f"{name} tf_static", robot.pose.topic + "_static", POSE_TYPES["tf"], on_tf))
         else:
-            on_pose = pose_reader(name, child_frame=source == "odom", put=self._post)
+            on_pose = pose_reader(name, child_frame=source == "odom", put=self._post, warn=warn)
             add(self._subscribe(f"{name} pose", robot.pose.topic, POSE_TYPES[source], on_pose))
         for sensor in robot.sensors:
             add(
@@ -330,14 +347,14 @@ class ZenohBackend(LoopCrossing, Backend):
                     f"{name} scan",
                     robot.scan_topic,
                     SCAN_TYPE,
-                    lambda d: read_scan(name, self._scan_cap, d, self._decode_raw, self._post),
+                    lambda d: read_scan(name, self._scan_cap, d, self._decode_raw, self._post, warn=warn),
                 )
             )
         if robot.plan_topic is not None:
-            on_plan = lambda d: read_path(name, d, self._decode_raw, self._post)  # noqa: E731
+            on_plan = lambda d: read_path(name, d, self._decode_raw, self._post, warn=warn)  # noqa: E731
             add(self._subscribe(f"{name} plan", robot.plan_topic, PATH_TYPE, on_plan))
         if robot.model_source is not None:
-            on_model = lambda d: read_model(name, d, self._decode_raw, self._post)  # noqa: E731
+            on_model = lambda d: read_model(name, d, self._decode_raw, self._post, warn=warn)  # noqa: E731
             add(
                 self._subscribe(
                     f"{name} robot description", robot.model_source.topic, STRING_TYPE, on_model, history=True
@@ -351,7 +368,7 @@ class ZenohBackend(LoopCrossing, Backend):
 
     def _sensor(self, robot: str, sensor: str, type_name: str) -> Callable[[bytes], None]:
         def on_bytes(data: bytes) -> None:
-            read_sensor(robot, sensor, type_name, data, self._decode_raw, self._post)
+            read_sensor(robot, sensor, type_name, data, self._decode_raw, self._post, warn=self._peer_log.warning)
 
         return on_bytes
 
@@ -383,7 +400,7 @@ class ZenohBackend(LoopCrossing, Backend):
             message = self._decode_raw(data, MAP_TYPE)
             self._post(map_event(message, header_stamp(message.header), topic))
         except ValueError as exc:
-            logger.warning("%s: %s", topic, exc)
+            self._peer_log.warning("%s: %s", topic, exc)
 
     # -- commands (loop thread) -------------------------------------------------------------------
 

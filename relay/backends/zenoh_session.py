@@ -35,6 +35,8 @@ class ZenohSettings:
     domain: int
     fleet_key: str
     relay_id: str | None
+    #: Seconds a lease held through another relay lasts after that relay's last heartbeat.
+    peer_lease_timeout: float = 10.0
     #: Endpoints to listen on besides connecting (tests, tools/fake_fleet.py --zenoh); none for a relay.
     listen: tuple[str, ...] = ()
 
@@ -57,6 +59,7 @@ def settings(config: Zenoh, options: ZenohOptions) -> ZenohSettings:
         domain=domain,
         fleet_key=config.fleet_key,
         relay_id=options.relay_id or config.relay_id,
+        peer_lease_timeout=config.peer_lease_timeout,
     )
 
 

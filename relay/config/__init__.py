@@ -246,14 +246,21 @@ def _safety(reader: _Reader, node: Node) -> Safety:
     )
 
 
-#: A Zenoh key chunk: no wildcards, separators or verbatim marker.
-_KEY_CHUNK = re.compile(r"^[^/*$#?@\s]+$")
+#: A relay's id: as the other relays accept it in keys and samples (relay/backends/zenoh_keys.py's PEER_NAME).
+_RELAY_ID = re.compile(r"^[\w.-]{1,64}$")
+_RELAY_ID_TEXT = "a name of 1 to 64 letters, digits, _ . or -"
+#: Relays heartbeat their leases every second; three may be late or lost before a live relay's lease lapses.
+MIN_PEER_LEASE_TIMEOUT = 3.0
 _KEY = re.compile(r"^[^*$#?@\s/]+(/[^*$#?@\s/]+)*$")
 
 
 def _zenoh(reader: _Reader, node: Node) -> Zenoh:
     path = "zenoh"
-    f = reader.mapping(node, path, ("connect", "mode", "config", "keys", "domain_id", "fleet_key", "relay_id"))
+    f = reader.mapping(
+        node,
+        path,
+        ("connect", "mode", "config", "keys", "domain_id", "fleet_key", "relay_id", "peer_lease_timeout"),
+    )
     connect: list[str] = []
     if "connect" in f:
         for i, n in reader.sequence(f["connect"], "zenoh.connect"):
@@ -264,6 +271,18 @@ def _zenoh(reader: _Reader, node: Node) -> Zenoh:
         domain_id = reader.value(node_id) if isinstance(node_id, ScalarNode) else None
         if not isinstance(domain_id, int) or isinstance(domain_id, bool) or not 0 <= domain_id <= 232:
             raise reader.fail(node_id, "zenoh.domain_id", f"expected a ROS domain id 0-232, got {reader.show(node_id)}")
+    peer_lease_timeout = Zenoh.peer_lease_timeout
+    if "peer_lease_timeout" in f:
+        node_timeout = f["peer_lease_timeout"]
+        peer_lease_timeout = reader.number(node_timeout, "zenoh.peer_lease_timeout", positive=True)
+        if peer_lease_timeout < MIN_PEER_LEASE_TIMEOUT:
+            # Relays heartbeat every second: a shorter timeout would drop a live relay's lease on one late beat.
+            raise reader.fail(
+                node_timeout,
+                "zenoh.peer_lease_timeout",
+                f"expected at least {MIN_PEER_LEASE_TIMEOUT:g} s (relays heartbeat every second), "
+                f"got {peer_lease_timeout:g}",
+            )
     return Zenoh(
         connect=tuple(connect),
         mode=reader.get(f, "mode", path, lambda n, p: reader.choice(n, p, ZENOH_MODES), Zenoh.mode),
@@ -274,8 +293,9 @@ def _zenoh(reader: _Reader, node: Node) -> Zenoh:
             f, "fleet_key", path, lambda n, p: reader.string(n, p, pattern=_KEY, expected="a Zenoh key"), "xr_relay"
         ),
         relay_id=reader.get(
-            f, "relay_id", path, lambda n, p: reader.string(n, p, pattern=_KEY_CHUNK, expected="a key chunk"), None
+            f, "relay_id", path, lambda n, p: reader.string(n, p, pattern=_RELAY_ID, expected=_RELAY_ID_TEXT), None
         ),
+        peer_lease_timeout=peer_lease_timeout,
     )
 
 

@@ -213,6 +213,8 @@ class Zenoh:
     fleet_key: str = "xr_relay"
     #: This relay's name among the others; None: its Zenoh session id.
     relay_id: str | None = None
+    #: Seconds a lease held through another relay lasts after that relay's last heartbeat (one a second).
+    peer_lease_timeout: float = 10.0
 
 
 @dataclass(frozen=True)
