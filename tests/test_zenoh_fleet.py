@@ -245,7 +245,8 @@ async def test_two_relays_over_tls_with_users_and_access_control_and_a_site_cann
     (tmp_path / "fleet.yaml").write_text(FLEET)
     relay_b, base_b = await relay_process(
         "--backend", "zenoh", "--config", str(tmp_path / "fleet.yaml"), "--zenoh-connect", endpoint,
-        "--zenoh-config", relay_config("ops-2", "pw-2"), "--relay-id", "ops-2", "--token", "t", "--audit-log", "",
+        "--zenoh-config", relay_config("ops-2", "pw-2"), "--relay-id", "ops-2", "--token", "t", "--allow-weak-token",
+        "--audit-log", "",
         "--database", str(tmp_path / "b.sqlite"),
     )  # fmt: skip
     options = Options(
