@@ -5,6 +5,8 @@ Plain frozen dataclasses; positions in the map frame (REP 103: metres, radians);
 
 from __future__ import annotations
 
+import secrets
+import time
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -84,3 +86,8 @@ class FindingRecord:
     mission: str | None = None
     target: str | None = None
     region: tuple[tuple[int, int], ...] | None = None  # outline in image pixels (u right, v down), None: none
+
+
+def new_id(prefix: str) -> str:
+    """A record's id: its kind, when it was made (local time, to the second) and 24 random bits."""
+    return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"

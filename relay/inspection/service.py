@@ -3,10 +3,8 @@
 - **Rules**: viewers see targets, missions and findings, and create none (``forbidden``); a mission starts only for
   robots the operator may command (lease, estop latch, recordings), and only once every step was checked
   (relay.inspection.missions); while it runs, the mission holds the robot's lease (relay.inspection.runner).
-- **Captures**: the robot's first camera's image (a snapshot), its readings, its pose and the time, stored with
-  the image beside the database (relay.inspection.store). At an ``inspect`` step a rule makes a finding:
-  ``anomaly`` naming each reading over its threshold (robots.yaml's ``warn_above``/``warn_below``), else ``ok``
-  with the readings; a ``capture`` step makes one only for an anomaly.
+- **Captures** and what is made of them (findings, regions, targets from a pixel): relay.inspection.captures.
+- **Targets**: relay.inspection.target_book (bounded, stored, announced as deltas).
 - **Storage** runs on one thread of its own (``WorkPool("store")``); a database that is locked or full pauses the
   mission with the store's message, and the command that needed it gets an ``error`` naming the database.
 """
@@ -15,7 +13,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import secrets
 import tempfile
 import time
 from collections.abc import Callable
@@ -27,17 +24,16 @@ from ..errors import CommandRejected, ConfigError
 from ..events import NavEvent
 from ..protocol import ErrorCode, RequestId
 from ..work import Busy, WorkPool
+from .captures import Captures
 from .kml import KmlError, targets_from_kml
 from .messages import (
     FINDINGS_ON_CONNECT,
     MISSIONS_ON_CONNECT,
     finding_message,
     mission_message,
-    region_message,
 )
 from .missions import MissionError, MissionPlan, Waypoint, assign, load_mission, resolve, steps_from_wire
-from .pixel import pixel_to_map
-from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
+from .records import MissionRecord, Step, Target, new_id
 from .runner import MissionRunner, holder
 from .target_book import TargetBook
 from .targets import TARGET_ID, facility_targets, load_targets
@@ -58,10 +54,6 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
-
-
-def _new_id(prefix: str) -> str:
-    return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"
 
 
 class Inspection:
@@ -86,17 +78,19 @@ class Inspection:
         self.book = TargetBook(config.inspection.max_targets, hub, self._store_call)
         self.targets = self.book.targets  # read-only here: changed through the book
         self._store_pool = WorkPool("store", workers=1, queue=256)
-        self._segmenting = WorkPool("segmenting", workers=1, queue=2)
         #: Reading mission files and planning missions: their own thread, never asyncio's shared pool (six 200-step
         #: missions checked there once held an estop 0.4 s), and a bounded queue (``busy`` beyond it).
         self._planning = WorkPool("planning", workers=1, queue=4)
         self._temporary: tempfile.TemporaryDirectory[str] | None = None
-        self._recent: list[Any] = []  # the newest finding messages, for clients that connect later
         #: Mission records are stored after their change is announced: a stop never waits for the database.
         self._records = WriteBehind(self._save)
+        self.captures = Captures(
+            self.robots, backend=backend, fleet=fleet, hub=hub, book=self.book, store=self._store,
+            map_grid=map_grid, clock=clock, wall_clock=wall_clock,
+        )  # fmt: skip
         self.runner = MissionRunner(
-            go=self._go, stop=self._stop, capture=self._capture, publish=self._publish, release=self._release,
-            wall_clock=wall_clock,
+            go=self._go, stop=self._stop, capture=self.captures.for_mission, publish=self._publish,
+            release=self._release, wall_clock=wall_clock,
         )  # fmt: skip
         control.keep = self.mission_robots
         control.on_stopped = self.runner.robot_stopped
@@ -134,7 +128,7 @@ class Inspection:
         """What clients saw before the restart: the newest findings and missions. A mission that was running or
         pending is paused ("the relay restarted"): an operator resumes it from its step, or aborts it."""
         found = await self._store_pool.run(lambda: store.recent_findings(FINDINGS_ON_CONNECT))
-        self._recent = [finding_message(f, c.image, c.readings) for f, c in reversed(found)]
+        self.captures.recent = [finding_message(f, c.image, c.readings) for f, c in reversed(found)]
         for record in reversed(await self._store_pool.run(lambda: store.missions(MISSIONS_ON_CONNECT))):
             if record.state in ("running", "pending"):
                 record = replace(record, state="paused", reason="the relay restarted", updated=self.wall())
@@ -159,7 +153,7 @@ class Inspection:
             store = self.store
             await self._store_pool.run(store.close)
         self._store_pool.shutdown()
-        self._segmenting.shutdown()
+        self.captures.close()
         self._planning.shutdown()
         if self._temporary is not None:
             self._temporary.cleanup()
@@ -174,7 +168,7 @@ class Inspection:
         client.channel.put_priority(self.book.message())
         for record in self.runner.records():
             client.channel.put_priority(encode(mission_message(record)))
-        for message in self._recent[-FINDINGS_ON_CONNECT:]:
+        for message in self.captures.recent[-FINDINGS_ON_CONNECT:]:
             client.channel.put_priority(encode(message))
 
     def on_nav(self, event: NavEvent) -> None:
@@ -190,11 +184,11 @@ class Inspection:
         elif isinstance(command, MissionControl):
             await self._control(client, command, now)
         elif isinstance(command, FindingMark):
-            await self._finding(client, command)
+            await self.captures.finding(client, command)
         elif isinstance(command, RegionRequest):
-            await self._region(client, command)
+            await self.captures.region(client, command)
         elif isinstance(command, TargetAdd):
-            await self._add_target(client, command)
+            await self.captures.add_target(client, command)
 
     async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
         from .store import StoreError, UnknownRecord
@@ -250,7 +244,7 @@ class Inspection:
                 )
         # Every step of every robot is checked before any robot moves.
         waypoints = await self._plan_all(robots, "mission/start", command.id)
-        group = _new_id("m")
+        group = new_id("m")
         wall = self.wall()
         records = [
             MissionRecord(f"{group}.{robot}", plan.name, robot, steps, "pending", 0, "", wall, wall, client.client_id)
@@ -411,72 +405,6 @@ class Inspection:
             self.control.leases.release(robot, holder(record.id))
             self.control.lease_changed(robot, None, holder(record.id), "released", now)
 
-    async def _capture(self, record: MissionRecord, step: Step) -> None:
-        robot = self.robots[record.robot]
-        capture, jpeg, sensors = await self._snap(robot.name, record.id, step.target)
-        stored = await self._store(lambda s: s.add_capture(capture, jpeg))
-        wall = stored.t
-        warnings = [m for m in sensors.values() if m["warning"]]
-        if step.kind != "inspect" and not warnings:
-            return
-        specs = {s.name: s for s in robot.sensors}
-
-        def over(name: str, value: float, unit: str) -> str:
-            spec = specs.get(name)
-            limit = spec.warn_above if spec and spec.warn_above is not None and value > spec.warn_above else None
-            below = spec.warn_below if spec and limit is None else None
-            bound = (
-                f"over {limit:g}" if limit is not None else f"under {below:g}" if below is not None else "out of range"
-            )
-            return f"{name} {value:.1f} {unit} ({bound} {unit})"
-
-        if warnings:
-            note = "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
-        else:
-            note = "within thresholds: " + ", ".join(
-                f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values()
-            )
-        target = self.targets.get(step.target or "")
-        finding = FindingRecord(
-            _new_id("f"), stored.id, robot.name, target.x if target else stored.x, target.y if target else stored.y,
-            "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
-        )  # fmt: skip
-        await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
-
-    async def _snap(
-        self, robot_name: str, mission: str | None, target: str | None, request_id: RequestId | None = None
-    ) -> tuple[CaptureRecord, bytes | None, dict[str, Any]]:
-        """A capture of the robot now, not yet stored: its camera image (for a mission, none when it has no camera or
-        the rendering pool is full: the readings still count; for an operator's request, ``request_id``, a full pool
-        is a refusal), its pose and readings; and the sensors' state at that moment."""
-        robot = self.robots[robot_name]
-        camera = robot.camera(None)
-        frame = None
-        if camera is not None:
-            try:
-                frame = await self.backend.snapshot(robot.name, camera.name)
-            except CommandRejected as exc:
-                if request_id is not None:
-                    raise CommandRejected(exc.code, f"target/add: {exc}", request_id) from None
-                logger.warning("capture of %s: no image: %s", robot.name, exc)
-        state = self.fleet.snapshot(self.clock())[robot.name]
-        pose, sensors = state["pose"], state["sensors"]
-        capture = CaptureRecord(
-            _new_id("c"), robot.name, self.wall(),
-            pose["x"] if pose else 0.0, pose["y"] if pose else 0.0, pose["yaw"] if pose else 0.0,
-            {name: m["value"] for name, m in sensors.items()}, mission, target,
-            None, frame.width if frame else 0, frame.height if frame else 0,
-        )  # fmt: skip
-        return capture, frame.jpeg if frame else None, sensors
-
-    async def _announce(self, finding: FindingRecord, capture: CaptureRecord) -> None:
-        from ..messages import encode
-
-        message = finding_message(finding, capture.image, capture.readings)
-        kept = [m for m in self._recent if m["id"] != finding.id][-FINDINGS_ON_CONNECT:]
-        self._recent = [*kept, message]
-        self.hub.broadcast_priority(encode(message))
-
     # -- reading ----------------------------------------------------------------------------------
 
     async def image(self, sha: str) -> bytes | None:
@@ -499,126 +427,6 @@ class Inspection:
             return report.as_csv(found) if kind == "csv" else report.as_html(found, store, grid)
 
         return await self._store_pool.run(build)
-
-    # -- findings, regions, targets ---------------------------------------------------------------
-
-    async def _finding(self, client: Client, command: FindingMark) -> None:
-        wall = self.wall()
-        if command.action == "mark":
-            assert command.capture is not None and command.status is not None
-            capture = await self._capture_record(command.capture, command.id)
-            target = self.targets.get(capture.target or "")
-            finding = FindingRecord(
-                _new_id("f"), capture.id, capture.robot, target.x if target else capture.x,
-                target.y if target else capture.y, command.status, command.note or "", "operator", wall, wall,
-                capture.mission, capture.target, command.region,
-            )  # fmt: skip
-            await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), capture)
-            return
-        assert command.finding is not None
-        finding_id = command.finding
-        updated = await self._store(
-            lambda s: s.update_finding(
-                finding_id, status=command.status, note=command.note, region=command.region, updated=wall
-            ),
-            command.id,
-        )
-        await self._announce(updated, await self._capture_record(updated.capture, command.id))
-
-    async def _capture_record(self, capture_id: str, request_id: RequestId) -> CaptureRecord:
-        capture: CaptureRecord | None = await self._store(lambda s: s.capture(capture_id), request_id)
-        if capture is None:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, f"no capture {capture_id[:80]!r}", request_id)
-        return capture
-
-    async def _region(self, client: Client, command: RegionRequest) -> None:
-        from ..messages import encode
-        from .segment import SegmentError, region_from_point
-
-        capture = await self._capture_record(command.capture, command.id)
-        sha = capture.image
-        jpeg = None if sha is None else await self._store(lambda s: s.image(sha), command.id)
-        if jpeg is None:
-            raise CommandRejected(ErrorCode.NO_CAMERA, f"region: capture {capture.id} has no image", command.id)
-        try:
-            outline = await self._segmenting.run(lambda: region_from_point(jpeg, command.u, command.v))
-        except SegmentError as exc:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, f"region: {exc}", command.id) from None
-        except Busy as exc:
-            raise CommandRejected(ErrorCode.BUSY, f"region: {exc}; try again shortly", command.id) from None
-        client.channel.put_priority(encode(region_message(command.id, capture.id, outline)))
-
-    async def _add_target(self, client: Client, command: TargetAdd) -> None:
-        if command.robot is not None:
-            await self._target_from_live(client, command)
-            return
-        x, y = command.x, command.y
-        if command.capture is not None:
-            assert command.u is not None and command.v is not None
-            capture = await self._capture_record(command.capture, command.id)
-            camera = self.robots[capture.robot].camera(None)
-            if camera is None or not capture.width:
-                raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: capture {capture.id} has no image", command.id)
-            try:
-                x, y = pixel_to_map(
-                    camera, capture.width, capture.height, (capture.x, capture.y, capture.yaw), command.u, command.v,
-                    self.map_grid(),
-                )  # fmt: skip
-            except ValueError as exc:
-                raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
-        assert x is not None and y is not None
-        target = Target(command.target, command.name or command.target, command.kind or "point", x, y, command.facing)
-        await self.book.add([target], "target/add", command.id)
-
-    async def _target_from_live(self, client: Client, command: TargetAdd) -> None:
-        """A target where pixel (u, v) of the robot's live camera looks (pixels of the camera's configured size, as
-        its lens model has them): a capture now, the target from its pose, a ``needs_review`` finding about it for
-        the operator to review, and the region around that pixel proposed to the requester (GrabCut) before the
-        ``ack``. Nothing is stored or added when the pixel looks at nothing; a region that cannot be segmented
-        leaves the target and the finding, and the ``ack`` comes without an outline."""
-        from ..messages import encode
-        from .segment import SegmentError, region_from_point
-
-        assert command.robot is not None and command.u is not None and command.v is not None
-        robot = self.robots.get(command.robot)
-        if robot is None:
-            raise CommandRejected(
-                ErrorCode.UNKNOWN_ROBOT,
-                f"target/add: unknown robot {command.robot[:80]!r}; the robots are {', '.join(sorted(self.robots))}",
-                command.id,
-            )
-        camera = robot.camera(None)
-        if camera is None:
-            raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: {robot.name} has no camera", command.id)
-        capture, jpeg, sensors = await self._snap(robot.name, None, command.target, command.id)
-        if jpeg is None or not capture.width:
-            raise CommandRejected(ErrorCode.NO_CAMERA, f"target/add: no image from {robot.name} yet", command.id)
-        # The operator's pixel is of the configured size; the capture may be of another (a camera set to publish
-        # smaller images than its calibration): the same point of the picture.
-        u, v = command.u * capture.width / camera.width, command.v * capture.height / camera.height
-        try:
-            x, y = pixel_to_map(
-                camera, capture.width, capture.height, (capture.x, capture.y, capture.yaw), u, v, self.map_grid()
-            )
-        except ValueError as exc:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, f"target/add: {exc}", command.id) from None
-        target = Target(command.target, command.name or command.target, command.kind or "point", x, y, None)
-        self.book.check([target], "target/add", command.id)  # before anything is stored
-        stored = await self._store(lambda s: s.add_capture(capture, jpeg), command.id)
-        await self.book.add([target], "target/add", command.id)
-        readings = ", ".join(f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values())
-        note = f"marked on {robot.name}'s camera" + (f"; {readings}" if readings else "")
-        finding = FindingRecord(
-            _new_id("f"), stored.id, robot.name, x, y, "needs_review", note, "operator", stored.t, stored.t,
-            None, target.id,
-        )  # fmt: skip
-        await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), stored)
-        try:
-            outline = await self._segmenting.run(lambda: region_from_point(jpeg, int(u), int(v)))
-        except (SegmentError, Busy) as exc:
-            logger.info("target/add %s: no region proposed: %s", command.target, exc)
-            return
-        client.channel.put_priority(encode(region_message(command.id, stored.id, outline)))
 
 
 def _planner(grid: OccupancyGrid | None) -> Any:
