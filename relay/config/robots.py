@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 from yaml.nodes import MappingNode, Node, ScalarNode
 
@@ -174,9 +174,9 @@ def _navigation(
     np = f"{path}.navigation"
     if "navigation" in f:
         fields = reader.mapping(f["navigation"], np, ("interface", "action", "autonomy", "on_relay_lost"))
-    interface: NavInterface = reader.get(
-        fields, "interface", np, lambda n, p: reader.choice(n, p, NAV_INTERFACES), "nav2"
-    )  # type: ignore[assignment]
+    interface = cast(
+        NavInterface, reader.get(fields, "interface", np, lambda n, p: reader.choice(n, p, NAV_INTERFACES), "nav2")
+    )
     action = resolve_topic(namespace, "navigate_to_pose")
     if "action" in fields:
         action = _topic(reader, fields["action"], f"{np}.action", namespace)
@@ -187,7 +187,9 @@ def _navigation(
         # The watchdog reads autonomy and writes cmd_vel: one topic for both would feed its output back in.
         node = fields.get("autonomy", f.get("navigation", f.get("cmd_vel")))
         raise reader.fail(node, f"{np}.autonomy", f"expected a topic other than cmd_vel's and teleop's, got {autonomy}")
-    lost: RelayLost = reader.get(fields, "on_relay_lost", np, lambda n, p: reader.choice(n, p, ON_RELAY_LOST), "hold")  # type: ignore[assignment]
+    lost = cast(
+        RelayLost, reader.get(fields, "on_relay_lost", np, lambda n, p: reader.choice(n, p, ON_RELAY_LOST), "hold")
+    )
     return _Navigation(interface, action, autonomy, lost)
 
 
