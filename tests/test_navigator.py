@@ -10,7 +10,6 @@ import textwrap
 from relay.config import parse_config
 from relay.occupancy import OccupancyGrid
 from relay.sim import navigator as nav
-from relay.sim.kinematics import DriveLimits
 from relay.sim.navigator import Navigator, world_planner
 from relay.sim.planner import Planner
 from relay.sim.world import PLANNING_RADIUS, SimWorld
