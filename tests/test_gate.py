@@ -250,3 +250,173 @@ def test_when_the_relays_heartbeat_stops_autonomy_holds_or_continues_per_robot(
     assert distance(relay.pose("alpha"), relay.pose_at("alpha", settled)) <= 0.05
     assert moving(relay.since(relay.cmd_vel["beta"], settled)), "on_relay_lost continue: beta's autonomy goes on"
     assert distance(relay.pose("beta"), relay.pose_at("beta", settled)) > 0.3
+
+
+# -- over Zenoh -------------------------------------------------------------------------------------------------
+
+#: nav2_msgs/action/NavigateToPose.action, Nav2 Jazzy (ros-navigation/navigation2, branch jazzy), as it is.
+NAVIGATE_TO_POSE_JAZZY = """\
+#goal definition
+geometry_msgs/PoseStamped pose
+string behavior_tree
+---
+#result definition
+
+# Error codes
+# Note: The expected priority order of the errors should match the message order
+uint16 NONE=0
+
+uint16 error_code
+string error_msg
+---
+#feedback definition
+geometry_msgs/PoseStamped current_pose
+builtin_interfaces/Duration navigation_time
+builtin_interfaces/Duration estimated_time_remaining
+int16 number_of_recoveries
+float32 distance_remaining
+"""
+
+
+def rosidl_hashes(tmp_path: Path) -> dict[str, str]:
+    """Every type's RIHS01 hash as ROS's own generator gives it: NavigateToPose's from Nav2's .action text (through
+    rosidl_adapter and rosidl_generator_type_description, as a colcon build does), CancelGoal's as installed."""
+    import json
+
+    adapter = pytest.importorskip("rosidl_adapter.action", reason="rosidl's generators come with the ROS wheels")
+    generator = pytest.importorskip("rosidl_generator_type_description")
+
+    package = tmp_path / "nav2_msgs"
+    (package / "action").mkdir(parents=True)
+    (package / "action" / "NavigateToPose.action").write_text(NAVIGATE_TO_POSE_JAZZY)
+    idl = tmp_path / "idl"
+    adapter.convert_action_to_idl(package, "nav2_msgs", Path("action/NavigateToPose.action"), idl / "action")
+    dependencies = ("geometry_msgs", "builtin_interfaces", "std_msgs", "action_msgs", "unique_identifier_msgs")
+    arguments = {
+        "package_name": "nav2_msgs",
+        "output_dir": str(tmp_path / "json"),
+        "idl_tuples": [f"{idl}:action/NavigateToPose.idl"],
+        "include_paths": [f"{p}:{share(p)}" for p in (*dependencies, "service_msgs")],
+    }
+    (tmp_path / "arguments.json").write_text(json.dumps(arguments))
+    hashes: dict[str, str] = {}
+    files = generator.generate_type_hash(str(tmp_path / "arguments.json"))
+    cancel = share("action_msgs") / "srv" / "CancelGoal.json"
+    for path in (*files, cancel):
+        hashes.update({h["type_name"]: h["hash_string"] for h in json.loads(path.read_text())["type_hashes"]})
+    return hashes
+
+
+def share(package: str) -> Path:
+    """A ROS package's share directory: a sourced ROS's (AMENT_PREFIX_PATH), else the wheels' in this environment."""
+    prefixes = [*os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep), sys.prefix]
+    found = next((Path(p) / "share" / package for p in prefixes if p and (Path(p) / "share" / package).is_dir()), None)
+    assert found is not None, f"no share/{package} in {prefixes}"
+    return found
+
+
+def nav2_types() -> object:
+    sys.path.insert(0, str(ROOT / "tools"))
+    import nav2_types as module
+
+    return module
+
+
+def test_nav2s_types_over_zenoh_hash_as_ros_own_generator_hashes_them(tmp_path: Path) -> None:
+    """tools/nav2_types.py's definitions are Nav2 Jazzy's: every type of the action and of CancelGoal, services
+    included (the hash an rmw_zenoh client puts in a service's key), hashes as rosidl hashes Nav2's own .action."""
+    reference = rosidl_hashes(tmp_path)
+    store = nav2_types().typestore()  # type: ignore[attr-defined]
+    names = [n for n in reference if n.startswith(("nav2_msgs/", "action_msgs/srv/"))]
+    assert len(names) >= 16, names
+    assert {n: store.hash_rihs01(n) for n in names} == {n: reference[n] for n in names}
+
+
+@pytest.mark.slow
+def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_answer(
+    tmp_path: Path, fleet_file: Path, robots_side: Processes
+) -> None:
+    pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
+    from tests.gate_dds import wait_until
+    from tests.gate_zenoh import GET_RESULT, ZenohRelay
+    from tests.zenoh_robots import free_port
+
+    hashes = rosidl_hashes(tmp_path)
+    store = nav2_types().typestore()  # type: ignore[attr-defined]
+    config = load_config(fleet_file)
+    port = free_port()
+    robots_side.fleet(fleet_file, "--zenoh", "--nav2", "--misbehave-after-cancel", "--listen", f"tcp/127.0.0.1:{port}")
+    endpoint = f"tcp/127.0.0.1:{port}"
+    relay = wait_until(lambda: _try_relay(endpoint, config, store, hashes), 60, "the fake fleet's router")
+    second = None
+    try:
+        wait_until(lambda: relay.gate_states["alpha"], 30, f"the watchdog's gate_state\n{robots_side.logs()}")
+        assert relay.gate_states["alpha"][0] == "hold"
+        relay.gate("alpha", "drive")
+        wait_until(lambda: relay.gate_states["alpha"][-1] == "drive", 10, "gate_state drive")
+
+        # A goal drives the base through the watchdog, with Nav2's feedback.
+        start = relay.pose("alpha")
+        uuid = relay.goal("alpha", 8.0, 1.5)
+        wait_until(lambda: distance(relay.pose("alpha"), start) > 0.3, 20, "alpha driving to its goal")
+        feedback = [f for f in relay.feedback["alpha"] if bytes(f.goal_id.uuid) == uuid]
+        assert len(feedback) >= 5 and feedback[-1].feedback.distance_remaining < feedback[0].feedback.distance_remaining
+        assert feedback[-1].feedback.navigation_time.sec + feedback[-1].feedback.navigation_time.nanosec > 0
+
+        # A goal outside the map: ABORTED, and its result says why, as Nav2 would (GOAL_OUTSIDE_MAP).
+        lost = relay.goal("beta", 30.0, 1.5)
+        wait_until(lambda: relay.status("beta", lost) == nav.ABORTED, 5, "beta's goal ABORTED")
+        request = store.types[f"{GET_RESULT}_Request"](goal_id=store.types["unique_identifier_msgs/msg/UUID"](
+            uuid=__import__("numpy").frombuffer(lost, "uint8").copy()
+        ))  # fmt: skip
+        result, extra = relay.call("beta", "get_result", GET_RESULT, request)
+        assert (result.status, result.result.error_code) == (nav.ABORTED, nav.GOAL_OUTSIDE_MAP)
+        assert "outside the map" in result.result.error_msg
+        assert extra[16:] == bytes([16]) + b"G" * 16, "the reply carries the client's GID (rmw_zenoh's attachment)"
+
+        # Estop and cancel; the controller misbehaves; only zeros reach the base.
+        estop = time.monotonic()
+        relay.gate("alpha", "estop")
+        response = relay.cancel("alpha", uuid)
+        assert response.return_code == nav.ERROR_NONE
+        assert [bytes(g.goal_id.uuid) for g in response.goals_canceling] == [uuid]
+        wait_until(lambda: relay.status("alpha", uuid) == nav.CANCELED, 5, "the goal CANCELED")
+        time.sleep(3.5 - (time.monotonic() - estop))
+        held = relay.since(relay.cmd_vel["alpha"], estop + 0.3)
+        assert not moving(held), f"non-zero commands reached the base after the estop: {moving(held)[:5]}"
+        assert len(held) >= 3.0 * 20 * 0.7, f"{len(held)} zeros in 3.2 s"
+        assert len(moving(relay.since(relay.autonomy["alpha"], estop + 0.3))) >= 20, "the controller misbehaved"
+        stopped = relay.pose_at("alpha", estop + 0.3)
+        assert distance(relay.pose("alpha"), stopped) <= 0.05
+        assert relay.late_gate_state("alpha") == "estop"
+
+        # The relay dies; the latch holds; a new relay learns it, lifts it, and a goal drives to SUCCEEDED.
+        relay.die()
+        died = time.monotonic()
+        time.sleep(2.0)
+        after = relay.since(relay.cmd_vel["alpha"], died)
+        assert not moving(after) and len(after) >= 2.0 * 20 * 0.7
+        second = ZenohRelay(endpoint, config, store, hashes)
+        assert second.late_gate_state("alpha") == "estop"
+        second.gate("alpha", "drive")
+        here = second.pose("alpha")
+        uuid = second.goal("alpha", 6.0, 1.5)
+        request = store.types[f"{GET_RESULT}_Request"](goal_id=store.types["unique_identifier_msgs/msg/UUID"](
+            uuid=__import__("numpy").frombuffer(uuid, "uint8").copy()
+        ))  # fmt: skip
+        result, _ = second.call("alpha", "get_result", GET_RESULT, request, timeout=30)  # answered when it ends
+        assert (result.status, result.result.error_code) == (nav.SUCCEEDED, 0)
+        assert distance(second.pose("alpha"), here) > 0.3
+    finally:
+        relay.close()
+        if second is not None:
+            second.close()
+
+
+def _try_relay(endpoint: str, config: FleetConfig, store: object, hashes: dict[str, str]) -> object | None:
+    from tests.gate_zenoh import ZenohRelay
+
+    try:
+        return ZenohRelay(endpoint, config, store, hashes)
+    except Exception:  # the router is not listening yet
+        return None

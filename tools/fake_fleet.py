@@ -42,6 +42,9 @@ from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 from relay.watchdog.node import Watchdogs  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fake_nav2 import Nav2Servers, add_nav2_arguments, nav2_ready  # noqa: E402
+
 logger = logging.getLogger("fake_fleet")
 
 SCAN_RATE = 10.0
@@ -139,9 +142,7 @@ class FakeFleet:
         self.watchdogs = Watchdogs(self.node, config, watched, config.safety.deadman_timeout) if watched else None
         self.nav2 = None
         if nav2:
-            sys.path.insert(0, str(Path(__file__).resolve().parent))
-            servers = importlib.import_module("fake_nav2").Nav2Servers
-            self.nav2 = servers(self.node, self.world, config.robots, misbehave_after_cancel=misbehave_after_cancel)
+            self.nav2 = Nav2Servers(self.node, self.world, config.robots, misbehave_after_cancel=misbehave_after_cancel)
         self._cameras: list[tuple[str, Any, Any, Any, float]] = []  # robot, camera spec, publisher, lens, period
         self._start_cameras()
         sim = config.sim
@@ -279,25 +280,6 @@ class FakeFleet:
         message.info.origin.orientation.w = 1.0
         message.data = (grid.occupied.astype("int8") * 100).ravel().tolist()
         self.map_pub.publish(message)
-
-
-def add_nav2_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--nav2", action="store_true", help="navigate as Nav2 does: action status, cancel, cmd_vel_nav")
-    parser.add_argument(
-        "--misbehave-after-cancel", action="store_true",
-        help="with --nav2: the controller keeps publishing after a cancel (the watchdog's gate must hold)",
-    )  # fmt: skip
-
-
-def nav2_ready(config: FleetConfig) -> None:
-    """ConfigError naming the first robot whose navigation could not move it: with --nav2 the base moves only from
-    cmd_vel, which only the watchdog publishes."""
-    for index, robot in enumerate(config.robots):
-        if robot.watchdog_topic is None:
-            raise ConfigError(
-                config.source, None, f"robots[{index}].cmd_vel.watchdog",
-                f"{robot.name}: --nav2 needs it: the watchdog forwards {robot.autonomy_topic} to {robot.cmd_vel_topic}",
-            )  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:

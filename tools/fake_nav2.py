@@ -14,19 +14,40 @@ Per robot, with the navigator of ``relay.sim.navigator`` (planned and followed o
 
 from __future__ import annotations
 
+import argparse
 import logging
 import time
 import uuid as uuidlib
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from relay.config import Robot
+from relay.config import FleetConfig, Robot
+from relay.errors import ConfigError
 from relay.geometry import quaternion_to_yaw, yaw_to_quaternion
 from relay.sim import navigator as nav
 from relay.sim.navigator import Navigator, world_planner
 from relay.sim.world import SimWorld
 
 logger = logging.getLogger("fake_fleet.nav2")
+
+
+def add_nav2_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--nav2", action="store_true", help="navigate as Nav2 does: action status, cancel, cmd_vel_nav")
+    parser.add_argument(
+        "--misbehave-after-cancel", action="store_true",
+        help="with --nav2: the controller keeps publishing after a cancel (the watchdog's gate must hold)",
+    )  # fmt: skip
+
+
+def nav2_ready(config: FleetConfig) -> None:
+    """ConfigError naming the first robot whose navigation could not move it: with --nav2 the base moves only from
+    cmd_vel, which only the watchdog publishes."""
+    for index, robot in enumerate(config.robots):
+        if robot.watchdog_topic is None:
+            raise ConfigError(
+                config.source, None, f"robots[{index}].cmd_vel.watchdog",
+                f"{robot.name}: --nav2 needs it: the watchdog forwards {robot.autonomy_topic} to {robot.cmd_vel_topic}",
+            )  # fmt: skip
 
 
 def _nav2_msgs() -> Any | None:
