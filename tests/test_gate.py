@@ -15,7 +15,9 @@ import textwrap
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 from relay.config import FleetConfig, load_config
@@ -338,7 +340,7 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
 ) -> None:
     pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
     from tests.gate_dds import wait_until
-    from tests.gate_zenoh import GET_RESULT, ZenohRelay
+    from tests.gate_zenoh import CANCEL, GET_RESULT, ZenohRelay
     from tests.zenoh_robots import free_port
 
     hashes = rosidl_hashes(tmp_path)
@@ -366,13 +368,12 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
         # A goal outside the map: ABORTED, and its result says why, as Nav2 would (GOAL_OUTSIDE_MAP).
         lost = relay.goal("beta", 30.0, 1.5)
         wait_until(lambda: relay.status("beta", lost) == nav.ABORTED, 5, "beta's goal ABORTED")
-        request = store.types[f"{GET_RESULT}_Request"](goal_id=store.types["unique_identifier_msgs/msg/UUID"](
-            uuid=__import__("numpy").frombuffer(lost, "uint8").copy()
-        ))  # fmt: skip
-        result, extra = relay.call("beta", "get_result", GET_RESULT, request)
+        result, extra = relay.call("beta", "get_result", GET_RESULT, result_request(store, lost))
         assert (result.status, result.result.error_code) == (nav.ABORTED, nav.GOAL_OUTSIDE_MAP)
         assert "outside the map" in result.result.error_msg
         assert extra[16:] == bytes([16]) + b"G" * 16, "the reply carries the client's GID (rmw_zenoh's attachment)"
+        [refused] = relay.session.get(relay.key("/beta/navigate_to_pose/_action/cancel_goal", CANCEL), payload=b"?")
+        assert refused.err is not None and b"not a action_msgs/srv/CancelGoal request" in refused.err.payload.to_bytes()
 
         # Estop and cancel; the controller misbehaves; only zeros reach the base.
         estop = time.monotonic()
@@ -401,9 +402,7 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
         second.gate("alpha", "drive")
         here = second.pose("alpha")
         uuid = second.goal("alpha", 6.0, 1.5)
-        request = store.types[f"{GET_RESULT}_Request"](goal_id=store.types["unique_identifier_msgs/msg/UUID"](
-            uuid=__import__("numpy").frombuffer(uuid, "uint8").copy()
-        ))  # fmt: skip
+        request = result_request(store, uuid)
         result, _ = second.call("alpha", "get_result", GET_RESULT, request, timeout=30)  # answered when it ends
         assert (result.status, result.result.error_code) == (nav.SUCCEEDED, 0)
         assert distance(second.pose("alpha"), here) > 0.3
@@ -411,6 +410,12 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
         relay.close()
         if second is not None:
             second.close()
+
+
+def result_request(store: Any, uuid: bytes) -> Any:
+    """A NavigateToPose GetResult request for ``uuid``."""
+    goal_id = store.types["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(uuid, np.uint8).copy())
+    return store.types["nav2_msgs/action/NavigateToPose_GetResult_Request"](goal_id=goal_id)
 
 
 def _try_relay(endpoint: str, config: FleetConfig, store: object, hashes: dict[str, str]) -> object | None:
