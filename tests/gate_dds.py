@@ -49,7 +49,8 @@ class DdsRelay:
         self.autonomy: dict[str, list[Sample]] = {}
         self.poses: dict[str, list[tuple[float, float, float]]] = {}  # (t, x, y)
         self.gate_states: dict[str, list[str]] = {}
-        self.statuses: dict[str, list[tuple[bytes, int]]] = {}  # the latest status list: (goal UUID, status)
+        self.statuses: dict[str, list[tuple[bytes, int]]] = {}
+        self.status_heard: set[str] = set()  # the latest status list: (goal UUID, status)
         self.heartbeat_on = True
         self._pubs: dict[str, Any] = {}
         self._cancel: dict[str, Any] = {}
@@ -113,6 +114,9 @@ class DdsRelay:
         """Publishes a goal once the navigator listens; the UUID it gets, from the action's status."""
         publisher = self._pubs[f"{robot}/goal"]
         wait_until(lambda: publisher.get_subscription_count() > 0, timeout, f"{robot}'s navigator on goal_pose")
+        # The goals known before this one: the status list must have been heard (a late joiner's history comes
+        # asynchronously), or an old goal would pass for the new one.
+        wait_until(lambda: robot in self.status_heard, timeout, f"{robot}'s action status")
         with self.lock:
             known = {uuid for uuid, _ in self.statuses[robot]}
         message = self._pose()
@@ -213,6 +217,7 @@ class DdsRelay:
 
     def _note_status(self, robot: str, message: Any) -> None:
         with self.lock:
+            self.status_heard.add(robot)
             self.statuses[robot] = [(bytes(s.goal_info.goal_id.uuid), s.status) for s in message.status_list]
 
     def _beat(self) -> None:

@@ -54,6 +54,7 @@ class ZenohRelay:
         self.poses: dict[str, list[tuple[float, float, float]]] = {}
         self.gate_states: dict[str, list[str]] = {}
         self.statuses: dict[str, list[tuple[bytes, int]]] = {}
+        self.status_heard: set[str] = set()
         self.feedback: dict[str, list[Any]] = {}
         self._pubs: dict[str, Any] = {}
         self._entities: list[Any] = []
@@ -108,6 +109,9 @@ class ZenohRelay:
         )
 
     def goal(self, robot: str, x: float, y: float) -> bytes:
+        # The goals known before this one: the status list must have been heard (a late joiner's history comes
+        # asynchronously), or an old goal would pass for the new one.
+        wait_until(lambda: robot in self.status_heard, 30, f"{robot}'s action status")
         with self.lock:
             known = {uuid for uuid, _ in self.statuses[robot]}
         pose = self.t["geometry_msgs/msg/Pose"](
@@ -221,6 +225,7 @@ class ZenohRelay:
 
     def _status(self, robot: str, message: Any) -> None:
         with self.lock:
+            self.status_heard.add(robot)
             self.statuses[robot] = [(bytes(s.goal_info.goal_id.uuid), int(s.status)) for s in message.status_list]
 
     def _beating(self) -> None:

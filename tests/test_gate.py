@@ -178,7 +178,10 @@ def test_an_estop_holds_a_navigating_robot_against_its_controller_and_outlives_t
         here = second.pose("alpha")
         uuid = second.goal("alpha", 6.0, 1.5)
         wait_until(lambda: distance(second.pose("alpha"), here) > 0.3, 20, "alpha driving again")
-        wait_until(lambda: second.status("alpha", uuid) == nav.SUCCEEDED, 30, "the new goal SUCCEEDED")
+        wait_until(
+            lambda: second.status("alpha", uuid) == nav.SUCCEEDED, 30,
+            f"the new goal SUCCEEDED (status {second.status('alpha', uuid)}, at {second.pose('alpha')})",
+        )  # fmt: skip
     finally:
         second.close()
 
