@@ -106,6 +106,23 @@ def robots_side(tmp_path: Path) -> Iterator[Processes]:
         processes.stop()
 
 
+@pytest.mark.parametrize("zenoh", [False, True])
+def test_nav2_without_a_watchdog_is_refused_naming_the_robot(tmp_path: Path, zenoh: bool) -> None:
+    """--nav2 moves the base only from cmd_vel, which only the watchdog publishes: a robot without one could never
+    follow its goal, so the fake fleet refuses to start, naming the robot and the field."""
+    config = tmp_path / "fleet.yaml"
+    text = FLEET.replace("    cmd_vel: {watchdog: true}\n    navigation", "    navigation")
+    assert text != FLEET
+    config.write_text(text)
+    flags = ["--zenoh", "--listen", "tcp/127.0.0.1:1"] if zenoh else []
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "fake_fleet.py"), "--config", str(config), "--nav2", *flags],
+        capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert result.returncode == 2, result.stderr[-2000:]
+    assert f"{config}: robots[1].cmd_vel.watchdog: beta: --nav2 needs it" in result.stderr
+
+
 # -- over DDS ---------------------------------------------------------------------------------------------------
 
 
