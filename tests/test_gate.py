@@ -6,6 +6,7 @@ from what the watchdog publishes on cmd_vel; every check is on what reaches it t
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import signal
@@ -51,6 +52,15 @@ def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
 
 def moving(samples: list[tuple[float, float, float]]) -> list[tuple[float, float, float]]:
     return [s for s in samples if s[1] != 0.0 or s[2] != 0.0]
+
+
+def latch_fault(samples: list[tuple[float, float, float]], since: float) -> str:
+    """What is wrong with the latch's zeros ("" if nothing): they must go on from ``since`` until now, no gap over
+    1 s. Their 20 Hz is the rules' (tested with a clock moved by hand): a loaded machine stretches 50 ms to 100 ms and
+    more in a process (seen at load 34 on 2 cores); a watchdog that is not latched sends one zero, then nothing."""
+    times = [since, *(t for t, _, _ in samples), time.monotonic()]
+    gap = max(b - a for a, b in itertools.pairwise(times))
+    return "" if len(samples) >= 3 and gap <= 1.0 else f"{len(samples)} zeros, a gap of {gap:.2f} s"
 
 
 @pytest.fixture
@@ -171,7 +181,7 @@ def test_an_estop_holds_a_navigating_robot_against_its_controller_and_outlives_t
     time.sleep(3.5 - (time.monotonic() - estop))
     held = relay.since(relay.cmd_vel["alpha"], estop + 0.3)
     assert not moving(held), f"non-zero commands reached the base after the estop: {moving(held)[:5]}"
-    assert len(held) >= 3.0 * 20 * 0.7, f"{len(held)} zeros in 3.2 s: the latch sends them at 20 Hz"
+    assert not (fault := latch_fault(held, estop + 0.3)), fault
     rogue = moving(relay.since(relay.autonomy["alpha"], estop + 0.3))
     assert len(rogue) >= 20, "the controller kept publishing after the cancel (the gate held against it)"
     stopped = relay.pose_at("alpha", estop + 0.3)
@@ -183,7 +193,8 @@ def test_an_estop_holds_a_navigating_robot_against_its_controller_and_outlives_t
     died = time.monotonic()
     time.sleep(2.0)
     after = relay.since(relay.cmd_vel["alpha"], died)
-    assert not moving(after) and len(after) >= 2.0 * 20 * 0.7, f"after the relay's death: {len(after)} commands"
+    assert not moving(after), f"after the relay's death: {moving(after)[:5]}"
+    assert not (fault := latch_fault(after, died)), fault
     assert distance(relay.pose("alpha"), stopped) <= 0.05
 
     # A new relay learns the latch from gate_state, and its drive lets autonomy drive again.
@@ -221,7 +232,8 @@ def test_a_watchdog_started_after_the_estop_latches_and_hold_blocks_autonomy_but
     latched = time.monotonic()
     time.sleep(2.0)
     assert not moving(relay.cmd_vel["alpha"]), "a watchdog started after the estop forwarded a motion"
-    assert len(relay.since(relay.cmd_vel["alpha"], latched)) >= 2.0 * 20 * 0.7, "zeros at 20 Hz"
+    zeros = relay.since(relay.cmd_vel["alpha"], latched)
+    assert not (fault := latch_fault(zeros, latched)), fault
     assert moving(relay.since(relay.autonomy["alpha"], latched)), "the controller was publishing all along"
     assert distance(relay.pose("alpha"), start) <= 0.05
     assert relay.late_gate_state("alpha") == "estop"
@@ -405,7 +417,7 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
         time.sleep(3.5 - (time.monotonic() - estop))
         held = relay.since(relay.cmd_vel["alpha"], estop + 0.3)
         assert not moving(held), f"non-zero commands reached the base after the estop: {moving(held)[:5]}"
-        assert len(held) >= 3.0 * 20 * 0.7, f"{len(held)} zeros in 3.2 s"
+        assert not (fault := latch_fault(held, estop + 0.3)), fault
         assert len(moving(relay.since(relay.autonomy["alpha"], estop + 0.3))) >= 20, "the controller misbehaved"
         stopped = relay.pose_at("alpha", estop + 0.3)
         assert distance(relay.pose("alpha"), stopped) <= 0.05
@@ -416,7 +428,8 @@ def test_over_zenoh_the_gate_holds_against_the_controller_and_nav2s_services_ans
         died = time.monotonic()
         time.sleep(2.0)
         after = relay.since(relay.cmd_vel["alpha"], died)
-        assert not moving(after) and len(after) >= 2.0 * 20 * 0.7
+        assert not moving(after), f"after the relay's death: {moving(after)[:5]}"
+        assert not (fault := latch_fault(after, died)), fault
         second = ZenohRelay(endpoint, config, store, hashes)
         assert second.late_gate_state("alpha") == "estop"
         second.gate("alpha", "drive")
