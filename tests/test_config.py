@@ -78,6 +78,27 @@ def test_topic_overrides_and_root_namespace() -> None:
     assert sensor.is_warning(10) and not sensor.is_warning(50)
 
 
+def test_navigation_defaults_to_nav2_in_the_namespace_and_every_key_can_be_set() -> None:
+    robot = parse_config(MINIMAL).robots[0]
+    assert robot.nav_interface == "nav2" and robot.nav_action == "/alpha/navigate_to_pose"
+    assert robot.autonomy_topic == "/alpha/cmd_vel_nav" and robot.on_relay_lost == "hold"
+    assert robot.gate_topic == "/alpha/xr_relay/gate"
+    assert robot.gate_state_topic == "/alpha/xr_relay/gate_state"
+    text = (
+        "robots:\n  - name: tb3\n    namespace: ''\n    limits: {linear: 0.2, angular: 1}\n"
+        "    navigation: {interface: topic, action: /nav/navigate, autonomy: cmd_vel_monitored, "
+        "on_relay_lost: continue}\n"
+    )
+    robot = parse_config(text).robots[0]
+    assert (robot.nav_interface, robot.nav_action, robot.autonomy_topic, robot.on_relay_lost) == (
+        "topic",
+        "/nav/navigate",
+        "/cmd_vel_monitored",
+        "continue",
+    )
+    assert (robot.gate_topic, robot.gate_state_topic) == ("/xr_relay/gate", "/xr_relay/gate_state")
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
@@ -180,6 +201,46 @@ def test_topic_overrides_and_root_namespace() -> None:
         (
             MINIMAL + "ros: {dds_profile: nowhere/fastdds.xml}\n",
             "robots.yaml:4: ros.dds_profile: no Fast DDS profile file at nowhere/fastdds.xml",
+        ),
+        (
+            MINIMAL + "    navigation: {interface: action}\n",
+            'robots.yaml:4: robots[0].navigation.interface: expected one of nav2, topic, got "action"',
+        ),
+        (
+            MINIMAL + "    navigation: {on_relay_lost: stop}\n",
+            'robots.yaml:4: robots[0].navigation.on_relay_lost: expected one of hold, continue, got "stop"',
+        ),
+        (
+            MINIMAL + "    navigation: {autonomy: 'cmd vel'}\n",
+            "robots.yaml:4: robots[0].navigation.autonomy: expected a ROS topic name such as /robot1/odom, "
+            'got "cmd vel"',
+        ),
+        (
+            MINIMAL + "    navigation: {action: 12}\n",
+            "robots.yaml:4: robots[0].navigation.action: expected a ROS topic name such as /robot1/odom, got 12",
+        ),
+        (
+            MINIMAL + "    navigation: {autonomy: cmd_vel}\n",
+            "robots.yaml:4: robots[0].navigation.autonomy: expected a topic other than cmd_vel's and teleop's, "
+            "got /alpha/cmd_vel",
+        ),
+        (
+            MINIMAL + "    cmd_vel: {watchdog: true}\n    navigation: {autonomy: /alpha/xr_relay/cmd_vel}\n",
+            "robots.yaml:5: robots[0].navigation.autonomy: expected a topic other than cmd_vel's and teleop's",
+        ),
+        (
+            MINIMAL + "    cmd_vel: {topic: cmd_vel_nav}\n",
+            "robots.yaml:4: robots[0].navigation.autonomy: expected a topic other than cmd_vel's and teleop's, "
+            "got /alpha/cmd_vel_nav",
+        ),
+        (
+            MINIMAL + "    navigation: nav2\n",
+            'robots.yaml:4: robots[0].navigation: expected a mapping, got "nav2"',
+        ),
+        (
+            MINIMAL + "    navigation: {controller: cmd_vel_nav}\n",
+            "robots.yaml:4: robots[0].navigation.controller: unknown field; expected one of interface, action, "
+            "autonomy, on_relay_lost",
         ),
     ],
 )

@@ -1,6 +1,6 @@
 """A simulated fleet on a real ROS 2 graph: the ``sim`` backend's robots, over DDS.
 
-    python tools/fake_fleet.py [--config robots.yaml]
+    python tools/fake_fleet.py [--config robots.yaml] [--nav2 [--misbehave-after-cancel]] [--no-watchdog]
     python tools/fake_fleet.py --zenoh [--listen tcp/127.0.0.1:7447]   (over Zenoh, no ROS: fake_fleet_zenoh.py)
 
 For every robot of the config it publishes its pose (on the robot's pose topic, as Odometry,
@@ -9,9 +9,15 @@ message types), a LaserScan and, when a client asks, camera images (sensor_msgs/
 CompressedImage, once the simulated camera is available), and the facility's map on the map topic
 (transient local). It follows ``cmd_vel`` (Twist or TwistStamped) and ``goal_pose`` (PoseStamped) like the
 ``sim`` backend does; robots with ``cmd_vel.watchdog`` get their teleop through the watchdog (relay/watchdog),
-which runs in this process, on the robots' side of the network. It is the demo for people without robots,
-and the counterpart of the integration tests: ``xr-relay --backend ros`` against it gives the same experience
-as ``--backend sim``.
+which runs in this process, on the robots' side of the network (``--no-watchdog``: it runs elsewhere, as
+``xr-relay watchdog``). It is the demo for people without robots, and the counterpart of the integration tests:
+``xr-relay --backend ros`` against it gives the same experience as ``--backend sim``.
+
+``--nav2``: each robot navigates as a Nav2 robot does (tools/fake_nav2.py): goal_pose starts a NavigateToPose goal
+whose status, cancel service (and, with nav2_msgs, feedback and result) are Nav2's, and whose controller publishes
+on ``navigation.autonomy`` (``cmd_vel_nav``) at 20 Hz. The base moves only from ``cmd_vel``, which only the watchdog
+publishes: every robot needs ``cmd_vel.watchdog``. ``--misbehave-after-cancel``: the controller keeps publishing
+after a cancel, which the watchdog's gate must hold against (docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -35,6 +41,9 @@ from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 from relay.watchdog.node import Watchdogs  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fake_nav2 import Nav2Servers, add_nav2_arguments, nav2_ready  # noqa: E402
 
 logger = logging.getLogger("fake_fleet")
 
@@ -65,7 +74,9 @@ def sensor_message(classes: dict[str, Any], msg_type: str, value: float, header:
 
 
 class FakeFleet:
-    def __init__(self, config: FleetConfig) -> None:
+    def __init__(
+        self, config: FleetConfig, *, nav2: bool = False, misbehave_after_cancel: bool = False, watchdog: bool = True
+    ) -> None:
         import rclpy
         from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped
         from nav_msgs.msg import OccupancyGrid, Odometry
@@ -119,15 +130,19 @@ class FakeFleet:
             self.node.create_subscription(
                 twist_cls, robot.cmd_vel_topic, lambda m, r=robot: self._on_cmd_vel(r, m), reliable
             )
-            self.node.create_subscription(
-                PoseStamped, robot.goal_topic, lambda m, r=robot: self._on_goal(r, m), reliable
-            )
+            if not nav2:
+                self.node.create_subscription(
+                    PoseStamped, robot.goal_topic, lambda m, r=robot: self._on_goal(r, m), reliable
+                )
         self.map_pub = self.node.create_publisher(OccupancyGrid, config.ros.map_topic, latched)
         self._publish_map(OccupancyGrid)
         # Robots whose cmd_vel.watchdog is set get the relay's teleop through a watchdog on the robot's side, as
         # real robots should (docs/reliability.md): it stops them when the relay cannot.
-        watched = [robot for robot in config.robots if robot.watchdog_topic is not None]
+        watched = [robot for robot in config.robots if robot.watchdog_topic is not None] if watchdog else []
         self.watchdogs = Watchdogs(self.node, config, watched, config.safety.deadman_timeout) if watched else None
+        self.nav2 = None
+        if nav2:
+            self.nav2 = Nav2Servers(self.node, self.world, config.robots, misbehave_after_cancel=misbehave_after_cancel)
         self._cameras: list[tuple[str, Any, Any, Any, float]] = []  # robot, camera spec, publisher, lens, period
         self._start_cameras()
         sim = config.sim
@@ -278,10 +293,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, default=ROOT / "robots.yaml", help="fleet file (default: robots.yaml)")
     parser.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
     parser.add_argument("--zenoh", action="store_true", help="over Zenoh instead of DDS (tools/fake_fleet_zenoh.py)")
+    add_nav2_arguments(parser)
+    parser.add_argument(
+        "--no-watchdog", action="store_true", help="run no watchdog here: `xr-relay watchdog` runs beside the fleet"
+    )
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
         config = load_config(args.config)
+        if args.nav2:
+            nav2_ready(config)
     except ConfigError as exc:
         logger.error("%s", exc)
         return 2
@@ -292,7 +313,9 @@ def main(argv: list[str] | None = None) -> int:
         logger.error("fake_fleet needs rclpy: `pip install '.[ros]'` or source a ROS 2 installation")
         return 2
     rclpy.init()
-    fleet = FakeFleet(config)
+    fleet = FakeFleet(
+        config, nav2=args.nav2, misbehave_after_cancel=args.misbehave_after_cancel, watchdog=not args.no_watchdog
+    )
     signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
     print(f"fake_fleet: {len(config.robots)} robots on ROS_DOMAIN_ID", end=" ", flush=True)  # noqa: T201
     import os

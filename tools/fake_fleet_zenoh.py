@@ -1,6 +1,6 @@
 """A simulated fleet on a Zenoh network, as robots under rmw_zenoh would show it: no ROS install needed.
 
-    python tools/fake_fleet_zenoh.py [--config robots.yaml] [--listen tcp/127.0.0.1:7447]
+    python tools/fake_fleet_zenoh.py [--config robots.yaml] [--listen tcp/127.0.0.1:7447] [--nav2 ...]
     python tools/fake_fleet.py --zenoh ...          (the same)
 
 It is its own Zenoh router, listening where rmw_zenoh's router does by default (tcp/127.0.0.1:7447), which is
@@ -8,8 +8,11 @@ where ``xr-relay --backend zenoh`` looks when neither ``--zenoh-connect`` nor ro
 otherwise: ``make run ARGS="--backend zenoh"`` beside it shows the demo. For every robot of the config it publishes
 what tools/fake_fleet.py publishes over DDS (poses, sensors, laser scans, the map with a cache for late joiners,
 camera images while someone subscribes), as CDR built by rosbags on rmw_zenoh's keys with its attachment, and
-follows cmd_vel, goal_pose and, for robots with ``cmd_vel.watchdog``, the watchdog's topic and the relay's
-heartbeat with the watchdog's own rules (relay/watchdog/rules.py): a relay that dies stops its robots here.
+follows cmd_vel and goal_pose. Robots with ``cmd_vel.watchdog`` have their watchdog here (tools/fake_nav2_zenoh.py,
+the rules of relay/watchdog/rules.py; ``--no-watchdog``: an ``xr-relay watchdog`` under rmw_zenoh runs instead):
+the only publisher of their cmd_vel, the relay's gate and heartbeat in, so a relay that dies stops its robots here.
+``--nav2`` (``--misbehave-after-cancel``) as tools/fake_fleet.py: the robots navigate as Nav2 robots do, status,
+feedback, cancel_goal and get_result included (Nav2's types through tools/nav2_types.py).
 """
 
 from __future__ import annotations
@@ -37,9 +40,13 @@ from relay.errors import ConfigError  # noqa: E402
 from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
 from relay.record import typestore  # noqa: E402
 from relay.rosmsg import POSE_TYPES, image_type  # noqa: E402
+from relay.sim import navigator as nav  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
-from relay.watchdog.rules import WatchdogRules  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fake_nav2 import add_nav2_arguments, nav2_ready  # noqa: E402
+from fake_nav2_zenoh import ZenohNav2, ZenohWatchdogs  # noqa: E402
 
 logger = logging.getLogger("fake_fleet_zenoh")
 
@@ -58,7 +65,10 @@ _SENSOR_FIELDS = {
 
 
 class FakeZenohFleet:
-    def __init__(self, zenoh: Any, session: Any, config: FleetConfig, domain: int) -> None:
+    def __init__(
+        self, zenoh: Any, session: Any, config: FleetConfig, domain: int, *, nav2: bool = False,
+        misbehave_after_cancel: bool = False, watchdog: bool = True,
+    ) -> None:  # fmt: skip
         self.zenoh, self.session, self.config, self.domain = zenoh, session, config, domain
         self.store = typestore()
         self.t = self.store.types
@@ -68,15 +78,19 @@ class FakeZenohFleet:
         self.running = True
         self._sequence = itertools.count(1)
         self._gid = bytes(range(GID_SIZE))
-        self.watchdogs: dict[str, WatchdogRules] = {
-            r.name: WatchdogRules(config.safety.deadman_timeout) for r in config.robots if r.watchdog_topic
-        }
+        self.nav2 = nav2
         self.publishers: dict[str, Any] = {}
         for robot in config.robots:
             self._declare(robot)
-        if self.watchdogs:
-            session.declare_subscriber(self._selector(config.ros.heartbeat_topic), self._on_heartbeat)
-        map_key = self._key(config.ros.map_topic, "nav_msgs/msg/OccupancyGrid")
+        watched = [r for r in config.robots if r.watchdog_topic is not None] if watchdog else []
+        self.watchdogs = None
+        if watched:
+            timeout = config.safety.deadman_timeout
+            self.watchdogs = ZenohWatchdogs(self, watched, timeout, config.ros.heartbeat_topic)
+        self.navigation = None
+        if nav2:
+            self.navigation = ZenohNav2(self, config.robots, misbehave_after_cancel=misbehave_after_cancel)
+        map_key = self.key(config.ros.map_topic, "nav_msgs/msg/OccupancyGrid")
         ext = importlib.import_module("zenoh.ext")
         # Transient local, as rmw_zenoh does it: a publisher cache that a late subscriber's history query reads.
         self.map_pub = ext.declare_advanced_publisher(
@@ -86,17 +100,17 @@ class FakeZenohFleet:
 
     # -- keys and publishing ----------------------------------------------------------------------
 
-    def _key(self, topic: str, type_name: str) -> str:
+    def key(self, topic: str, type_name: str) -> str:
         return topic_key("rmw_zenoh", self.domain, topic, type_name, self.store.hash_rihs01(type_name))
 
-    def _selector(self, topic: str) -> str:
+    def selector(self, topic: str) -> str:
         return topic_selector("rmw_zenoh", self.domain, topic)
 
-    def _put(self, publisher: Any, message: Any, type_name: str) -> None:
+    def put(self, publisher: Any, message: Any, type_name: str) -> None:
         attachment = Attachment(next(self._sequence), time.time_ns(), self._gid).encode()
         publisher.put(bytes(self.store.serialize_cdr(message, type_name)), attachment=attachment)
 
-    def _header(self, frame: str) -> Any:
+    def header(self, frame: str) -> Any:
         now = time.time()
         stamp = self.t["builtin_interfaces/msg/Time"](sec=int(now), nanosec=int((now - int(now)) * 1e9))
         return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
@@ -107,36 +121,32 @@ class FakeZenohFleet:
             logger.warning("%s: pose source tf is not simulated; publishing nothing", name)
         else:
             self.publishers[f"{name}/pose"] = self.session.declare_publisher(
-                self._key(robot.pose.topic, POSE_TYPES[robot.pose.source])
+                self.key(robot.pose.topic, POSE_TYPES[robot.pose.source])
             )
         for sensor in robot.sensors:
             self.publishers[f"{name}/{sensor.name}"] = self.session.declare_publisher(
-                self._key(sensor.topic, sensor.type)
+                self.key(sensor.topic, sensor.type)
             )
         if robot.scan_topic is not None:
             self.publishers[f"{name}/scan"] = self.session.declare_publisher(
-                self._key(robot.scan_topic, "sensor_msgs/msg/LaserScan")
+                self.key(robot.scan_topic, "sensor_msgs/msg/LaserScan")
             )
         for camera in robot.cameras:
             self.publishers[f"{name}/camera/{camera.name}"] = self.session.declare_publisher(
-                self._key(camera.topic, image_type(camera.compressed))
+                self.key(camera.topic, image_type(camera.compressed))
             )
-        cmd_topic = robot.watchdog_topic or robot.cmd_vel_topic
-        self.session.declare_subscriber(self._selector(cmd_topic), lambda s, r=robot: self._on_cmd_vel(r, s))
-        self.session.declare_subscriber(self._selector(robot.goal_topic), lambda s, r=robot: self._on_goal(r, s))
+        # The base follows cmd_vel, which the watchdog (or, without one, the relay) publishes.
+        self.session.declare_subscriber(self.selector(robot.cmd_vel_topic), lambda s, r=robot: self._on_cmd_vel(r, s))
+        if not self.nav2:
+            self.session.declare_subscriber(self.selector(robot.goal_topic), lambda s, r=robot: self._on_goal(r, s))
 
     # -- commands (Zenoh's threads) ---------------------------------------------------------------
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
         logger.info("%s: %s %s", robot, outcome, goal)
 
-    def _on_heartbeat(self, sample: Any) -> None:
-        now = time.time()
-        for rules in self.watchdogs.values():
-            rules.heartbeat(now)
-
     def _on_cmd_vel(self, robot: Robot, sample: Any) -> None:
-        stamped = robot.watchdog_topic is not None or robot.cmd_vel_stamped
+        stamped = robot.cmd_vel_stamped
         type_name = "geometry_msgs/msg/TwistStamped" if stamped else "geometry_msgs/msg/Twist"
         try:
             message = self.store.deserialize_cdr(sample.payload.to_bytes(), type_name)
@@ -145,14 +155,6 @@ class FakeZenohFleet:
             return
         twist = message.twist if stamped else message
         linear, angular = float(twist.linear.x), float(twist.angular.z)
-        rules = self.watchdogs.get(robot.name)
-        if rules is not None:
-            stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
-            with self.lock:
-                verdict = rules.command(linear, angular, stamp, time.time())
-            if not verdict.forward:
-                logger.warning("%s: watchdog dropped a command: %s", robot.name, verdict.reason)
-                return
         with self.lock:
             self.world.set_velocity(robot.name, linear, angular)
 
@@ -178,16 +180,17 @@ class FakeZenohFleet:
         dt = 1.0 / max(sim.physics_rate, 50.0)
         periods = {"pose": 1.0 / sim.pose_rate, "sensor": 1.0 / sim.sensor_rate, "scan": 1.0 / SCAN_RATE}
         due = dict.fromkeys(periods, 0.0)
-        last = time.monotonic()
+        last = next_nav = time.monotonic()
         self._start_cameras()
         while self.running:
             now = time.monotonic()
             with self.lock:
                 self.world.step(min(now - last, 0.2))
-                for name, rules in self.watchdogs.items():
-                    if (reason := rules.tick(time.time())) is not None:
-                        logger.warning("%s: watchdog stop: %s", name, reason)
-                        self.world.set_velocity(name, 0.0, 0.0)
+            if self.watchdogs is not None:
+                self.watchdogs.tick(time.time())
+            if self.navigation is not None and now >= next_nav:
+                next_nav = max(next_nav + nav.PERIOD, now - nav.PERIOD)
+                self.navigation.step(time.time())
             last = now
             for kind, period in periods.items():
                 if now >= due[kind]:
@@ -216,19 +219,19 @@ class FakeZenohFleet:
                     angular=vector(x=0.0, y=0.0, z=float(state.angular)),
                 )
                 message = t["nav_msgs/msg/Odometry"](
-                    header=self._header(robot.pose.odom_frame),
+                    header=self.header(robot.pose.odom_frame),
                     child_frame_id=robot.pose.base_frame,
                     pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
                     twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=covariance),
                 )
             elif source == "amcl_pose":
                 message = t["geometry_msgs/msg/PoseWithCovarianceStamped"](
-                    header=self._header(robot.pose.map_frame),
+                    header=self.header(robot.pose.map_frame),
                     pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
                 )
             else:
-                message = t["geometry_msgs/msg/PoseStamped"](header=self._header(robot.pose.map_frame), pose=pose)
-            self._put(publisher, message, POSE_TYPES[source])
+                message = t["geometry_msgs/msg/PoseStamped"](header=self.header(robot.pose.map_frame), pose=pose)
+            self.put(publisher, message, POSE_TYPES[source])
 
     def _publish_sensors(self) -> None:
         for robot in self.config.robots:
@@ -244,9 +247,9 @@ class FakeZenohFleet:
                     field, scale = _SENSOR_FIELDS[cls]
                     fields = {field: float(value) * scale}
                     if cls not in ("Float32", "Float64"):
-                        fields = self._full(sensor.type, {"header": self._header(f"{robot.name}/base_link"), **fields})
+                        fields = self._full(sensor.type, {"header": self.header(f"{robot.name}/base_link"), **fields})
                 message = self.t[sensor.type](**fields)
-                self._put(self.publishers[f"{robot.name}/{sensor_name}"], message, sensor.type)
+                self.put(self.publishers[f"{robot.name}/{sensor_name}"], message, sensor.type)
 
     def _full(self, type_name: str, given: dict[str, Any]) -> dict[str, Any]:
         """Every field of a message type, zero/empty where not ``given`` (BatteryState has many)."""
@@ -275,12 +278,12 @@ class FakeZenohFleet:
             ranges = self.scanner.scan(state.x, state.y, state.yaw).astype(np.float32)
             s = self.scanner
             message = self.t["sensor_msgs/msg/LaserScan"](
-                header=self._header(f"{robot.name}/base_scan"), angle_min=s.angle_min,
+                header=self.header(f"{robot.name}/base_scan"), angle_min=s.angle_min,
                 angle_max=s.angle_min + s.angle_increment * (len(ranges) - 1), angle_increment=s.angle_increment,
                 time_increment=0.0, scan_time=1.0 / SCAN_RATE, range_min=s.range_min, range_max=s.range_max,
                 ranges=ranges, intensities=np.zeros(0, np.float32),
             )  # fmt: skip
-            self._put(publisher, message, "sensor_msgs/msg/LaserScan")
+            self.put(publisher, message, "sensor_msgs/msg/LaserScan")
 
     def _publish_map(self) -> None:
         grid, t = self.world.grid, self.t
@@ -294,7 +297,7 @@ class FakeZenohFleet:
         )
         data = (grid.occupied.astype(np.int8) * 100).ravel()
         message = t["nav_msgs/msg/OccupancyGrid"](
-            header=self._header(self.config.robots[0].pose.map_frame), info=info, data=data
+            header=self.header(self.config.robots[0].pose.map_frame), info=info, data=data
         )
         attachment = Attachment(next(self._sequence), time.time_ns(), self._gid).encode()
         self.map_pub.put(bytes(self.store.serialize_cdr(message, "nav_msgs/msg/OccupancyGrid")), attachment=attachment)
@@ -328,7 +331,7 @@ class FakeZenohFleet:
             if publisher.matching_status.matching:
                 state = self.world.robots[robot].state
                 rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
-                header = self._header(f"{robot}/camera_{spec.name}")
+                header = self.header(f"{robot}/camera_{spec.name}")
                 if spec.compressed:
                     message = self.t["sensor_msgs/msg/CompressedImage"](
                         header=header, format="jpeg", data=np.frombuffer(rgb_to_jpeg(rgb), np.uint8)
@@ -338,7 +341,7 @@ class FakeZenohFleet:
                         header=header, height=rgb.shape[0], width=rgb.shape[1], encoding="rgb8", is_bigendian=0,
                         step=rgb.shape[1] * 3, data=np.ascontiguousarray(rgb).reshape(-1),
                     )  # fmt: skip
-                self._put(publisher, message, image_type(spec.compressed))
+                self.put(publisher, message, image_type(spec.compressed))
             time.sleep(max(0.05, period - (time.monotonic() - started)))
 
 
@@ -350,10 +353,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--domain", type=int, default=0, help="the ROS domain of the keys (default 0)")
     parser.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    add_nav2_arguments(parser)
+    parser.add_argument("--no-watchdog", action="store_true", help="run no watchdog here (`xr-relay watchdog` does)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:
         config = load_config(args.config)
+        if args.nav2:
+            nav2_ready(config)
     except ConfigError as exc:
         logger.error("%s", exc)
         return 2
@@ -372,7 +379,10 @@ def main(argv: list[str] | None = None) -> int:
     except zenoh.ZError as exc:
         logger.error("cannot listen on %s: %s", ", ".join(listen), exc)
         return 2
-    fleet = FakeZenohFleet(zenoh, session, config, args.domain)
+    fleet = FakeZenohFleet(
+        zenoh, session, config, args.domain, nav2=args.nav2, misbehave_after_cancel=args.misbehave_after_cancel,
+        watchdog=not args.no_watchdog,
+    )  # fmt: skip
 
     def stop(*_: object) -> None:
         fleet.running = False

@@ -8,6 +8,10 @@ from typing import Any, Literal
 
 PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
 POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
+NavInterface = Literal["nav2", "topic"]
+NAV_INTERFACES: tuple[NavInterface, ...] = ("nav2", "topic")
+RelayLost = Literal["hold", "continue"]
+ON_RELAY_LOST: tuple[RelayLost, ...] = ("hold", "continue")
 LENS_MODELS = ("equidistant", "equisolid", "stereographic", "pinhole", "opencv_fisheye")
 
 
@@ -99,6 +103,34 @@ class Robot:
     #: Where the relay publishes its teleop (TwistStamped) for ``xr-relay watchdog``, which forwards fresh commands
     #: to ``cmd_vel_topic`` and stops the robot when they or the relay's heartbeat stop. None: straight to cmd_vel.
     watchdog_topic: str | None = None
+    #: How goals reach the robot's navigation: ``nav2`` (Nav2's NavigateToPose action, named ``nav_action``) or
+    #: ``topic`` (a bare PoseStamped on ``goal_topic``, the outcome guessed from the pose).
+    nav_interface: NavInterface = "nav2"
+    #: The NavigateToPose action (absolute; "" here means the default, ``<namespace>/navigate_to_pose``).
+    nav_action: str = ""
+    #: The robot's own velocity output that the watchdog gates (absolute; "" means ``<namespace>/cmd_vel_nav``,
+    #: Nav2's controller remapped away from cmd_vel: docs/reliability.md).
+    autonomy_topic: str = ""
+    #: What the watchdog does with autonomy when the relay's heartbeat stops: ``hold`` it or let it ``continue``
+    #: (teleop stops either way).
+    on_relay_lost: RelayLost = "hold"
+
+    def __post_init__(self) -> None:
+        # Frozen: the namespace's defaults are filled in once, here, for entries built without them.
+        if not self.nav_action:
+            object.__setattr__(self, "nav_action", f"{self.namespace.rstrip('/')}/navigate_to_pose")
+        if not self.autonomy_topic:
+            object.__setattr__(self, "autonomy_topic", f"{self.namespace.rstrip('/')}/cmd_vel_nav")
+
+    @property
+    def gate_topic(self) -> str:
+        """std_msgs/String ``drive``, ``hold`` or ``estop`` from the relay to the watchdog (transient local)."""
+        return f"{self.namespace.rstrip('/')}/xr_relay/gate"
+
+    @property
+    def gate_state_topic(self) -> str:
+        """std_msgs/String: the watchdog's gate now (transient local), from which a new relay learns a latch."""
+        return f"{self.namespace.rstrip('/')}/xr_relay/gate_state"
 
     def camera(self, name: str | None) -> Camera | None:
         """The named camera, or the first one when ``name`` is None."""

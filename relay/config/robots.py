@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple, cast
 
 from yaml.nodes import MappingNode, Node, ScalarNode
 
@@ -10,14 +11,18 @@ from ..protocol import ROBOT_NAME_PATTERN
 from ..rosmsg import SENSOR_TYPES
 from .model import (
     LENS_MODELS,
+    NAV_INTERFACES,
+    ON_RELAY_LOST,
     POSE_SOURCES,
     Camera,
     Lens,
     Limits,
     ModelSource,
+    NavInterface,
     Pose2D,
     PoseSource,
     PoseSourceKind,
+    RelayLost,
     Robot,
     Sensor,
 )
@@ -37,6 +42,7 @@ _ROBOT_FIELDS = (
     "initial_pose",
     "scan",
     "plan",
+    "navigation",
 )
 
 
@@ -61,6 +67,7 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     limits, initial = _limits(reader, f, path)
     scan_topic = _optional_topic(reader, f, path, namespace, "scan")
     plan_topic = _optional_topic(reader, f, path, namespace, "plan")
+    navigation = _navigation(reader, f, path, namespace, (cmd_vel_topic, watchdog_topic))
     return Robot(
         model_source=model_source,
         scan_topic=scan_topic,
@@ -78,6 +85,10 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
         sensors=tuple(sensors),
         limits=limits,
         initial_pose=initial,
+        nav_interface=navigation.interface,
+        nav_action=navigation.action,
+        autonomy_topic=navigation.autonomy,
+        on_relay_lost=navigation.on_relay_lost,
     )
 
 
@@ -146,6 +157,40 @@ def _command_topics(
         if "topic" in g:
             goal_topic = _topic(reader, g["topic"], f"{path}.goal_pose.topic", namespace)
     return cmd_vel_topic, stamped, watchdog, goal_topic
+
+
+class _Navigation(NamedTuple):
+    interface: NavInterface
+    action: str
+    autonomy: str
+    on_relay_lost: RelayLost
+
+
+def _navigation(
+    reader: _Reader, f: dict[str, Node], path: str, namespace: str, velocity_topics: tuple[str, str | None]
+) -> _Navigation:
+    """``navigation:`` (every key optional): how goals reach the robot, and what its watchdog gates."""
+    fields: dict[str, Node] = {}
+    np = f"{path}.navigation"
+    if "navigation" in f:
+        fields = reader.mapping(f["navigation"], np, ("interface", "action", "autonomy", "on_relay_lost"))
+    interface = cast(
+        NavInterface, reader.get(fields, "interface", np, lambda n, p: reader.choice(n, p, NAV_INTERFACES), "nav2")
+    )
+    action = resolve_topic(namespace, "navigate_to_pose")
+    if "action" in fields:
+        action = _topic(reader, fields["action"], f"{np}.action", namespace)
+    autonomy = resolve_topic(namespace, "cmd_vel_nav")
+    if "autonomy" in fields:
+        autonomy = _topic(reader, fields["autonomy"], f"{np}.autonomy", namespace)
+    if autonomy in velocity_topics:
+        # The watchdog reads autonomy and writes cmd_vel: one topic for both would feed its output back in.
+        node = fields.get("autonomy", f.get("navigation", f.get("cmd_vel")))
+        raise reader.fail(node, f"{np}.autonomy", f"expected a topic other than cmd_vel's and teleop's, got {autonomy}")
+    lost = cast(
+        RelayLost, reader.get(fields, "on_relay_lost", np, lambda n, p: reader.choice(n, p, ON_RELAY_LOST), "hold")
+    )
+    return _Navigation(interface, action, autonomy, lost)
 
 
 def _cameras(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> list[Camera]:

@@ -2,11 +2,14 @@
 
     xr-relay watchdog --config robots.yaml [--robot robot1 ...] [--timeout 0.5]
 
-For every robot whose ``cmd_vel.watchdog`` is set in robots.yaml (or those named), it subscribes to the relay's
-TwistStamped on the watchdog topic and to the relay's heartbeat (``ros.heartbeat_topic``), forwards fresh
-commands to the robot's ``cmd_vel`` (Twist, or TwistStamped when ``cmd_vel.stamped``), and publishes a zero
-when commands or the heartbeat stop for the deadman timeout (``relay.watchdog.rules``). ``tools/fake_fleet.py``
-attaches the same watchdogs to its own node. Set-up: docs/reliability.md.
+For every robot whose ``cmd_vel.watchdog`` is set in robots.yaml (or those named), it is the only publisher of the
+robot's ``cmd_vel`` (Twist, or TwistStamped when ``cmd_vel.stamped``): it subscribes to the relay's teleop
+(TwistStamped on the watchdog topic), the robot's own navigation output (``navigation.autonomy``, default
+``<ns>/cmd_vel_nav``, the same type as cmd_vel), the relay's heartbeat (``ros.heartbeat_topic``) and the relay's
+gate (``<ns>/xr_relay/gate``, std_msgs/String ``drive``/``hold``/``estop``, transient local), forwards what the
+rules allow (``relay.watchdog.rules``: teleop over autonomy, autonomy only on ``drive``, nothing but zeros at 20 Hz
+while an estop is latched), and publishes its gate on ``<ns>/xr_relay/gate_state`` (transient local) at start and on
+every change. ``tools/fake_fleet.py`` attaches the same watchdogs to its own node. Set-up: docs/reliability.md.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from typing import Any
 
 from ..config import FleetConfig, Robot, load_config
 from ..errors import ConfigError
-from .rules import WatchdogRules
+from .rules import Verdict, WatchdogRules
 
 logger = logging.getLogger("xr_relay.watchdog")
 
@@ -30,31 +33,43 @@ TICK = 0.02
 
 
 class Watchdogs:
-    """The watchdogs of some robots on one rclpy node."""
+    """The watchdogs of some robots on one rclpy node: each the only publisher of its robot's ``cmd_vel``."""
 
     def __init__(
         self, node: Any, config: FleetConfig, robots: Sequence[Robot], timeout: float,
         clock: Callable[[], float] = time.time,
     ) -> None:  # fmt: skip
         from geometry_msgs.msg import Twist, TwistStamped
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from std_msgs.msg import Header
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import Header, String
 
         self._clock = clock
-        self._twist, self._twist_stamped = Twist, TwistStamped
+        self._twist, self._twist_stamped, self._string = Twist, TwistStamped, String
         reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        # The gate is the relay's last word and gate_state the watchdog's: a late subscriber (a watchdog started
+        # after an estop, a relay started after one) gets it from the publisher's history.
+        latched = QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+        )
         self.rules: dict[str, WatchdogRules] = {}
         self._robots: dict[str, Robot] = {}
         self._publishers: dict[str, Any] = {}
+        self._gate_states: dict[str, Any] = {}
+        self._dropping: dict[tuple[str, str], str] = {}  # (robot, source) -> the reason last logged
         for robot in robots:
             assert robot.watchdog_topic is not None
-            self.rules[robot.name] = WatchdogRules(timeout)
-            self._robots[robot.name] = robot
+            name = robot.name
+            self.rules[name] = WatchdogRules(timeout, robot.on_relay_lost)
+            self._robots[name] = robot
             cls = TwistStamped if robot.cmd_vel_stamped else Twist
-            self._publishers[robot.name] = node.create_publisher(cls, robot.cmd_vel_topic, reliable)
+            self._publishers[name] = node.create_publisher(cls, robot.cmd_vel_topic, reliable)
+            self._gate_states[name] = node.create_publisher(String, robot.gate_state_topic, latched)
             node.create_subscription(
-                TwistStamped, robot.watchdog_topic, lambda m, r=robot.name: self._on_command(r, m), reliable
+                TwistStamped, robot.watchdog_topic, lambda m, r=name: self._on_command(r, m), reliable
             )
+            node.create_subscription(cls, robot.autonomy_topic, lambda m, r=name: self._on_autonomy(r, m), reliable)
+            node.create_subscription(String, robot.gate_topic, lambda m, r=name: self._on_gate(r, m), latched)
+            self._publish_gate_state(name)
         node.create_subscription(Header, config.ros.heartbeat_topic, self._on_heartbeat, reliable)
         self._node = node
         self._timer = node.create_timer(TICK, self._tick)
@@ -67,41 +82,75 @@ class Watchdogs:
         for rules in self.rules.values():
             rules.heartbeat(now)
 
+    def _on_gate(self, robot: str, message: Any) -> None:
+        rules = self.rules[robot]
+        before = rules.gate
+        try:
+            reason = rules.set_gate(message.data, self._clock())
+        except ValueError as exc:
+            logger.warning("%s: gate word ignored: %s", robot, exc)
+            return
+        if reason is not None:
+            logger.warning("%s: stopped: %s", robot, reason)
+            self._publish(robot, None)
+        if rules.gate != before:
+            logger.info("%s: gate %s -> %s", robot, before, rules.gate)
+            self._publish_gate_state(robot)
+
     def _on_command(self, robot: str, message: Any) -> None:
         stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
-        linear, angular = message.twist.linear.x, message.twist.angular.z
-        verdict = self.rules[robot].command(linear, angular, stamp, self._clock())
+        twist = message.twist
+        verdict = self.rules[robot].command(twist.linear.x, twist.angular.z, stamp, self._clock())
+        self._forward(robot, "teleop", twist, verdict)
+
+    def _on_autonomy(self, robot: str, message: Any) -> None:
+        twist = message.twist if self._robots[robot].cmd_vel_stamped else message
+        verdict = self.rules[robot].autonomy(twist.linear.x, twist.angular.z, self._clock())
+        self._forward(robot, "autonomy", twist, verdict)
+
+    def _forward(self, robot: str, source: str, twist: Any, verdict: Verdict) -> None:
         if verdict.forward:
-            self._publish(robot, linear, angular)
-        else:
-            logger.warning("%s: not forwarded (%.2f, %.2f): %s", robot, linear, angular, verdict.reason)
+            self._dropping.pop((robot, source), None)
+            self._publish(robot, twist)
+        elif self._dropping.get((robot, source)) != verdict.reason:
+            # Once per reason, not per message: a controller held by the gate publishes 20 a second.
+            self._dropping[(robot, source)] = verdict.reason
+            logger.warning("%s: %s not forwarded: %s", robot, source, verdict.reason)
 
     def _tick(self) -> None:
         now = self._clock()
         for robot, rules in self.rules.items():
             reason = rules.tick(now)
             if reason is not None:
-                logger.warning("%s: stopped: %s", robot, reason)
-                self._publish(robot, 0.0, 0.0)
+                if rules.gate != "estop":  # an estop's zeros come at 20 Hz: its start is logged, not each one
+                    logger.warning("%s: stopped: %s", robot, reason)
+                self._publish(robot, None)
 
-    def _publish(self, robot: str, linear: float, angular: float) -> None:
+    def _publish(self, robot: str, twist: Any | None) -> None:
+        """``twist`` (its six components) on the robot's cmd_vel, or a zero for None."""
         spec = self._robots[robot]
         if spec.cmd_vel_stamped:
             message = self._twist_stamped()
             message.header.stamp = self._node.get_clock().now().to_msg()
             message.header.frame_id = spec.pose.base_frame
-            twist = message.twist
+            out = message.twist
         else:
-            message = twist = self._twist()
-        twist.linear.x, twist.angular.z = float(linear), float(angular)
+            message = out = self._twist()
+        if twist is not None:
+            for part in ("linear", "angular"):
+                v, w = getattr(twist, part), getattr(out, part)
+                w.x, w.y, w.z = float(v.x), float(v.y), float(v.z)
         self._publishers[robot].publish(message)
 
+    def _publish_gate_state(self, robot: str) -> None:
+        self._gate_states[robot].publish(self._string(data=self.rules[robot].gate))
+
     def stop_all(self) -> None:
-        """Zero every robot that was moving (on the watchdog's own shutdown)."""
+        """Zero every robot that was moving or is latched (on the watchdog's own shutdown)."""
         for robot, rules in self.rules.items():
-            if rules.moving:
+            if rules.moving or rules.gate == "estop":
                 rules.moving = False
-                self._publish(robot, 0.0, 0.0)
+                self._publish(robot, None)
 
 
 def watched(config: FleetConfig, names: Sequence[str] = ()) -> list[Robot]:
