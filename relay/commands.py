@@ -76,10 +76,14 @@ class CommandHandler:
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
 
-    async def handle_text(self, client: Client, data: str | bytes, now: float, received: float | None = None) -> None:
-        """Handle one text frame, read from the connection at ``received`` (default ``now``). Only unexpected
-        failures propagate (the server then closes with 1011)."""
+    async def handle_text(
+        self, client: Client, data: str | bytes, now: float, received: float | None = None, arrived: float | None = None
+    ) -> None:
+        """Handle one text frame, read from the connection at ``received`` (default ``now``), its bytes there since
+        ``arrived`` at the latest (default ``received``; relay.loop_lag dates reads after a stall of the loop). Only
+        unexpected failures propagate (the server then closes with 1011)."""
         received = now if received is None else received
+        arrived = received if arrived is None else min(arrived, received)
         try:
             command = parse_command(data, self.robots)
         except ProtocolError as exc:
@@ -125,10 +129,10 @@ class CommandHandler:
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
             # estop was once acknowledged 16 s late). Anything that overtakes the goal supersedes it.
-            client.spawn(self._run_apart(client, command, self._goal(client, command, now, received)))
+            client.spawn(self._run_apart(client, command, self._goal(client, command, now, arrived)))
             return
         try:
-            await self._dispatch(client, command, now, received)
+            await self._dispatch(client, command, now, received, arrived)
         except ProtocolError as exc:
             exc.request_id = request_id if exc.request_id is None else exc.request_id
             self.outbox.error(client, exc.request_id, exc.code, exc.message)
@@ -180,13 +184,13 @@ class CommandHandler:
         else:
             self.audit.command(client, command, None)
 
-    async def _dispatch(self, client: Client, command: Command, now: float, received: float) -> None:
+    async def _dispatch(self, client: Client, command: Command, now: float, received: float, arrived: float) -> None:
         if isinstance(command, Ping):
             client.channel.put_priority(encode(pong_message(command.t, self.wall_clock())))
         elif isinstance(command, EStop):
             await self._estop(client, command, now)
         elif isinstance(command, CmdVel):
-            await self._cmd_vel(client, command, now, received)
+            await self._cmd_vel(client, command, now, received, arrived)
         elif isinstance(command, Cancel):
             self.control.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
@@ -248,14 +252,17 @@ class CommandHandler:
                 request_id,
             )
 
-    async def _cmd_vel(self, client: Client, command: CmdVel, now: float, received: float) -> None:
+    async def _cmd_vel(self, client: Client, command: CmdVel, now: float, received: float, arrived: float) -> None:
         robot = self.robots[command.robot]
         identifier = robot_identifier(robot.name, "cmd_vel")
         # Its age: the time since the relay read it, plus, when the client stamps its commands, how much longer
         # than its quickest recent command it took to reach the relay (relay.freshness).
         age = now - received
         if command.sent is not None:
+            # Fed the read time, not the earlier arrival date: a date before the client's send would teach its
+            # clock estimate an impossible delay, and every later command would look stale.
             age += client.sender_clock.age(command.sent, received)
+        age = max(age, now - arrived)  # both are lower bounds of how long it waited
         self.control.require_operator(client, identifier, command.id)  # a viewer hears "forbidden", nothing else
         self._require_fresh(identifier, command.id, age)
         self._require_record(identifier, command.id)
@@ -276,10 +283,10 @@ class CommandHandler:
         if command.id is not None:
             self.outbox.ack(client, command.id)
 
-    async def _goal(self, client: Client, command: GoalPose, now: float, received: float) -> None:
+    async def _goal(self, client: Client, command: GoalPose, now: float, arrived: float) -> None:
         identifier = robot_identifier(command.robot, "goal_pose")
         self.control.require_operator(client, identifier, command.id)
-        self._require_fresh(identifier, command.id, now - received)
+        self._require_fresh(identifier, command.id, now - arrived)
         self._require_record(identifier, command.id)
         self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
         check_goal(command.robot, command.x, command.y, self.map_grid())

@@ -256,12 +256,14 @@ class Relay:
         self.hub.counters.messages_in += 1
         self.commands.handle_binary(client)
 
-    async def handle_text(self, client: Client, data: str | bytes, received: float | None = None) -> None:
-        """Handle one text frame read at ``received`` (the relay's clock; default now). Only unexpected failures
-        propagate (the server then closes with 1011)."""
+    async def handle_text(
+        self, client: Client, data: str | bytes, received: float | None = None, arrived: float | None = None
+    ) -> None:
+        """Handle one text frame read at ``received`` (the relay's clock; default now), its bytes in the relay since
+        ``arrived`` at the latest. Only unexpected failures propagate (the server then closes with 1011)."""
         self.hub.counters.messages_in += 1
         now = self.clock()
-        await self.commands.handle_text(client, data, now, now if received is None else received)
+        await self.commands.handle_text(client, data, now, now if received is None else received, arrived)
 
     # -- backend events (always on the loop thread) -----------------------------------------------
 

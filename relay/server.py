@@ -191,7 +191,7 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
-                await relay.handle_text(client, msg.data, min(dates.frame(), relay.clock()))
+                await relay.handle_text(client, msg.data, relay.clock(), dates.frame())
             elif msg.type == WSMsgType.BINARY:
                 relay.handle_binary(client)
             elif msg.type == WSMsgType.ERROR:
