@@ -7,8 +7,16 @@ from pathlib import Path
 from typing import Any, Literal
 
 PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
+NavInterface = Literal["nav2", "topic"]
+NAV_INTERFACES: tuple[NavInterface, ...] = ("nav2", "topic")
+RelayLost = Literal["hold", "continue"]
+RELAY_LOST: tuple[RelayLost, ...] = ("hold", "continue")
 POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
 LENS_MODELS = ("equidistant", "equisolid", "stereographic", "pinhole", "opencv_fisheye")
+
+
+def _in_namespace(namespace: str, name: str) -> str:
+    return f"{namespace.rstrip('/')}/{name}"
 
 
 @dataclass(frozen=True)
@@ -99,6 +107,32 @@ class Robot:
     #: Where the relay publishes its teleop (TwistStamped) for ``xr-relay watchdog``, which forwards fresh commands
     #: to ``cmd_vel_topic`` and stops the robot when they or the relay's heartbeat stop. None: straight to cmd_vel.
     watchdog_topic: str | None = None
+    #: ``nav2``: goals on ``goal_pose`` followed through Nav2's NavigateToPose action (``nav_action``: its status,
+    #: feedback, result and cancel); ``topic``: a bare goal_pose topic, whose outcome the relay judges from the pose.
+    nav_interface: NavInterface = "nav2"
+    #: The NavigateToPose action's name, absolute (default ``/<ns>/navigate_to_pose``).
+    nav_action: str = ""
+    #: The robot's autonomy output the watchdog gates (Nav2's controller, remapped), absolute (``/<ns>/cmd_vel_nav``).
+    autonomy_topic: str = ""
+    #: What the watchdog does with autonomy when the relay's heartbeat stops: ``hold`` it or let it ``continue``.
+    on_relay_lost: RelayLost = "hold"
+
+    def __post_init__(self) -> None:
+        # Defaults that depend on the namespace, for a Robot built without robots.yaml's reader.
+        if not self.nav_action:
+            object.__setattr__(self, "nav_action", _in_namespace(self.namespace, "navigate_to_pose"))
+        if not self.autonomy_topic:
+            object.__setattr__(self, "autonomy_topic", _in_namespace(self.namespace, "cmd_vel_nav"))
+
+    @property
+    def gate_topic(self) -> str:
+        """std_msgs/String the relay publishes (``drive``, ``hold``, ``estop``; transient local) for the watchdog."""
+        return _in_namespace(self.namespace, "xr_relay/gate")
+
+    @property
+    def gate_state_topic(self) -> str:
+        """std_msgs/String the watchdog publishes: its gate now (transient local), so a new relay learns a latch."""
+        return _in_namespace(self.namespace, "xr_relay/gate_state")
 
     def camera(self, name: str | None) -> Camera | None:
         """The named camera, or the first one when ``name`` is None."""

@@ -10,14 +10,18 @@ from ..protocol import ROBOT_NAME_PATTERN
 from ..rosmsg import SENSOR_TYPES
 from .model import (
     LENS_MODELS,
+    NAV_INTERFACES,
     POSE_SOURCES,
+    RELAY_LOST,
     Camera,
     Lens,
     Limits,
     ModelSource,
+    NavInterface,
     Pose2D,
     PoseSource,
     PoseSourceKind,
+    RelayLost,
     Robot,
     Sensor,
 )
@@ -37,6 +41,7 @@ _ROBOT_FIELDS = (
     "initial_pose",
     "scan",
     "plan",
+    "navigation",
 )
 
 
@@ -61,7 +66,12 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     limits, initial = _limits(reader, f, path)
     scan_topic = _optional_topic(reader, f, path, namespace, "scan")
     plan_topic = _optional_topic(reader, f, path, namespace, "plan")
+    interface, action, autonomy, on_relay_lost = _navigation(reader, f, path, namespace)
     return Robot(
+        nav_interface=interface,
+        nav_action=action,
+        autonomy_topic=autonomy,
+        on_relay_lost=on_relay_lost,
         model_source=model_source,
         scan_topic=scan_topic,
         plan_topic=plan_topic,
@@ -146,6 +156,31 @@ def _command_topics(
         if "topic" in g:
             goal_topic = _topic(reader, g["topic"], f"{path}.goal_pose.topic", namespace)
     return cmd_vel_topic, stamped, watchdog, goal_topic
+
+
+def _navigation(
+    reader: _Reader, f: dict[str, Node], path: str, namespace: str
+) -> tuple[NavInterface, str, str, RelayLost]:
+    """``navigation``: the interface (``nav2`` or ``topic``; the word alone is a short form), the NavigateToPose
+    action's name, the autonomy topic the watchdog gates, and what it does when the relay is lost."""
+    interface: NavInterface = "nav2"
+    action = resolve_topic(namespace, "navigate_to_pose")
+    autonomy = resolve_topic(namespace, "cmd_vel_nav")
+    on_relay_lost: RelayLost = "hold"
+    node, where = f.get("navigation"), f"{path}.navigation"
+    if node is not None and isinstance(node, ScalarNode) and reader.value(node) is not None:
+        interface = reader.choice(node, where, NAV_INTERFACES)  # type: ignore[assignment]
+    elif node is not None and reader.value(node) is not None:
+        n = reader.mapping(node, where, ("interface", "action", "autonomy", "on_relay_lost"))
+        if "interface" in n:
+            interface = reader.choice(n["interface"], f"{where}.interface", NAV_INTERFACES)  # type: ignore[assignment]
+        if "action" in n:
+            action = _topic(reader, n["action"], f"{where}.action", namespace)
+        if "autonomy" in n:
+            autonomy = _topic(reader, n["autonomy"], f"{where}.autonomy", namespace)
+        if "on_relay_lost" in n:
+            on_relay_lost = reader.choice(n["on_relay_lost"], f"{where}.on_relay_lost", RELAY_LOST)  # type: ignore[assignment]
+    return interface, action, autonomy, on_relay_lost
 
 
 def _cameras(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> list[Camera]:
