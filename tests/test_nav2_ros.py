@@ -120,6 +120,15 @@ async def test_goals_end_as_nav2_says_and_an_abort_is_reported_within_a_second(
         assert failed["message"].startswith("Nav2 aborted the goal") and failed["goal"]["x"] == -1.0
         status = await client.wait_for(lambda m: m["identifier"] == "alpha/status" and m["mode"] == "idle", start=start)
         assert status["goal"] is None
+        # The same unreachable goal as a mission's step: the mission pauses at once, naming Nav2's abort.
+        start, printed_before = len(client.messages), len(peer.lines)
+        steps = [{"goto": {"x": -2.0, "y": 3.0}}, {"dwell": 1}]
+        reply = await client.request({"identifier": "mission/start", "robot": "alpha", "steps": steps})
+        assert reply["identifier"] == "ack", reply
+        aborted = await printed(peer, printed_before, lambda ln: ln.get("status") == "ABORTED" and ln["x"] == -2.0)
+        paused = await client.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "paused", start=start)
+        assert next(t for t, m in client.messages if m is paused) - aborted["t"] < 1.0
+        assert paused["reason"] == "step 1: failed: Nav2 aborted the goal" and paused["current"] == 0
     finally:
         await client.close()
         await peer.stop()
