@@ -241,3 +241,25 @@ async def test_a_latch_the_watchdog_reports_is_shown_and_its_reset_lets_the_robo
     finally:
         await client.close()
         await peer.stop()
+
+
+async def test_the_relays_shutdown_cancels_nav2s_goal_and_holds_the_gate_before_it_exits(
+    ros_domain: int, tmp_path: Path
+) -> None:
+    peer = await start_navigator({"robots": [{"ns": "/alpha"}]}, tmp_path)
+    running = await start_relay(parse_config(FLEET, "fleet.yaml"), options=Options(backend="ros"))
+    client = await operator(running)
+    try:
+        await goal_taken(client, peer, "alpha", 60.0, 2.0)
+        await peer.wait_for(lambda line: line.get("status") == "EXECUTING")
+        start = len(peer.lines)
+    finally:
+        await running.runner.cleanup()  # the relay's shutdown (as Ctrl-C's): every robot first, then the clients
+        await client.close()
+    try:
+        # The navigator heard the cancel and the hold before the relay was gone, and the goal ended cancelled.
+        await printed(peer, start, lambda line: line.get("cancel") == "all")
+        await printed(peer, start, lambda line: line.get("status") == "CANCELED" and line["x"] == 60.0)
+        await printed(peer, start, lambda line: line.get("gate") == "hold")
+    finally:
+        await peer.stop()
