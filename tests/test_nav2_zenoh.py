@@ -92,7 +92,11 @@ class Navigator:
         )
         self.entities = [
             session.declare_subscriber("0/alpha/goal_pose/*/*", self._goal),
-            session.declare_subscriber("0/alpha/xr_relay/gate/*/*", self._word),
+            # The watchdog's reader of a transient-local topic: it asks the publishers' caches too (a word put
+            # before this reader was known to the relay's session is not lost).
+            ext.declare_advanced_subscriber(
+                session, "0/alpha/xr_relay/gate/*/*", self._word, history=ext.HistoryConfig(detect_late_publishers=True)
+            ),
             # A Humble robot's key: rmw_zenoh puts "TypeHashNotSupported" where the hash goes.
             session.declare_queryable(
                 f"{action}/get_result/nav2_msgs::action::dds_::NavigateToPose_GetResult_/TypeHashNotSupported",
@@ -233,7 +237,7 @@ async def goal(client: TestClient, navigator: Navigator, x: float, y: float) -> 
         except AssertionError:
             continue
     goal_id = uuid.uuid4().bytes
-    navigator.set(goal_id, 2)  # EXECUTING
+    await asyncio.to_thread(navigator.set, goal_id, 2)  # EXECUTING
     return goal_id
 
 
@@ -241,7 +245,7 @@ async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
     router: Router,  # noqa: F811 - the fixture
     relay: RunningRelay,
 ) -> None:
-    navigator = Navigator(router.session)
+    navigator = await asyncio.to_thread(Navigator, router.session)  # rosbags builds its serializers: off the loop
     client = await TestClient.open(relay.ws_url)
     try:
         await client.hello()
@@ -250,7 +254,7 @@ async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
         feedback = await client.wait_for(nav("started", goal={"x": 2.0, "y": 3.0, "yaw": None}), timeout=5)
         deadline = time.monotonic() + 5
         while feedback["feedback"] is None and time.monotonic() < deadline:
-            navigator.feedback(first, 3.25, 7.5, 1, 12.25)
+            await asyncio.to_thread(navigator.feedback, first, 3.25, 7.5, 1, 12.25)
             await asyncio.sleep(0.3)
             feedback = client.latest["alpha/nav"]
         assert feedback["feedback"] == {
@@ -259,7 +263,7 @@ async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
             "recoveries": 1,
             "navigation_time": 12.2,
         }
-        navigator.set(first, 4)  # SUCCEEDED
+        await asyncio.to_thread(navigator.set, first, 4)  # SUCCEEDED
         reached = await client.wait_for(nav("reached"), timeout=5)
         assert reached["goal"] == {"x": 2.0, "y": 3.0, "yaw": None}
         words = await until(navigator.gate_words, 5, "a gate word")
@@ -272,7 +276,7 @@ async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
         second = await goal(client, navigator, -1.0, 3.0)
         await asyncio.sleep(0.2)
         aborted_at = time.monotonic()
-        navigator.set(second, 6)  # ABORTED
+        await asyncio.to_thread(navigator.set, second, 6)  # ABORTED
         failed = await client.wait_for(nav("failed"), start=start, timeout=5)
         assert next(t for t, m in client.messages if m is failed) - aborted_at < 1.0
         assert failed["error_code"] == 208 and "no valid path to the goal" in failed["message"]
@@ -303,7 +307,7 @@ async def test_a_latch_the_watchdog_holds_reaches_a_relay_started_later_and_an_u
     router: Router,  # noqa: F811 - the fixture
 ) -> None:
     # The watchdog latched before this relay started: its gate_state (with a cache, as rmw_zenoh's transient local).
-    navigator = Navigator(router.session, serve_cancel=False)
+    navigator = await asyncio.to_thread(lambda: Navigator(router.session, serve_cancel=False))
     state = ext.declare_advanced_publisher(
         router.session,
         f"0/alpha/xr_relay/gate_state/std_msgs::msg::dds_::String_/{STORE.hash_rihs01('std_msgs/msg/String')}",

@@ -448,8 +448,12 @@ class ZenohBackend(LoopCrossing, Backend):
         await self.send_velocity(robot, 0.0, 0.0)
 
     async def estop_robot(self, robot: str) -> None:
-        self._nav.stop(robot, "emergency stop", "estop")
-        await self.send_velocity(robot, 0.0, 0.0)
+        # The zero first (the path the estop-latency test times), then the gate's latch and Nav2's cancel, sent
+        # and not awaited: nothing here waits for the robot.
+        try:
+            await self.send_velocity(robot, 0.0, 0.0)
+        finally:
+            self._nav.stop(robot, "emergency stop", "estop")
 
     def release_estop(self, robot: str) -> None:
         self._nav.release(robot)

@@ -93,6 +93,11 @@ class ZenohNav2:
         """Worker thread: every subscriber and gate publisher on ``session``; returns what to undeclare later."""
         self._session, self._store, self._decode = session, store, decode
         self._gid = hashlib.blake2b(f"{session.zid()}/nav2".encode(), digest_size=GID_SIZE).digest()
+        # rosbags builds each type's serializer on its first use (tens to hundreds of milliseconds on a loaded
+        # machine): here, in the worker thread, not in the estop that sends the first cancel.
+        cancel_request(store)
+        get_result_request(store, bytes(16))
+        store.serialize_cdr(store.types[STRING](data=""), STRING)
         entities: list[Any] = []
         for robot in self._config.robots:
             name = robot.name
