@@ -30,6 +30,9 @@ from .safety import Deadman
 
 logger = logging.getLogger(__name__)
 
+#: Who latched an estop that the relay learned from a robot's watchdog (``estop.by``, ``status`` of the refusal).
+WATCHDOG = "the robot's watchdog"
+
 
 class Control:
     def __init__(
@@ -179,7 +182,7 @@ class Control:
             except Exception:
                 # This relay's own robots stop whatever happens to the message for the others.
                 logger.exception("could not send the emergency stop to the other relays")
-        results = await asyncio.gather(*(self.backend.stop_robot(name) for name in robots), return_exceptions=True)
+        results = await asyncio.gather(*(self.backend.estop_robot(name) for name in robots), return_exceptions=True)
         failed = {name: r for name, r in zip(robots, results, strict=True) if isinstance(r, BaseException)}
         stopped = [name for name in robots if name not in failed]
         logger.warning("EMERGENCY STOP of %s by %s", ", ".join(stopped) or "no robot", by)
@@ -216,12 +219,27 @@ class Control:
         self.fleet.set_controller(robot, local if local is not None else holder)
         self.outbox.status(robot, self.clock())
 
+    def watchdog_estop(self, robot: str, now: float) -> None:
+        """The robot's watchdog reports an estop latched on the robot (a relay before this one latched it): this
+        relay latches it too and says by whom; the operator's reset lifts both."""
+        if robot not in self.robots or robot in self.latched:
+            return
+        logger.warning("%s is emergency-stopped by its watchdog", robot)
+        # As another relay's estop: carried out here, not sent on to the other relays (they hear the watchdog too).
+        task = asyncio.get_running_loop().create_task(self.estop(robot, WATCHDOG, now, remote=True))
+        self._remote_stops.add(task)
+        task.add_done_callback(self._remote_stops.discard)
+
     def reset_estop(self, robot: str | None, by: str | None, now: float) -> list[str]:
         """Lift the latch of ``robot`` (or of every robot); they stay stopped until commanded. Returns them."""
         released = [robot] if robot is not None else list(self.latched)
         for name in released:
             self.latched.pop(name, None)
             self.fleet.set_estopped(name, False)
+            try:
+                self.backend.release_estop(name)
+            except Exception:
+                logger.exception("could not lift the watchdog's latch of %s", name)
         logger.warning("emergency stop of %s reset by %s", ", ".join(released) or "no robot", by)
         self.outbox.estop(released, by, latched=False)
         for name in released:

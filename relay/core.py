@@ -34,11 +34,15 @@ from .control import Control
 from .description import describe_robot
 from .events import (
     CameraError,
+    CancelAnswerEvent,
     Event,
     EventSink,
     FrameEvent,
+    GateStateEvent,
+    Goal,
     MapEvent,
     NavEvent,
+    NavFeedbackEvent,
     PathEvent,
     PlaybackEvent,
     PoseEvent,
@@ -53,6 +57,7 @@ from .loop_lag import LoopLag
 from .messages import (
     GoalDescription,
     HelloMessage,
+    NavFeedback,
     PlaybackMessage,
     RoomDescription,
     backend_message,
@@ -297,9 +302,31 @@ class Relay:
         elif isinstance(event, NavEvent):
             self.fleet.on_nav(event)
             self.outbox.status(event.robot, now)
-            goal = None if event.goal is None else GoalDescription(x=event.goal[0], y=event.goal[1], yaw=event.goal[2])
-            self.outbox.state(nav_message(event.robot, outcome=event.outcome, goal=goal, message=event.message))
+            self.outbox.state(
+                nav_message(
+                    event.robot, outcome=event.outcome, goal=_goal(event.goal), message=event.message,
+                    error_code=event.error_code,
+                )
+            )  # fmt: skip
             self.inspection.on_nav(event)
+        elif isinstance(event, NavFeedbackEvent):
+            goal = _goal(event.goal)
+            if goal == self.fleet.goal(event.robot):  # the goal it follows now, not one being given up
+                feedback = NavFeedback(
+                    distance_remaining=event.distance_remaining, eta=event.eta, recoveries=event.recoveries,
+                    navigation_time=event.navigation_time,
+                )  # fmt: skip
+                self.outbox.state(nav_message(event.robot, outcome="started", goal=goal, message="", feedback=feedback))
+        elif isinstance(event, CancelAnswerEvent):
+            self.outbox.state(
+                nav_message(
+                    event.robot, outcome="cancelled", goal=_goal(event.goal), message=event.message,
+                    confirmed=event.confirmed,
+                )
+            )  # fmt: skip
+        elif isinstance(event, GateStateEvent):
+            if event.word == "estop":
+                self.control.watchdog_estop(event.robot, now)
         elif isinstance(event, PathEvent):
             self.outbox.state(path_message(event.robot, event.points))
         elif isinstance(event, ScanEvent):
@@ -318,3 +345,7 @@ class Relay:
             self.streams.on_frame(event, now)
         elif isinstance(event, CameraError):
             self.streams.camera_failed(camera_identifier(event.robot, event.camera), event.message)
+
+
+def _goal(goal: Goal | None) -> GoalDescription | None:
+    return None if goal is None else GoalDescription(x=goal[0], y=goal[1], yaw=goal[2])

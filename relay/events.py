@@ -38,15 +38,53 @@ class SensorEvent:
     stamp: float
 
 
+Goal = tuple[float, float, float | None]  # x, y, yaw (yaw may be None)
+GateWord = Literal["drive", "hold", "estop"]
+
+
 @dataclass(frozen=True, slots=True)
 class NavEvent:
     """Navigation changed: a goal started, was reached, failed or was cancelled."""
 
     robot: str
     navigating: bool
-    goal: tuple[float, float, float | None] | None  # x, y, yaw (yaw may be None)
+    goal: Goal | None
     outcome: Literal["started", "reached", "failed", "cancelled"]
     message: str = ""
+    #: Nav2's error code of a failed goal (its GetResult's ``error_code``), when the backend could ask.
+    error_code: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class NavFeedbackEvent:
+    """Nav2's feedback on the goal the robot follows: metres and seconds to go, recoveries so far, time spent."""
+
+    robot: str
+    goal: Goal
+    distance_remaining: float
+    eta: float
+    recoveries: int
+    navigation_time: float
+
+
+@dataclass(frozen=True, slots=True)
+class CancelAnswerEvent:
+    """What the navigator answered to a cancel the relay sent for ``goal``: ``confirmed`` is False when it did not
+    answer in time (or refused while the goal still ran); ``message`` says which. Changes no state: the goal was
+    reported cancelled when the relay gave it up."""
+
+    robot: str
+    goal: Goal | None
+    confirmed: bool
+    message: str
+
+
+@dataclass(frozen=True, slots=True)
+class GateStateEvent:
+    """The robot's watchdog reported its gate (``drive``, ``hold`` or ``estop``): a latch the relay must show."""
+
+    robot: str
+    word: GateWord
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +170,9 @@ Event = (
     PoseEvent
     | SensorEvent
     | NavEvent
+    | NavFeedbackEvent
+    | CancelAnswerEvent
+    | GateStateEvent
     | PathEvent
     | FrameEvent
     | CameraError

@@ -83,6 +83,11 @@ class FleetState:
         elif not event.navigating:
             record.goal = None
 
+    def goal(self, robot: str) -> GoalDescription | None:
+        """The goal the robot follows now, or None."""
+        record = self._robots[robot]
+        return record.goal if record.navigating else None
+
     def set_teleop(self, robot: str, active: bool) -> None:
         """An operator drives the robot with cmd_vel (which overrides navigation), or stopped doing so."""
         record = self._robots[robot]

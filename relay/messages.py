@@ -142,11 +142,21 @@ class ScanMessage(TypedDict):
 NavOutcome: TypeAlias = Literal["started", "reached", "failed", "cancelled"]
 
 
+class NavFeedback(TypedDict):
+    distance_remaining: float  # metres
+    eta: float  # seconds, Nav2's estimate
+    recoveries: int
+    navigation_time: float  # seconds since the goal started
+
+
 class NavMessage(TypedDict):
     identifier: str
     outcome: NavOutcome
     goal: GoalDescription | None
     message: str
+    error_code: int | None
+    feedback: NavFeedback | None
+    confirmed: bool | None
 
 
 class PathMessage(TypedDict):
@@ -383,10 +393,35 @@ def status_message(
     }
 
 
-def nav_message(robot: str, *, outcome: NavOutcome, goal: GoalDescription | None, message: str) -> NavMessage:
-    """How a goal went: ``started`` (planned, followed), ``reached``, ``failed`` (the message says why) or
-    ``cancelled`` (cancel, teleop, an estop, a newer goal)."""
-    return {"identifier": robot_identifier(robot, "nav"), "outcome": outcome, "goal": goal, "message": message}
+def nav_message(
+    robot: str,
+    *,
+    outcome: NavOutcome,
+    goal: GoalDescription | None,
+    message: str,
+    error_code: int | None = None,
+    feedback: NavFeedback | None = None,
+    confirmed: bool | None = None,
+) -> NavMessage:
+    """How a goal went: ``started`` (planned, followed; with Nav2's ``feedback`` while it runs), ``reached``,
+    ``failed`` (the message says why; ``error_code``: Nav2's) or ``cancelled`` (cancel, teleop, an estop, a newer
+    goal; ``confirmed``: the navigator's answer to the relay's cancel, once it came or did not within 1 s)."""
+    if feedback is not None:
+        feedback = {
+            "distance_remaining": round(feedback["distance_remaining"], 2),
+            "eta": round(feedback["eta"], 1),
+            "recoveries": feedback["recoveries"],
+            "navigation_time": round(feedback["navigation_time"], 1),
+        }
+    return {
+        "identifier": robot_identifier(robot, "nav"),
+        "outcome": outcome,
+        "goal": goal,
+        "message": message,
+        "error_code": error_code,
+        "feedback": feedback,
+        "confirmed": confirmed,
+    }
 
 
 #: Most points a path message carries: a longer plan (Nav2 plans at the costmap's resolution, thousands of points)

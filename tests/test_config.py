@@ -99,6 +99,27 @@ def test_navigation_defaults_to_nav2_in_the_namespace_and_every_key_can_be_set()
     assert (robot.gate_topic, robot.gate_state_topic) == ("/xr_relay/gate", "/xr_relay/gate_state")
 
 
+def test_navigation_defaults_to_nav2_beside_the_namespace_and_every_key_can_be_set() -> None:
+    robot = parse_config(MINIMAL).robots[0]
+    assert (robot.nav_interface, robot.nav_action, robot.autonomy_topic, robot.on_relay_lost) == (
+        "nav2", "/alpha/navigate_to_pose", "/alpha/cmd_vel_nav", "hold",
+    )  # fmt: skip
+    assert (robot.gate_topic, robot.gate_state_topic) == ("/alpha/xr_relay/gate", "/alpha/xr_relay/gate_state")
+    text = (
+        "robots:\n"
+        "  - {name: a, namespace: '', limits: {linear: 1, angular: 1}, navigation: topic}\n"
+        "  - name: b\n    limits: {linear: 1, angular: 1}\n"
+        "    navigation: {action: /nav/navigate_to_pose, autonomy: controller/cmd_vel, on_relay_lost: continue}\n"
+    )
+    a, b = parse_config(text).robots
+    assert (a.nav_interface, a.nav_action, a.gate_topic, a.gate_state_topic) == (
+        "topic", "/navigate_to_pose", "/xr_relay/gate", "/xr_relay/gate_state",
+    )  # fmt: skip
+    assert (b.nav_interface, b.nav_action, b.autonomy_topic, b.on_relay_lost) == (
+        "nav2", "/nav/navigate_to_pose", "/b/controller/cmd_vel", "continue",
+    )  # fmt: skip
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
@@ -195,6 +216,22 @@ def test_navigation_defaults_to_nav2_in_the_namespace_and_every_key_can_be_set()
             "robots.yaml:6: sim.hazards[0].y: is required",
         ),
         (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    navigation: {interface: action}\n",
+            'robots.yaml:4: robots[0].navigation.interface: expected one of nav2, topic, got "action"',
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    navigation: {on_relay_lost: stop}\n",
+            'robots.yaml:4: robots[0].navigation.on_relay_lost: expected one of hold, continue, got "stop"',
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    navigation: {action: 'no way'}\n",
+            "robots.yaml:4: robots[0].navigation.action: expected a ROS topic name",
+        ),
+        (
+            "robots:\n  - name: a\n    limits: {linear: 1, angular: 1}\n    navigation: {acton: x}\n",
+            "robots.yaml:4: robots[0].navigation",
+        ),
+        (
             MINIMAL + "ros: {executor: multi}\n",
             'robots.yaml:4: ros.executor: expected one of events, single, got "multi"',
         ),
@@ -233,9 +270,9 @@ def test_navigation_defaults_to_nav2_in_the_namespace_and_every_key_can_be_set()
             "robots.yaml:4: robots[0].navigation.autonomy: expected a topic other than cmd_vel's and teleop's, "
             "got /alpha/cmd_vel_nav",
         ),
-        (
-            MINIMAL + "    navigation: nav2\n",
-            'robots.yaml:4: robots[0].navigation: expected a mapping, got "nav2"',
+        (  # the short form names the interface: only nav2 or topic
+            MINIMAL + "    navigation: ros2\n",
+            'robots.yaml:4: robots[0].navigation.interface: expected one of nav2, topic, got "ros2"',
         ),
         (
             MINIMAL + "    navigation: {controller: cmd_vel_nav}\n",

@@ -201,6 +201,24 @@ async def test_pause_resume_skip_abort_and_stops() -> None:
         await fleet.runner.act(run, "resume", "c1")
 
 
+async def test_a_goal_nav2_aborts_pauses_its_mission_at_once_naming_why() -> None:
+    from relay.inspection.missions import Waypoint
+
+    fleet = FakeFleet()
+    steps = (Step("goto", x=1.0, y=1.0), Step("capture"))
+    run = fleet.runner.start(mission(steps), [Waypoint(0, 1.0, 1.0, None), None])
+    await fleet.settle()
+    why = "Nav2 aborted the goal: no valid path [error 208 (ComputePathToPose: no valid path)]"
+    fleet.runner.on_nav(NavEvent("robot1", False, (1.0, 1.0, None), "failed", why, 208))
+    await fleet.settle()  # no timeout, no wait: the next turns of the loop
+    assert run.record.state == "paused" and run.record.current == 0
+    assert run.record.reason == f"step 1: failed: {why}"
+    assert ("capture", "robot1", "") not in fleet.calls  # the step after it did not run
+    await fleet.runner.act(run, "resume", "c1")
+    await fleet.settle()
+    assert fleet.calls.count(("go", "robot1", "1,1")) == 2  # resumed: the same goal again
+
+
 def test_a_pixel_of_the_camera_image_becomes_a_map_point() -> None:
     from relay.config import load_config
     from relay.inspection.pixel import pixel_to_map

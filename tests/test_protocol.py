@@ -10,6 +10,7 @@ from relay.errors import ProtocolError
 from relay.messages import (
     MAX_PATH_POINTS,
     FrameHeader,
+    NavFeedback,
     ack_message,
     backend_message,
     decode_frame,
@@ -136,10 +137,25 @@ def test_scan_scene_playback_bytes() -> None:
 def test_nav_and_path_bytes() -> None:
     reached = nav_message("robot1", outcome="reached", goal={"x": 9.0, "y": 6.0, "yaw": None}, message="")
     assert encode(reached) == (
-        b'{"identifier":"robot1/nav","outcome":"reached","goal":{"x":9.0,"y":6.0,"yaw":null},"message":""}'
+        b'{"identifier":"robot1/nav","outcome":"reached","goal":{"x":9.0,"y":6.0,"yaw":null},"message":"",'
+        b'"error_code":null,"feedback":null,"confirmed":null}'
     )
-    failed = nav_message("robot2", outcome="failed", goal=None, message="blocked for 30 s")
-    assert encode(failed) == b'{"identifier":"robot2/nav","outcome":"failed","goal":null,"message":"blocked for 30 s"}'
+    failed = nav_message("robot2", outcome="failed", goal=None, message="blocked for 30 s", error_code=105)
+    assert encode(failed) == (
+        b'{"identifier":"robot2/nav","outcome":"failed","goal":null,"message":"blocked for 30 s",'
+        b'"error_code":105,"feedback":null,"confirmed":null}'
+    )
+    feedback = NavFeedback(distance_remaining=3.24999, eta=7.46, recoveries=1, navigation_time=12.26)
+    running = nav_message("robot1", outcome="started", goal=None, message="", feedback=feedback)
+    assert encode(running) == (
+        b'{"identifier":"robot1/nav","outcome":"started","goal":null,"message":"","error_code":null,'
+        b'"feedback":{"distance_remaining":3.25,"eta":7.5,"recoveries":1,"navigation_time":12.3},"confirmed":null}'
+    )
+    answered = nav_message(
+        "robot1", outcome="cancelled", goal=None, message="Nav2 is cancelling 1 goal", confirmed=True
+    )
+    assert encode(answered).endswith(b'"message":"Nav2 is cancelling 1 goal","error_code":null,"feedback":null,'
+                                     b'"confirmed":true}')  # fmt: skip
     assert encode(path_message("robot1", [(3.0, 1.5), (8.7751, 2.3249), (9.0, 6.0)])) == (
         b'{"identifier":"robot1/path","points":[[3.0,1.5],[8.78,2.32],[9.0,6.0]]}'
     )

@@ -54,9 +54,17 @@ class Backend(abc.ABC):
         """Stop navigating (the robot stops where it is)."""
 
     async def stop_robot(self, robot: str) -> None:
-        """Zero velocity and no goal: what deadman, estop and shutdown use."""
+        """Zero velocity and no goal: what a take-over, a lease's end, a mission's pause and shutdown use."""
         await self.cancel(robot)
         await self.send_velocity(robot, 0.0, 0.0)
+
+    async def estop_robot(self, robot: str) -> None:
+        """An emergency stop: as ``stop_robot``, and a robot with a watchdog latches it (its gate's ``estop``).
+        Must not wait for any answer from the robot (a navigator's cancel is sent, not awaited)."""
+        await self.stop_robot(robot)
+
+    def release_estop(self, robot: str) -> None:  # noqa: B027 - optional hook: only robots with a gate have a latch
+        """The emergency stop of ``robot`` was reset: its watchdog's latch is lifted (the gate's ``drive``)."""
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         """The next (or a fresh enough) frame of a camera, or None when this backend has none."""

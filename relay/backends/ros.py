@@ -47,10 +47,11 @@ from ..scan import RateCap
 from ..tf import TfPose
 from . import dds_profile
 from .base import Backend
-from .goal_watch import GoalWatch
+from .navigation import Navigation
 from .raw_readers import read_scan, read_tf
 from .ros_cameras import RosCameras
 from .ros_ingest import Inbox, LoopCrossing, RawDecoder, Spinner, pose_reader
+from .ros_nav2 import RosNav2, needed_messages
 
 logger = logging.getLogger(__name__)
 
@@ -88,6 +89,8 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
             needed.setdefault(f"{module}.{cls}", (module, cls, f"{robot.name}: sensor '{sensor.name}'"))
     if any(robot.model_source is not None for robot in config.robots):
         needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
+    for module, cls, who in needed_messages(config.robots):
+        needed.setdefault(f"{module}.{cls}", (module, cls, who))
     for module, cls in (
         ("geometry_msgs.msg", "Twist"),
         ("geometry_msgs.msg", "TwistStamped"),
@@ -142,7 +145,9 @@ class RosBackend(LoopCrossing, Backend):
         self._cameras = RosCameras(
             config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy, self._decode_raw
         )
-        self._goals = GoalWatch()
+        # Goals, their outcomes and the watchdogs' gates (relay/backends/navigation.py, shared with zenoh).
+        self._nav2 = RosNav2(config, self._hop, self._decode_raw)
+        self._nav = self._nav2.navigation = Navigation(config, sink, self._nav2)
         self._grid: OccupancyGrid | None = None
         self._heartbeat_pub: Any = None
         self._heartbeat_task: asyncio.Task[None] | None = None
@@ -160,6 +165,7 @@ class RosBackend(LoopCrossing, Backend):
         await asyncio.to_thread(self._start_node)
         if self._heartbeat_pub is not None:
             self._heartbeat_task = asyncio.create_task(self._beat(), name="ros-heartbeat")
+        self._nav.start()
         logger.info(
             "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots, %s executor",
             os.environ.get("ROS_DOMAIN_ID", "0"),
@@ -181,6 +187,7 @@ class RosBackend(LoopCrossing, Backend):
         self._node = rclpy.create_node("xr_relay", context=self._context)
         for robot in self.config.robots:
             self._create_robot(robot)
+        self._nav2.create(self._node, self._msg, importlib.import_module("rclpy.qos"))
         self._node.create_subscription(
             self._msg("nav_msgs.msg", "OccupancyGrid"), self.config.ros.map_topic, self._on_map, self._qos("map")
         )
@@ -244,6 +251,7 @@ class RosBackend(LoopCrossing, Backend):
             self._heartbeat_task.cancel()
         for robot in self.config.robots:
             await self.stop_robot(robot.name)
+        await self._nav.close(wait=0.5)  # Nav2's answers to the cancels, while the node still spins
         spinner, node, context = self._spinner, self._node, self._context
         self._node = None
 
@@ -333,10 +341,10 @@ class RosBackend(LoopCrossing, Backend):
     # -- the thread boundary ----------------------------------------------------------------------
 
     def _deliver(self, event: Event) -> None:
-        """On the loop: the relay's sink, then whether the pose reached the robot's goal."""
+        """On the loop: the relay's sink, then whether the pose reached a bare goal_pose robot's goal."""
         self.sink(event)
-        if isinstance(event, PoseEvent) and (reached := self._goals.pose(event)) is not None:
-            self.sink(reached)
+        if isinstance(event, PoseEvent):
+            self._nav.pose(event)
 
     # -- callbacks (executor thread) --------------------------------------------------------------
 
@@ -379,13 +387,16 @@ class RosBackend(LoopCrossing, Backend):
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)
         self._cmd_pubs[robot].publish(message)
-        if (linear != 0.0 or angular != 0.0) and (ended := self._goals.ended(robot, "teleoperation took over")):
-            self.sink(ended)
+        if linear != 0.0 or angular != 0.0:
+            self._nav.teleop(robot)
 
     async def send_goal(
         self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
     ) -> None:
         spec = self._robot(robot)
+        await self._nav.before_goal(robot)  # a cancel still in flight would cancel this goal too
+        if not current():
+            return
         message = self._msg("geometry_msgs.msg", "PoseStamped")()
         message.header.stamp = self._node.get_clock().now().to_msg()
         message.header.frame_id = spec.pose.map_frame
@@ -396,14 +407,23 @@ class RosBackend(LoopCrossing, Backend):
         message.pose.orientation.x, message.pose.orientation.y = qx, qy
         message.pose.orientation.z, message.pose.orientation.w = qz, qw
         self._goal_pubs[robot].publish(message)
-        self.sink(self._goals.started(robot, (x, y, yaw)))
+        self._nav.sent(robot, (x, y, yaw))
 
     async def cancel(self, robot: str) -> None:
-        # Publishing a zero Twist stops a base; with no action client the Nav2 goal itself is not
-        # cancelled (documented in README), but the relay stops reporting it.
+        # Nav2's goals are cancelled (the request sent, not awaited) and the watchdog holds autonomy; then zero.
+        self._nav.stop(robot, "cancelled")
         await self.send_velocity(robot, 0.0, 0.0)
-        if (ended := self._goals.ended(robot, "cancelled")) is not None:
-            self.sink(ended)
+
+    async def estop_robot(self, robot: str) -> None:
+        # The zero first (the path the estop-latency test times), then the gate's latch and Nav2's cancel, sent
+        # and not awaited: nothing here waits for the robot.
+        try:
+            await self.send_velocity(robot, 0.0, 0.0)
+        finally:
+            self._nav.stop(robot, "emergency stop", "estop")
+
+    def release_estop(self, robot: str) -> None:
+        self._nav.release(robot)
 
     def map_grid(self) -> OccupancyGrid | None:
         return None  # the live /map reaches the relay as a MapEvent

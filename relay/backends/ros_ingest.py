@@ -158,10 +158,11 @@ def pose_reader(
 
 
 class RawDecoder:
-    """rosbags' CDR decoder for the raw topics the relay reads whole (TF, LaserScan, Image, CompressedImage)."""
+    """rosbags' CDR decoder for the raw topics the relay reads whole (TF, LaserScan, Image, CompressedImage, and
+    Nav2's action: relay/nav2_types.py)."""
 
     def __init__(self) -> None:
-        from ..record import typestore
+        from ..nav2_types import typestore
 
         self._store = typestore()
 

@@ -47,12 +47,13 @@ from ..scan import RateCap
 from ..tf import TfPose
 from .base import Backend
 from .cdr_encode import HEADER, POSE_STAMPED, TWIST, TWIST_STAMPED, CommandEncoder
-from .goal_watch import GoalWatch
+from .navigation import Navigation
 from .raw_readers import PATH_TYPE, STRING_TYPE, read_model, read_path, read_scan, read_sensor, read_tf
 from .ros_cameras import RosCameras
 from .ros_ingest import Inbox, LoopCrossing, RawDecoder, pose_reader
 from .zenoh_fleet import ZenohFleet
 from .zenoh_keys import GID_SIZE, Attachment, key_type, show_key, topic_key, topic_selector
+from .zenoh_nav2 import ZenohNav2
 from .zenoh_session import ZenohSettings, connected, load_zenoh, open_session, settings
 
 logger = logging.getLogger(__name__)
@@ -70,14 +71,27 @@ class _Publisher:
     """A Zenoh publisher that sends what rmw_zenoh sends: the CDR bytes, and its attachment (sequence number,
     source timestamp, a GID of its own) unless the robots are behind zenoh-bridge-ros2dds."""
 
-    def __init__(self, zenoh: Any, session: Any, key: str, attach: bool) -> None:
+    def __init__(self, zenoh: Any, session: Any, key: str, attach: bool, *, latched: bool = False) -> None:
         self.key = key
-        # Commands go ahead of bulk data (express: not batched; high priority: their own queue), and are dropped
-        # rather than block when the link is congested: a blocked put would stall the event loop, and with it the
-        # deadman and the estop; a dropped command is what the robot's watchdog is for.
-        self._publisher = session.declare_publisher(
-            key, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True, congestion_control=zenoh.CongestionControl.DROP
-        )
+        if latched:
+            # The watchdog's gate: transient local as rmw_zenoh makes it (a cache of the last word, which a watchdog
+            # that starts later asks for), and never dropped: like the fleet's estop, it waits for a congested link.
+            # Sequence numbers (a client session has no timestamps) and a sporadic heartbeat let a subscriber that
+            # missed the last word recover it from the cache.
+            ext = importlib.import_module("zenoh.ext")
+            self._publisher = ext.declare_advanced_publisher(
+                session, key, cache=ext.CacheConfig(max_samples=1), publisher_detection=True,
+                sample_miss_detection=ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=1.0),
+                priority=zenoh.Priority.REAL_TIME, express=True, congestion_control=zenoh.CongestionControl.BLOCK,
+            )  # fmt: skip
+        else:
+            # Commands go ahead of bulk data (express: not batched; high priority: their own queue), and are dropped
+            # rather than block when the link is congested: a blocked put would stall the event loop, and with it
+            # the deadman and the estop; a dropped command is what the robot's watchdog is for.
+            self._publisher = session.declare_publisher(
+                key, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True,
+                congestion_control=zenoh.CongestionControl.DROP,
+            )  # fmt: skip
         self._attach = attach
         self._sequence = 0
         # rmw_zenoh hashes the entity's liveliness key into the GID; any 16 bytes unique to this publisher do.
@@ -115,7 +129,10 @@ class ZenohBackend(LoopCrossing, Backend):
         self._cameras = RosCameras(
             config, self._pool, self._hop, self.sink, self._subscribe_image, self._undeclare, self._decode_raw
         )
-        self._goals = GoalWatch()
+        # Goals, their outcomes and the watchdogs' gates (relay/backends/navigation.py, shared with ros).
+        self._nav2 = ZenohNav2(config, self.settings, self._hop)
+        self._nav = self._nav2.navigation = Navigation(config, sink, self._nav2)
+        self._store: Any = None
         #: Lines about what others send (robots' samples, other relays'): rate-limited, whatever they send.
         self._peer_log = BudgetedLog(logger, "zenoh: lines about samples received")
         self._fleet = ZenohFleet(
@@ -144,6 +161,7 @@ class ZenohBackend(LoopCrossing, Backend):
         self._tasks.append(asyncio.create_task(self._watch_link(), name="zenoh-link"))
         self._tasks.append(asyncio.create_task(self._fleet.run(), name="zenoh-fleet"))
         self._tasks.append(asyncio.create_task(self._name_silent_keys(), name="zenoh-silent"))
+        self._nav.start()
         s = self.settings
         logger.info(
             "zenoh backend: %s mode, connected to %s, %s keys (domain %d), relay id %s, %d robots",
@@ -154,10 +172,11 @@ class ZenohBackend(LoopCrossing, Backend):
         """Worker thread: import zenoh and rosbags' types, open the session, declare everything."""
         self._zenoh = load_zenoh()
         if self._decode is None:
-            from ..record import typestore
+            from ..nav2_types import typestore
 
             self._decode = RawDecoder()
-            self._encode = CommandEncoder(typestore())
+            self._store = typestore()
+            self._encode = CommandEncoder(self._store)
         self._session = open_session(self.settings)
         self._declare()
 
@@ -167,11 +186,14 @@ class ZenohBackend(LoopCrossing, Backend):
         self._entities.append(self._subscribe("map", self.config.ros.map_topic, MAP_TYPE, self._on_map, history=True))
         if any(robot.watchdog_topic is not None for robot in self.config.robots):
             self._heartbeat = self._publisher(self.config.ros.heartbeat_topic, HEADER)
+        latched = lambda topic, type_name: self._publisher(topic, type_name, latched=True)  # noqa: E731
+        self._entities += self._nav2.declare(self._session, self._store, self._decode_raw, self._subscribe, latched)
         self._fleet.open(self._zenoh, self._session)
 
     def _close_session(self) -> None:
         """Worker thread: undeclare everything and close the session (best effort: it may be half gone)."""
         self._fleet.close()
+        self._nav2.close()
         for entity in [*self._entities, *self._cmd.values(), *self._goal.values()]:
             with contextlib.suppress(Exception):
                 entity.undeclare()
@@ -191,6 +213,7 @@ class ZenohBackend(LoopCrossing, Backend):
         for robot in self.config.robots:
             with contextlib.suppress(Exception):  # a lost router: the watchdogs stop the robots
                 await self.stop_robot(robot.name)
+        await self._nav.close(wait=0.5)  # Nav2's answers to the cancels, while the session is open
         await asyncio.to_thread(self._close_session)
         self._session = None
         self._pool.shutdown(wait=False, cancel_futures=True)
@@ -272,11 +295,11 @@ class ZenohBackend(LoopCrossing, Backend):
 
     # -- declarations -----------------------------------------------------------------------------
 
-    def _publisher(self, topic: str, type_name: str) -> _Publisher:
+    def _publisher(self, topic: str, type_name: str, *, latched: bool = False) -> _Publisher:
         assert self._encode is not None
         s = self.settings
         key = topic_key(s.keys, s.domain, topic, type_name, self._encode.type_hash(type_name))
-        return _Publisher(self._zenoh, self._session, key, attach=s.keys == "rmw_zenoh")
+        return _Publisher(self._zenoh, self._session, key, attach=s.keys == "rmw_zenoh", latched=latched)
 
     def _subscribe(
         self, what: str, topic: str, type_name: str, handle: Callable[[bytes], None], *, history: bool = False
@@ -387,8 +410,7 @@ class ZenohBackend(LoopCrossing, Backend):
         self.sink(event)
         if isinstance(event, PoseEvent):
             self._heard.add(event.robot)
-            if (reached := self._goals.pose(event)) is not None:
-                self.sink(reached)
+            self._nav.pose(event)
 
     def _decode_raw(self, data: bytes, type_name: str) -> Any:
         assert self._decode is not None
@@ -423,22 +445,35 @@ class ZenohBackend(LoopCrossing, Backend):
         when = time.time() if stamp is None else stamp
         payload = self._encode.twist(linear, angular, stamped=stamped, stamp=when, frame=spec.pose.base_frame)
         self._send(self._cmd, robot, payload)
-        if (linear != 0.0 or angular != 0.0) and (ended := self._goals.ended(robot, "teleoperation took over")):
-            self.sink(ended)
+        if linear != 0.0 or angular != 0.0:
+            self._nav.teleop(robot)
 
     async def send_goal(
         self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
     ) -> None:
         assert self._encode is not None
         spec = self._robot(robot)
+        await self._nav.before_goal(robot)  # a cancel still in flight would cancel this goal too
+        if not current():
+            return
         self._send(self._goal, robot, self._encode.goal(x, y, yaw, stamp=time.time(), frame=spec.pose.map_frame))
-        self.sink(self._goals.started(robot, (x, y, yaw)))
+        self._nav.sent(robot, (x, y, yaw))
 
     async def cancel(self, robot: str) -> None:
-        # As the ros backend: a zero Twist stops the base; the Nav2 goal itself is not cancelled (no action client).
+        # As the ros backend: Nav2's goals cancelled (a query sent, not awaited), the gate's hold, then zero.
+        self._nav.stop(robot, "cancelled")
         await self.send_velocity(robot, 0.0, 0.0)
-        if (ended := self._goals.ended(robot, "cancelled")) is not None:
-            self.sink(ended)
+
+    async def estop_robot(self, robot: str) -> None:
+        # The zero first (the path the estop-latency test times), then the gate's latch and Nav2's cancel, sent
+        # and not awaited: nothing here waits for the robot.
+        try:
+            await self.send_velocity(robot, 0.0, 0.0)
+        finally:
+            self._nav.stop(robot, "emergency stop", "estop")
+
+    def release_estop(self, robot: str) -> None:
+        self._nav.release(robot)
 
     # -- cameras ----------------------------------------------------------------------------------
 

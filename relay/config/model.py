@@ -7,9 +7,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 PoseSourceKind = Literal["tf", "odom", "amcl_pose", "pose"]
-POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
 NavInterface = Literal["nav2", "topic"]
 NAV_INTERFACES: tuple[NavInterface, ...] = ("nav2", "topic")
+POSE_SOURCES: tuple[PoseSourceKind, ...] = ("tf", "odom", "amcl_pose", "pose")
 RelayLost = Literal["hold", "continue"]
 ON_RELAY_LOST: tuple[RelayLost, ...] = ("hold", "continue")
 LENS_MODELS = ("equidistant", "equisolid", "stereographic", "pinhole", "opencv_fisheye")

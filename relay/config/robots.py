@@ -172,8 +172,11 @@ def _navigation(
     """``navigation:`` (every key optional): how goals reach the robot, and what its watchdog gates."""
     fields: dict[str, Node] = {}
     np = f"{path}.navigation"
-    if "navigation" in f:
-        fields = reader.mapping(f["navigation"], np, ("interface", "action", "autonomy", "on_relay_lost"))
+    node = f.get("navigation")
+    if isinstance(node, ScalarNode) and reader.value(node) is not None:
+        fields = {"interface": node}  # the short form: `navigation: topic`
+    elif node is not None:
+        fields = reader.mapping(node, np, ("interface", "action", "autonomy", "on_relay_lost"))
     interface = cast(
         NavInterface, reader.get(fields, "interface", np, lambda n, p: reader.choice(n, p, NAV_INTERFACES), "nav2")
     )

@@ -15,7 +15,8 @@ import { parseIdentifier } from './protocol.js';
  * @typedef {import('./protocol.js').SensorMessage} Reading
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
  * @typedef {{x: number, y: number, yaw: number, stamp: number}} Pose the part of a PoseMessage the client keeps
- * @typedef {{description: RobotDescription, pose: Pose | null, status: Status | null, sensors: Map<string, Reading>}} RobotEntry
+ * @typedef {{message: import('./protocol.js').NavMessage, at: number}} NavNews the latest `<robot>/nav`, and when it came (page ms)
+ * @typedef {{description: RobotDescription, pose: Pose | null, status: Status | null, sensors: Map<string, Reading>, nav: NavNews | null}} RobotEntry
  * @typedef {{url: string | null, mapToScene: import('./frames.js').MapToScene}} Scene
  */
 
@@ -79,7 +80,7 @@ export class FleetModel {
     for (const description of hello.robots) {
       const state = hello.state?.[description.name];
       /** @type {RobotEntry} */
-      const entry = { description, pose: null, status: state?.status ?? null, sensors: new Map() };
+      const entry = { description, pose: null, status: state?.status ?? null, sensors: new Map(), nav: null };
       this.robots.set(description.name, entry);
       if (state?.pose) this.apply(state.pose);
       for (const reading of Object.values(state?.sensors ?? {})) this.apply(reading);
@@ -89,6 +90,19 @@ export class FleetModel {
   /** @param {import('./protocol.js').SceneDescription | null | undefined} scene */
   #setScene(scene) {
     this.scene = { url: scene?.url ?? null, mapToScene: parseMapToScene(scene?.map_to_scene) };
+  }
+
+  /**
+   * The robot's latest `<robot>/nav` (its label shows Nav2's feedback and the outcome: nav_line.js). A confirmation
+   * of a goal given up earlier does not replace the feedback of the goal the robot follows now.
+   * @param {string} robot @param {import('./protocol.js').NavMessage} message @param {number} now page ms
+   */
+  setNav(robot, message, now) {
+    const entry = this.robots.get(robot);
+    if (!entry) return;
+    const following = entry.nav?.message.outcome === 'started' && entry.status?.mode === 'navigating';
+    if (message.confirmed !== null && message.confirmed !== undefined && following) return;
+    entry.nav = { message, at: now };
   }
 
   /** @param {string | null} name */

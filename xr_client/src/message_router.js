@@ -90,7 +90,7 @@ export class MessageRouter {
         return [];
       }
       case 'nav':
-        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message));
+        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message), now);
     }
     if (!this.fleet.apply(message)) return [];
     if (kind === 'pose') {
@@ -242,11 +242,18 @@ export class MessageRouter {
 
   /**
    * How a goal went: reached, aborted with the reason, cancelled (nothing for `started`: the path says it). The app
-   * tells the operator about the selected robot and the robots it sent.
-   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @returns {RouterEffect[]}
+   * tells the operator about the selected robot and the robots it sent. Nav2's feedback and its answer to a cancel
+   * go on the robot's label (nav_line.js); a cancel Nav2 did not confirm is also told, as an error: the robot may
+   * still be navigating.
+   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @param {number} now @returns {RouterEffect[]}
    */
-  #nav(robot, nav) {
+  #nav(robot, nav, now) {
     if (!this.fleet.robots.has(robot)) return [];
+    this.fleet.setNav(robot, nav, now);
+    const mine = this.fleet.robot(robot)?.status?.controller === this.fleet.clientId;
+    if (nav.outcome === 'started' && nav.feedback) return [];
+    if (nav.confirmed === true) return [];
+    if (nav.confirmed === false) return [{ type: 'nav', robot, text: `${robot}: ${nav.message}`, kind: 'error', mine }];
     // The goal this operator lost with the robot: "taken over by Ben" already said it (a second notice, arriving
     // a moment later, would replace the one that says who and why). The next goal to start ends that.
     const lost = this.takenOver.delete(robot);
@@ -255,7 +262,6 @@ export class MessageRouter {
     if (nav.outcome === 'cancelled' && lost) return [];
     const at = nav.goal ? ` (${nav.goal.x.toFixed(1)}, ${nav.goal.y.toFixed(1)})` : '';
     const why = nav.message && nav.message !== nav.outcome ? `: ${nav.message}` : '';
-    const mine = this.fleet.robot(robot)?.status?.controller === this.fleet.clientId;
     if (nav.outcome === 'reached') return [{ type: 'nav', robot, text: `${robot} reached its goal${at}`, kind: 'info', mine }];
     if (nav.outcome === 'failed') return [{ type: 'nav', robot, text: `${robot} aborted its goal${at}${why}`, kind: 'error', mine }];
     return [{ type: 'nav', robot, text: `${robot}'s goal${at} cancelled${why}`, kind: 'warning', mine }];

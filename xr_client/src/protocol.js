@@ -37,7 +37,8 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: string, name: string, value: number, unit: string, warning: boolean, stamp: number}} SensorMessage */
 /** @typedef {{identifier: string, online: boolean, age: number | null, mode: Mode, goal: GoalDescription | null, controller: string | null, estopped: boolean}} StatusMessage */
 /** @typedef {{identifier: string, stamp: number, frame: string, angle_min: number, angle_increment: number, range_max: number, ranges: (number | null)[]}} ScanMessage */
-/** @typedef {{identifier: string, outcome: 'started' | 'reached' | 'failed' | 'cancelled', goal: GoalDescription | null, message: string}} NavMessage */
+/** @typedef {{distance_remaining: number, eta: number, recoveries: number, navigation_time: number}} NavFeedback */
+/** @typedef {{identifier: string, outcome: 'started' | 'reached' | 'failed' | 'cancelled', goal: GoalDescription | null, message: string, error_code: number | null, feedback: NavFeedback | null, confirmed: boolean | null}} NavMessage */
 /** @typedef {{identifier: string, points: number[][]}} PathMessage */
 /** @typedef {{identifier: 'operators', names: Object<string, string>}} OperatorsMessage */
 /** @typedef {{pose: PoseMessage | null, sensors: Object<string, SensorMessage>, status: StatusMessage}} RobotState */

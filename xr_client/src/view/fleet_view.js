@@ -21,6 +21,7 @@ import { nearestDetailed } from '../level_of_detail.js';
 import { MapAnnotations } from './map_annotations.js';
 import { formatSilence } from '../freshness.js';
 import { displayName } from '../operator_names.js';
+import { navLine } from '../nav_line.js';
 
 /** Robots whose status is refreshed each frame, at least (a fleet of up to this many: all of them every frame). */
 const STATUS_PER_FRAME = 12;
@@ -158,6 +159,7 @@ export class FleetView {
       selected: name === selected,
       warning: history.robotWarning(name),
       stale,
+      nav: stale ? '' : navLine(entry.nav, status?.mode, now),
     });
   }
 

@@ -211,8 +211,9 @@ export class RobotView {
 
   /**
    * @param {{name: string, mode: string, controller: string, offline: boolean, age: number | null,
-   *   selected: boolean, warning: boolean, stale?: string | null}} state `stale`: why what is shown is old
-   *   (the connection, the robot's pose), drawn grey like an offline robot
+   *   selected: boolean, warning: boolean, stale?: string | null, nav?: string}} state `stale`: why what is shown
+   *   is old (the connection, the robot's pose), drawn grey like an offline robot; `nav`: Nav2's feedback or the
+   *   goal's outcome (nav_line.js), a third line when not empty
    */
   setStatus(state) {
     const old = state.offline || Boolean(state.stale);
@@ -223,7 +224,7 @@ export class RobotView {
       : state.offline
         ? `offline${state.age !== null ? ` · ${formatAge(state.age)}` : ''}`
         : `${state.mode}${state.controller ? ` · ${state.controller}` : ''}`;
-    const lines = [state.name, second];
+    const lines = state.nav ? [state.name, second, state.nav] : [state.name, second];
     const style = { accent: `#${this.colour.getHexString()}`, dim: old };
     const key = JSON.stringify([lines, style]);
     if (key !== this.label.key) {
