@@ -1,0 +1,160 @@
+"""Issue #27's first promise, end to end: the real relay, the real fake fleet navigating as Nav2 does, a real estop.
+
+Before: with tools/fake_fleet.py (DDS, and `--zenoh` with two relays), robot2 sent to (9, 6) kept driving 0.9-1.0 m
+in the 1.5 s after an acknowledged estop while its status said `idle`, `estopped: true`, `goal: null`: the relay
+held no Nav2 action and Nav2's controller drove on. Now every process is the one users run: `tools/fake_fleet.py
+--nav2` (its navigators' controllers publish cmd_vel_nav at 20 Hz, its watchdogs own cmd_vel), `python -m relay`
+over DDS or Zenoh, and a WebSocket operator. From 0.3 s after the estop's ack the robot moves at most 5 cm, and
+once a status says estopped it never moves more than that again.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+import secrets
+import signal
+import socket
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import ROOT, relay_process
+from tests.wsclient import TestClient
+
+#: From the ack on, this long for the stop to take hold (the issue's figure), then at most DRIFT of motion.
+HOLD, DRIFT = 0.3, 0.05
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+async def start(*args: str) -> asyncio.subprocess.Process:
+    """A process of this test's environment (its ROS domain) that says it is ready on its first line."""
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, *args, cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
+        env=dict(os.environ),
+    )  # fmt: skip
+    assert process.stdout is not None
+    line = await asyncio.wait_for(process.stdout.readline(), 60)
+    assert line, f"{args[0]} exited before it was ready"
+    return process
+
+
+async def stop(*processes: asyncio.subprocess.Process | None) -> None:
+    for process in processes:
+        if process is not None and process.returncode is None:
+            process.send_signal(signal.SIGTERM)
+            try:
+                await asyncio.wait_for(process.wait(), 10)
+            except TimeoutError:
+                process.kill()
+                await process.wait()
+
+
+async def operator(base: str, token: str) -> TestClient:
+    client = await TestClient.open(base.replace("http", "ws") + f"/ws?token={token}")
+    await client.hello()
+    return client
+
+
+def poses(client: TestClient, robot: str, since: float) -> list[tuple[float, float, float]]:
+    """(time received, x, y) of ``robot``'s poses from ``since``."""
+    return [(t, m["x"], m["y"]) for t, m in client.messages if t >= since and m["identifier"] == f"{robot}/pose"]
+
+
+def moved(samples: list[tuple[float, float, float]]) -> float:
+    """How far the robot got from the first sample, at most."""
+    return max((math.hypot(x - samples[0][1], y - samples[0][2]) for _, x, y in samples), default=0.0)
+
+
+async def drive_then_estop(driver: TestClient, stopper: TestClient, robot: str) -> None:
+    """``driver`` sends ``robot`` to (9, 6) and, once it rolls, ``stopper`` presses E-STOP; then the checks."""
+    start_pose = await driver.wait_for(lambda m: m["identifier"] == f"{robot}/pose", timeout=60)
+    goal = await driver.request({"identifier": f"{robot}/goal_pose", "x": 9.0, "y": 6.0}, timeout=30)
+    assert goal["identifier"] == "ack", goal
+    await driver.wait_pose_near(robot, start_pose["x"], start_pose["y"] + 0.6, 0.35, timeout=60)  # rolling
+    reply = await stopper.request({"identifier": "estop"}, timeout=10)
+    assert reply["identifier"] == "ack", reply
+    acked = next(t for t, m in stopper.messages if m.get("id") == reply["id"])
+    await asyncio.sleep(HOLD + 2.5)
+    after = poses(stopper, robot, acked + HOLD)
+    assert len(after) > 10, "too few poses to judge the stop"
+    assert moved(after) <= DRIFT, f"{robot} moved {moved(after):.3f} m from {HOLD} s after the estop's ack"
+    # The status never says stopped while the robot moves: from the first status that says estopped (and HOLD for
+    # it to take hold), nothing.
+    said = next(
+        t for t, m in stopper.messages if m["identifier"] == f"{robot}/status" and m.get("estopped") and t >= acked - 1
+    )
+    assert moved(poses(stopper, robot, said + HOLD)) <= DRIFT
+    nav = [m for _, m in driver.messages if m["identifier"] == f"{robot}/nav"]
+    assert nav and nav[-1]["outcome"] == "cancelled", nav[-3:]
+
+
+@pytest.fixture
+def token() -> str:
+    return secrets.token_urlsafe(24)
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int, token: str, tmp_path: Path) -> None:
+    pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
+    fleet = relay = None
+    try:
+        fleet = await start(str(ROOT / "tools" / "fake_fleet.py"), "--nav2", "--log-level", "warning")
+        relay, base = await relay_process(
+            "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+            "--database", str(tmp_path / "i.sqlite"),
+        )  # fmt: skip
+        client = await operator(base, token)
+        await drive_then_estop(client, client, "robot2")
+        # The latch holds on the robot: the relay killed, the base still gets nothing that moves it.
+        relay.send_signal(signal.SIGKILL)
+        await relay.wait()
+        watcher = None
+        relay, base = await relay_process(
+            "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+            "--database", str(tmp_path / "i.sqlite"),
+        )  # fmt: skip
+        watcher = await operator(base, token)
+        latched = await watcher.wait_for(
+            lambda m: m["identifier"] == "robot2/status" and m.get("estopped") is True, timeout=30
+        )
+        assert latched["estopped"] is True  # a new relay learns the latch from the robot's watchdog
+        await client.close()
+        await watcher.close()
+    finally:
+        await stop(relay, fleet)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("relays", [1, 2])
+async def test_over_zenoh_an_estop_stops_a_robot_that_nav2_drives(relays: int, token: str, tmp_path: Path) -> None:
+    """With two relays the operator of one drives and the other's presses E-STOP: the fleet's estop reaches the
+    first, and the robot's gate holds it."""
+    pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    processes: list[asyncio.subprocess.Process | None] = []
+    try:
+        fleet = str(ROOT / "tools" / "fake_fleet.py")
+        processes.append(await start(fleet, "--zenoh", "--nav2", "--listen", endpoint, "--log-level", "warning"))
+        clients = []
+        for index in range(relays):
+            relay, base = await relay_process(
+                "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
+                "--relay-id", f"R{index}", "--token", token, "--audit-log", "",
+                "--database", str(tmp_path / f"{index}.sqlite"),
+            )  # fmt: skip
+            processes.append(relay)
+            clients.append(await operator(base, token))
+        await drive_then_estop(clients[0], clients[-1], "robot2")
+        for client in clients:
+            await client.close()
+    finally:
+        await stop(*reversed(processes))
