@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 
 from .common import JsonDict, Settings, fmt
 
-ORDER = ("pose_fanout", "ros_ingest", "camera", "video", "slow_clients", "client_frame", "foxglove_peer")
+ORDER = ("pose_fanout", "ros_ingest", "camera", "video", "slow_clients", "client_frame", "foxglove_peer", "estop")
 COLOURS = {"xr": "#1f77b4", "xr-single": "#9467bd", "naive": "#d62728", "foxglove": "#2ca02c"}
 LABELS = {
     "xr": "xr-relay (batched)",
@@ -844,7 +844,39 @@ def video_section(page: Page, r: JsonDict) -> None:
     page.image(fig, "video", "bytes per second of H.264 and JPEG at 720p30")
 
 
+ESTOP_DOC = """The emergency stop end to end (bench/bench_estop.py), the relay in a process of its own as users run it:
+robot2 sent to (9, 6), and once it rolls the estop frame leaves the operator. Over DDS (`tools/fake_fleet.py
+--nav2`) and Zenoh (`--zenoh --nav2`) the robot's commands are timed where its base is (bench/base_probe.py: the
+first zero the watchdog publishes on `/robot2/cmd_vel` after the frame left), and Nav2's answer to the relay's
+cancel where the operator is (the `robot2/nav` message with `confirmed`). The sim has no base topic: the relay
+stops the simulated robot before it answers, so its figure is the ack. Times in ms from the frame's departure.
+"""
+
+
+def estop_section(page: Page, r: JsonDict) -> None:
+    if not section(page, r, ESTOP_DOC):
+        return
+    rows = []
+    for stack, x in r["stacks"].items():
+        if "error" in x:
+            rows.append([stack, "failed: " + x["error"][:120], "", "", ""])
+            continue
+        zero, answer = x.get("zero_ms"), x.get("cancel_answer_ms")
+        rows.append(
+            [
+                stack,
+                f"{fmt(x['ack_ms']['p50'], 1)} / {fmt(x['ack_ms']['max'], 1)}",
+                f"{fmt(zero['p50'], 1)} / {fmt(zero['max'], 1)}" if zero else "n/a",
+                f"{fmt(answer['p50'], 1)} / {fmt(answer['max'], 1)}" if answer else "n/a",
+                f"{x.get('confirmed', 'n/a')} / {len(x['trials'])}",
+            ]
+        )
+    header = ["stack", "ack p50 / max", "base's first zero p50 / max", "Nav2's cancel answer p50 / max", "confirmed"]
+    page.add(table(header, rows))
+
+
 SECTIONS = {
+    "estop": estop_section,
     "pose_fanout": fanout_section,
     "video": video_section,
     "ros_ingest": ingest_section,

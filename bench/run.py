@@ -22,6 +22,7 @@ from types import ModuleType
 from . import (
     bench_camera,
     bench_client_frame,
+    bench_estop,
     bench_foxglove_peer,
     bench_pose_fanout,
     bench_ros_ingest,
@@ -39,6 +40,7 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_client_frame,
     bench_foxglove_peer,
     bench_video,
+    bench_estop,
 )
 
 

@@ -1,0 +1,76 @@
+"""What a robot's base receives on its cmd_vel, timed where the base is: one JSON line per command.
+
+    python -m bench.base_probe --topic /robot2/cmd_vel              (over DDS: rclpy, this process's ROS domain)
+    python -m bench.base_probe --topic /robot2/cmd_vel --zenoh tcp/127.0.0.1:7447   (rmw_zenoh's keys, CDR)
+
+Each line is ``{"t": <CLOCK_MONOTONIC s>, "linear": x, "angular": z}``; the first is ``{"ready": true}``. The
+monotonic clock is the machine's, the same in every process: bench/bench_estop.py compares these times with when
+its estop frame left. Twist only (the demo's robots take Twist); a benchmark, not a tool.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import threading
+import time
+from typing import Any
+
+
+def emit(line: dict[str, Any]) -> None:
+    sys.stdout.write(json.dumps(line) + "\n")
+    sys.stdout.flush()
+
+
+def over_dds(topic: str) -> None:
+    import rclpy
+    from geometry_msgs.msg import Twist
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    rclpy.init()
+    node = rclpy.create_node("base_probe")
+
+    def on_twist(message: Any) -> None:
+        emit({"t": time.monotonic(), "linear": message.linear.x, "angular": message.angular.z})
+
+    node.create_subscription(Twist, topic, on_twist, QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+    emit({"ready": True})
+    rclpy.spin(node)
+
+
+def over_zenoh(topic: str, endpoint: str) -> None:
+    import zenoh
+
+    from relay.backends.zenoh_keys import topic_selector
+    from relay.record import typestore
+
+    store = typestore()
+    config = zenoh.Config()
+    config.insert_json5("mode", '"client"')
+    config.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    session = zenoh.open(config)
+
+    def on_sample(sample: Any) -> None:
+        at = time.monotonic()
+        message = store.deserialize_cdr(bytes(sample.payload.to_bytes()), "geometry_msgs/msg/Twist")
+        emit({"t": at, "linear": message.linear.x, "angular": message.angular.z})
+
+    session.declare_subscriber(topic_selector("rmw_zenoh", 0, topic), on_sample)
+    emit({"ready": True})
+    threading.Event().wait()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--topic", required=True)
+    parser.add_argument("--zenoh", default=None, help="a Zenoh endpoint: listen there instead of over DDS")
+    args = parser.parse_args()
+    if args.zenoh:
+        over_zenoh(args.topic, args.zenoh)
+    else:
+        over_dds(args.topic)
+
+
+if __name__ == "__main__":
+    main()
