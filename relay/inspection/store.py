@@ -444,6 +444,20 @@ class Store:
         split = len(fields(FindingRecord))
         return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
 
+    def findings_between(self, start: float, end: float, limit: int) -> list[tuple[FindingRecord, CaptureRecord]]:
+        """At most ``limit`` findings whose capture was taken in ``[start, end)`` (Unix seconds), oldest capture
+        first, each with its capture: a report of a time range (relay.inspection.report). Read only."""
+        names = (
+            ", ".join(f"f.{c}" for c in _FINDING.split(", ")) + ", " + ", ".join(f"c.{c}" for c in _CAPTURE.split(", "))
+        )
+        rows = self._read(
+            f"SELECT {names} FROM findings f JOIN captures c ON c.id = f.capture WHERE c.t >= ? AND c.t < ? "
+            "ORDER BY c.t, f.created, f.id LIMIT ?",
+            (start, end, limit),
+        )
+        split = len(fields(FindingRecord))
+        return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
+
     # -- lifetime ---------------------------------------------------------------------------------
 
     def close(self) -> None:
