@@ -206,8 +206,8 @@ def main(argv: list[str] | None = None) -> int:
 
         return record_main(argv[1:])
     if argv and argv[0] == "report":
-        # `xr-relay report --mission ID`: the inspection report as HTML, JSON and CSV (relay/inspection/report.py).
-        from .inspection.report import main as report_main
+        # `xr-relay report`: the inspection report and work orders as files (relay/inspection/report_cli.py).
+        from .inspection.report_cli import main as report_main
 
         return report_main(argv[1:])
     if argv and argv[0] == "watchdog":

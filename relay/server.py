@@ -260,16 +260,33 @@ async def capture_image(request: web.Request) -> web.Response:
 
 
 async def report(request: web.Request) -> web.Response:
-    if not await _may_read_inspection(request):
+    """``/report/<mission>.<kind>`` and ``/report/range.<kind>?from=...&to=...`` (relay.inspection.report);
+    ``/report/range.html`` alone asks for a range. A range that cannot be read or holds too much is a 400 saying
+    so; what the token may not read, or that does not exist, is ``NOT_FOUND``."""
+    from .inspection import report as reports
+
+    named = reports.split_name(request.match_info["name"]) if await _may_read_inspection(request) else None
+    if named is None:
         raise web.HTTPNotFound(text=NOT_FOUND.format(what="report"))
-    inspection = request.app[RELAY_KEY].inspection
-    mission, kind = request.match_info["mission"], request.match_info["kind"]
+    stem, kind = named
+    relay = request.app[RELAY_KEY]
+    scope = reports.Scope(mission=stem)
+    if stem == reports.RANGE:
+        asked = reports.asked_range(request.query, kind, relay.config, time.time())
+        if not isinstance(asked, reports.Scope):
+            status, text = asked
+            return web.Response(text=text, status=status, content_type=reports.content_type(kind), charset="utf-8")
+        scope = asked
     try:
-        text = await inspection.report(mission, kind)
+        text = await relay.inspection.report(scope, kind, f"{request.scheme}://{request.host}")
+    except reports.ReportRefused as exc:
+        raise web.HTTPBadRequest(text=f"{exc}\n") from None
     except ValueError:
         raise web.HTTPNotFound(text=NOT_FOUND.format(what="report")) from None
-    types = {"html": "text/html", "json": "application/json", "csv": "text/csv"}
-    return web.Response(text=text, content_type=types[kind], charset="utf-8")
+    response = web.Response(text=text, content_type=reports.content_type(kind), charset="utf-8")
+    if kind != "html":  # a file to keep or import, under a name that says what it holds
+        response.headers["Content-Disposition"] = f'attachment; filename="report-{stem}.{kind}"'
+    return response
 
 
 async def generated_scene(request: web.Request) -> web.Response:
@@ -430,7 +447,7 @@ def create_app(
     app.router.add_get("/ws", websocket_handler)
     app.router.add_post("/auth", check_token)
     app.router.add_get(r"/captures/{sha:[0-9a-f]{64}}.jpg", capture_image)
-    app.router.add_get(r"/report/{mission:[A-Za-z0-9_.-]{1,128}}.{kind:html|json|csv}", report)
+    app.router.add_get(r"/report/{name:[A-Za-z0-9_.-]{1,160}}", report)
     app.router.add_get("/healthz", healthz)
     app.router.add_get("/metrics", metrics)
     app.router.add_get("/scenes/generated/{name}", generated_scene)

@@ -41,6 +41,19 @@ def test_demo_fleet_loads() -> None:
     assert len({r.colour for r in config.robots}) == 3
 
 
+def test_the_site_has_a_name_and_a_time_zone_the_zone_database_knows() -> None:
+    config = parse_config(MINIMAL + "site: {name: North plant, time_zone: Europe/Berlin}\n")
+    assert (config.site.name, config.site.time_zone) == ("North plant", "Europe/Berlin")
+    assert (parse_config(MINIMAL).site.name, parse_config(MINIMAL).site.time_zone) == (None, None)
+    assert error_of(MINIMAL + "site: {time_zone: Mars/Olympus}\n").startswith(
+        "robots.yaml:4: site.time_zone: no time zone 'Mars/Olympus': expected an IANA name such as Europe/Berlin"
+    )
+    assert error_of(MINIMAL + f"site: {{name: {'x' * 201}}}\n").startswith(
+        "robots.yaml:4: site.name: expected at most 200 characters, got 201"
+    )
+    assert "site.city: unknown field" in error_of(MINIMAL + "site: {city: Bremen}\n")
+
+
 def test_topic_defaults_follow_namespace() -> None:
     robot = parse_config(MINIMAL).robots[0]
     assert robot.namespace == "/alpha"

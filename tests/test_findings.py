@@ -110,4 +110,4 @@ async def test_report_cells_a_spreadsheet_would_run_are_neutralised(fleet_config
     rows = _notes(text)
     assert [rows[f"f-{i}"]["note"] for i in range(len(HOSTILE_CELLS))] == list(HOSTILE_CELLS.values())
     assert {(row["x"], row["y"]) for row in rows.values()} == {("-1.500", "2.250")}
-    assert {row["readings"] for row in rows.values()} == {"gas=698.2"}
+    assert {row["readings"] for row in rows.values()} == {"gas 698.2 ppm (limit 400 ppm): over the limit"}

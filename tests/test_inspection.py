@@ -98,7 +98,7 @@ async def test_the_demo_mission_survives_its_operator_and_leaves_three_findings(
                 assert response.status == 200
             async with http.get(f"{running.url}/report/{group}.csv?token={TOKEN}") as response:
                 rows = (await response.text()).strip().splitlines()
-        assert report.count("data:image/jpeg;base64,") == 3 and "3 findings: 1 ok, 2 anomaly" in report
+        assert report.count("data:image/jpeg;base64,") == 3 and "3 findings: 1 OK, 2 anomalies." in report
         assert len(rows) == 4 and rows[0].startswith("finding,status")
         await second.close()
     finally:

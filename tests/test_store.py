@@ -218,6 +218,21 @@ def test_findings_round_trip_and_filters(store: Store) -> None:
     assert store.findings(status="needs_review")[0].region is None
 
 
+def test_findings_between_are_those_captured_in_the_range_oldest_capture_first(store: Store) -> None:
+    """A range report's query (relay.inspection.report): by the capture's time, [start, end), with each capture."""
+    for t in (9.0, 10.0, 15.0, 20.0):
+        store.add_capture(_capture(id=f"c-{t:g}", t=t), None)
+    # A finding made later about an early capture belongs to the capture's time; two about one capture: both.
+    for fid, capture, created in (("f-a", "c-15", 15.0), ("f-b", "c-10", 16.0), ("f-c", "c-9", 9.0),
+                                  ("f-d", "c-20", 20.0), ("f-e", "c-15", 15.5)):  # fmt: skip
+        store.add_finding(_finding(id=fid, capture=capture, created=created, updated=created))
+    found = store.findings_between(10.0, 20.0, 10)
+    assert [(f.id, c.id) for f, c in found] == [("f-b", "c-10"), ("f-a", "c-15"), ("f-e", "c-15")]
+    assert found[0][1] == store.capture("c-10")
+    assert [f.id for f, _ in store.findings_between(10.0, 20.0, 2)] == ["f-b", "f-a"]  # the limit
+    assert store.findings_between(21.0, 30.0, 10) == []
+
+
 def test_update_finding_changes_only_what_is_given(store: Store) -> None:
     store.add_capture(_capture(), None)
     store.add_finding(_finding(region=((1, 1), (5, 1), (5, 5))))

@@ -13,6 +13,7 @@ topic is resolved inside the robot's namespace and an absolute one is used as wr
 from __future__ import annotations
 
 import re
+import zoneinfo
 from pathlib import Path
 
 import yaml
@@ -46,6 +47,7 @@ from .model import (
     Scene,
     Sensor,
     Sim,
+    Site,
     Zenoh,
 )
 from .reader import _Reader, _topic, resolve_topic
@@ -74,6 +76,7 @@ __all__ = [
     "Scene",
     "Sensor",
     "Sim",
+    "Site",
     "Zenoh",
     "load_config",
     "parse_config",
@@ -110,7 +113,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     top = reader.mapping(
         root,
         "",
-        ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference", "inspection"),
+        ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference", "inspection", "site"),
         required=("robots",),
     )
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
@@ -125,6 +128,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     zenoh = _zenoh(reader, top["zenoh"]) if "zenoh" in top else Zenoh()
     georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
     inspection = _inspection(reader, top["inspection"]) if "inspection" in top else InspectionSettings()
+    site = _site(reader, top["site"]) if "site" in top else Site()
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
@@ -136,7 +140,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
     return FleetConfig(
         source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros,
-        zenoh=zenoh, georeference=georeference, inspection=inspection,
+        zenoh=zenoh, georeference=georeference, inspection=inspection, site=site,
     )  # fmt: skip
 
 
@@ -232,6 +236,21 @@ def _inspection(reader: _Reader, node: Node) -> InspectionSettings:
     return InspectionSettings(
         max_targets=reader.get(f, "max_targets", "inspection", reader.integer, InspectionSettings.max_targets)
     )
+
+
+def _site(reader: _Reader, node: Node) -> Site:
+    f = reader.mapping(node, "site", ("name", "time_zone"))
+    name = reader.get(f, "name", "site", reader.string, None)
+    zone = reader.get(f, "time_zone", "site", reader.string, None)
+    if zone is not None:
+        try:
+            zoneinfo.ZoneInfo(zone)
+        except (ValueError, zoneinfo.ZoneInfoNotFoundError):
+            raise reader.fail(f["time_zone"], "site.time_zone", f"no time zone {zone[:64]!r}: expected an IANA name "
+                              "such as Europe/Berlin") from None  # fmt: skip
+    if name is not None and len(name) > 200:
+        raise reader.fail(f["name"], "site.name", f"expected at most 200 characters, got {len(name)}")
+    return Site(name, zone)
 
 
 def _safety(reader: _Reader, node: Node) -> Safety:

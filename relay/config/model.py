@@ -257,6 +257,16 @@ class InspectionSettings:
 
 
 @dataclass(frozen=True)
+class Site:
+    """What the inspection report calls the site and whose clock it reads (docs/configuration.md, ``site``)."""
+
+    #: Shown at the top of every report; None: the scene file's name.
+    name: str | None = None
+    #: An IANA time zone (``Europe/Berlin``) for the report's times; None: the relay's local zone (``TZ``).
+    time_zone: str | None = None
+
+
+@dataclass(frozen=True)
 class FleetConfig:
     source: str
     robots: tuple[Robot, ...]
@@ -269,6 +279,7 @@ class FleetConfig:
     #: Where the map frame is on Earth (relay.inspection.kml.Georeference), for KML/KMZ placemarks; None: unknown.
     georeference: Any = None
     inspection: InspectionSettings = field(default_factory=InspectionSettings)
+    site: Site = field(default_factory=Site)
 
     def robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)

@@ -1,48 +1,71 @@
-"""The inspection report: one self-contained HTML file (images embedded, a plan of the site with the findings as
-pins, a table of findings), and the same findings as JSON and CSV.
+"""The inspection report, for a plant manager: one self-contained HTML file (the site, each capture's local date
+and time, rooms on the plan and in the table, readings with units and limits, statuses in words, who decided them,
+images embedded), the same as JSON and CSV (times ISO 8601 with the offset), and the findings that need someone as
+work orders (CSV and JSON, the fields an EAM import takes).
 
-    xr-relay report --mission ID [--database FILE_OR_URL] [--images DIR] [--config robots.yaml] [--out DIR]
-
-``ID`` names a mission (``m-20261122-230112-ab12cd.robot1``) or the group a fleet mission started together
-(``m-20261122-230112-ab12cd``: its robots' missions are reported together). The relay serves the same report at
-``/report/<ID>.html`` (``.json``, ``.csv``).
+A report covers a ``Scope``: a mission (``m-20261122-230112-ab12cd.robot1``), the group a fleet mission started
+together (``m-20261122-230112-ab12cd``: its robots' missions are reported together), or a time range (the findings
+whose capture was taken in it). The relay serves it at ``/report/<ID>.<kind>`` and
+``/report/range.<kind>?from=...&to=...`` (kinds: ``KINDS``); ``xr-relay report`` writes the same files
+(relay.inspection.report_cli); docs/inspection.md.
 """
 
 from __future__ import annotations
 
-import argparse
-import base64
 import csv
 import dataclasses
-import html
+import functools
 import io
 import json
-import sys
-from collections.abc import Sequence
+import os
+import time
+import zoneinfo
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from datetime import tzinfo
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-import cv2
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from .records import CaptureRecord, FindingRecord, MissionRecord
+from .report_rows import (
+    WORK_ORDER_FIELDS,
+    Limit,
+    RangeError,
+    Room,
+    Row,
+    SiteInfo,
+    iso_time,
+    parse_range,
+    rows_of,
+    work_orders,
+)
 
 if TYPE_CHECKING:
+    from ..config import FleetConfig
     from ..occupancy import OccupancyGrid
     from .store import Store
 
-COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
-#: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
-#: this text by its hash (relay.headers), and the report sets no ``style`` attribute, which the policy would block.
-STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
+#: What ``/report/<name>.<kind>`` and ``xr-relay report`` make; the longest suffix first (``.workorders.csv`` is
+#: not ``.csv``).
+KINDS = ("workorders.csv", "workorders.json", "html", "json", "csv")
+CONTENT_TYPES = {"html": "text/html", "json": "application/json", "csv": "text/csv"}
+#: The stem of a range report's name: ``/report/range.html?from=...&to=...`` (mission ids start with ``m-``).
+RANGE = "range"
+#: The most findings one report holds. The HTML embeds each finding's image (the demo's 480x480 JPEGs are about
+#: 30 kB, 40 kB in base64): 1000 findings make a 40 MB page, about what a browser still opens comfortably; a
+#: range holding more is refused with a message saying to narrow it, never cut short without saying so.
+MAX_FINDINGS = 1000
 CSV_FIELDS = (
     "finding",
     "status",
+    "number",  # the finding's pin on the plan
     "source",
+    "reviewed",
     "mission",
     "robot",
     "target",
+    "target_name",
+    "room",
     "x",
     "y",
     "time",
@@ -50,193 +73,293 @@ CSV_FIELDS = (
     "readings",
     "image",
 )
-
-
 #: A cell starting with one of these is read as a formula by spreadsheets (CSV injection: a note "=HYPERLINK(...)"
 #: became a live link): such a cell gets a leading single quote, as OWASP advises, and is shown as typed.
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
 
+class ReportError(ValueError):
+    """Nothing to report under that name (an unknown mission)."""
+
+
+class ReportRefused(ValueError):
+    """A report that cannot be made as asked (a range holding too many findings); the message says what to do."""
+
+
+@dataclass(frozen=True)
+class Scope:
+    """What a report covers: a mission or a fleet mission's group (``mission``), or the findings whose capture was
+    taken in ``[start, end)`` (Unix seconds)."""
+
+    mission: str | None = None
+    start: float | None = None
+    end: float | None = None
+
+    @property
+    def stem(self) -> str:
+        return self.mission if self.mission is not None else RANGE
+
+
 @dataclass(frozen=True)
 class Report:
+    scope: Scope
+    site: SiteInfo
     missions: list[MissionRecord]
-    findings: list[FindingRecord]
-    captures: dict[str, CaptureRecord]
+    rows: list[Row]
+    made: float  # when the report was made (Unix seconds)
 
 
-class ReportError(ValueError):
-    pass
+def split_name(name: str) -> tuple[str, str] | None:
+    """``m-1.robot1.workorders.csv`` -> ``("m-1.robot1", "workorders.csv")``; None for no known kind."""
+    for kind in KINDS:
+        stem = name.removesuffix("." + kind)
+        if stem != name and 0 < len(stem) <= 128:
+            return stem, kind
+    return None
 
 
-def collect(store: Store, mission: str) -> Report:
-    missions = [m for m in store.missions() if m.id == mission or m.id.startswith(mission + ".")]
-    if not missions:
-        known = ", ".join(sorted({m.id.split(".")[0] for m in store.missions()})[-10:]) or "none"
-        raise ReportError(f"no mission {mission!r} in the database; recent missions: {known}")
-    findings: list[FindingRecord] = []
-    captures: dict[str, CaptureRecord] = {}
-    for record in sorted(missions, key=lambda m: m.robot):
-        findings += store.findings(mission=record.id)
-        captures.update((c.id, c) for c in store.captures(record.id))
-    return Report(sorted(missions, key=lambda m: m.robot), findings, captures)
+def content_type(kind: str) -> str:
+    return CONTENT_TYPES[kind.rsplit(".", 1)[-1]]
 
 
-def as_json(report: Report) -> str:
+def range_scope(start: str | None, end: str | None, zone: tzinfo | None) -> Scope:
+    """The scope of ``?from=...&to=...`` (report_rows.parse_range; RangeError naming what is wrong)."""
+    first, last = parse_range(start, end, zone)
+    return Scope(start=first, end=last)
+
+
+def asked_range(query: Mapping[str, str], kind: str, config: FleetConfig, now: float) -> Scope | tuple[int, str]:
+    """What ``/report/range.<kind>?<query>`` asks for: its scope, or the answer to give instead of a report (for
+    ``html``, the page asking for a range: 200 when none was given, 400 saying what is wrong with the one given;
+    for the other kinds, 400 and the reason)."""
+    name, zone = site_header(config)
+    start, end = query.get("from"), query.get("to")
+    if kind == "html" and start is None and end is None:
+        return 200, range_form_page(name, zone, now, query.get("token"))
+    try:
+        return range_scope(start, end, zone)
+    except RangeError as exc:
+        if kind == "html":
+            return 400, range_form_page(name, zone, now, query.get("token"), str(exc), (start, end))
+        return 400, f"{exc}\n"
+
+
+# -- what the report holds ----------------------------------------------------------------------------------------
+
+
+def site_of(config: FleetConfig, store: Store | None = None, *, zone: str | None = None) -> SiteInfo:
+    """The site as robots.yaml describes it: its name, zone (``zone``, else ``site.time_zone``, else local), the
+    rooms of its scene file (``sim.world``), its sensors' units and limits, and its targets' names (the scene's
+    hazards, then the database's). Reads files: not on the event loop."""
+    from ..twin.facility import load_facility
+    from .targets import facility_targets
+
+    rooms: tuple[Room, ...] = ()
+    targets: dict[str, str] = {}
+    if config.sim.world is not None:
+        try:
+            facility = load_facility(config.sim.world)
+        except (ValueError, OSError):  # the relay refuses to start on a bad scene file: this is the CLI's case
+            pass
+        else:
+            rooms = tuple(Room(r.name, r.title, r.min_x, r.min_y, r.max_x, r.max_y) for r in facility.rooms)
+            targets.update((t.id, t.name) for t in facility_targets(facility))
+    if store is not None:
+        targets.update((t.id, t.name) for t in store.targets())
+    limits = {
+        robot.name: {s.name: Limit(s.unit, s.warn_above, s.warn_below) for s in robot.sensors}
+        for robot in config.robots
+    }
+    name, site_zone = site_header(config)
+    return SiteInfo(name, zone_named(zone) if zone else site_zone, rooms, limits, targets)
+
+
+def site_header(config: FleetConfig) -> tuple[str, tzinfo | None]:
+    """The site's name (``site.name``, else its scene file's) and time zone (``site.time_zone``, else None: the
+    relay's local zone). Reads no file."""
+    source = config.sim.world or (Path(config.scene.url) if config.scene.url else None)
+    name = config.site.name or (source.stem.replace("_", " ").capitalize() if source is not None else "The site")
+    return name, zoneinfo.ZoneInfo(config.site.time_zone) if config.site.time_zone else local_zone()
+
+
+@functools.cache  # read once: the zone a process runs in does not change under it
+def local_zone() -> tzinfo | None:
+    """The relay's own zone by its IANA name when it has one (``TZ=Europe/Berlin``, or /etc/localtime linking
+    into the zone database), so that the report can name it; else None: Python's local time, which follows any
+    ``TZ`` the C library reads (``TZ=CET-1CEST``) but has no name beyond its abbreviation."""
+    name = os.environ.get("TZ", "").removeprefix(":")
+    if not name and "TZ" not in os.environ:
+        link = Path("/etc/localtime")
+        target = str(link.resolve()) if link.is_symlink() else ""
+        name = target.split("/zoneinfo/", 1)[1] if "/zoneinfo/" in target else ""
+    try:
+        return zoneinfo.ZoneInfo(name) if name else None
+    except (ValueError, zoneinfo.ZoneInfoNotFoundError):
+        return None
+
+
+def collect(store: Store, scope: Scope, site: SiteInfo, *, now: float | None = None) -> Report:
+    """The missions and findings a scope covers. ReportError for an unknown mission; ReportRefused for a range
+    holding more than ``MAX_FINDINGS`` findings."""
+    made = time.time() if now is None else now
+    if scope.mission is not None:
+        mission = scope.mission
+        missions = sorted(
+            (m for m in store.missions() if m.id == mission or m.id.startswith(mission + ".")), key=lambda m: m.robot
+        )
+        if not missions:
+            known = ", ".join(sorted({m.id.split(".")[0] for m in store.missions()})[-10:]) or "none"
+            raise ReportError(f"no mission {mission[:128]!r} in the database; recent missions: {known}")
+        findings: list[FindingRecord] = []
+        captures: dict[str, CaptureRecord] = {}
+        for record in missions:
+            findings += store.findings(mission=record.id)
+            captures.update((c.id, c) for c in store.captures(record.id))
+        return Report(scope, site, missions, rows_of(findings, captures, site), made)
+    assert scope.start is not None and scope.end is not None
+    pairs = store.findings_between(scope.start, scope.end, MAX_FINDINGS + 1)
+    if len(pairs) > MAX_FINDINGS:
+        raise ReportRefused(f"this range holds more than {MAX_FINDINGS} findings, the most one report holds: narrow it")
+    ids = sorted({f.mission for f, _ in pairs if f.mission})
+    found = [store.mission(i) for i in ids]
+    missions = sorted((m for m in found if m is not None), key=lambda m: (m.created, m.robot))
+    rows = rows_of([f for f, _ in pairs], {c.id: c for _, c in pairs}, site)
+    return Report(scope, site, missions, rows, made)
+
+
+# -- JSON and CSV -------------------------------------------------------------------------------------------------
+
+
+def relay_images(origin: str) -> Callable[[str], str]:
+    """Image URLs as the relay serves them from ``origin`` (``https://relay.example:8443``). They carry no token: a
+    report is passed around, a token must not be; opening one needs the token or a relay that allows viewers."""
+    return lambda sha: f"{origin.rstrip('/')}/captures/{sha}.jpg"
+
+
+def as_json(report: Report, image_url: Callable[[str], str]) -> str:
+    zone = report.site.zone
     return json.dumps(
         {
-            "missions": [dataclasses.asdict(m) for m in report.missions],
-            "findings": [dataclasses.asdict(f) for f in report.findings],
-            "captures": [dataclasses.asdict(c) for c in report.captures.values()],
+            "site": report.site.name,
+            "time_zone": getattr(zone, "key", None) or "local",
+            "made": iso_time(report.made, zone),
+            "scope": _scope_json(report.scope, zone),
+            "missions": [_mission_json(m, zone) for m in report.missions],
+            "findings": [_finding_json(row, zone, image_url) for row in report.rows],
         },
         indent=2,
+        ensure_ascii=False,
     )
 
 
-def as_csv(report: Report) -> str:
+def _mission_json(m: MissionRecord, zone: tzinfo | None) -> dict[str, Any]:
+    return {
+        "id": m.id, "name": m.name, "robot": m.robot, "state": m.state, "reason": m.reason, "steps": len(m.steps),
+        "steps_done": m.current, "owner": m.owner, "created": iso_time(m.created, zone),
+        "updated": iso_time(m.updated, zone),
+    }  # fmt: skip
+
+
+def _scope_json(scope: Scope, zone: tzinfo | None) -> dict[str, str]:
+    if scope.mission is not None:
+        return {"mission": scope.mission}
+    assert scope.start is not None and scope.end is not None
+    return {"from": iso_time(scope.start, zone), "to": iso_time(scope.end, zone)}
+
+
+def _finding_json(row: Row, zone: tzinfo | None, image_url: Callable[[str], str]) -> dict[str, Any]:
+    f, capture = row.finding, row.capture
+    image = capture.image if capture is not None else None
+    return {
+        "id": f.id, "number": row.number, "status": f.status, "status_text": row.status, "source": f.source,
+        "review": row.review(zone), "mission": f.mission, "robot": f.robot, "target": f.target,
+        "target_name": row.target_name, "room": row.room.name if row.room else None,
+        "room_title": row.room.title if row.room else None, "x": f.x, "y": f.y, "time": iso_time(row.time, zone),
+        "created": iso_time(f.created, zone), "updated": iso_time(f.updated, zone), "note": f.note,
+        "readings": [
+            {
+                "sensor": r.sensor, "value": r.value, "unit": r.limit.unit, "warn_above": r.limit.warn_above,
+                "warn_below": r.limit.warn_below, "past_limit": r.over, "text": r.text(),
+            }
+            for r in row.readings
+        ],
+        "capture": f.capture, "image": image, "image_url": image_url(image) if image else None,
+        "region": f.region,
+    }  # fmt: skip
+
+
+def as_csv(report: Report, image_url: Callable[[str], str]) -> str:
     """The findings, one row each. Every text cell is neutralised (``_cell``); the numbers the report formats itself
-    (x, y, time) stay numbers."""
+    (x, y) and the times it writes stay as they are."""
+    zone = report.site.zone
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(CSV_FIELDS)
-    for f in report.findings:
-        capture = report.captures.get(f.capture)
-        readings = "; ".join(f"{k}={v:g}" for k, v in (capture.readings if capture else {}).items())
-        text = (f.id, f.status, f.source, f.mission or "", f.robot, f.target or "")
+    for row in report.rows:
+        f, capture = row.finding, row.capture
+        reviewed = iso_time(f.updated, zone) if f.updated > f.created else ""
+        text = (f.id, row.status, str(row.number), f.source)
+        place = (f.mission or "", f.robot, f.target or "", row.target_name, row.location)
+        image = image_url(capture.image) if capture is not None and capture.image else ""
         writer.writerow(
-            (*map(_cell, text), f"{f.x:.3f}", f"{f.y:.3f}", f.created, _cell(f.note), _cell(readings),
-             _cell(capture.image if capture and capture.image else ""))
+            (*map(_cell, text), reviewed, *map(_cell, place), f"{f.x:.3f}", f"{f.y:.3f}", iso_time(row.time, zone),
+             _cell(f.note), _cell("; ".join(r.text() for r in row.readings)), _cell(image))
         )  # fmt: skip
     return out.getvalue()
+
+
+def work_orders_csv(report: Report, image_url: Callable[[str], str]) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(WORK_ORDER_FIELDS)
+    for order in work_orders(report.rows, report.site.zone, image_url):
+        writer.writerow(
+            _cell(v) if isinstance(v, str) else f"{v:.3f}" for v in dataclasses.astuple(order)
+        )  # fmt: skip
+    return out.getvalue()
+
+
+def work_orders_json(report: Report, image_url: Callable[[str], str]) -> str:
+    orders = [dataclasses.asdict(o) for o in work_orders(report.rows, report.site.zone, image_url)]
+    return json.dumps({"site": report.site.name, "work_orders": orders}, indent=2, ensure_ascii=False)
 
 
 def _cell(text: str) -> str:
     return "'" + text if text.startswith(FORMULA_STARTS) else text
 
 
-def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
-    """The site seen from above: the occupancy grid as an embedded image, findings as pins (1 px = 2 cm)."""
-    if grid is None:
-        xs = [f.x for f in report.findings] or [0.0]
-        ys = [f.y for f in report.findings] or [0.0]
-        min_x, min_y, max_x, max_y = min(xs) - 2, min(ys) - 2, max(xs) + 2, max(ys) + 2
-        image = ""
-    else:
-        min_x, min_y, max_x, max_y = grid.bounds
-        pixels = np.where(grid.occupied[::-1], 60, 245).astype(np.uint8)  # row 0 is the lowest y: flip for SVG
-        ok, png = cv2.imencode(".png", pixels)
-        image = (
-            f'<image href="data:image/png;base64,{base64.b64encode(png.tobytes()).decode()}" x="0" y="0" '
-            f'width="{(max_x - min_x) * 50:.0f}" height="{(max_y - min_y) * 50:.0f}" preserveAspectRatio="none" '
-            'class="grid"/>'
-            if ok
-            else ""
-        )
-    width, height = (max_x - min_x) * 50, (max_y - min_y) * 50
-    pins = []
-    for i, f in enumerate(report.findings, 1):
-        px, py = (f.x - min_x) * 50, (max_y - f.y) * 50
-        pins.append(
-            f'<g><circle cx="{px:.1f}" cy="{py:.1f}" r="12" fill="{COLOURS[f.status]}" stroke="#fff" stroke-width="3"/>'
-            f'<text x="{px:.1f}" y="{py + 5:.1f}" text-anchor="middle" font-size="14" fill="#fff">{i}</text>'
-            f"<title>{html.escape(f.target or f.id)}: {f.status}</title></g>"
-        )
-    return (
-        f'<svg viewBox="0 0 {width:.0f} {height:.0f}" width="100%" role="img" aria-label="plan of the site">'
-        f"{image}{''.join(pins)}</svg>"
-    )
+def render(report: Report, kind: str, store: Store, grid: OccupancyGrid | None, image_url: Callable[[str], str]) -> str:
+    """The report as ``kind`` (one of ``KINDS``)."""
+    if kind == "html":
+        from .report_html import as_html
+
+        return as_html(report, store, grid)
+    writers = {
+        "json": as_json, "csv": as_csv, "workorders.csv": work_orders_csv, "workorders.json": work_orders_json,
+    }  # fmt: skip
+    return writers[kind](report, image_url)
 
 
-def _image_cell(finding: FindingRecord, capture: CaptureRecord | None, store: Store) -> str:
-    jpeg = store.image(capture.image) if capture and capture.image else None
-    if jpeg is None:
-        return "<td>no image</td>"
-    data = base64.b64encode(jpeg).decode()
-    region = ""
-    if finding.region:
-        points = " ".join(f"{u},{v}" for u, v in finding.region)
-        region = f'<polygon points="{points}" fill="rgba(255,220,0,0.25)" stroke="#ffdc00" stroke-width="3"/>'
-    assert capture is not None
-    return (
-        f'<td><svg viewBox="0 0 {capture.width} {capture.height}" width="320">'
-        f'<image href="data:image/jpeg;base64,{data}" width="{capture.width}" height="{capture.height}"/>{region}'
-        "</svg></td>"
-    )
+def range_form_page(
+    name: str,
+    zone: tzinfo | None,
+    now: float,
+    token: str | None,
+    problem: str | None = None,
+    asked: tuple[str | None, str | None] = (None, None),
+) -> str:
+    """``/report/range.html`` without a range, or with one that cannot be read: the page that asks for one
+    (report_html.range_form)."""
+    from .report_html import range_form
+
+    return range_form(name, zone, now, token, problem, asked)
 
 
-def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
-    rows = []
-    for i, f in enumerate(report.findings, 1):
-        capture = report.captures.get(f.capture)
-        readings = "<br>".join(f"{html.escape(k)}: {v:.1f}" for k, v in (capture.readings if capture else {}).items())
-        rows.append(
-            f'<tr><td>{i}</td><td><span class="status {f.status}">{f.status}</span></td>'
-            f"<td>{html.escape(f.target or '')}</td><td>{html.escape(f.robot)}</td>"
-            f"<td>({f.x:.2f}, {f.y:.2f})</td><td>{readings}</td><td>{html.escape(f.note)}</td>"
-            f"{_image_cell(f, capture, store)}</tr>"
-        )
-    missions = "".join(
-        f"<li><b>{html.escape(m.robot)}</b>: {html.escape(m.id)}, {m.state}"
-        f"{': ' + html.escape(m.reason) if m.reason else ''}, {m.current} of {len(m.steps)} steps</li>"
-        for m in report.missions
-    )
-    title = html.escape(report.missions[0].name)
-    counts = {s: sum(f.status == s for f in report.findings) for s in COLOURS}
-    summary = ", ".join(f"{n} {s.replace('_', ' ')}" for s, n in counts.items() if n) or "no findings"
-    return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>{title}: inspection report</title><link rel="icon" href="data:,">
-<style>{STYLESHEET}</style></head><body>
-<h1>{title}</h1>
-<p>{len(report.findings)} findings: {summary}.</p>
-<ul>{missions}</ul>
-<h2>Plan</h2>{_plan_svg(report, grid)}
-<h2>Findings</h2>
-<table><tr><th>#</th><th>status</th><th>target</th><th>robot</th><th>where (m)</th><th>readings</th><th>note</th>
-<th>image</th></tr>{"".join(rows)}</table>
-</body></html>
-"""
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from ..config import load_config
-    from ..errors import ConfigError
-    from ..occupancy import from_map_yaml
-    from ..twin.facility import load_facility
-    from .store import Store, StoreError, default_images
-
-    parser = argparse.ArgumentParser(prog="xr-relay report", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--mission", required=True, help="a mission id, or the id a fleet mission's robots share")
-    parser.add_argument("--database", default="xr-relay-inspection.sqlite", help="SQLite file or postgresql:// URL")
-    parser.add_argument(
-        "--images",
-        help="capture images (default: beside a SQLite file, <name>-images; for PostgreSQL "
-        "~/.local/share/xr-relay/images)",
-    )
-    parser.add_argument("--config", type=Path, default=Path("robots.yaml"), help="for the plan of the site")
-    parser.add_argument("--out", type=Path, default=Path("."), help="directory for the .html, .json and .csv")
-    args = parser.parse_args(argv)
-    images = args.images or str(default_images(args.database))
+def zone_named(name: str) -> zoneinfo.ZoneInfo:
+    """The IANA zone ``name``; ReportRefused naming ``--time-zone`` if the zone database has none."""
     try:
-        if "://" not in args.database and not Path(args.database).is_file():
-            raise StoreError(f"{args.database}: no such database (start the relay with --database, or name it here)")
-        store = Store.open(args.database, Path(images))
-        report = collect(store, args.mission)
-        grid = None
-        try:
-            config = load_config(args.config)
-            if config.map is not None:
-                grid = from_map_yaml(config.map)
-            elif config.sim.world is not None:
-                grid = load_facility(config.sim.world).grid
-        except (ConfigError, ValueError, OSError) as exc:
-            print(f"xr-relay report: no plan of the site ({exc})", file=sys.stderr)  # noqa: T201
-        args.out.mkdir(parents=True, exist_ok=True)
-        stem = args.out / f"report-{args.mission}"
-        Path(f"{stem}.html").write_text(as_html(report, store, grid), encoding="utf-8")
-        Path(f"{stem}.json").write_text(as_json(report), encoding="utf-8")
-        Path(f"{stem}.csv").write_text(as_csv(report), encoding="utf-8")
-        store.close()
-    except (StoreError, ReportError, OSError) as exc:
-        print(f"xr-relay report: {exc}", file=sys.stderr)  # noqa: T201
-        return 2
-    print(f"xr-relay report: {stem}.html, .json, .csv ({len(report.findings)} findings)")  # noqa: T201
-    return 0
+        return zoneinfo.ZoneInfo(name)
+    except (ValueError, zoneinfo.ZoneInfoNotFoundError):
+        raise ReportRefused(
+            f"--time-zone: no time zone {name[:64]!r}; expected an IANA name such as Europe/Berlin"
+        ) from None

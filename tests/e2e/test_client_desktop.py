@@ -219,12 +219,17 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await client.wait("s.inspection.targets === 5")
     valve = station.running.relay.inspection.targets["valve-4"]
     assert abs(valve.x - 10.5) < 0.3 and abs(valve.y - 2.0) < 0.3, valve
-    # The report of that mission, from the panel's link: the three findings with their images.
-    href = await page.get_attribute("#findings .head a", "href")
+    # The report of that mission, from the panel's link: the three findings with their images; its work orders;
+    # the page asking for a range.
+    hrefs = await page.eval_on_selector_all("#findings .head a", "(links) => links.map((a) => a.getAttribute('href'))")
+    href = hrefs[0]
     assert href is not None and href.startswith("/report/m-")
     response = await page.request.get(station.url + href)
     report = await response.text()
-    assert response.ok and report.count("data:image/jpeg;base64,") == 3 and "needs review" in report
+    assert response.ok and report.count("data:image/jpeg;base64,") == 3 and "Needs review" in report
+    assert hrefs[1] == href.replace(".html", ".workorders.csv") and hrefs[2].startswith("/report/range.html"), hrefs
+    orders = await page.request.get(station.url + hrefs[1])
+    assert orders.ok and (await orders.text()).startswith("reference,asset,asset_name,location")
     # A mission made in the page: pick the leak, then the spill, for the fleet.
     await page.click("#findings li[data-target='leak']")
     await page.click("#findings li[data-target='spill']")

@@ -89,6 +89,13 @@ async def test_the_station_and_the_report_pass_the_content_security_policy(stati
         assert await page.locator("svg image").count() >= 1
         assert await violations(page) == [] and console == [], (await violations(page), console)
         await enforced(client, console)
+        # The page asking for a range (its last seven days to start with), and the report its form asks for.
+        await page.goto(f"{station.url}/report/range.html")
+        async with page.expect_navigation():
+            await page.click("button[formaction='range.html']")
+        assert "/report/range.html?from=" in page.url and await page.locator("span.status").count() >= 1, page.url
+        assert await violations(page) == [] and console == [], (await violations(page), console)
+        await enforced(client, console)
 
         # The emulated headset (IWER, ?emulate=quest3): the same policy, nothing else needed.
         await page.goto(f"{station.url}/?name=Tess&emulate=quest3&{SOFTWARE_GL}")

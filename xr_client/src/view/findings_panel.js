@@ -7,6 +7,7 @@
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
+import { reportLinks } from '../report_links.js';
 
 export class FindingsPanel {
   /** @type {'anomaly' | 'needs_review' | 'ok' | ''} */
@@ -47,12 +48,12 @@ export class FindingsPanel {
     const items = findings
       .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" data-status="${esc(f.status)}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
       .join('');
-    // The report of the mission the selected (else the newest) finding came from: all robots of that start.
+    // The report and work orders of the mission the selected (else the newest) finding came from, and a range.
     const about = (selected ? this.model.findings.get(selected) : null) ?? findings[0] ?? null;
-    const group = about?.mission ? about.mission.split('.')[0] : null;
-    const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
-    const report = group ? `<a href="/report/${encodeURIComponent(group)}.html${query}" target="_blank" rel="noopener">Report</a>` : '';
-    this.root.innerHTML = `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>${report}<select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+    const links = reportLinks(about?.mission, this.token)
+      .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
+      .join('');
+    this.root.innerHTML = `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b><span class="links">${links}</span><select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);

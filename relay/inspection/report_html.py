@@ -1,0 +1,241 @@
+"""The report as one self-contained HTML page (relay.inspection.report): the site, what the report covers and in
+which time zone, the missions, a plan of the site with its rooms and the findings as numbered pins, and a table of
+the findings (local time, room, target, readings with units and limits, status in words, who decided it, the image
+with its region). Also the page that asks for a range (``/report/range.html`` with no range).
+
+Every text from the database or a file is escaped; the page sets no ``style`` attribute (the relay's
+Content-Security-Policy allows only the embedded stylesheet, by its hash: relay.headers) and runs no script.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from datetime import time, timedelta
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import cv2
+import numpy as np
+
+from .report_rows import (
+    Row,
+    iso_time,
+    local_time,
+    readable_date,
+    readable_time,
+    zone_label,
+)
+
+if TYPE_CHECKING:
+    from datetime import tzinfo
+
+    from ..occupancy import OccupancyGrid
+    from .records import MissionRecord
+    from .report import Report
+    from .store import Store
+
+COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
+OTHER_COLOUR = "#6b7280"  # a status this page does not know yet
+#: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
+#: this text by its hash (relay.headers), and the report sets no ``style`` attribute, which the policy would block.
+STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
+PIXELS_PER_METRE = 50  # the plan: 1 px = 2 cm
+MISSION_STATES = {"pending": "Pending", "running": "Running", "paused": "Paused", "done": "Done", "aborted": "Aborted"}
+_PLURALS = {"anomaly": ("anomaly", "anomalies"), "ok": ("OK", "OK"), "needs_review": ("needs review", "need review")}
+
+esc = html.escape
+
+
+def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
+    site, zone = report.site, report.site.zone
+    title = f"{site.name}: inspection report"
+    rows = "".join(_row(row, zone, store) for row in report.rows)
+    empty = '<tr><td colspan="10">No findings.</td></tr>' if not report.rows else ""
+    return f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{esc(title)}</title><link rel="icon" href="data:,">
+<style>{STYLESHEET}</style></head><body>
+<h1>{esc(title)}</h1>
+<dl class="facts">{_facts(report)}</dl>
+<p>{_summary(report)}</p>
+<h2>Missions</h2>{_missions(report.missions, zone)}
+<h2>Plan</h2>{_plan_svg(report, grid)}
+<h2>Findings</h2>
+<table class="findings"><thead><tr><th>#</th><th>Status</th><th>Seen</th><th>Room</th><th>Target</th><th>Robot</th>
+<th>Readings</th><th>Note</th><th>Decided by</th><th>Image</th></tr></thead><tbody>{rows}{empty}</tbody></table>
+</body></html>
+"""
+
+
+def _facts(report: Report) -> str:
+    scope, zone = report.scope, report.site.zone
+    if scope.mission is not None:
+        names = sorted({m.name for m in report.missions})
+        covers = f"mission {esc(', '.join(names))} ({esc(scope.mission)})"
+    else:
+        assert scope.start is not None and scope.end is not None
+        first, last = local_time(scope.start, zone), local_time(scope.end, zone)
+        if first.time() == last.time() == time.min:  # whole days: name the last one, not the midnight after it
+            covers = f"captures from {readable_date(first.date())} to {readable_date(last.date() - timedelta(days=1))}"
+        else:
+            covers = f"captures from {esc(readable_time(scope.start, zone))} to {esc(readable_time(scope.end, zone))}"
+    seen = [row.time for row in report.rows]
+    span = f"<dt>Captures</dt><dd>{_time(min(seen), zone)} to {_time(max(seen), zone)}</dd>" if seen else ""
+    return (
+        f"<dt>Site</dt><dd>{esc(report.site.name)}</dd><dt>Covers</dt><dd>{covers}</dd>{span}"
+        f"<dt>Times</dt><dd>{esc(zone_label(zone, report.made))}</dd>"
+        f"<dt>Made</dt><dd>{_time(report.made, zone)}</dd>"
+    )
+
+
+def _summary(report: Report) -> str:
+    counts: dict[str, int] = {}
+    for row in report.rows:
+        counts[row.finding.status] = counts.get(row.finding.status, 0) + 1
+    order = [*COLOURS, *sorted(set(counts) - set(COLOURS))]
+    parts = []
+    for status in order:
+        n = counts.get(status, 0)
+        if n:
+            one, many = _PLURALS.get(status, (status.replace("_", " "),) * 2)
+            parts.append(f"{n} {one if n == 1 else many}")
+    total = len(report.rows)
+    return f"{total} finding{'s' if total != 1 else ''}" + (": " + ", ".join(parts) if parts else "") + "."
+
+
+def _time(t: float, zone: tzinfo | None) -> str:
+    return f'<time datetime="{iso_time(t, zone)}">{esc(readable_time(t, zone))}</time>'
+
+
+def _missions(missions: list[MissionRecord], zone: tzinfo | None) -> str:
+    if not missions:
+        return "<p>None.</p>"
+    rows = "".join(
+        f"<tr><td>{esc(m.robot)}</td><td>{esc(m.name)}<br><small>{esc(m.id)}</small></td>"
+        f"<td>{esc(MISSION_STATES.get(m.state, m.state))}{': ' + esc(m.reason) if m.reason else ''}</td>"
+        f"<td>{_time(m.created, zone)}</td><td>{_time(m.updated, zone)}</td><td>{m.current} of {len(m.steps)}</td></tr>"
+        for m in missions
+    )
+    return (
+        "<table><thead><tr><th>Robot</th><th>Mission</th><th>State</th><th>Started</th><th>Last change</th>"
+        f"<th>Steps done</th></tr></thead><tbody>{rows}</tbody></table>"
+    )
+
+
+def _row(row: Row, zone: tzinfo | None, store: Store) -> str:
+    f = row.finding
+    readings = "<br>".join(
+        f'<span class="{"past" if r.over else "within"}">{esc(r.text())}</span>' for r in row.readings
+    )
+    target = esc(row.target_name or f.target or "")
+    return (
+        f'<tr><td>{row.number}</td><td><span class="status {_status_class(f.status)}">{esc(row.status)}</span></td>'
+        f"<td>{_time(row.time, zone)}</td><td>{esc(row.location) or '<small>outside the rooms</small>'}"
+        f"<br><small>({f.x:.2f}, {f.y:.2f}) m</small></td><td>{target}</td><td>{esc(f.robot)}</td>"
+        f"<td>{readings}</td><td>{esc(f.note)}</td><td>{esc(row.review(zone))}</td>{_image_cell(row, store)}</tr>"
+    )
+
+
+def _status_class(status: str) -> str:
+    return status if status in COLOURS else "other"
+
+
+def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
+    """The site seen from above: the occupancy grid as an embedded image, the rooms outlined and named (in their
+    lower left corner: targets stand along walls, most often the far ones), findings as numbered pins coloured by
+    status, drawn over the names."""
+    rooms = report.site.rooms
+    if grid is not None:
+        min_x, min_y, max_x, max_y = grid.bounds
+    else:
+        xs = [row.finding.x for row in report.rows] + [v for r in rooms for v in (r.min_x, r.max_x)] or [0.0]
+        ys = [row.finding.y for row in report.rows] + [v for r in rooms for v in (r.min_y, r.max_y)] or [0.0]
+        min_x, min_y, max_x, max_y = min(xs) - 1, min(ys) - 1, max(xs) + 1, max(ys) + 1
+    scale = PIXELS_PER_METRE
+    width, height = (max_x - min_x) * scale, (max_y - min_y) * scale
+    image = ""
+    if grid is not None:
+        pixels = np.where(grid.occupied[::-1], 60, 245).astype(np.uint8)  # row 0 is the lowest y: flip for SVG
+        ok, png = cv2.imencode(".png", pixels)
+        if ok:
+            image = (
+                f'<image href="data:image/png;base64,{base64.b64encode(png.tobytes()).decode()}" x="0" y="0" '
+                f'width="{width:.0f}" height="{height:.0f}" preserveAspectRatio="none" class="grid"/>'
+            )
+    outlines = "".join(
+        f'<g class="room"><rect x="{(r.min_x - min_x) * scale:.1f}" y="{(max_y - r.max_y) * scale:.1f}" '
+        f'width="{(r.max_x - r.min_x) * scale:.1f}" height="{(r.max_y - r.min_y) * scale:.1f}"/>'
+        f'<text x="{(r.min_x - min_x) * scale + 12:.1f}" y="{(max_y - r.min_y) * scale - 14:.1f}">'
+        f"{esc(r.title)}</text></g>"
+        for r in rooms
+    )
+    pins = []
+    for row in report.rows:
+        f = row.finding
+        px, py = (f.x - min_x) * scale, (max_y - f.y) * scale
+        colour = COLOURS.get(f.status, OTHER_COLOUR)
+        pins.append(
+            f'<g><circle cx="{px:.1f}" cy="{py:.1f}" r="12" fill="{colour}" stroke="#fff" stroke-width="3"/>'
+            f'<text x="{px:.1f}" y="{py + 5:.1f}" text-anchor="middle" font-size="14" fill="#fff">{row.number}</text>'
+            f"<title>{row.number}. {esc(row.target_name or f.target or f.id)}: {esc(row.status)}"
+            f"{' in ' + esc(row.location) if row.location else ''}</title></g>"
+        )
+    return (
+        f'<svg viewBox="0 0 {width:.0f} {height:.0f}" width="100%" role="img" aria-label="plan of the site">'
+        f"{image}{outlines}{''.join(pins)}</svg>"
+    )
+
+
+def _image_cell(row: Row, store: Store) -> str:
+    capture = row.capture
+    jpeg = store.image(capture.image) if capture is not None and capture.image else None
+    if jpeg is None or capture is None:
+        return "<td>no image</td>"
+    data = base64.b64encode(jpeg).decode()
+    region = ""
+    if row.finding.region:
+        points = " ".join(f"{u},{v}" for u, v in row.finding.region)
+        region = f'<polygon points="{points}" fill="rgba(255,220,0,0.25)" stroke="#ffdc00" stroke-width="3"/>'
+    return (
+        f'<td><svg viewBox="0 0 {capture.width} {capture.height}" width="320" role="img" '
+        f'aria-label="capture of {esc(row.target_name or row.finding.robot)}">'
+        f'<image href="data:image/jpeg;base64,{data}" width="{capture.width}" height="{capture.height}"/>{region}'
+        "</svg></td>"
+    )
+
+
+def range_form(
+    name: str,
+    zone: tzinfo | None,
+    now: float,
+    token: str | None,
+    problem: str | None = None,
+    asked: tuple[str | None, str | None] = (None, None),
+) -> str:
+    """The page that asks for a range: two dates (what was asked, else the last seven days) and a button per kind
+    of report. It posts nothing: a GET to ``range.<kind>?from=...&to=...`` (relative: this page is
+    ``/report/range.html``). The operator's token rides in a hidden field only when this page was opened with it;
+    the reports themselves never carry it."""
+    today = local_time(now, zone).date()
+    start = asked[0] if asked[0] is not None else (today - timedelta(days=6)).isoformat()
+    end = asked[1] if asked[1] is not None else today.isoformat()
+    hidden = f'<input type="hidden" name="token" value="{esc(token)}">' if token else ""
+    said = f'<p class="problem">{esc(problem)}</p>' if problem else ""
+    buttons = "".join(
+        f'<button type="submit" formaction="range.{kind}">{label}</button>'
+        for kind, label in (
+            ("html", "Report"), ("csv", "CSV"), ("json", "JSON"), ("workorders.csv", "Work orders (CSV)"),
+            ("workorders.json", "Work orders (JSON)"),
+        )
+    )  # fmt: skip
+    return f"""<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{esc(name)}: report of a period</title>
+<link rel="icon" href="data:,"><style>{STYLESHEET}</style></head><body>
+<h1>{esc(name)}: report of a period</h1>{said}
+<form method="get" action="range.html" class="range">
+<label>From <input type="date" name="from" value="{esc(start[:40])}" required></label>
+<label>To (included) <input type="date" name="to" value="{esc(end[:40])}" required></label>{hidden}
+<p>{buttons}</p></form>
+<p><small>The findings whose capture was taken in those days, {esc(zone_label(zone, now))}.</small></p>
+</body></html>
+"""
