@@ -81,7 +81,7 @@ robots:
 @pytest.mark.ros
 async def test_a_relay_frozen_mid_teleop_leaves_its_robot_stopped(ros_domain: int, tmp_path: Path) -> None:
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
-    from tests.test_ros_backend import start_peer
+    from tests.helpers.ros import start_peer
 
     config = tmp_path / "fleet.yaml"
     config.write_text(FLEET)
