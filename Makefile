@@ -46,9 +46,13 @@ $(POSTGRES):
 	@command -v apt-get >/dev/null || { echo "Install PostgreSQL (Debian's postgresql) for the store's tests"; exit 1; }
 	apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq postgresql
 
+# pytest in parallel (pytest-xdist): the tests mostly wait (relays, browsers, DDS peers; about 5 of the suite's 14
+# minutes are CPU), so more workers than cores. TEST_WORKERS=0 runs them in this process, one after the other.
+TEST_WORKERS ?= 4
+
 test: setup $(CHROMIUM) $(POSTGRES)
 	cd xr_client && node --test test/
-	$(BIN)/python -m pytest -q -p no:cacheprovider
+	$(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS)
 
 lint: setup
 	$(BIN)/ruff check relay tools tests

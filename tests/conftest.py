@@ -1,14 +1,21 @@
-"""Shared fixtures: real relays on loopback port 0, real WebSocket clients, and a loop-blocking check."""
+"""Shared fixtures: real relays on loopback port 0, real WebSocket clients, and a loop-blocking check.
+
+The suite runs in parallel (pytest-xdist, ``-n`` in the Makefile): every test keeps to its own port (0), its own
+temporary files, its own ROS domain (disjoint between the workers of a run) and its own relay database.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import atexit
 import itertools
 import logging
 import os
 import random
 import re
+import shutil
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import AsyncIterator, Iterator
@@ -29,41 +36,92 @@ from relay.options import Options
 from relay.server import RELAY_KEY, create_app, open_runner
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED_DATA = ROOT.parent / "shared" / "data"
+#: The shared recordings, maps, photos and robot description (../shared/data beside the repository; a clone of the
+#: repository alone has none). XR_SHARED_DATA points elsewhere (`XR_SHARED_DATA=/nonexistent` checks that every
+#: test that needs it skips, naming it, when it is absent).
+SHARED_DATA = Path(os.environ.get("XR_SHARED_DATA") or ROOT.parent / "shared" / "data")
+
+
+def shared_data(*parts: str) -> Path:
+    """A file or folder of the shared data; skips the test, naming what is missing, when it is not there."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"the shared data is absent: {path} (../shared/data beside the repository, or $XR_SHARED_DATA)")
+    return path
+
 
 #: A callback holding the loop longer than this fails the test: it would freeze every client's stream.
 #: Half a second, not less: on a loaded 2-core machine, forking a subprocess or a burst of garbage
 #: collection alone can hold a step for a few hundred milliseconds without any blocking call.
 BLOCKING_THRESHOLD = 0.5
 
+#: What a loaded machine may add to a time a test bounds, in seconds. The suite runs in parallel beside whatever else
+#: CI runs, and a process that waits for a CPU is late by that much whatever the code does: with the suite's workers,
+#: a CPU hog and other work on two cores (load average 30), a 0.1 s estop path took up to 1.9 s. A bound in a test is
+#: the design's figure plus this slack, enough to catch a stop that never comes or a hang; the figures themselves
+#: are measured by the benchmarks (bench/), on a quiet machine.
+LOAD_SLACK = 2.0
+
 _SLOW = re.compile(r"^Executing .* took (\d+\.\d+) seconds$", re.S)
 
 
 class Canary(threading.Thread):
-    """Wakes every 10 ms and notes how late it woke: the measure of the whole process being starved.
+    """Wakes every 10 ms and notes how late it woke: the measure of the whole process being starved. It also notes
+    how long the loop's thread (the one that made the canary) has waited for a CPU so far.
 
     A callback that blocks the loop with a sleep or blocking I/O releases the GIL, and one that computes in
     Python gives it up every 5 ms: either way the canary keeps waking on time. When the canary is late too,
-    the machine (or another thread holding the GIL in C code) starved the whole process, and a long callback
-    in that window says nothing about the relay.
+    the machine (or another thread holding the GIL in C code, or holding it while it waits for a CPU) starved the
+    whole process, and that part of a long callback says nothing about the relay.
+
+    On a machine with more runnable threads than cores (tests in parallel, a busy CI), the canary, which sleeps,
+    is woken at once while the loop's thread, which computes, waits its turn in the run queue: a callback of
+    0.1 s of CPU then takes 0.6 s. The kernel counts that wait (/proc/.../schedstat, Linux). The time a callback
+    held the loop itself is its duration less the larger of the two.
     """
 
     def __init__(self) -> None:
         super().__init__(name="loop-block-canary", daemon=True)
-        self.late: list[tuple[float, float]] = []  # (wake time, lateness) for wake-ups over 50 ms late
+        # (wake time, lateness) of wake-ups over 20 ms late: more than the GIL's 5 ms switch interval and timer slack
+        self.late: list[tuple[float, float]] = []
+        self.waited: list[tuple[float, float]] = []  # (time, the loop thread's run-queue wait so far, seconds)
         self.running = True
+        try:
+            self._schedstat: int | None = os.open(f"/proc/self/task/{threading.get_native_id()}/schedstat", os.O_RDONLY)
+        except OSError:
+            self._schedstat = None  # not Linux: no run-queue figures, the canary alone decides
+
+    def _note_wait(self) -> None:
+        if self._schedstat is not None:
+            # "<ns on a CPU> <ns waiting in a run queue> <time slices>"
+            self.waited.append((time.monotonic(), int(os.pread(self._schedstat, 64, 0).split()[1]) / 1e9))
 
     def run(self) -> None:
-        while self.running:
-            before = time.monotonic()
-            time.sleep(0.01)
-            lateness = time.monotonic() - before - 0.01
-            if lateness > 0.05:
-                self.late.append((time.monotonic(), lateness))
+        try:
+            while self.running:
+                self._note_wait()
+                before = time.monotonic()
+                time.sleep(0.01)
+                lateness = time.monotonic() - before - 0.01
+                if lateness > 0.02:
+                    self.late.append((time.monotonic(), lateness))
+            self._note_wait()
+        finally:
+            if self._schedstat is not None:
+                os.close(self._schedstat)
 
     def starved(self, start: float, end: float) -> float:
-        """The longest lateness the canary saw between ``start`` and ``end`` (monotonic seconds)."""
-        return max((late for at, late in self.late if start <= at <= end + 0.05), default=0.0)
+        """How late the canary woke, in all, between ``start`` and ``end`` (monotonic seconds)."""
+        return sum(late for at, late in self.late if start <= at <= end + 0.05)
+
+    def queued(self, start: float, end: float) -> float:
+        """How long the loop's thread waited for a CPU between ``start`` and ``end``, at most (from the samples
+        around that span; 0 without figures)."""
+        before = [wait for at, wait in self.waited if at <= start]
+        after = [wait for at, wait in self.waited if at >= end]
+        if not before or not after:
+            return 0.0
+        return after[0] - before[-1]
 
 
 class SlowCallbackCollector(logging.Handler):
@@ -85,8 +143,14 @@ class SlowCallbackCollector(logging.Handler):
             self.slow.append((time.monotonic(), float(match.group(1)), text))
 
     def blocking(self, canary: Canary) -> list[str]:
-        """Reports not explained by the process being starved while they ran."""
-        return [text for end, took, text in self.slow if canary.starved(end - took, end) < took / 2]
+        """Reports of callbacks that held the loop for the threshold themselves: their duration less the time the
+        process was starved (the canary late) or the loop's thread waited for a CPU while they ran."""
+        held = []
+        for end, took, text in self.slow:
+            start = end - took
+            if took - max(canary.starved(start, end), canary.queued(start, end)) >= self.threshold:
+                held.append(text)
+        return held
 
 
 @pytest.fixture
@@ -148,7 +212,29 @@ async def relay_server(fleet_config: FleetConfig) -> AsyncIterator[RunningRelay]
         await running.runner.cleanup()
 
 
-_DOMAINS = itertools.count(random.randint(20, 120))
+#: ROS domain ids that are safe on Linux: from 102 on, a participant's ports can fall in the ephemeral range that
+#: port-0 sockets draw from. Domain 0, everyone's default, is left out.
+_DOMAIN_RANGE = range(1, 102)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # One random offset for the whole run, drawn before xdist starts its workers (they inherit the environment):
+    # the workers' domains are disjoint, and a run beside another (a second checkout's) rarely meets its domains.
+    os.environ.setdefault("XR_TEST_DOMAIN_OFFSET", str(random.randrange(len(_DOMAIN_RANGE))))
+
+
+def _domains() -> Iterator[int]:
+    """This process's ROS domains, endlessly: worker k of n takes every n-th id of the range from its k-th on."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    index = int(worker.removeprefix("gw")) if worker.removeprefix("gw").isdigit() else 0
+    workers = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+    offset = int(os.environ.get("XR_TEST_DOMAIN_OFFSET", "0"))
+    size = len(_DOMAIN_RANGE)
+    own = [_DOMAIN_RANGE[(offset + k) % size] for k in range(index % size, size, workers)]
+    return itertools.cycle(own)
+
+
+_DOMAINS = _domains()
 
 
 @pytest.fixture
@@ -160,14 +246,39 @@ def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
     return domain
 
 
+_SCRATCH: list[Path] = []
+
+
+def _scratch() -> Path:
+    """A directory of this process's own for what relay processes write by default (removed at exit)."""
+    if not _SCRATCH:
+        _SCRATCH.append(Path(tempfile.mkdtemp(prefix="xr-relay-tests-")))
+        atexit.register(shutil.rmtree, _SCRATCH[0], True)
+    return _SCRATCH[0]
+
+
+_RELAY_PROCESSES = itertools.count()
+
+
+def own_files(*args: str) -> tuple[str, ...]:
+    """A relay command line's ARGS with an inspection database and an audit log of its own (in a temporary
+    directory) unless ARGS name theirs: relays of tests that run in parallel do not share the checkout's defaults."""
+    n = next(_RELAY_PROCESSES)
+    if "--database" not in args:
+        args = (*args, "--database", str(_scratch() / f"inspection-{n}.sqlite"))
+    if "--audit-log" not in args:
+        args = (*args, "--audit-log", str(_scratch() / f"audit-{n}.jsonl"))
+    return args
+
+
 async def relay_process(
     *args: str, stderr: int = asyncio.subprocess.DEVNULL, port: int = 0, **options: Any
 ) -> tuple[asyncio.subprocess.Process, str]:
     """``python -m relay ARGS --port PORT`` (default 0: any free one) in a process of its own (this environment, so
     this test's ROS domain); returns it and the base URL it printed (``http://127.0.0.1:P``). ``options`` go to
-    create_subprocess_exec."""
+    create_subprocess_exec. Its inspection database and audit log are its own unless ARGS name them (own_files)."""
     process = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", *args, "--port", str(port), cwd=ROOT, stdout=asyncio.subprocess.PIPE,
+        sys.executable, "-m", "relay", *own_files(*args), "--port", str(port), cwd=ROOT, stdout=asyncio.subprocess.PIPE,
         stderr=stderr, env=dict(os.environ), **options,
     )  # fmt: skip
     assert process.stdout is not None

@@ -15,7 +15,7 @@ import aiohttp
 
 from relay.audit import AuditLog
 from tests.conftest import ROOT
-from tests.test_cli import start_process
+from tests.helpers.cli import start_process
 from tests.wsclient import TestClient
 
 

@@ -131,9 +131,9 @@ async def test_an_estop_does_not_wait_for_a_locked_database(fleet_config: FleetC
 def own_postgres() -> Iterator[tuple[str, list[str]]]:
     """A PostgreSQL server of this test's own (it is stopped mid-test): its URL and the pg_ctl command line."""
     pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    from tests.test_store import _postgres_binaries
+    from tests.helpers.postgres import postgres_binaries
 
-    binaries, why = _postgres_binaries()
+    binaries, why = postgres_binaries()
     if binaries is None:
         pytest.skip(why)
     data = Path(tempfile.mkdtemp(prefix="xr-relay-pg-"))

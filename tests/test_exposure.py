@@ -19,7 +19,7 @@ import aiohttp
 import pytest
 
 from tests.conftest import ROOT, RunningRelay
-from tests.test_store import _postgres_binaries
+from tests.helpers.postgres import postgres_binaries
 from tests.wsclient import TestClient
 
 TOKEN = secrets.token_urlsafe(32)
@@ -30,7 +30,7 @@ def password_server() -> Iterator[tuple[str, str]]:
     """A throwaway PostgreSQL server on 127.0.0.1 that asks for a password (scram-sha-256) of its user ``relay``:
     its URL without the password, and the password."""
     pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    binaries, why = _postgres_binaries()
+    binaries, why = postgres_binaries()
     if binaries is None:
         pytest.skip(why)
     data = Path(tempfile.mkdtemp(prefix="xr-relay-pgpw-"))

@@ -149,23 +149,25 @@ async def test_websocket_endpoint_survives_generated_bad_frames(relay_server: Ru
     await client.hello()
     frames = mutated_frames(rng, 400)
     tracemalloc.start()
-    baseline: tracemalloc.Snapshot | None = None
-    errors_before = 0
-    for index, frame in enumerate(frames):
-        if index == 100:
-            baseline = relay_memory()
-        start = len(client.messages)
-        await client.send_raw(frame)
-        reply = await client.wait_for(lambda m: m["identifier"] in ("error", "ack"), start=start, timeout=10)
-        assert reply["identifier"] == "error", (frame if isinstance(frame, bytes) else frame[:200], reply)
-        errors_before += 1
-        # Rate limit (60/s) is not what is under test here: pace the stream under it.
-        await asyncio.sleep(0.012)
-    assert baseline is not None
-    diff = relay_memory().compare_to(baseline, "lineno")
+    try:  # tracing slows every allocation of the process: never left on for the worker's next tests
+        baseline: tracemalloc.Snapshot | None = None
+        errors_before = 0
+        for index, frame in enumerate(frames):
+            if index == 100:
+                baseline = relay_memory()
+            start = len(client.messages)
+            await client.send_raw(frame)
+            reply = await client.wait_for(lambda m: m["identifier"] in ("error", "ack"), start=start, timeout=10)
+            assert reply["identifier"] == "error", (frame if isinstance(frame, bytes) else frame[:200], reply)
+            errors_before += 1
+            # Rate limit (60/s) is not what is under test here: pace the stream under it.
+            await asyncio.sleep(0.012)
+        assert baseline is not None
+        diff = relay_memory().compare_to(baseline, "lineno")
+    finally:
+        tracemalloc.stop()
     grown = sum(stat.size_diff for stat in diff)
     biggest = [str(stat) for stat in sorted(diff, key=lambda s: -s.size_diff)[:5]]  # where, should it fail
-    tracemalloc.stop()
     logger.info(
         "fuzzed /ws with %d bad frames: %d errors, memory growth %.1f kB", len(frames), errors_before, grown / 1e3
     )

@@ -4,7 +4,6 @@ OpenCV fisheye model agrees with OpenCV itself on real calibrated intrinsics."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -14,8 +13,8 @@ from numpy.typing import NDArray
 
 from relay.config import Lens
 from relay.lens import LensModel, pixel_grid, project, unproject
+from tests.conftest import SHARED_DATA
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 CAMERAS_PARAM = SHARED_DATA / "fisheye" / "surroundvision_jeyp4" / "camerasParam.yaml"
 
 # The front camera of that rig, copied here (not read from the file) for the table in docs/lenses.md.

@@ -33,7 +33,7 @@ import geometry_msgs.msg  # noqa: E402, F401
 import nav_msgs.msg  # noqa: E402, F401
 import std_msgs.msg  # noqa: E402, F401
 
-from tests.test_ros_backend import Peer  # noqa: E402
+from tests.helpers.ros import Peer  # noqa: E402
 
 FLEET = """
 safety: {deadman_timeout: 0.5, offline_after: 2.0}

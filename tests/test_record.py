@@ -10,7 +10,6 @@ from __future__ import annotations
 import asyncio
 import json
 import math
-import random
 import signal
 import subprocess
 import sys
@@ -74,11 +73,7 @@ def rclpy_importable() -> None:
 
 
 @pytest.mark.usefixtures("rclpy_importable")
-async def test_a_recording_of_a_live_graph_replays_with_the_values_published(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
-) -> None:
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.randint(150, 200)))
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+async def test_a_recording_of_a_live_graph_replays_with_the_values_published(ros_domain: int, tmp_path: Path) -> None:
     config_path = tmp_path / "fleet.yaml"
     config_path.write_text(FLEET)
     spec = tmp_path / "peer.json"

@@ -35,10 +35,11 @@ from relay.twin.urdf import (
     substitute_namespace,
     urdf_to_glb,
 )
+from tests.conftest import SHARED_DATA
 from tests.gltf_validate import issues_text, unavailable_reason, validate_glb
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED = SHARED_DATA
 TB3 = SHARED / "robot" / "turtlebot3_description"
 BAG = SHARED / "bags" / "tb3_walker_syzygy21" / "walker_data_2024_11_23_15_54_49"
 MAX_BYTES = 3_000_000

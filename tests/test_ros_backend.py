@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import asyncio
 import io
-import json
 import math
 import os
 import signal
@@ -27,6 +26,7 @@ import trimesh
 from relay.config import FleetConfig, load_config, parse_config
 from tests.conftest import ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
 from tests.gltf_validate import validate_glb
+from tests.helpers.ros import Peer, start_peer
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -63,50 +63,6 @@ robots:
     limits: {linear: 0.3, angular: 0.8}
     scan: null
 """
-
-
-class Peer:
-    """A tests/ros_peer.py process and the JSON lines it prints."""
-
-    def __init__(self, process: asyncio.subprocess.Process) -> None:
-        self.process = process
-        self.lines: list[dict[str, Any]] = []
-        self._reader = asyncio.ensure_future(self._read())
-
-    async def _read(self) -> None:
-        assert self.process.stdout is not None
-        async for raw in self.process.stdout:
-            self.lines.append(json.loads(raw))
-
-    async def wait_for(self, predicate: Any, timeout: float = 10.0) -> dict[str, Any]:
-        deadline = time.monotonic() + timeout
-        index = 0
-        while time.monotonic() < deadline:
-            while index < len(self.lines):
-                line = self.lines[index]
-                index += 1
-                if predicate(line):
-                    return line
-            await asyncio.sleep(0.02)
-        raise TimeoutError(f"peer printed nothing matching within {timeout} s; last: {self.lines[-3:]}")
-
-    async def stop(self) -> None:
-        if self.process.returncode is None:
-            self.process.kill()
-            await self.process.wait()
-        self._reader.cancel()
-
-
-async def start_peer(spec: dict[str, Any], tmp_path: Path) -> Peer:
-    path = tmp_path / f"peer-{time.monotonic_ns()}.json"
-    path.write_text(json.dumps(spec))
-    process = await asyncio.create_subprocess_exec(
-        sys.executable, str(ROOT / "tests" / "ros_peer.py"), str(path),
-        stdout=asyncio.subprocess.PIPE, env=dict(os.environ),
-    )  # fmt: skip
-    peer = Peer(process)
-    await peer.wait_for(lambda line: line.get("ready"), timeout=30)
-    return peer
 
 
 @pytest.fixture

@@ -26,6 +26,7 @@ import pytest
 import relay.inspection.store as store_module
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
 from relay.inspection.store import SCHEMA_VERSION, Store, StoreError, UnknownRecord
+from tests.helpers.postgres import postgres_binaries
 
 BUSY = 0.3  # seconds: the busy timeout of the tests, short so that a lock test takes well under a second
 
@@ -60,36 +61,11 @@ JPEG = b"\xff\xd8\xff\xe0" + bytes(range(256)) * 4 + b"\xff\xd9"
 # -- the databases --------------------------------------------------------------------------------------------------
 
 
-def _postgres_binaries() -> tuple[Path | None, str]:
-    """Debian's PostgreSQL binaries (the newest major version), installing the package once if it is missing."""
-
-    def newest() -> Path | None:
-        found = sorted(Path("/usr/lib/postgresql").glob("*/bin/initdb"), key=lambda p: p.parent.parent.name.zfill(4))
-        return found[-1].parent if found and (found[-1].parent / "pg_ctl").exists() else None
-
-    if (binaries := newest()) is not None:
-        return binaries, ""
-    if os.geteuid() != 0 or shutil.which("apt-get") is None:
-        return None, "no PostgreSQL server in /usr/lib/postgresql, and apt-get cannot install one here (not root)"
-    try:
-        done = subprocess.run(
-            ["apt-get", "install", "-y", "-q", "postgresql"],
-            capture_output=True,
-            text=True,
-            timeout=500,
-            env={**os.environ, "DEBIAN_FRONTEND": "noninteractive"},
-        )
-        why = (done.stderr.strip().splitlines() or ["no output"])[-1]
-    except subprocess.TimeoutExpired:
-        why = "it took over 500 s"
-    return newest(), f"no PostgreSQL server: `apt-get install -y postgresql` failed ({why})"
-
-
 @pytest.fixture(scope="session")
 def postgres_server() -> Iterator[str]:
     """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``) for the session; its admin URL."""
     pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    binaries, why = _postgres_binaries()
+    binaries, why = postgres_binaries()
     if binaries is None:
         pytest.skip(why)
     # Not under pytest's tmp_path: root's is mode 0700, and the server must run as another account (PostgreSQL

@@ -26,10 +26,11 @@ from relay.twin.facility import Facility, decode_rows, encode_rows, facility_glb
 from relay.twin.frames import ROS_TO_GLTF
 from relay.twin.gltf import Geometry, Material, Mesh, Node, Primitive, build_glb, read_glb_json
 from relay.twin.map_twin import grid_to_glb, map_yaml_layers, ros_map_layers
+from tests.conftest import SHARED_DATA
 from tests.gltf_validate import issues_text, unavailable_reason, validate_glb
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED = SHARED_DATA
 SCENES = ROOT / "scenes"
 MAPS = {
     "turtlebot3_world": SHARED / "maps" / "turtlebot3_world" / "map.yaml",

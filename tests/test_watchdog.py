@@ -206,9 +206,9 @@ robots:
 @pytest.mark.ros
 async def test_a_relay_frozen_mid_teleop_leaves_its_robot_stopped(ros_domain: int, tmp_path: Path) -> None:
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
-    # Off the loop: the first import of the ROS tests' module (trimesh, rclpy) took 0.8 s on a loaded machine, which
-    # the loop-blocking check rightly reports.
-    start_peer = (await asyncio.to_thread(importlib.import_module, "tests.test_ros_backend")).start_peer
+    # Off the loop: the first import of the ROS helpers (trimesh, rclpy) took 0.8 s on a loaded machine, which the
+    # loop-blocking check rightly reports.
+    start_peer = (await asyncio.to_thread(importlib.import_module, "tests.helpers.ros")).start_peer
 
     config = tmp_path / "fleet.yaml"
     config.write_text(FLEET)

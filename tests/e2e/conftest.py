@@ -1,6 +1,6 @@
 """Fixtures for the browser tests: the relay in-process on port 0, Debian's Chromium driven by Playwright's
-async API (WebGL on SwiftShader), the headset emulated by IWER through the client's `?emulate=quest3`,
-and helpers that wait on the client's read-only state (`window.__xrRelay.state`).
+async API (WebGL on SwiftShader), the headset emulated by IWER through the client's `?emulate=quest3`. The
+helpers that wait on the client's read-only state (`window.__xrRelay.state`) are in tests/helpers/browser.py.
 
 When the fleet of robots.yaml has no camera yet, the relay is given a synthetic one per robot (a
 fisheye-like test pattern served as JPEG through the real snapshot and stream paths), so that Robot POV
@@ -12,12 +12,8 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import io
-import json
-import math
-import os
-import shutil
 import time
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
@@ -27,30 +23,8 @@ from playwright.async_api import Browser, Page, async_playwright
 from relay.config import FleetConfig, load_config
 from relay.events import FrameEvent
 from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, Client, OpenClient, Station
 
-CHROMIUM = Path("/usr/bin/chromium")
-ARTIFACTS = ROOT / "test-artifacts"
-DOC_IMAGES = ROOT / "docs" / "img"
-#: Set to copy the screenshots docs/client.md shows into docs/img/ (`XR_RELAY_DOC_IMAGES=1 make test`).
-UPDATE_DOC_IMAGES = os.environ.get("XR_RELAY_DOC_IMAGES") == "1"
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-quic",
-    "--no-first-run",
-    "--enable-unsafe-swiftshader",
-    "--use-angle=swiftshader",
-    "--disable-background-timer-throttling",
-    "--disable-renderer-backgrounding",
-]
-#: The client's options for a software-rendered browser (xr_client/src/main.js): no multisampling, a lower
-#: resolution, at most a few drawn frames a second. With --disable-gpu, Chromium reads every WebGL frame
-#: back for its software compositor and holds the page meanwhile; drawing less leaves the page's own
-#: timers (input, pings) and IWER's input frames their time. Teleop's 20 Hz runs in the socket worker, whatever
-#: the frames do (tests/e2e/test_teleop_rate.py).
-SOFTWARE_GL = "quality=low&maxfps=2"
 SYNTHETIC_CAMERA = "front"
 SYNTHETIC_SIZE = 512
 SYNTHETIC_FPS = 15.0
@@ -136,33 +110,6 @@ class SyntheticCameras:
             task.cancel()
 
 
-@dataclasses.dataclass
-class Station:
-    """The relay under test and what the browser tests need to know about it."""
-
-    running: RunningRelay
-    camera: str | None  # the camera Robot POV will show, or None when the fleet has none
-    synthetic: bool
-    velocities: list[tuple[float, str, float, float]]  # (monotonic time, robot, linear, angular) at the backend
-    goals: list[tuple[str, float, float, float | None]]  # (robot, x, y, yaw) as the backend received them
-
-    @property
-    def url(self) -> str:
-        return self.running.url
-
-    def status(self, robot: str) -> dict[str, Any]:
-        """The robot's status as the relay would send it now (mode, goal, controller)."""
-        return dict(self.running.relay.fleet.status(robot, time.monotonic()))
-
-    def pose(self, robot: str) -> tuple[float, float]:
-        pose = self.running.relay.fleet.snapshot(time.monotonic())[robot]["pose"]
-        assert pose is not None, f"{robot} has no pose"
-        return pose["x"], pose["y"]
-
-    def velocities_of(self, robot: str, since: float = 0.0) -> list[tuple[float, float, float]]:
-        return [(t, lin, ang) for t, r, lin, ang in self.velocities if r == robot and t >= since]
-
-
 @pytest.fixture
 async def station() -> AsyncIterator[Station]:
     # Reading robots.yaml and the facility's occupancy grid takes a while: off the event loop.
@@ -224,59 +171,6 @@ async def browser(tmp_path: Path) -> AsyncIterator[Browser]:
             await chromium.close()
 
 
-class Client:
-    """One page of the operator station, with waits on its state and screenshots as artefacts."""
-
-    def __init__(self, page: Page, name: str) -> None:
-        self.page = page
-        self.name = name
-        self.errors: list[str] = []
-        page.on("pageerror", lambda error: self.errors.append(str(error)))
-        page.on(
-            "console",
-            lambda message: (
-                self.errors.append(message.text) if message.type == "error" and "favicon" not in message.text else None
-            ),
-        )
-
-    async def state(self) -> dict[str, Any]:
-        result: dict[str, Any] = await self.page.evaluate("window.__xrRelay.state")
-        return result
-
-    async def wait(self, condition: str, timeout: float = 20.0, arg: Any = None) -> Any:
-        """Wait until a JS expression over the state `s` (and `arg`) is truthy; returns its value."""
-        handle = await self.page.wait_for_function(
-            f"(arg) => {{ const s = window.__xrRelay && window.__xrRelay.state; return s && ({condition}); }}",
-            arg=arg,
-            timeout=timeout * 1000,
-            polling=50,
-        )
-        return await handle.json_value()
-
-    async def frames(self, n: int = 3, timeout: float = 20.0) -> None:
-        """Wait for n more rendered frames (IWER applies input on the next XR frame)."""
-        start = (await self.state())["timing"]["frames"]
-        await self.wait("s.timing.frames >= arg", timeout, start + n)
-
-    async def drawn(self, n: int, timeout: float = 60.0) -> dict[str, Any]:
-        """Wait for n more drawn frames; returns the timing snapshot from before (for window_stats)."""
-        before: dict[str, Any] = (await self.state())["timing"]
-        await self.wait("s.timing.renders >= arg", timeout, before["renders"] + n)
-        return before
-
-    async def shot(self, step: str, doc_name: str | None = None) -> Path:
-        ARTIFACTS.mkdir(exist_ok=True)
-        path = ARTIFACTS / f"{self.name}-{step}.png"
-        await self.page.screenshot(path=str(path))
-        if doc_name and UPDATE_DOC_IMAGES:
-            DOC_IMAGES.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(path, DOC_IMAGES / doc_name)
-        return path
-
-
-OpenClient = Callable[..., Awaitable[Client]]
-
-
 @pytest.fixture
 async def open_client(browser: Browser) -> AsyncIterator[OpenClient]:
     pages: list[Page] = []
@@ -298,39 +192,3 @@ async def open_client(browser: Browser) -> AsyncIterator[OpenClient]:
     yield open_
     for page in pages:
         await page.close()
-
-
-async def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    """Poll a Python-side condition (the relay's state) without blocking the loop."""
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-        await asyncio.sleep(0.05)
-
-
-def record_timing(key: str, value: dict[str, Any]) -> None:
-    """Merge one measurement into test-artifacts/frame_timing.json."""
-    ARTIFACTS.mkdir(exist_ok=True)
-    path = ARTIFACTS / "frame_timing.json"
-    data = json.loads(path.read_text()) if path.exists() else {}
-    data[key] = value
-    path.write_text(json.dumps(data, indent=2) + "\n")
-
-
-def window_stats(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
-    """JS ms per drawn frame between two `state.timing` snapshots (from the client's recent samples)."""
-    drawn = after["renders"] - before["renders"]
-    samples = sorted(after["recent"][-drawn:]) if drawn > 0 else []
-    if not samples:
-        return {"frames": 0}
-    return {
-        "frames": len(samples),
-        "p50": samples[len(samples) // 2],
-        "p95": samples[min(len(samples) - 1, int(0.95 * len(samples)))],
-        "max": samples[-1],
-    }
-
-
-def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
-    return math.hypot(a[0] - b[0], a[1] - b[1])

@@ -13,9 +13,18 @@ from playwright.async_api import Browser
 from relay.config import load_config
 from relay.options import Options
 from tests.conftest import ROOT, start_relay
-
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, distance, record_timing, wait_until, window_stats
-from .test_client_vr import measure_rate, snapshot_until_uploaded
+from tests.helpers.browser import (
+    SOFTWARE_GL,
+    Client,
+    OpenClient,
+    Station,
+    distance,
+    measure_rate,
+    record_timing,
+    snapshot_until_uploaded,
+    wait_until,
+    window_stats,
+)
 
 GOAL = (10.0, 6.5)
 

@@ -10,24 +10,20 @@ from __future__ import annotations
 import asyncio
 import math
 import time
-from collections.abc import Awaitable, Callable
 
 import pytest
 
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, distance, record_timing, wait_until, window_stats
-from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu, stick
-
-# In the corridor, in sight of where VR starts (the relay's vantage: the corridor's west end, facing the fleet).
-GOAL = (7.0, 2.0)
-
-
-async def enter_vr(open_client: OpenClient, url: str) -> Client:
-    client = await open_client(f"{url}/?emulate=quest3&{SOFTWARE_GL}", "vr", 640, 400)
-    await client.wait("s.vr.available", 10)
-    await client.page.click("#enter-vr")
-    await client.wait("s.presenting && s.rig.position[2] !== 0")
-    await client.frames(5)
-    return client
+from tests.helpers.browser import (
+    OpenClient,
+    Station,
+    distance,
+    measure_rate,
+    record_timing,
+    snapshot_until_uploaded,
+    wait_until,
+    window_stats,
+)
+from tests.helpers.xr import GOAL, aim, aim_arc, button, click, enter_vr, press_menu_button, set_menu, stick
 
 
 async def test_vr_goal_and_teleop(station: Station, open_client: OpenClient) -> None:
@@ -246,32 +242,3 @@ async def test_vr_inspection_by_pointing(station: Station, open_client: OpenClie
     await point_and_select(points["card:close"], "insp:card:card:close")
     await client.wait("!s.inspection.card.visible")
     assert client.errors == [], client.errors
-
-
-async def measure_rate(station: Station, robot: str, seconds: float) -> float:
-    """cmd_vel per second at the backend over a window (waiting on the clock is the measurement)."""
-    t0 = time.monotonic()
-    await wait_until(lambda: time.monotonic() - t0 >= seconds, seconds + 1, "the measuring window")
-    stamps = [t for t, _, _ in station.velocities_of(robot, t0)]
-    return len(stamps) / seconds
-
-
-async def snapshot_until_uploaded(
-    client: Client, press: Callable[[], Awaitable[object]], timeout: float = 60.0
-) -> None:
-    """Ask for snapshots until one reaches the texture. A simulated camera may not have rendered its first
-    image yet (`no_camera`, "try again shortly"): ask again after each answer."""
-    deadline = time.monotonic() + timeout
-    start = (await client.state())["pov"]["uploads"]
-    while True:
-        s = await client.state()
-        requested = s["pov"]["snapshots"]["requested"]
-        await press()
-        answered = await client.wait(
-            "(s.pov.snapshots.acked + s.pov.snapshots.failed >= arg) && s.pov.snapshots", 15, requested + 1
-        )
-        if answered["acked"] > 0:
-            await client.wait("s.pov.uploads > arg", 15, start)
-            return
-        if time.monotonic() > deadline:
-            raise AssertionError(f"no snapshot within {timeout} s: {answered}")

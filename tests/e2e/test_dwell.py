@@ -9,9 +9,8 @@ import math
 import time
 from typing import Any
 
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import aim, press_menu_button, set_menu
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, wait_until
+from tests.helpers.xr import aim, enter_vr, press_menu_button, set_menu
 
 #: gestures.js's DWELL_MS: how long a gaze rests before it presses.
 DWELL_MS = 1500

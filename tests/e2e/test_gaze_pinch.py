@@ -1,5 +1,5 @@
 """Gaze and pinch (the `transient-pointer` input of Safari on Apple Vision Pro, issue #17) in Chromium with IWER's
-emulated headset: IWER has no such source, so xr_helpers.gaze_pinch makes one of IWER's own classes, which the page
+emulated headset: IWER has no such source, so helpers.xr.gaze_pinch makes one of IWER's own classes, which the page
 receives through the real WebXR paths (inputsourceschange, selectstart, the target ray's pose each frame, select,
 selectend, removed). Nothing depends on hover, which that input does not give: each act is one look and one pinch.
 The operator looks at the floor ahead and pinches: teleported there. At robot2: selected. At the menu tab: the menu
@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import math
 
-from .conftest import OpenClient, Station, wait_until
-from .test_client_vr import GOAL, enter_vr
-from .xr_helpers import aim, gaze_pinch
+from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.xr import GOAL, aim, enter_vr, gaze_pinch
 
 
 async def test_a_look_and_a_pinch_select_a_robot_press_the_menu_and_send_a_goal_where_the_eyes_are(

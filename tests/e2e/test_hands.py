@@ -9,9 +9,8 @@ import time
 
 from playwright.async_api import Page
 
-from .conftest import OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import HAND_ORIGIN, aim_arc, teleop_on
+from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.xr import HAND_ORIGIN, aim_arc, enter_vr, teleop_on
 
 
 async def hand(page: Page, side: str, position: list[float], pinch: float | None = None) -> None:

@@ -9,11 +9,9 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.xr import button, enter_vr, stick, teleop_on
 from tests.wsclient import TestClient
-
-from .conftest import OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import button, stick, teleop_on
 
 #: Wrap each emulated controller's actuator; pulses land in window.__pulses as {hand, value, ms, t}.
 RECORD = """

@@ -7,9 +7,8 @@ from __future__ import annotations
 
 import time
 
-from .conftest import OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import stick, teleop_on
+from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.xr import enter_vr, stick, teleop_on
 
 
 async def test_switching_to_hands_while_driving_stops_the_robot_and_says_so(

@@ -14,8 +14,7 @@ import pytest
 from bench.bench_client_frame import fleet_yaml
 from relay.config import parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-
-from .conftest import SOFTWARE_GL, OpenClient
+from tests.helpers.browser import SOFTWARE_GL, OpenClient
 
 ROBOTS = 100
 

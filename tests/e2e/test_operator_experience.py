@@ -14,19 +14,10 @@ from pathlib import Path
 from playwright.async_api import Browser
 
 from tests.conftest import relay_process
-
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import aim, aim_arc, button, click, press_menu_button, set_menu
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, choose, wait_until
+from tests.helpers.xr import aim, aim_arc, button, click, enter_vr, press_menu_button, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
-
-
-async def choose(client: Client, robot: str, tool: str) -> None:
-    """Select a robot and a tool in the desktop menu."""
-    await client.page.click(f'#menu button[data-button="robot:{robot}"]')
-    await client.page.click(f'#menu button[data-button="tool:{tool}"]')
-    await client.wait("s.menu.selected === arg[0] && s.menu.tool === arg[1]", 10, [robot, tool])
 
 
 def latched(station: Station) -> list[str]:

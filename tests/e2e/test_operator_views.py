@@ -8,9 +8,8 @@ import math
 import time
 from typing import Any
 
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .test_operator_experience import choose
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, choose, wait_until
+from tests.helpers.xr import enter_vr
 
 ROBOTS = ("robot1", "robot2", "robot3")
 #: The demo's target room, chemical storage: its middle, and its corners inside the walls.

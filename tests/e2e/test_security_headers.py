@@ -7,9 +7,8 @@ from __future__ import annotations
 
 from playwright.async_api import Browser, Page
 
+from tests.helpers.browser import SOFTWARE_GL, Client, Station
 from tests.wsclient import TestClient
-
-from .conftest import SOFTWARE_GL, Client, Station
 
 #: Collects every violation the page reports (the document's securitypolicyviolation events), from its first script.
 WATCH = """

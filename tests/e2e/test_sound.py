@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .conftest import SOFTWARE_GL, OpenClient, Station, wait_until
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, wait_until
 
 #: Renders one earcon with the listener at head height looking north (-z in the scene) and the source 3 m to the
 #: given side, half a metre ahead; returns each channel's energy.

@@ -15,8 +15,7 @@ import time
 
 from playwright.async_api import Browser
 
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, record_timing, wait_until
-from .test_client_vr import measure_rate
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, measure_rate, record_timing, wait_until
 
 #: Busy time added to each animation frame (ms): 2-4 frames a second.
 SLOW_FRAME_MS = 300

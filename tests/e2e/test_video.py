@@ -23,10 +23,8 @@ from playwright.async_api import FloatRect
 
 from relay.config import load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-
-from .conftest import SOFTWARE_GL, Client, OpenClient, Station, wait_until
-from .test_client_vr import enter_vr
-from .xr_helpers import press_menu_button, set_menu
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, wait_until
+from tests.helpers.xr import enter_vr, press_menu_button, set_menu
 
 ROBOT = "robot2"
 

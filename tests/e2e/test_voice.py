@@ -9,8 +9,8 @@ from typing import Any
 
 from playwright.async_api import Browser
 
-from .conftest import SOFTWARE_GL, Client, Station, wait_until
-from .xr_helpers import aim, button, click
+from tests.helpers.browser import SOFTWARE_GL, Client, Station, wait_until
+from tests.helpers.xr import aim, button, click
 
 ROBOTS = ("robot1", "robot2", "robot3")
 

@@ -6,7 +6,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from .conftest import Client
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient
+
+# In the corridor, in sight of where VR starts (the relay's vantage: the corridor's west end, facing the fleet).
+GOAL = (7.0, 2.0)
 
 #: Where the emulated hands are held, in the reference space (metres): in front of the chest.
 HAND_ORIGIN = {"left": [-0.2, 1.35, -0.25], "right": [0.2, 1.35, -0.25]}
@@ -212,3 +215,12 @@ async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] |
         await client.frames(hold)
     await client.page.evaluate("() => window.__transient.end()")
     await client.frames(2)
+
+
+async def enter_vr(open_client: OpenClient, url: str) -> Client:
+    client = await open_client(f"{url}/?emulate=quest3&{SOFTWARE_GL}", "vr", 640, 400)
+    await client.wait("s.vr.available", 10)
+    await client.page.click("#enter-vr")
+    await client.wait("s.presenting && s.rig.position[2] !== 0")
+    await client.frames(5)
+    return client

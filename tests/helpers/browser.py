@@ -1,0 +1,200 @@
+"""The browser tests' side of a page of the operator station: Debian's Chromium as Playwright drives it, the relay
+under test (a Station) and a page (a Client) with waits on the client's read-only state
+(`window.__xrRelay.state`), screenshots as artefacts and frame timings. The fixtures that make them are in
+tests/e2e/conftest.py."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import fcntl
+import json
+import math
+import os
+import shutil
+import time
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+from playwright.async_api import Page
+
+from tests.conftest import ROOT, RunningRelay
+
+CHROMIUM = Path("/usr/bin/chromium")
+ARTIFACTS = ROOT / "test-artifacts"
+DOC_IMAGES = ROOT / "docs" / "img"
+#: Set to copy the screenshots docs/client.md shows into docs/img/ (`XR_RELAY_DOC_IMAGES=1 make test`).
+UPDATE_DOC_IMAGES = os.environ.get("XR_RELAY_DOC_IMAGES") == "1"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-quic",
+    "--no-first-run",
+    "--enable-unsafe-swiftshader",
+    "--use-angle=swiftshader",
+    "--disable-background-timer-throttling",
+    "--disable-renderer-backgrounding",
+]
+#: The client's options for a software-rendered browser (xr_client/src/main.js): no multisampling, a lower
+#: resolution, at most a few drawn frames a second. With --disable-gpu, Chromium reads every WebGL frame
+#: back for its software compositor and holds the page meanwhile; drawing less leaves the page's own
+#: timers (input, pings) and IWER's input frames their time. Teleop's 20 Hz runs in the socket worker, whatever
+#: the frames do (tests/e2e/test_teleop_rate.py).
+SOFTWARE_GL = "quality=low&maxfps=2"
+
+
+@dataclasses.dataclass
+class Station:
+    """The relay under test and what the browser tests need to know about it."""
+
+    running: RunningRelay
+    camera: str | None  # the camera Robot POV will show, or None when the fleet has none
+    synthetic: bool
+    velocities: list[tuple[float, str, float, float]]  # (monotonic time, robot, linear, angular) at the backend
+    goals: list[tuple[str, float, float, float | None]]  # (robot, x, y, yaw) as the backend received them
+
+    @property
+    def url(self) -> str:
+        return self.running.url
+
+    def status(self, robot: str) -> dict[str, Any]:
+        """The robot's status as the relay would send it now (mode, goal, controller)."""
+        return dict(self.running.relay.fleet.status(robot, time.monotonic()))
+
+    def pose(self, robot: str) -> tuple[float, float]:
+        pose = self.running.relay.fleet.snapshot(time.monotonic())[robot]["pose"]
+        assert pose is not None, f"{robot} has no pose"
+        return pose["x"], pose["y"]
+
+    def velocities_of(self, robot: str, since: float = 0.0) -> list[tuple[float, float, float]]:
+        return [(t, lin, ang) for t, r, lin, ang in self.velocities if r == robot and t >= since]
+
+
+class Client:
+    """One page of the operator station, with waits on its state and screenshots as artefacts."""
+
+    def __init__(self, page: Page, name: str) -> None:
+        self.page = page
+        self.name = name
+        self.errors: list[str] = []
+        page.on("pageerror", lambda error: self.errors.append(str(error)))
+        page.on(
+            "console",
+            lambda message: (
+                self.errors.append(message.text) if message.type == "error" and "favicon" not in message.text else None
+            ),
+        )
+
+    async def state(self) -> dict[str, Any]:
+        result: dict[str, Any] = await self.page.evaluate("window.__xrRelay.state")
+        return result
+
+    async def wait(self, condition: str, timeout: float = 20.0, arg: Any = None) -> Any:
+        """Wait until a JS expression over the state `s` (and `arg`) is truthy; returns its value."""
+        handle = await self.page.wait_for_function(
+            f"(arg) => {{ const s = window.__xrRelay && window.__xrRelay.state; return s && ({condition}); }}",
+            arg=arg,
+            timeout=timeout * 1000,
+            polling=50,
+        )
+        return await handle.json_value()
+
+    async def frames(self, n: int = 3, timeout: float = 20.0) -> None:
+        """Wait for n more rendered frames (IWER applies input on the next XR frame)."""
+        start = (await self.state())["timing"]["frames"]
+        await self.wait("s.timing.frames >= arg", timeout, start + n)
+
+    async def drawn(self, n: int, timeout: float = 60.0) -> dict[str, Any]:
+        """Wait for n more drawn frames; returns the timing snapshot from before (for window_stats)."""
+        before: dict[str, Any] = (await self.state())["timing"]
+        await self.wait("s.timing.renders >= arg", timeout, before["renders"] + n)
+        return before
+
+    async def shot(self, step: str, doc_name: str | None = None) -> Path:
+        ARTIFACTS.mkdir(exist_ok=True)
+        path = ARTIFACTS / f"{self.name}-{step}.png"
+        await self.page.screenshot(path=str(path))
+        if doc_name and UPDATE_DOC_IMAGES:
+            DOC_IMAGES.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, DOC_IMAGES / doc_name)
+        return path
+
+
+OpenClient = Callable[..., Awaitable[Client]]
+
+
+async def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    """Poll a Python-side condition (the relay's state) without blocking the loop."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+        await asyncio.sleep(0.05)
+
+
+def record_timing(key: str, value: dict[str, Any]) -> None:
+    """Merge one measurement into test-artifacts/frame_timing.json (under a lock: tests run in parallel)."""
+    ARTIFACTS.mkdir(exist_ok=True)
+    path = ARTIFACTS / "frame_timing.json"
+    with (ARTIFACTS / "frame_timing.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        data = json.loads(path.read_text()) if path.exists() else {}
+        data[key] = value
+        path.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def window_stats(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
+    """JS ms per drawn frame between two `state.timing` snapshots (from the client's recent samples)."""
+    drawn = after["renders"] - before["renders"]
+    samples = sorted(after["recent"][-drawn:]) if drawn > 0 else []
+    if not samples:
+        return {"frames": 0}
+    return {
+        "frames": len(samples),
+        "p50": samples[len(samples) // 2],
+        "p95": samples[min(len(samples) - 1, int(0.95 * len(samples)))],
+        "max": samples[-1],
+    }
+
+
+def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])
+
+
+async def choose(client: Client, robot: str, tool: str) -> None:
+    """Select a robot and a tool in the desktop menu."""
+    await client.page.click(f'#menu button[data-button="robot:{robot}"]')
+    await client.page.click(f'#menu button[data-button="tool:{tool}"]')
+    await client.wait("s.menu.selected === arg[0] && s.menu.tool === arg[1]", 10, [robot, tool])
+
+
+async def measure_rate(station: Station, robot: str, seconds: float) -> float:
+    """cmd_vel per second at the backend over a window (waiting on the clock is the measurement)."""
+    t0 = time.monotonic()
+    await wait_until(lambda: time.monotonic() - t0 >= seconds, seconds + 1, "the measuring window")
+    stamps = [t for t, _, _ in station.velocities_of(robot, t0)]
+    return len(stamps) / seconds
+
+
+async def snapshot_until_uploaded(
+    client: Client, press: Callable[[], Awaitable[object]], timeout: float = 60.0
+) -> None:
+    """Ask for snapshots until one reaches the texture. A simulated camera may not have rendered its first
+    image yet (`no_camera`, "try again shortly"): ask again after each answer."""
+    deadline = time.monotonic() + timeout
+    start = (await client.state())["pov"]["uploads"]
+    while True:
+        s = await client.state()
+        requested = s["pov"]["snapshots"]["requested"]
+        await press()
+        answered = await client.wait(
+            "(s.pov.snapshots.acked + s.pov.snapshots.failed >= arg) && s.pov.snapshots", 15, requested + 1
+        )
+        if answered["acked"] > 0:
+            await client.wait("s.pov.uploads > arg", 15, start)
+            return
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no snapshot within {timeout} s: {answered}")
