@@ -41,6 +41,21 @@ def free_port() -> int:
         return int(probe.getsockname()[1])
 
 
+async def listening(port: int, within: float) -> None:
+    """Until something accepts TCP connections on 127.0.0.1:``port``."""
+    deadline = time.monotonic() + within
+    while True:
+        try:
+            _, writer = await asyncio.open_connection("127.0.0.1", port)
+        except OSError:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"nothing listens on 127.0.0.1:{port} after {within:g} s") from None
+            await asyncio.sleep(0.2)
+            continue
+        writer.close()
+        return
+
+
 class Operator:
     """A WebSocket operator that keeps every message with the monotonic time it arrived."""
 
@@ -87,7 +102,7 @@ async def relay(args: list[str], env: dict[str, str]) -> tuple[asyncio.subproces
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
     )  # fmt: skip
     assert process.stdout is not None
-    line = (await asyncio.wait_for(process.stdout.readline(), 60)).decode()
+    line = (await asyncio.wait_for(process.stdout.readline(), 120)).decode()
     if "open " not in line:
         raise RuntimeError(f"the relay did not start: {line!r}")
     return process, line.split("open ")[1].split("/#")[0]
@@ -147,11 +162,12 @@ async def one_stack(stack: str, trials: int, report: Report) -> JsonDict:
                 process, url = await relay(["--backend", "ros", *base_args], env)
             else:
                 env = child_env()
-                endpoint = f"tcp/127.0.0.1:{free_port()}"
+                port = free_port()
+                endpoint = f"tcp/127.0.0.1:{port}"
                 fleet = await Child.start(
                     "estop-fleet", ["tools/fake_fleet.py", "--zenoh", "--nav2", "--listen", endpoint], env
                 )
-                await asyncio.sleep(2.0)  # the router listening
+                await listening(port, 60)  # the fleet's router: a relay that finds none waits for it
                 probe = await Child.start(
                     "estop-probe", ["-m", "bench.base_probe", "--topic", f"/{ROBOT}/cmd_vel", "--zenoh", endpoint], env
                 )
