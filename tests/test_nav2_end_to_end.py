@@ -105,32 +105,32 @@ def token() -> str:
 @pytest.mark.slow
 async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int, token: str, tmp_path: Path) -> None:
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
-    fleet = relay = None
+    processes: list[asyncio.subprocess.Process | None] = []  # every one is stopped, whatever fails
+    relay_args = (
+        "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+        "--database", str(tmp_path / "i.sqlite"),
+    )  # fmt: skip
     try:
-        fleet = await start(str(ROOT / "tools" / "fake_fleet.py"), "--nav2", "--log-level", "warning")
-        relay, base = await relay_process(
-            "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
-            "--database", str(tmp_path / "i.sqlite"),
-        )  # fmt: skip
+        processes.append(await start(str(ROOT / "tools" / "fake_fleet.py"), "--nav2", "--log-level", "warning"))
+        relay, base = await relay_process(*relay_args)
+        processes.append(relay)
         client = await operator(base, token)
         await drive_then_estop(client, client, "robot2")
-        # The latch holds on the robot: the relay killed, the base still gets nothing that moves it.
+        await client.close()
+        # The latch holds on the robot: the relay killed, the base still gets nothing that moves it, and a new relay
+        # learns the latch from the robot's watchdog.
         relay.send_signal(signal.SIGKILL)
         await relay.wait()
-        watcher = None
-        relay, base = await relay_process(
-            "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
-            "--database", str(tmp_path / "i.sqlite"),
-        )  # fmt: skip
+        relay, base = await relay_process(*relay_args)
+        processes.append(relay)
         watcher = await operator(base, token)
         latched = await watcher.wait_for(
             lambda m: m["identifier"] == "robot2/status" and m.get("estopped") is True, timeout=30
         )
-        assert latched["estopped"] is True  # a new relay learns the latch from the robot's watchdog
-        await client.close()
+        assert latched["estopped"] is True
         await watcher.close()
     finally:
-        await stop(relay, fleet)
+        await stop(*reversed(processes))
 
 
 @pytest.mark.slow
