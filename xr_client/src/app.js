@@ -525,7 +525,7 @@ export class App {
       this.xrInspection.update(true);
       this.xrSession.updateSeat();
       const overview = { twin: this.twin, views: this.robotViews, cursor: this.interaction.wimCursor, transform: this.fleet.scene.mapToScene, show: this.menu.overview && this.menu.mode === 'free_roam' };
-      this.hud.update(start, this.xrInput.side('left')?.grip ?? null, this.sensorPanelData(start), overview);
+      this.hud.update(start, this.xrInput.wrist('left'), this.sensorPanelData(start), overview);
       if (this.menu.mode === 'pov') {
         // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
         this.camera.getWorldPosition(this.hemisphere.group.position);

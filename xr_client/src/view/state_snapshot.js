@@ -49,6 +49,8 @@ export function snapshotState(app) {
       page: !document.getElementById('estop-banner')?.hidden,
       vr: app.hud.estop.banner.sprite.visible,
       wrist: app.hud.estop.button.mesh.parent !== null,
+      /** The wrist E-STOP is drawn: it and what carries it are visible (a controller's grip, a hand's grip pose). */
+      wristDrawn: app.presenting && shown(app.hud.estop.button.mesh),
       points: app.presenting && app.hud.estop.button.mesh.parent ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() } : {},
     },
     camera: app.camera.position.toArray(),
@@ -167,4 +169,10 @@ function viewState(app) {
     panels: { ...app.overlay.panels.open },
     compact: document.body.classList.contains('compact'),
   };
+}
+
+/** Whether an object is drawn: it and every parent visible. @param {THREE.Object3D} object */
+function shown(object) {
+  for (let o = /** @type {THREE.Object3D | null} */ (object); o; o = o.parent) if (!o.visible) return false;
+  return true;
 }
