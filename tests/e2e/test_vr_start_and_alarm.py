@@ -6,15 +6,28 @@ where nothing covers it (it was half behind the wrist panel)."""
 from __future__ import annotations
 
 import asyncio
+import dataclasses
+import math
+from collections.abc import AsyncIterator
 from pathlib import Path
 
+import pytest
 from PIL import Image
+
+from relay.config import load_config
+from relay.config.model import Pose2D
+from relay.twin.facility import load_facility
+from tests.conftest import ROOT, RunningRelay, start_relay
 
 from .conftest import OpenClient, Station, wait_until
 from .test_client_vr import enter_vr
-from .xr_helpers import button, press_menu_button, set_menu
+from .xr_helpers import HAND_ORIGIN, button, press_menu_button, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
+#: One robot in each room, at its work: robot1 by the spill, robot2 before the panels, robot3 by the leak. The
+#: relay's vantage for these is (0.75, 7.75): 0.58 m from chemical storage's west wall, robot1 1.75 m ahead, the
+#: others behind its wall.
+SPREAD = {"robot1": (2.5, 7.5), "robot2": (9.0, 7.5), "robot3": (15.0, 7.0)}
 
 
 def latched(station: Station) -> list[str]:
@@ -66,4 +79,63 @@ async def test_a_latched_estop_is_a_red_alarm_in_the_middle_of_the_view(
     await press_menu_button(client, "estop:reset")
     await wait_until(lambda: latched(station) == [], 5, "released from the menu")
     await client.wait("!s.estop.vr")
+    assert client.errors == [], client.errors
+
+
+@pytest.fixture
+async def spread() -> AsyncIterator[RunningRelay]:
+    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
+    robots = tuple(
+        dataclasses.replace(r, initial_pose=Pose2D(*SPREAD[r.name], math.pi / 2)) if r.name in SPREAD else r
+        for r in config.robots
+    )
+    running = await start_relay(dataclasses.replace(config, robots=robots))
+    try:
+        yield running
+    finally:
+        await running.runner.cleanup()
+
+
+def angle(a: list[float], b: list[float]) -> float:
+    """The angle between two directions (3D), radians."""
+    dot = sum(x * y for x, y in zip(a, b, strict=True))
+    return math.acos(max(-1.0, min(1.0, dot / (math.hypot(*a) * math.hypot(*b)))))
+
+
+async def test_with_robots_spread_over_the_rooms_vr_starts_with_room_facing_all_of_them(
+    spread: RunningRelay, open_client: OpenClient
+) -> None:
+    client = await enter_vr(open_client, spread.url)
+    s = await client.wait("s.overview.visible && s.overview.arrows === 3 && s.start && s", 20)
+    start, eye = s["start"], s["eye"]
+    assert sorted(start["inView"]) == list(ROBOTS), start
+    # Every robot within the view, as the headset shows it (the rig's turn: scene -z ahead).
+    forward = (-math.sin(s["rig"]["yaw"]), -math.cos(s["rig"]["yaw"]))
+    for robot in ROBOTS:
+        x, _, z = s["robots"][robot]["position"]
+        to_robot = (x - eye[0], z - eye[2])
+        off = math.degrees(math.acos((forward[0] * to_robot[0] + forward[1] * to_robot[1]) / math.hypot(*to_robot)))
+        assert off <= 45, f"{robot} is {off:.0f} degrees off the view (start {start})"
+    # Room around, and open floor ahead, by the relay's own occupancy grid of the facility (map frame: x, -z).
+    grid = (await asyncio.to_thread(load_facility, ROOT / "scenes" / "facility.yaml")).grid
+    mx, my = eye[0], -eye[2]
+    assert grid.clearance(mx, my, 1.0) >= 0.9, (mx, my, grid.clearance(mx, my, 1.0))
+    ahead = (mx + 3 * forward[0], my - 3 * forward[1])
+    assert grid.segment_free(mx, my, *ahead), f"a wall within 3 m ahead of {(mx, my)}"
+    # The overview table: on free floor, and nothing covers it: clear of the wrist panel (the left hand, held where
+    # IWER holds it) by more than both their sizes as the eye sees them.
+    table, radius = s["overview"]["position"], s["overview"]["radius"]
+    assert grid.clearance(table[0], -table[2], radius) >= radius - 0.1, (table, radius)
+    await client.page.evaluate("([p]) => window.__iwer.controllers.left.position.set(...p)", [HAND_ORIGIN["left"]])
+    s = await client.wait("s.estop.points.wrist && s", 10)
+    wrist = s["estop"]["points"]["wrist"]
+    to_table = [t - e for t, e in zip(table, eye, strict=True)]
+    to_wrist = [w - e for w, e in zip(wrist, eye, strict=True)]
+    gap = angle(to_table, to_wrist) - math.asin(min(1.0, radius / math.hypot(*to_table))) - math.asin(0.15 / math.hypot(*to_wrist))
+    assert gap > 0, f"the table is behind the wrist panel ({math.degrees(gap):.0f} degrees)"
+    await client.shot("30-start-robots-spread", "vr-start-spread.png")
+    # Looking down at the table: every robot on it, nothing over it.
+    await client.page.evaluate("() => window.__iwer.quaternion.set(-0.23, -0.28, -0.07, 0.93)")
+    await client.frames(4)
+    await client.shot("31-table-robots-spread", "vr-overview-spread.png")
     assert client.errors == [], client.errors

@@ -39,6 +39,7 @@ import { displayName } from './operator_names.js';
 import { estopBanner } from './estop_banner.js';
 import { XRSessionController } from './view/xr_session.js';
 import { Picking } from './view/picking.js';
+import { TwinPlan } from './view/twin_plan.js';
 import { DesktopControls } from './view/desktop_controls.js';
 import { Overlay } from './view/overlay.js';
 import { snapshotState } from './view/state_snapshot.js';
@@ -181,8 +182,9 @@ export class App {
     this.world.add(this.twin.group);
     this.fleetView = new FleetView(this.world, this.loader, this.renderer);
     this.robotViews = this.fleetView.views;
-    this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu }, (text) => this.#notify(text, 'error'));
     this.picking = new Picking(this.twin, this.robotViews, this.fleet);
+    const plan = new TwinPlan(this.twin, this.picking, this.fleet);
+    this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu, plan }, (text) => this.#notify(text, 'error'));
   }
 
   /** The views: goals, comfort, toast, panels, the hemisphere screen, and the input of both displays. @param {HTMLElement} container */

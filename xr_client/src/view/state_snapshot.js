@@ -57,7 +57,12 @@ export function snapshotState(app) {
     eye: app.camera.getWorldPosition(new THREE.Vector3()).toArray(),
     view: viewState(app),
     panel: panelState(app),
-    overview: { visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale },
+    overview: {
+      visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale,
+      position: app.hud.miniature.group.position.toArray(), radius: app.hud.miniature.table.scale.x,
+    },
+    /** Where VR started (map frame; start_pose.js), and what it saw from there. */
+    start: app.xrSession.plan.last,
     paths: Object.fromEntries([...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0])),
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
     rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
