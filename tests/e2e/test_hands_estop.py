@@ -21,9 +21,7 @@ from .test_hands import hand
 from .xr_helpers import HAND_ORIGIN, aim
 
 ROBOTS = ("robot1", "robot2", "robot3")
-FIST_JSON = (
-    "import('./test/fixtures/hand_poses.js').then((m) => process.stdout.write(JSON.stringify(m.fistHandPose)))"
-)
+FIST_JSON = "import('./test/fixtures/hand_poses.js').then((m) => process.stdout.write(JSON.stringify(m.fistHandPose)))"
 #: IWER's hand poses live in one object both hands share (its oculusHandConfig.poses): a `fist` added there is a
 #: pose either hand can take (`poseId`), interpolated with the pinch as IWER does for its own.
 INSTALL_FIST = """async (pose) => {

@@ -99,7 +99,7 @@ CUT_LABELS = """() => [...document.querySelectorAll('#menu button')]
 
 
 async def test_no_menu_label_is_cut(station: Station, open_client: OpenClient) -> None:
-    """"Overview" read "Overvie" in the menu's Options row: a label wider than its button was clipped. Rows wrap now."""
+    """The Options row read "Overvie": a label wider than its button was clipped. Rows wrap now."""
     for width, height in ((1280, 800), (1024, 640)):
         client = await open_client(f"{station.url}/?{SOFTWARE_GL}", f"labels-{width}", width, height)
         if width < 1100:  # compact: the menu starts collapsed to its E-STOP

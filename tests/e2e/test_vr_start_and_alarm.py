@@ -131,7 +131,9 @@ async def test_with_robots_spread_over_the_rooms_vr_starts_with_room_facing_all_
     wrist = s["estop"]["points"]["wrist"]
     to_table = [t - e for t, e in zip(table, eye, strict=True)]
     to_wrist = [w - e for w, e in zip(wrist, eye, strict=True)]
-    gap = angle(to_table, to_wrist) - math.asin(min(1.0, radius / math.hypot(*to_table))) - math.asin(0.15 / math.hypot(*to_wrist))
+    table_size = math.asin(min(1.0, radius / math.hypot(*to_table)))
+    panel_size = math.asin(0.15 / math.hypot(*to_wrist))  # the panel's half-diagonal, with its E-STOP under it
+    gap = angle(to_table, to_wrist) - table_size - panel_size
     assert gap > 0, f"the table is behind the wrist panel ({math.degrees(gap):.0f} degrees)"
     await client.shot("30-start-robots-spread", "vr-start-spread.png")
     # Looking down at the table: every robot on it, nothing over it.
