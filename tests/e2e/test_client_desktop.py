@@ -34,6 +34,14 @@ async def page_point(client: Client, x: float, y: float) -> tuple[float, float]:
     return px, py
 
 
+async def name_target(client: Client, name: str) -> None:
+    """Answer the page's target-name dialog (never a native prompt): type the name, Enter."""
+    await client.page.wait_for_selector("#target-dialog[open]")
+    await client.page.fill("#target-dialog input", name)
+    await client.page.press("#target-dialog input", "Enter")
+    await client.page.wait_for_selector("#target-dialog", state="hidden")
+
+
 async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) -> None:
     client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "desktop", 1280, 760)
     page = client.page
@@ -213,18 +221,18 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.region)")
     await page.wait_for_selector("#findings polygon")
     await client.shot("02-finding-with-region", "findings.png")
-    # Shift-click on the image: a new target where that pixel looks, named in a dialog.
-    page.once("dialog", lambda dialog: asyncio.ensure_future(dialog.accept("drum-9")))
+    # Shift-click on the image: a new target where that pixel looks, named in the page's dialog.
     await page.keyboard.down("Shift")
     await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.6)
     await page.keyboard.up("Shift")
+    await name_target(client, "drum-9")
     await client.wait("s.inspection.targets === 4")
     # Shift-click on the twin's floor: a target there (the corridor in front of robot2's room).
     px, py = await page_point(client, 10.5, 2.0)
-    page.once("dialog", lambda dialog: asyncio.ensure_future(dialog.accept("valve-4")))
     await page.keyboard.down("Shift")
     await page.mouse.click(px, py)
     await page.keyboard.up("Shift")
+    await name_target(client, "valve-4")
     await client.wait("s.inspection.targets === 5")
     valve = station.running.relay.inspection.targets["valve-4"]
     assert abs(valve.x - 10.5) < 0.3 and abs(valve.y - 2.0) < 0.3, valve

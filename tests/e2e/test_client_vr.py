@@ -155,17 +155,20 @@ async def test_vr_robot_pov(station: Station, open_client: OpenClient) -> None:
 
 async def test_vr_locomotion(station: Station, open_client: OpenClient) -> None:
     client = await enter_vr(open_client, station.url)
-    rig_before = (await client.state())["rig"]["position"]
+    s = await client.state()
+    rig_before, facing = s["rig"]["position"], s["rig"]["yaw"]
 
     # Locomotion on the left stick: push forward to aim the teleport arc, release to land on its ring;
-    # push sideways for a 30 degree snap turn (once per push).
-    await aim_arc(client, "left", [rig_before[0] - 0.5, 0.0, rig_before[2] - 2.0])
+    # push sideways for a 30 degree snap turn (once per push). The ring 2 m ahead, on the corridor's floor.
+    ahead = [rig_before[0] - 2.0 * math.sin(facing), 0.0, rig_before[2] - 2.0 * math.cos(facing)]
+    await aim_arc(client, "left", ahead)
     await stick(client, "left", 0.0, -1.0)
     target = await client.wait("Array.isArray(s.xr.teleport) && s.xr.teleport", 10)
     await stick(client, "left", 0.0, 0.0)
-    s = await client.wait("s.rig.position[2] < arg - 1.0 && s", 10, rig_before[2])
+    moved = "Math.hypot(s.rig.position[0] - arg[0], s.rig.position[2] - arg[2]) > 1.0 && s"
+    s = await client.wait(moved, 10, rig_before)
     await client.shot("07-teleported")
-    assert abs(s["rig"]["position"][2] - rig_before[2]) > 1.0, (target, s["rig"])
+    assert math.dist(s["rig"]["position"], rig_before) > 1.0, (target, s["rig"])
     yaw = s["rig"]["yaw"]
     await stick(client, "left", 1.0, 0.0)
     await client.wait("Math.abs(s.rig.yaw - (arg - Math.PI / 6)) < 1e-6", 10, yaw)

@@ -203,7 +203,7 @@ async def test_vr_starts_seeing_the_fleet_and_sends_robot1_to_chemical_storage_f
     client = await enter_vr(open_client, station.url)
     s = await client.wait("s.overview.visible && s.overview.arrows === 3 && s", 10)
     start = s["rig"]["position"]
-    # The start is the relay's vantage: every robot in front, within the view, none hidden by a wall.
+    # The start (start_pose.js): every robot in front, within the view, none hidden by a wall.
     for robot in ROBOTS:
         x, _, z = s["robots"][robot]["position"]
         forward = (-math.sin(s["rig"]["yaw"]), -math.cos(s["rig"]["yaw"]))

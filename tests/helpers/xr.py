@@ -15,7 +15,7 @@ GOAL = (7.0, 2.0)
 HAND_ORIGIN = {"left": [-0.2, 1.35, -0.25], "right": [0.2, 1.35, -0.25]}
 
 _AIM = """
-async ([hand, origin, target]) => {
+async ([hand, origin, target, kind]) => {
   const THREE = await import('three');
   const s = window.__xrRelay.state;
   const rigPosition = new THREE.Vector3(...s.rig.position);
@@ -23,7 +23,7 @@ async ([hand, origin, target]) => {
   const from = new THREE.Vector3(...origin).applyQuaternion(rigRotation).add(rigPosition);
   const direction = new THREE.Vector3(...target).sub(from).normalize().applyQuaternion(rigRotation.clone().invert());
   const q = new THREE.Quaternion().setFromUnitVectors(new THREE.Vector3(0, 0, -1), direction);
-  const c = window.__iwer.controllers[hand];
+  const c = kind === 'hand' ? window.__iwer.hands[hand] : window.__iwer.controllers[hand];
   c.position.set(...origin);
   c.quaternion.set(q.x, q.y, q.z, q.w);
 }
@@ -63,8 +63,9 @@ async ([hand, origin, target, kind]) => {
 """
 
 
-async def aim(client: Client, hand: str, target: list[float]) -> None:
-    await client.page.evaluate(_AIM, [hand, HAND_ORIGIN[hand], target])
+async def aim(client: Client, hand: str, target: list[float], kind: str = "controller") -> None:
+    """Point a controller's ray (``kind`` 'hand': IWER's emulated hand's) from where it is held at a world point."""
+    await client.page.evaluate(_AIM, [hand, HAND_ORIGIN[hand], target, kind])
     await client.frames(2)
 
 

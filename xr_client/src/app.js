@@ -39,6 +39,7 @@ import { displayName } from './operator_names.js';
 import { estopBanner } from './estop_banner.js';
 import { XRSessionController } from './view/xr_session.js';
 import { Picking } from './view/picking.js';
+import { TwinPlan } from './view/twin_plan.js';
 import { DesktopControls } from './view/desktop_controls.js';
 import { Overlay } from './view/overlay.js';
 import { snapshotState } from './view/state_snapshot.js';
@@ -181,8 +182,9 @@ export class App {
     this.world.add(this.twin.group);
     this.fleetView = new FleetView(this.world, this.loader, this.renderer);
     this.robotViews = this.fleetView.views;
-    this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu }, (text) => this.#notify(text, 'error'));
     this.picking = new Picking(this.twin, this.robotViews, this.fleet);
+    const plan = new TwinPlan(this.twin, this.picking, this.fleet);
+    this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu, plan }, (text) => this.#notify(text, 'error'));
   }
 
   /** The views: goals, comfort, toast, panels, the hemisphere screen, and the input of both displays. @param {HTMLElement} container */
@@ -525,7 +527,7 @@ export class App {
       this.xrInspection.update(true);
       this.xrSession.updateSeat();
       const overview = { twin: this.twin, views: this.robotViews, cursor: this.interaction.wimCursor, transform: this.fleet.scene.mapToScene, show: this.menu.overview && this.menu.mode === 'free_roam' };
-      this.hud.update(start, this.xrInput.side('left')?.grip ?? null, this.sensorPanelData(start), overview);
+      this.hud.update(start, this.xrInput.wrist('left'), this.sensorPanelData(start), overview);
       if (this.menu.mode === 'pov') {
         // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
         this.camera.getWorldPosition(this.hemisphere.group.position);

@@ -5,6 +5,7 @@
  * null and the caller is told through `onNotSent` (the operator must know that a stop did not leave).
  */
 import { ERROR_CODES, robotIdentifier } from './protocol.js';
+import { count } from './wording.js';
 
 /**
  * @typedef {import('./protocol.js').ClientMessage} ClientMessage
@@ -151,8 +152,8 @@ export class CommandSender {
    * @param {string[]} targets @param {string | null} robot
    */
   missionTargets(targets, robot) {
-    if (robot) return this.#send({ identifier: 'mission/start', robot, steps: targets.map((t) => ({ inspect: t })), name: `${targets.length} targets` });
-    return this.#send({ identifier: 'mission/start', targets, name: `${targets.length} targets` });
+    if (robot) return this.#send({ identifier: 'mission/start', robot, steps: targets.map((t) => ({ inspect: t })), name: count(targets.length, 'target') });
+    return this.#send({ identifier: 'mission/start', targets, name: count(targets.length, 'target') });
   }
 
   /** @param {'pause' | 'resume' | 'skip' | 'abort'} action @param {string} mission */

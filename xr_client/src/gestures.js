@@ -2,9 +2,10 @@
 /**
  * Hand and gaze gestures as pure recognisers (no three.js, no WebXR; time passed in), for the hand input of
  * issue #17: a pinch with hysteresis (so that a trembling pinch is not a stream of clicks), the palm turned up (the
- * wrist button appears), a head-gaze dwell with its fill, and the pinch-drag joystick that drives a robot with the
- * release as its deadman. Tested against IWER's recorded hand poses (Meta's captured joints: pinch, point, relaxed)
- * in test/gestures.test.js.
+ * wrist buttons appear), a head-gaze dwell with its fill, the pinch-drag joystick that drives a robot with the
+ * release as its deadman, and (#31) a fist held closed: E-STOP with no controller and nothing to aim at. Tested
+ * against IWER's recorded hand poses (Meta's captured joints: pinch, point, relaxed; a fist made from `point`) in
+ * test/gestures.test.js.
  *
  * Joint frames follow the WebXR Hand Input spec: a joint's -Z runs along its bone toward the finger tip and its +Y
  * points out of the back of the hand, so the palm faces the joint's -Y.
@@ -22,6 +23,18 @@ export const DWELL_TOLERANCE_M = 0.05;
 /** Pinch-drag joystick: the hand's travel (m) for full speed, and the dead zone around where the pinch began. */
 export const JOYSTICK_RANGE_M = 0.15;
 export const JOYSTICK_DEAD_M = 0.02;
+
+/**
+ * A fist: every finger's tip (index to little) nearer the palm's centre than FIST_ENGAGE hand lengths (wrist to the
+ * middle knuckle: ~9.6 cm in IWER's poses), open again when one is farther than FIST_RELEASE. Measured on IWER's
+ * recorded poses: a relaxed hand 1.22-1.48 (its little finger nearest), a pinch's index 1.09, the point pose's
+ * stretched index 1.41 (its three curled fingers 0.37-0.55), a fist 0.37-0.62. Held FIST_HOLD_MS, it stops the fleet:
+ * long enough that closing the hand in passing does not, short enough for an emergency (a ring fills meanwhile).
+ */
+export const FIST_ENGAGE = 0.75;
+export const FIST_RELEASE = 0.95;
+export const FIST_HOLD_MS = 800;
+export const FINGERS = Object.freeze(['index', 'middle', 'ring', 'pinky']);
 
 /** @typedef {[number, number, number]} Vec3 */
 
@@ -150,5 +163,66 @@ export class PinchJoystick {
   release() {
     this.origin = null;
     return { linear: 0, angular: 0 };
+  }
+}
+
+/**
+ * How far each finger's tip (index, middle, ring, little) is from the palm's centre (half-way from the wrist to the
+ * middle knuckle), in hand lengths (wrist to the middle knuckle), so that a small hand and a large one read alike;
+ * null when a joint is not tracked. @param {(name: string) => Vec3 | null} joint a joint's position by its WebXR name
+ * @returns {number[] | null}
+ */
+export function fingerReach(joint) {
+  const wrist = joint('wrist');
+  const knuckle = joint('middle-finger-phalanx-proximal');
+  if (!wrist || !knuckle) return null;
+  const length = distance(wrist, knuckle);
+  if (length < 1e-3) return null;
+  const palm = /** @type {Vec3} */ (wrist.map((v, i) => (v + knuckle[i]) / 2));
+  const reach = [];
+  for (const finger of FINGERS) {
+    const tip = joint(`${finger}-finger-tip`);
+    if (!tip) return null;
+    reach.push(distance(tip, palm) / length);
+  }
+  return reach;
+}
+
+/**
+ * A fist held closed: closed when every finger is in (FIST_ENGAGE), open when one is out (FIST_RELEASE); held
+ * FIST_HOLD_MS it fires once, and fires again only after the hand opened. A hand that is lost opens it.
+ */
+export class FistHold {
+  closed = false;
+  since = 0;
+  fired = false;
+
+  /**
+   * @param {number[] | null} reach fingerReach() of the hand now (null: not tracked) @param {number} now ms
+   * @returns {{closed: boolean, fill: number, fire: boolean}} fill: how far through the hold (0..1; 0 once fired)
+   */
+  update(reach, now) {
+    if (!reach) {
+      this.reset();
+      return { closed: false, fill: 0, fire: false };
+    }
+    const farthest = Math.max(...reach);
+    if (!this.closed && farthest < FIST_ENGAGE) {
+      this.closed = true;
+      this.since = now;
+      this.fired = false;
+    } else if (this.closed && farthest > FIST_RELEASE) this.reset();
+    if (!this.closed) return { closed: false, fill: 0, fire: false };
+    const fill = Math.min(1, (now - this.since) / FIST_HOLD_MS);
+    if (fill >= 1 && !this.fired) {
+      this.fired = true;
+      return { closed: true, fill: 1, fire: true };
+    }
+    return { closed: true, fill: this.fired ? 0 : fill, fire: false };
+  }
+
+  reset() {
+    this.closed = false;
+    this.fired = false;
   }
 }

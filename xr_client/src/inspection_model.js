@@ -4,6 +4,7 @@
  * operator is told when a mission changes state. No DOM, no WebGL: test/inspection_model.test.js drives it with the
  * relay's message shapes. Views (view/inspection_view.js, the findings list) read it.
  */
+import { count } from './wording.js';
 
 /**
  * @typedef {import('./protocol.js').TargetDescription} Target
@@ -74,7 +75,7 @@ export class InspectionModel {
       case 'aborted':
         return [{ text: `${mission.robot}'s mission aborted${why}`, kind: 'error' }];
       case 'done':
-        return [{ text: `${mission.robot}'s mission done (${mission.steps.length} steps)`, kind: 'info' }];
+        return [{ text: `${mission.robot}'s mission done (${count(mission.steps.length, 'step')})`, kind: 'info' }];
       default:
         return before ? [{ text: `${mission.robot}'s mission running again`, kind: 'info' }] : [];
     }

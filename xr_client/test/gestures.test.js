@@ -4,9 +4,10 @@ import assert from 'node:assert/strict';
 import { pinchHandPose } from '../node_modules/iwer/lib/device/configs/hand/pinch.js';
 import { pointHandPose } from '../node_modules/iwer/lib/device/configs/hand/point.js';
 import { relaxedHandPose } from '../node_modules/iwer/lib/device/configs/hand/relaxed.js';
+import { fistHandPose } from './fixtures/hand_poses.js';
 import {
-  DWELL_MS, DWELL_TOLERANCE_M, Dwell, JOYSTICK_DEAD_M, JOYSTICK_RANGE_M, PalmUp, PinchDetector, PinchJoystick,
-  distance, palmNormal, position,
+  DWELL_MS, DWELL_TOLERANCE_M, Dwell, FIST_ENGAGE, FIST_HOLD_MS, FIST_RELEASE, FistHold, JOYSTICK_DEAD_M,
+  JOYSTICK_RANGE_M, PalmUp, PinchDetector, PinchJoystick, distance, fingerReach, palmNormal, position,
 } from '../src/gestures.js';
 
 /** Thumb tip and index tip of a recorded pose (IWER's, captured from a Quest's hand tracking). @param {any} pose */
@@ -86,4 +87,68 @@ test('pinch-drag joystick: dead zone, full speed at the range, forward follows t
   assert.ok(Math.abs(turned.linear - 0.8) < 1e-3 && Math.abs(turned.angular) < 1e-3, JSON.stringify(turned));
   assert.deepEqual(stick.release(), { linear: 0, angular: 0 });
   assert.deepEqual(stick.update([0, 1, -JOYSTICK_RANGE_M], 0, limits), { linear: 0, angular: 0 }, 'released: nothing');
+});
+
+/** A recorded pose's joints by name (positions), for fingerReach. @param {any} pose */
+const joints = (pose) => (/** @type {string} */ name) => (pose.jointTransforms[name] ? position(pose.jointTransforms[name].offsetMatrix) : null);
+
+/** Joint positions of a pose part-way from one to another (a hand closing). @param {any} a @param {any} b @param {number} t */
+const between = (a, b, t) => (/** @type {string} */ name) => lerp(position(a.jointTransforms[name].offsetMatrix), position(b.jointTransforms[name].offsetMatrix), t);
+
+test('a fist: the fist made from the recorded point pose is one; the recorded relaxed, pinch and point poses are not', () => {
+  const fist = /** @type {number[]} */ (fingerReach(joints(fistHandPose)));
+  assert.ok(Math.max(...fist) < FIST_ENGAGE, `every finger in: ${fist.map((r) => r.toFixed(2))}`);
+  for (const pose of [relaxedHandPose, pinchHandPose, pointHandPose]) {
+    const reach = /** @type {number[]} */ (fingerReach(joints(pose)));
+    assert.ok(Math.max(...reach) > FIST_RELEASE, `a finger out: ${reach.map((r) => r.toFixed(2))}`);
+  }
+  // The pose IWER mirrors for the right hand reads the same (distances, not sides).
+  const mirrored = (/** @type {string} */ name) => {
+    const p = joints(fistHandPose)(name);
+    return p && /** @type {import('../src/gestures.js').Vec3} */ ([-p[0], p[1], p[2]]);
+  };
+  assert.deepEqual(fingerReach(mirrored), fist);
+  assert.equal(fingerReach(() => null), null, 'an untracked hand has no reach');
+});
+
+test('fist and hold: the E-STOP fires once after FIST_HOLD_MS closed, not before, and again only after opening', () => {
+  const hold = new FistHold();
+  const fist = fingerReach(joints(fistHandPose));
+  const open = fingerReach(joints(relaxedHandPose));
+  assert.deepEqual(hold.update(open, 0), { closed: false, fill: 0, fire: false });
+  assert.equal(hold.update(fist, 100).closed, true);
+  const half = hold.update(fist, 100 + FIST_HOLD_MS / 2);
+  assert.ok(!half.fire && Math.abs(half.fill - 0.5) < 1e-9, JSON.stringify(half));
+  assert.deepEqual(hold.update(fist, 100 + FIST_HOLD_MS), { closed: true, fill: 1, fire: true });
+  assert.equal(hold.update(fist, 100 + 3 * FIST_HOLD_MS).fire, false, 'held on: once');
+  hold.update(open, 4000);
+  hold.update(fist, 4100);
+  assert.equal(hold.update(fist, 4100 + FIST_HOLD_MS).fire, true, 'opened and closed again: again');
+  // Opened before the time: nothing, and the next close starts over.
+  const short = new FistHold();
+  short.update(fist, 0);
+  short.update(open, FIST_HOLD_MS * 0.9);
+  short.update(fist, FIST_HOLD_MS);
+  assert.equal(short.update(fist, FIST_HOLD_MS * 1.9).fire, false);
+  // Tracking lost mid-hold: nothing.
+  const lost = new FistHold();
+  lost.update(fist, 0);
+  lost.update(null, 100);
+  assert.equal(lost.update(fist, FIST_HOLD_MS + 50).fire, false);
+});
+
+test('closing the hand and opening it, with jitter: one fist and one opening, no chatter', () => {
+  const hold = new FistHold();
+  const changes = [];
+  let seed = 11;
+  const jitter = () => ((seed = (seed * 16807) % 2147483647) / 2147483647 - 0.5) * 0.04; // +-2 % of a hand length
+  const steps = [...Array(40).keys()].map((k) => k / 39);
+  let closed = false;
+  let t = 0;
+  for (const s of [...steps, ...steps.reverse()]) {
+    const reach = /** @type {number[]} */ (fingerReach(between(relaxedHandPose, fistHandPose, s))).map((r) => r + jitter());
+    const now = hold.update(reach, (t += 10)).closed;
+    if (now !== closed) changes.push((closed = now));
+  }
+  assert.deepEqual(changes, [true, false]);
 });

@@ -246,15 +246,18 @@ export class DesktopControls {
   /** @param {KeyboardEvent} e @param {boolean} down */
   #key(e, down) {
     const target = /** @type {HTMLElement} */ (e.target);
-    if (target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')) return;
+    const typing = Boolean(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA'));
     const code = e.code;
-    // With a dialog open (take over, a name) Space and Esc are the dialog's: Esc closes it, and stops nothing.
-    if ((code === 'Space' || code === 'Escape') && !document.querySelector('dialog[open]:modal')) {
-      // E-STOP from anywhere on the page (a focused button would take Space as a click: not this one).
-      e.preventDefault();
+    // Space and Esc are E-STOP from anywhere on the page, a dialog open or not (a dialog that kept them would hold
+    // the stop back while it waits for an answer). Space types a space only in a field whose text may have one (the
+    // operator's name: data-space="text"); elsewhere it never reaches a focused button as a click. Esc keeps its
+    // default too: it also cancels the dialog it was pressed in.
+    if (code === 'Escape' || (code === 'Space' && !(typing && target.dataset.space === 'text'))) {
+      if (code === 'Space') e.preventDefault();
       if (down && !e.repeat && !this.host.presenting()) this.host.actions.pressMenu('estop');
       return;
     }
+    if (typing) return;
     const view = { KeyH: 'frame', Home: 'frame', KeyT: 'top', KeyF: 'follow' }[code];
     if (view && !e.ctrlKey && !e.metaKey && !e.altKey) {
       if (down && !e.repeat && !this.host.presenting()) this.views.choose(view);

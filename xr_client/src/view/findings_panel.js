@@ -21,9 +21,11 @@ export class FindingsPanel {
    * @param {import('../inspection_review.js').InspectionReview} review what is open, picked and proposed
    * @param {(commands: import('../inspection_review.js').ReviewCommand[]) => void} run sends the review's commands
    * @param {string | null} token the operator token, for the capture images
+   * @param {import('./target_dialog.js').TargetDialog} names names a new target in the page
    */
-  constructor(root, model, review, run, token) {
+  constructor(root, model, review, run, token, names) {
     this.root = root;
+    this.names = names;
     this.model = model;
     this.review = review;
     this.run = run;
@@ -108,11 +110,25 @@ export class FindingsPanel {
       const rect = target.getBoundingClientRect();
       const u = ((event.clientX - rect.left) / rect.width) * target.naturalWidth;
       const v = ((event.clientY - rect.top) / rect.height) * target.naturalHeight;
-      // Shift-click: a new target where this pixel looks, named by the operator.
-      const name = event.shiftKey ? window.prompt('Name of the new target (letters, digits, - and _)', nextName(this.model, 'target')) : undefined;
-      if (name === null) return;
-      this.run(review.imageClick(this.model, u, v, event.shiftKey ? { target: true, name } : {}));
+      if (event.shiftKey) {
+        this.#nameTarget(u, v);
+        return;
+      }
+      this.run(review.imageClick(this.model, u, v));
     } else return;
+    this.render();
+  }
+
+  /**
+   * Shift-click on the image: a new target where this pixel looks, named by the operator in the page. Made from the
+   * finding that was open when clicked: another one opened meanwhile drops it.
+   * @param {number} u @param {number} v
+   */
+  async #nameTarget(u, v) {
+    const finding = this.review.selected;
+    const name = await this.names.ask('Name of the new target where this pixel looks', nextName(this.model, 'target'));
+    if (!name || this.review.selected !== finding) return;
+    this.run(this.review.imageClick(this.model, u, v, { target: true, name }));
     this.render();
   }
 }

@@ -7,7 +7,8 @@
  */
 import { InspectionView } from './inspection_view.js';
 import { FindingsPanel } from './findings_panel.js';
-import { InspectionReview, nextName, targetName } from '../inspection_review.js';
+import { TargetDialog } from './target_dialog.js';
+import { InspectionReview, nextName } from '../inspection_review.js';
 
 export class InspectionUi {
   /**
@@ -21,7 +22,9 @@ export class InspectionUi {
     this.transform = parts.transform;
     this.review = new InspectionReview();
     this.view = new InspectionView(parts.world);
-    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, this.review, (commands) => this.run(commands), parts.token) : null;
+    /** Names a new target in the page (never window.prompt: it held the page, and E-STOP's keys with it). */
+    this.names = new TargetDialog(/** @type {HTMLDialogElement | null} */ (document.getElementById('target-dialog')));
+    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, this.review, (commands) => this.run(commands), parts.token, this.names) : null;
   }
 
   /** Send what the review decided (nothing queues while disconnected: a refused send changes nothing). @param {import('../inspection_review.js').ReviewCommand[]} commands */
@@ -88,9 +91,9 @@ export class InspectionUi {
   }
 
   /** A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog. @param {{x: number, y: number}} point */
-  addTarget(point) {
-    const name = window.prompt(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, nextName(this.model, 'target'));
-    if (name && targetName(name)) this.run([{ type: 'target_at', target: targetName(name), x: point.x, y: point.y }]);
+  async addTarget(point) {
+    const name = await this.names.ask(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, nextName(this.model, 'target'));
+    if (name) this.run([{ type: 'target_at', target: name, x: point.x, y: point.y }]);
   }
 
   /** The selected robot's mission, one line for its panel ('' when it has none). @param {string | null} robot */
@@ -99,6 +102,7 @@ export class InspectionUi {
   }
 
   dispose() {
+    this.names.dispose();
     this.view.dispose();
   }
 }

@@ -13,16 +13,16 @@ import * as THREE from 'three';
 import { disposeCopy, mergedCopy } from './merged_copy.js';
 import { mapToScene, sceneToMap } from '../frames.js';
 import { verdictColour } from '../goal_verdict.js';
+import { TABLE_BEARING, TABLE_DISTANCE_M } from '../start_pose.js';
 
 /** The miniature's longest side, metres: a table the operator reaches across standing still. */
 const TABLE_SIZE = 0.8;
-/** Where the table stands: its near edge this far from the head, its top this far below the eyes (a standing
- * operator's waist), and this far to the left of straight ahead. Straight ahead it stood in the way of every ray
- * aimed at the floor within a few metres (the e2e test of the goal arc caught it): front-left, the right hand
- * points past it at the full-size twin, and a turn of the head brings it into view. */
-const AHEAD = 0.45;
+/** Where the table stands: its centre TABLE_DISTANCE_M from the head, TABLE_BEARING to the right of straight ahead
+ * (start_pose.js keeps that spot free of walls), its top this far below the eyes (a standing operator's waist).
+ * Straight ahead it stood in the way of every ray aimed at the floor within a few metres (the e2e test of the goal
+ * arc caught it), and low ahead is the menu tab; front-left it was half behind the wrist panel (the left hand's):
+ * front-right, nothing covers it, and the right hand points at it. */
 const BELOW_EYES = 0.8;
-const LEFT = (45 * Math.PI) / 180;
 
 export class MiniatureView {
   constructor() {
@@ -154,14 +154,15 @@ export class MiniatureView {
     return arrows;
   }
 
-  /** Put the table front-left of the operator, level, its north the twin's north. @param {THREE.Camera} camera */
+  /** Put the table front-right of the operator, level, its north the twin's north. @param {THREE.Camera} camera */
   place(camera) {
     const head = camera.getWorldPosition(new THREE.Vector3());
     const forward = camera.getWorldDirection(new THREE.Vector3());
     forward.y = 0;
     if (forward.lengthSq() < 1e-6) forward.set(0, 0, -1);
-    forward.normalize().applyAxisAngle(new THREE.Vector3(0, 1, 0), LEFT);
-    this.group.position.copy(head).addScaledVector(forward, AHEAD + TABLE_SIZE / 2);
+    // Scene yaw turns counter-clockwise seen from above, as the map's does: a negative bearing is to the right.
+    forward.normalize().applyAxisAngle(new THREE.Vector3(0, 1, 0), TABLE_BEARING);
+    this.group.position.copy(head).addScaledVector(forward, TABLE_DISTANCE_M);
     this.group.position.y = head.y - BELOW_EYES;
     this.group.updateMatrixWorld(true);
   }

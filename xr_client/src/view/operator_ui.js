@@ -35,6 +35,11 @@ export class OperatorUi {
       }
       this.setName(name);
     });
+    // Opened without a modal backdrop (the page's E-STOP stays clickable), so Esc is not the dialog's own: it cancels
+    // here, and is the page's E-STOP as everywhere (desktop_controls.js).
+    this.takeoverDialog?.addEventListener('keydown', (event) => {
+      if (event.code === 'Escape') this.takeoverDialog?.close('cancel');
+    });
     this.takeoverDialog?.addEventListener('close', () => {
       const offered = this.offered;
       this.offered = null;
@@ -71,7 +76,8 @@ export class OperatorUi {
     if (text) text.textContent = `${robot} is controlled by ${holder}. Take it over? It stops first, and ${holder === 'a mission' ? 'the mission pauses' : `${holder} is told`}.`;
     const accept = /** @type {HTMLButtonElement | null} */ (this.takeoverDialog.querySelector('button[value="take"]'));
     if (accept) accept.textContent = goal ? `Take over and send ${robot} there` : `Take over ${robot}`;
-    if (!this.takeoverDialog.open) this.takeoverDialog.showModal();
+    // Not modal: a modal dialog's backdrop would take the clicks meant for the menu's E-STOP while it waits.
+    if (!this.takeoverDialog.open) this.takeoverDialog.show();
   }
 
   /** @param {string} robot @param {import('../command_sender.js').Goal | null} goal */

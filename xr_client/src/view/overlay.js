@@ -14,6 +14,27 @@ function el(id) {
   return element;
 }
 
+/** The VR notice the operator closed, for this tab (sessionStorage): shown again only for another reason. */
+const VR_NOTICE_KEY = 'xr-relay.vr-notice-closed';
+
+/** @param {string} key */
+function readSession(key) {
+  try {
+    return window.sessionStorage.getItem(key);
+  } catch {
+    return null; // storage refused (a sandboxed frame): the notice shows, as it did before
+  }
+}
+
+/** @param {string} key @param {string} value */
+function writeSession(key, value) {
+  try {
+    window.sessionStorage.setItem(key, value);
+  } catch {
+    // Not remembered: closed for this page only.
+  }
+}
+
 export class Overlay {
   /**
    * @param {{menu: import('../menu_state.js').MenuState, actions: import('../app.js').OperatorActions,
@@ -63,17 +84,32 @@ export class Overlay {
     this.status.className = `status ${ok ? 'ok' : 'bad'}`;
   }
 
-  /** @param {{available: boolean, reason: string, fix: string}} availability */
+  /**
+   * Enter VR, or why not. The reason can be closed (×): an operator on a desktop without a headset has read it once
+   * and needs the header's room back; it stays closed for the tab until the reason changes.
+   * @param {{available: boolean, reason: string, fix: string}} availability
+   */
   setVr(availability) {
     this.vrButton.hidden = !availability.available;
-    this.vrNotice.hidden = availability.available || !availability.reason;
-    this.vrNotice.innerHTML = '';
+    const dismissed = readSession(VR_NOTICE_KEY) === availability.reason;
+    this.vrNotice.hidden = availability.available || !availability.reason || dismissed;
+    this.vrNotice.replaceChildren();
     if (!availability.available && availability.reason) {
       const reason = document.createElement('strong');
       reason.textContent = availability.reason;
       const fix = document.createElement('span');
       fix.textContent = ` ${availability.fix}`;
-      this.vrNotice.append(reason, fix);
+      const close = document.createElement('button');
+      close.type = 'button';
+      close.className = 'close';
+      close.textContent = '×';
+      close.title = 'Close this notice';
+      close.setAttribute('aria-label', 'Close this notice');
+      close.addEventListener('click', () => {
+        this.vrNotice.hidden = true;
+        writeSession(VR_NOTICE_KEY, availability.reason);
+      }, { once: true });
+      this.vrNotice.append(reason, fix, close);
     }
   }
 

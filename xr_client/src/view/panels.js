@@ -154,12 +154,22 @@ export class WristPanel {
     this.canvas = this.plane.canvas;
     this.texture = this.plane.texture;
     this.mesh = this.plane.mesh;
-    // Over the back of the left hand, tilted towards the face like a watch.
-    this.mesh.position.set(0, 0.09, 0.08);
-    this.mesh.rotation.set(-Math.PI / 3.5, 0, 0);
+    this.mount('controller');
     this.mesh.raycast = () => {};
     this.lastDraw = -Infinity;
     this.key = '';
+  }
+
+  /**
+   * Where the panel sits on what carries it, tilted towards the face like a watch: over the back of the hand that
+   * holds a controller (on its grip), or, on a tracked hand's wrist joint (12 cm behind where a controller's grip
+   * would be), over the back of the hand itself.
+   * @param {'controller' | 'hand'} carrier
+   */
+  mount(carrier) {
+    if (carrier === 'hand') this.mesh.position.set(0, 0.06, -0.03);
+    else this.mesh.position.set(0, 0.09, 0.08);
+    this.mesh.rotation.set(-Math.PI / 3.5, 0, 0);
   }
 
   /**

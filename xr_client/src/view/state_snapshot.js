@@ -49,13 +49,20 @@ export function snapshotState(app) {
       page: !document.getElementById('estop-banner')?.hidden,
       vr: app.hud.estop.banner.sprite.visible,
       wrist: app.hud.estop.button.mesh.parent !== null,
+      /** The wrist E-STOP is drawn: it and what carries it are visible (a controller's grip, a hand's grip pose). */
+      wristDrawn: app.presenting && shown(app.hud.estop.button.mesh),
       points: app.presenting && app.hud.estop.button.mesh.parent ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() } : {},
     },
     camera: app.camera.position.toArray(),
     eye: app.camera.getWorldPosition(new THREE.Vector3()).toArray(),
     view: viewState(app),
     panel: panelState(app),
-    overview: { visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale },
+    overview: {
+      visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale,
+      position: app.hud.miniature.group.position.toArray(), radius: app.hud.miniature.table.scale.x,
+    },
+    /** Where VR started (map frame; start_pose.js), and what it saw from there. */
+    start: app.xrSession.plan.last,
     paths: Object.fromEntries([...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0])),
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
     rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
@@ -167,4 +174,10 @@ function viewState(app) {
     panels: { ...app.overlay.panels.open },
     compact: document.body.classList.contains('compact'),
   };
+}
+
+/** Whether an object is drawn: it and every parent visible. @param {THREE.Object3D} object */
+function shown(object) {
+  for (let o = /** @type {THREE.Object3D | null} */ (object); o; o = o.parent) if (!o.visible) return false;
+  return true;
 }

@@ -25,16 +25,20 @@ export class VRHud {
   }
 
   /**
-   * One VR frame: the wrist panel rides on the left grip (when that hand is tracked), and redraws when due; the
+   * One VR frame: the wrist panel rides on the left controller's grip or the left hand's wrist, and redraws when due; the
    * overview table follows the twin and the robots, shown in Free Roam when the menu's Overview is on.
-   * @param {number} now ms @param {import('three').Object3D | null} leftGrip
+   * @param {number} now ms @param {{carrier: import('three').Object3D, hand: boolean} | null} wrist what carries the
+   *   panel: the left controller's grip or the left hand's wrist (xr_input.js)
    * @param {import('./sensor_drawing.js').SensorPanelData} data
    * @param {{twin: import('./twin_view.js').TwinView, views: Map<string, import('./robot_view.js').RobotView>,
    *   cursor: {point: {x: number, y: number}, verdict: import('../goal_verdict.js').GoalVerdict} | null,
    *   transform: import('../frames.js').MapToScene, show: boolean}} overview
    */
-  update(now, leftGrip, data, overview) {
-    if (leftGrip && this.wrist.mesh.parent !== leftGrip) leftGrip.add(this.wrist.mesh);
+  update(now, wrist, data, overview) {
+    if (wrist && this.wrist.mesh.parent !== wrist.carrier) {
+      wrist.carrier.add(this.wrist.mesh);
+      this.wrist.mount(wrist.hand ? 'hand' : 'controller');
+    }
     this.estop.attach(this.wrist.mesh);
     this.wrist.update(data);
     this.toast.update(now, true);

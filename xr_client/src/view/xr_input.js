@@ -99,6 +99,22 @@ export class XRInput {
     return this.slots.find((s) => s.source?.handedness === handedness && s.source.targetRayMode === 'tracked-pointer') ?? null;
   }
 
+  /**
+   * What the wrist panel (and its E-STOP) ride on, on one side: a controller's grip, or a tracked hand's wrist joint
+   * (its +Y out of the back of the hand, -Z towards the fingers: a hand held palm down carries the panel as a
+   * controller's grip does). three.js moves and shows its grip group for controllers only: with hands the panel
+   * stayed where the controller had been, unseen, and a pinch there still pressed its E-STOP. Null with nothing on
+   * that side (or a hand whose wrist is not tracked yet).
+   * @param {'left' | 'right'} handedness @returns {{carrier: THREE.Object3D, hand: boolean} | null}
+   */
+  wrist(handedness) {
+    const slot = this.side(handedness);
+    if (!slot?.source) return null;
+    if (!slot.source.hand) return { carrier: slot.grip, hand: false };
+    const joint = slot.hand.joints.wrist;
+    return joint ? { carrier: joint, hand: true } : null;
+  }
+
   /** The slot's ray in world space. @param {InputSlot} slot */
   ray(slot) {
     // Its world matrix as of this frame's pose, not the last render's: a transient pointer (gaze-and-pinch) is born

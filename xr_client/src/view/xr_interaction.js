@@ -48,7 +48,7 @@ export class XRInteraction {
     /** The dwell's last state, for the state snapshot. */
     this.gaze = { id: /** @type {string | null} */ (null), fill: 0, fired: 0 };
     /** Pinch-drag teleop and the palm-up wrist button (view/hand_input.js). */
-    this.handInput = new HandInput({ xrInput: host.xrInput, menu: host.menu, actions: host.actions }, host.rig.parent ?? host.rig);
+    this.handInput = new HandInput({ xrInput: host.xrInput, menu: host.menu, actions: host.actions, camera: host.camera }, host.rig.parent ?? host.rig);
     /** @type {Map<number, ButtonEdge>} */
     this.menuEdges = new Map();
     /** Whether a thumbstick is held in (push-to-talk). */
@@ -96,7 +96,7 @@ export class XRInteraction {
     this.#point();
     this.#goalPointer();
     this.#sticks(dt);
-    this.handInput.update(this.headYaw);
+    this.handInput.update(this.headYaw, now);
     this.#comfort(dt);
     this.#placeTab(dt);
   }
@@ -139,7 +139,9 @@ export class XRInteraction {
     targets.push(...host.inspect.pickables());
     if (!menu.open) targets.push(...host.miniature.pickables());
     this.wimHits.clear();
-    if (host.estop.button.mesh.parent) targets.push(host.estop.button.mesh);
+    // The wrist E-STOP only where it is drawn: a ray meets hidden meshes too (three.js does not look at visibility),
+    // and a pinch at the spot where a controller's wrist had been pressed an E-STOP nobody could see.
+    if (host.estop.button.mesh.parent && drawn(host.estop.button.mesh)) targets.push(host.estop.button.mesh);
     // A transient pointer (Vision Pro's gaze-and-pinch) disconnects right after its selectend: its slot
     // still has that event to hand over, at its last pose.
     for (const slot of input.slots.filter((s) => s.source !== null || s.events.length > 0)) {
@@ -496,6 +498,12 @@ function robotOf(object) {
 }
 
 /** The gaze reticle: a faint ring at the centre of view, and an arc that fills while a dwell runs. */
+/** Whether an object is drawn: it and every parent visible. @param {THREE.Object3D} object */
+function drawn(object) {
+  for (let o = /** @type {THREE.Object3D | null} */ (object); o; o = o.parent) if (!o.visible) return false;
+  return true;
+}
+
 class Reticle {
   constructor() {
     this.group = new THREE.Group();

@@ -23,7 +23,8 @@ export class XRSessionController {
    * @param {THREE.WebGLRenderer} renderer
    * @param {THREE.Group} rig the operator: the camera and the controllers ride on it
    * @param {THREE.PerspectiveCamera} camera
-   * @param {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState}} models
+   * @param {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
+   *   plan: import('./twin_plan.js').TwinPlan}} models `plan`: where to start (the twin as a floor plan)
    * @param {(text: string) => void} onError
    */
   constructor(renderer, rig, camera, models, onError) {
@@ -32,6 +33,7 @@ export class XRSessionController {
     this.camera = camera;
     this.fleet = models.fleet;
     this.menu = models.menu;
+    this.plan = models.plan;
     this.onError = onError;
   }
 
@@ -66,13 +68,14 @@ export class XRSessionController {
   }
 
   /**
-   * Start where the relay says the most robots are in view (hello.vantage: a line of sight over the map, room to
-   * stand), facing them; without one (no map, no robot yet), at the south edge of the map facing north.
+   * Start on a spot with room around it and open floor ahead, facing the fleet, the overview table's place free
+   * (start_pose.js, on the twin's walls); before the twin is loaded, where the relay said (hello.vantage); without
+   * either (no map, no robot yet), at the south edge of the map facing north.
    */
   placeAtStart() {
     const t = this.fleet.scene.mapToScene;
     const [minX, minY, maxX] = this.fleet.bounds ?? [-2, -2, 2];
-    const start = this.fleet.vantage ?? { x: (minX + maxX) / 2, y: minY + 0.3, yaw: Math.PI / 2 };
+    const start = this.plan.start() ?? this.fleet.vantage ?? { x: (minX + maxX) / 2, y: minY + 0.3, yaw: Math.PI / 2 };
     const [x, , z] = mapToScene(t, start.x, start.y);
     this.appliedSeat = this.menu.seated ? SEATED_HEIGHT_OFFSET : 0;
     this.rig.position.set(x, this.appliedSeat + this.floorOffset, z);
