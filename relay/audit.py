@@ -193,7 +193,7 @@ class CommandAudit:
             address=client.address,
             identifier=identifier,
             request_id=request_id,
-            values=values,
+            values=_clipped(values),
             outcome="refused" if error else "accepted",
             code=error.code if error else None,
             message=message,
@@ -223,3 +223,15 @@ class CommandAudit:
     def close(self) -> None:
         if self.log is not None:
             self.log.close()
+
+
+#: A record's values past this many bytes of JSON are kept as their first bytes (a 1000-character note, a mission's
+#: 200 steps): a record stays under ~700 bytes, as the budget above counts.
+MAX_VALUES = 300
+
+
+def _clipped(values: dict[str, object] | None) -> dict[str, object] | None:
+    if values is None:
+        return None
+    text = orjson.dumps(values, default=repr).decode()
+    return values if len(text) <= MAX_VALUES else {"clipped": text[:MAX_VALUES]}

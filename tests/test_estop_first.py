@@ -29,12 +29,14 @@ import websockets.asyncio.client
 
 from relay.config import FleetConfig
 from relay.options import Options
-from tests.conftest import ROOT, RunningRelay, relay_process, start_relay
+from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, relay_process, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "op"
-#: The promise: an estop's ack, and every robot's zero, within this of the estop frame.
-ESTOP_BOUND = 0.3
+#: The promise: an estop's ack, and every robot's zero, within 0.3 s of the estop frame; a test adds what a loaded
+#: machine may add (tests/conftest.py LOAD_SLACK). The figures before were 9.7-15 s or no ack at all; bench/
+#: bench_estop.py holds the real number.
+ESTOP_BOUND = 0.3 + LOAD_SLACK
 
 
 async def operator(running: RunningRelay) -> TestClient:

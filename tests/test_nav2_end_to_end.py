@@ -21,11 +21,12 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT, relay_process
+from tests.conftest import LOAD_SLACK, ROOT, relay_process
 from tests.wsclient import TestClient
 
-#: From the ack on, this long for the stop to take hold (the issue's figure), then at most DRIFT of motion.
-HOLD, DRIFT = 0.3, 0.05
+#: From the ack on, this long for the stop to take hold (the issue's 0.3 s, plus what a loaded machine may add:
+#: tests/conftest.py), then at most DRIFT of motion. Before, the robot drove on: 0.9-1.0 m in 1.5 s, and more.
+HOLD, DRIFT = 0.3 + LOAD_SLACK, 0.05
 
 
 def free_port() -> int:
