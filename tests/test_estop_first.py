@@ -9,13 +9,9 @@ from __future__ import annotations
 
 import asyncio
 import math
-import os
 import secrets
-import shutil
-import socket
 import sqlite3
 import subprocess
-import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
@@ -30,6 +26,7 @@ import websockets.asyncio.client
 from relay.config import FleetConfig
 from relay.options import Options
 from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, relay_process, start_relay
+from tests.helpers.postgres import running_postgres
 from tests.wsclient import TestClient
 
 TOKEN = "op"
@@ -132,36 +129,8 @@ async def test_an_estop_does_not_wait_for_a_locked_database(fleet_config: FleetC
 @pytest.fixture
 def own_postgres() -> Iterator[tuple[str, list[str]]]:
     """A PostgreSQL server of this test's own (it is stopped mid-test): its URL and the pg_ctl command line."""
-    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    from tests.helpers.postgres import postgres_binaries
-
-    binaries, why = postgres_binaries()
-    if binaries is None:
-        pytest.skip(why)
-    data = Path(tempfile.mkdtemp(prefix="xr-relay-pg-"))
-    run_as: list[str] = []
-    if os.geteuid() == 0:
-        import pwd
-
-        account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
-        shutil.chown(data, account)
-        run_as = ["runuser", "-u", account, "--"]
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
-    try:
-        subprocess.run(
-            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay", "--no-sync"],
-            check=True,
-            capture_output=True,
-        )
-        options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off"
-        subprocess.run([*pg_ctl, "-o", options, "-l", str(data / "log"), "-w", "-t", "60", "start"], check=True)
-        yield f"postgresql://relay@127.0.0.1:{port}/postgres", pg_ctl
-    finally:
-        subprocess.run([*pg_ctl, "-m", "immediate", "stop"], capture_output=True)
-        shutil.rmtree(data, ignore_errors=True)
+    with running_postgres() as server:
+        yield server
 
 
 async def test_an_estop_with_postgresql_stopped_is_acknowledged_and_the_connection_stays(

@@ -7,12 +7,8 @@ from __future__ import annotations
 import hashlib
 import itertools
 import os
-import pwd
-import shutil
 import socket
 import sqlite3
-import subprocess
-import tempfile
 import threading
 import time
 from collections.abc import Iterator
@@ -26,7 +22,7 @@ import pytest
 import relay.inspection.store as store_module
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
 from relay.inspection.store import SCHEMA_VERSION, Store, StoreError, UnknownRecord
-from tests.helpers.postgres import postgres_binaries
+from tests.helpers.postgres import running_postgres
 
 BUSY = 0.3  # seconds: the busy timeout of the tests, short so that a lock test takes well under a second
 
@@ -64,40 +60,8 @@ JPEG = b"\xff\xd8\xff\xe0" + bytes(range(256)) * 4 + b"\xff\xd9"
 @pytest.fixture(scope="session")
 def postgres_server() -> Iterator[str]:
     """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``) for the session; its admin URL."""
-    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    binaries, why = postgres_binaries()
-    if binaries is None:
-        pytest.skip(why)
-    # Not under pytest's tmp_path: root's is mode 0700, and the server must run as another account (PostgreSQL
-    # refuses to run as root): the package's `postgres` account, else `nobody`.
-    data = Path(tempfile.mkdtemp(prefix="xr-relay-pg-"))
-    run_as: list[str] = []
-    if os.geteuid() == 0:
-        account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
-        shutil.chown(data, account)
-        run_as = ["runuser", "-u", account, "--"]
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
-    try:
-        subprocess.run(
-            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay", "--no-sync"],
-            check=True,
-            capture_output=True,
-        )
-        # fsync off: a test server that dies loses nothing of value, and CREATE DATABASE per test gets fast.
-        options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off"
-        started = subprocess.run(
-            [*pg_ctl, "-o", options, "-l", str(data / "log"), "-w", "-t", "60", "start"], capture_output=True
-        )
-        if started.returncode != 0:
-            log = (data / "log").read_text(errors="replace") if (data / "log").exists() else ""
-            raise RuntimeError(f"PostgreSQL did not start: {started.stderr.decode(errors='replace')}\n{log}")
-        yield f"postgresql://relay@127.0.0.1:{port}/postgres"
-    finally:
-        subprocess.run([*pg_ctl, "-m", "fast", "stop"], capture_output=True)
-        shutil.rmtree(data, ignore_errors=True)
+    with running_postgres() as (url, _):
+        yield url
 
 
 _DATABASES = itertools.count()

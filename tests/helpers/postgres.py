@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import pwd
 import shutil
+import socket
 import subprocess
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+
+import pytest
 
 
 def postgres_binaries() -> tuple[Path | None, str]:
@@ -31,3 +38,43 @@ def postgres_binaries() -> tuple[Path | None, str]:
     except subprocess.TimeoutExpired:
         why = "it took over 500 s"
     return newest(), f"no PostgreSQL server: `apt-get install -y postgresql` failed ({why})"
+
+
+@contextlib.contextmanager
+def running_postgres() -> Iterator[tuple[str, list[str]]]:
+    """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``): its admin URL and the ``pg_ctl``
+    command line (a test may stop it); skips the test when no server can be had."""
+    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
+    binaries, why = postgres_binaries()
+    if binaries is None:
+        pytest.skip(why)
+    # Not under pytest's tmp_path: root's is mode 0700, and the server must run as another account (PostgreSQL
+    # refuses to run as root): the package's `postgres` account, else `nobody`.
+    data = Path(tempfile.mkdtemp(prefix="xr-relay-pg-"))
+    run_as: list[str] = []
+    if os.geteuid() == 0:
+        account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
+        shutil.chown(data, account)
+        run_as = ["runuser", "-u", account, "--"]
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
+    try:
+        subprocess.run(
+            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay", "--no-sync"],
+            check=True,
+            capture_output=True,
+        )
+        # fsync off: a test server that dies loses nothing of value, and CREATE DATABASE per test gets fast.
+        options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off"
+        started = subprocess.run(
+            [*pg_ctl, "-o", options, "-l", str(data / "log"), "-w", "-t", "60", "start"], capture_output=True
+        )
+        if started.returncode != 0:
+            log = (data / "log").read_text(errors="replace") if (data / "log").exists() else ""
+            raise RuntimeError(f"PostgreSQL did not start: {started.stderr.decode(errors='replace')}\n{log}")
+        yield f"postgresql://relay@127.0.0.1:{port}/postgres", pg_ctl
+    finally:
+        subprocess.run([*pg_ctl, "-m", "fast", "stop"], capture_output=True)
+        shutil.rmtree(data, ignore_errors=True)
