@@ -48,11 +48,13 @@ $(POSTGRES):
 
 # pytest in parallel (pytest-xdist): the tests mostly wait (relays, browsers, DDS peers; about 5 of the suite's 14
 # minutes are CPU), so more workers than cores. TEST_WORKERS=0 runs them in this process, one after the other.
+# worksteal, not load: load hands each worker a first slice of the collection in order, and the first slice is the
+# browser tests (tests/e2e sorts first), which then ran on one worker long after the others had finished.
 TEST_WORKERS ?= 4
 
 test: setup $(CHROMIUM) $(POSTGRES)
 	cd xr_client && node --test test/
-	$(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS)
+	$(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS) --dist worksteal
 
 lint: setup
 	$(BIN)/ruff check relay tools tests

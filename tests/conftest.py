@@ -82,7 +82,8 @@ class Canary(threading.Thread):
 
     def __init__(self) -> None:
         super().__init__(name="loop-block-canary", daemon=True)
-        # (wake time, lateness) of wake-ups over 20 ms late: more than the GIL's 5 ms switch interval and timer slack
+        # (wake time, lateness) of wake-ups over 10 ms late: twice the GIL's 5 ms switch interval (a callback computing
+        # in Python makes the canary that late at most); later, the process was starved
         self.late: list[tuple[float, float]] = []
         self.waited: list[tuple[float, float]] = []  # (time, the loop thread's run-queue wait so far, seconds)
         self.running = True
@@ -103,7 +104,7 @@ class Canary(threading.Thread):
                 before = time.monotonic()
                 time.sleep(0.01)
                 lateness = time.monotonic() - before - 0.01
-                if lateness > 0.02:
+                if lateness > 0.01:
                     self.late.append((time.monotonic(), lateness))
             self._note_wait()
         finally:
