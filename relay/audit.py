@@ -11,7 +11,7 @@ records of refused frames, and every record of a viewer, are written at most ``Q
 (bursts of twice that); the rest are counted into the next record's message ("N more ... not recorded"). An
 operator's accepted commands are all recorded: at most ``--max-message-rate`` (60) a second, ~250 bytes each
 for cmd_vel, so an operator driving flat out writes at most ~54 MB an hour (20 Hz teleop: ~18 MB), and a
-viewer or a client sending garbage at most ~4 MB an hour (records clipped to ~600 bytes). With the defaults
+viewer or a client sending garbage at most ~4 MB an hour (records clipped to under 700 characters). With the defaults
 (10 MB files, 5 kept) the disk holds about 60 MB, more during an hour in which more was written.
 
 A record (docs/security.md lists the fields):
@@ -20,7 +20,7 @@ A record (docs/security.md lists the fields):
      "role": "operator", "address": "127.0.0.1", "identifier": "robot2/goal_pose", "id": "g1",
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
-``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told).
+``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its first 160 characters).
 The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
 ``outcome`` ``started``): it tells at once whether the log can be written. While it cannot, ``failure`` says why and
 the relay refuses to move robots (``audit_unavailable``).
@@ -192,11 +192,11 @@ class CommandAudit:
             role=client.role,
             address=client.address,
             identifier=identifier,
-            request_id=request_id,
+            request_id=fit(request_id, MAX_ID) if isinstance(request_id, str) else request_id,
             values=_clipped(values),
             outcome="refused" if error else "accepted",
             code=error.code if error else None,
-            message=message,
+            message=None if message is None else fit(message, MAX_MESSAGE),
         )
 
     def forget(self, client_id: str) -> None:
@@ -225,13 +225,34 @@ class CommandAudit:
             self.log.close()
 
 
-#: A record's values past this many bytes of JSON are kept as their first bytes (a 1000-character note, a mission's
-#: 200 steps): a record stays under ~700 bytes, as the budget above counts.
-MAX_VALUES = 300
+#: A record's values past this many characters of JSON are kept as their first characters (a 1000-character note, a
+#: mission's 200 steps), and so are a refusal's message and a request's id: with the fixed fields (~230), a record
+#: stays under 700 characters, as the budget above counts, whatever a hostile client puts in them.
+MAX_VALUES = 240
+MAX_MESSAGE = 160
+MAX_ID = 48
+
+
+def fit(text: str, limit: int) -> str:
+    """The longest start of ``text`` whose JSON string form is at most ``limit`` characters between its quotes.
+
+    Quotes, backslashes and control characters grow when escaped (a control character to six): hostile values clipped
+    to 300 characters before escaping made 500, and records of 700.
+    """
+    if len(text) <= limit and len(orjson.dumps(text)) - 2 <= limit:
+        return text
+    low, high = 0, min(len(text), limit)
+    while low < high:  # halving: at most 9 encodings of a few hundred characters
+        middle = (low + high + 1) // 2
+        if len(orjson.dumps(text[:middle]).decode()) - 2 <= limit:
+            low = middle
+        else:
+            high = middle - 1
+    return text[:low]
 
 
 def _clipped(values: dict[str, object] | None) -> dict[str, object] | None:
     if values is None:
         return None
     text = orjson.dumps(values, default=repr).decode()
-    return values if len(text) <= MAX_VALUES else {"clipped": text[:MAX_VALUES]}
+    return values if len(text) <= MAX_VALUES else {"clipped": fit(text, MAX_VALUES)}

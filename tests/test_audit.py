@@ -13,7 +13,8 @@ from typing import Any
 
 import aiohttp
 
-from relay.audit import AuditLog
+from relay.audit import AuditLog, CommandAudit
+from relay.errors import CommandRejected
 from tests.conftest import ROOT
 from tests.helpers.cli import start_process
 from tests.wsclient import TestClient
@@ -129,3 +130,24 @@ async def test_an_audit_log_path_that_cannot_be_opened_is_a_clear_start_up_error
     assert result.returncode == 2
     text = stderr.decode()
     assert "--audit-log" in text and "a-file" in text and "cannot listen" not in text
+
+
+def test_a_hostile_frame_makes_a_record_under_700_characters(tmp_path: Path) -> None:
+    """Values, an id and a refusal's message full of characters that grow when escaped (a quote to two, a control
+    character to six): clipped before escaping, they made records of 700 characters and more; now under it, and
+    what is kept is the start of what was sent."""
+    path = tmp_path / "a.jsonl"
+    audit = CommandAudit(AuditLog(path))
+    client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1"})()
+    hostile = '"\\\x01' * 200
+    audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)  # type: ignore[arg-type]
+    refused = CommandRejected("bad_request", "target/add: field 'name' " + hostile[:375])
+    audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)  # type: ignore[arg-type]
+    audit.frame(client, "robot1/goal_pose", "g1", {"x": 3.0, "y": 6.0}, None)  # type: ignore[arg-type]
+    audit.close()
+    lines = path.read_text().splitlines()
+    assert len(lines) == 3 and max(len(line) for line in lines) < 700, [len(line) for line in lines]
+    first, second, plain = (json.loads(line) for line in lines)
+    assert first["values"]["clipped"].startswith('{"name":"\\"\\\\') and hostile.startswith(first["id"])
+    assert second["message"].startswith("target/add: field 'name' \"") and second["code"] == "bad_request"
+    assert plain["values"] == {"x": 3.0, "y": 6.0} and plain["id"] == "g1"  # what fits is kept whole

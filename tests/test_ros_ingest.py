@@ -18,6 +18,7 @@ from relay.backends.ros_ingest import BATCH_INTERVAL, INBOX_LIMIT, Inbox, RawDec
 from relay.config import parse_config
 from relay.events import Event, PoseEvent, ScanEvent, SensorEvent
 from relay.tf import TfPose
+from tests.conftest import LOAD_SLACK
 
 
 def _pose(robot: str, x: float) -> PoseEvent:
@@ -264,7 +265,8 @@ def test_the_executor_spins_from_a_thread_takes_late_subscriptions_and_stops(kin
             node.destroy_subscription(subscription)
         started = time.monotonic()
         spinner.stop(timeout=3.0)
-        assert time.monotonic() - started < 3.0
+        # Bounded: the executor's shutdown (1 s at most) and the join (3 s), and what a loaded machine adds.
+        assert time.monotonic() - started < 1.0 + 3.0 + LOAD_SLACK
         assert failures == []
     finally:
         node.destroy_node()

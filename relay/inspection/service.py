@@ -201,7 +201,9 @@ class Inspection:
             return await self._store_pool.run(lambda: work(store))
         except UnknownRecord as exc:  # the client named something that is not there: its mistake, not the relay's
             raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
-        except (StoreError, Busy) as exc:
+        except Busy as exc:  # a bounded queue that is full: nothing was done, the client may send it again
+            raise CommandRejected(ErrorCode.BUSY, f"inspection database: {exc}", request_id) from None
+        except StoreError as exc:
             raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
 
     async def _store_call(self, work: Callable[[Store], None], request_id: RequestId | None) -> None:

@@ -111,9 +111,13 @@ async def test_a_gaze_resting_on_the_live_robot_pov_image_marks_a_target_where_i
     await set_menu(client, True)
     await press_menu_button(client, "tool:inspect")
     await client.wait("s.menu.tool === 'inspect'", 10)
+    # Looking back, away from the image, while the menu closes: with Inspect on and the menu closed, the gaze straight
+    # ahead rests on the live image, and on a loaded machine the next steps took longer than a dwell (it fired there).
+    await client.page.evaluate("window.__iwer.quaternion.set(0, 1, 0, 0)")
     await set_menu(client, False)
     for hand in ("left", "right"):
         await aim(client, hand, [0.0, -5.0, 0.0])
+    assert (await client.state())["gaze"]["fired"] == 0
     looked = time.monotonic()
     await client.page.evaluate(f"window.__iwer.quaternion.set({-math.sin(half)}, 0, 0, {math.cos(half)})")
     await client.wait("s.gaze.id === 'pov:image' && s.gaze.fill > 0.3", 10)

@@ -21,11 +21,14 @@ async def test_a_look_and_a_pinch_select_a_robot_press_the_menu_and_send_a_goal_
     client = await enter_vr(open_client, station.url)
     for hand in ("left", "right"):
         await aim(client, hand, [0.0, -5.0, 0.0])  # the controllers lie on the floor, pointing at nothing
-    # A teleport: the eyes on the corridor's floor 2.5 m ahead, where nothing is to select; the pinch's release lands
-    # the operator there (a straight ray: where the eyes were).
+    # A teleport: the eyes on the floor halfway between the two nearest robots, where nothing is to select (VR starts
+    # facing the robots: the floor 2.5 m ahead had robot1's label on the ray); the pinch's release lands the operator
+    # there (a straight ray: where the eyes were).
     s = await client.state()
-    yaw, eye = s["rig"]["yaw"], s["eye"]
-    ahead = [eye[0] - 2.5 * math.sin(yaw), 0.0, eye[2] - 2.5 * math.cos(yaw)]
+    eye = s["eye"]
+    near = sorted((p for p in (r["position"] for r in s["robots"].values())), key=lambda p: math.dist(p, eye))[:2]
+    ahead = [(near[0][0] + near[1][0]) / 2, 0.0, (near[0][2] + near[1][2]) / 2]
+    assert all(math.dist(ahead, r["position"]) > 1.0 for r in s["robots"].values()), (ahead, s["robots"])
     await gaze_pinch(client, ahead)
     s = await client.wait("Math.hypot(s.eye[0] - arg[0], s.eye[2] - arg[2]) > 2 && s", 10, eye)
     assert math.hypot(s["eye"][0] - ahead[0], s["eye"][2] - ahead[2]) < 0.05, (s["eye"], ahead)

@@ -103,6 +103,17 @@ async def test_a_spoken_goal_waits_for_confirm_and_stop_all_latches_every_robot(
         await client.frames(2)
         assert (await client.state())["voice"]["done"].get("goto") == 2
 
+        # Left unconfirmed, a spoken goal lapses after 8 s and the caption says so (it went on asking for a
+        # "confirm" that would do nothing); Enter then sends nothing.
+        heard = await say(client, "robot three go to plumbing")
+        assert heard["pending"] is not None, heard
+        await client.wait("s.voice.pending === null && s.voice.result.startsWith('not confirmed')", 8 + 10)
+        caption = await client.page.text_content("#voice-caption")
+        assert caption is not None and "not confirmed within 8 s: robot3 go to Plumbing dropped" in caption, caption
+        await client.page.keyboard.press("Enter")
+        await client.frames(2)
+        assert not any(g[0] == "robot3" for g in station.goals), "a lapsed goal was sent"
+
         refused = await say(client, "robot seven go to plumbing")
         assert "no robot 7 in this fleet" in refused["result"], refused
 
@@ -151,14 +162,15 @@ async def test_in_vr_a_thumbstick_held_in_is_push_to_talk_and_the_hud_says_what_
         assert s["menu"]["selected"] == "robot3" and s["voice"]["result"] == "selected robot3", s["voice"]
         assert s["voice"]["toast"] is True, "the headset's HUD shows what was heard"
         await client.shot("voice-vr")
-        # A spoken goal waits; the trigger pulled on nothing (the ray on the floor, no tool) is its "confirm".
+        # A spoken goal waits; the trigger pulled on nothing (the ray on the floor, no tool) is its "confirm". Aimed
+        # at the floor first: on a loaded machine aiming after the question took longer than its 8 s.
+        await aim(client, "right", [0.0, -5.0, 0.0])
         await button(client, "right", "thumbstick", 1)
         await client.wait("s.voice.listening", 10)
         await client.page.evaluate("window.__speech.say('robot three go to power distribution')")
         await button(client, "right", "thumbstick", 0)
         s = await client.wait("s.voice.pending !== null && s", 10)
         assert "pull the trigger" in s["voice"]["result"] and not any(g[0] == "robot3" for g in station.goals)
-        await aim(client, "right", [0.0, -5.0, 0.0])
         await client.wait("s.xr.hover.right === null", 10)
         await click(client, "right")
         s = await client.wait("s.voice.pending === null && s", 10)

@@ -254,8 +254,10 @@ export class VoiceConfirm {
     return pending ? [{ type: 'run', command: pending.command }] : [{ type: 'say', text: 'nothing to confirm' }];
   }
 
-  /** Drop a confirmation that came too late. @param {number} now */
+  /** Drop a confirmation that came too late. @param {number} now @returns {VoiceCommand | null} what lapsed now */
   expire(now) {
-    if (this.pending && now > this.pending.until) this.pending = null;
+    const lapsed = this.pending && now > this.pending.until ? this.pending.command : null;
+    if (lapsed) this.pending = null;
+    return lapsed;
   }
 }

@@ -151,6 +151,11 @@ test('motion waits for a confirmation; stops act at once and drop what waited; c
 
   v.hear(parse('start mission', VOCAB), 4000);
   assert.deepEqual(v.confirm(4000 + CONFIRM_MS + 1), [{ type: 'say', text: 'nothing to confirm' }], 'lapsed');
+  // What lapsed is told once (the page says so), and a command confirmed or replaced in time never lapses.
+  v.hear(parse('robot one go to plumbing', VOCAB), 4500);
+  assert.equal(v.expire(4500 + CONFIRM_MS), null, 'not yet');
+  assert.equal(describe(/** @type {any} */ (v.expire(4500 + CONFIRM_MS + 1))), 'robot1 go to Plumbing');
+  assert.equal(v.expire(4500 + CONFIRM_MS + 2), null, 'once');
   v.hear(parse('robot one go to plumbing', VOCAB), 5000);
   assert.deepEqual(v.hear(parse('cancel', VOCAB), 5100), [{ type: 'say', text: 'cancelled: robot1 go to Plumbing' }]);
   assert.deepEqual(v.hear(parse('pause mission', VOCAB), 5200).map((e) => e.type), ['run'], 'a pause is a stop: at once');

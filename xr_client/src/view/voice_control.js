@@ -7,7 +7,7 @@
  * what it did, the confirmation it waits for, or why it was refused. Where the browser has no speech recognition
  * (Firefox, Quest Browser today), the button says so and is disabled.
  */
-import { VoiceConfirm, describe, parse } from '../voice_grammar.js';
+import { CONFIRM_MS, VoiceConfirm, describe, parse } from '../voice_grammar.js';
 
 /**
  * @typedef {{start(): void, stop(): void, abort(): void, lang: string, continuous: boolean, interimResults: boolean,
@@ -124,6 +124,8 @@ export class VoiceControl {
     else if (effect.type === 'ask') {
       const gesture = this.host.presenting() ? 'pinch or pull the trigger on nothing' : 'press Enter';
       this.#show(heard, `${describe(effect.command)}? say "confirm" or ${gesture} ("cancel" drops it)`);
+      // The question must not outstay its answer: a confirmation after CONFIRM_MS does nothing, so say it lapsed.
+      setTimeout(() => this.#lapse(heard), effect.until - performance.now() + 20);
     }
     else this.#show(heard, this.#run(effect.command));
   }
@@ -141,6 +143,12 @@ export class VoiceControl {
       if (effect.type === 'run') this.#show(this.heard, `${this.#run(effect.command)} (confirmed: ${how})`);
     }
     return true;
+  }
+
+  /** A spoken command that waited for its "confirm" past CONFIRM_MS: dropped, and said so. @param {string} heard */
+  #lapse(heard) {
+    const lapsed = this.confirm.expire(performance.now());
+    if (lapsed) this.#show(heard, `not confirmed within ${CONFIRM_MS / 1000} s: ${describe(lapsed)} dropped`);
   }
 
   /** Carry a command out through the host's actions; returns what it did. @param {import('../voice_grammar.js').VoiceCommand} c */
