@@ -20,7 +20,8 @@ A record (docs/security.md lists the fields):
      "role": "operator", "address": "127.0.0.1", "identifier": "robot2/goal_pose", "id": "g1",
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
-``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its first 160 characters).
+``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its
+first 160 characters).
 The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
 ``outcome`` ``started``): it tells at once whether the log can be written. While it cannot, ``failure`` says why and
 the relay refuses to move robots (``audit_unavailable``).

@@ -140,10 +140,10 @@ def test_a_hostile_frame_makes_a_record_under_700_characters(tmp_path: Path) -> 
     audit = CommandAudit(AuditLog(path))
     client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1"})()
     hostile = '"\\\x01' * 200
-    audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)  # type: ignore[arg-type]
+    audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)
     refused = CommandRejected("bad_request", "target/add: field 'name' " + hostile[:375])
-    audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)  # type: ignore[arg-type]
-    audit.frame(client, "robot1/goal_pose", "g1", {"x": 3.0, "y": 6.0}, None)  # type: ignore[arg-type]
+    audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)
+    audit.frame(client, "robot1/goal_pose", "g1", {"x": 3.0, "y": 6.0}, None)
     audit.close()
     lines = path.read_text().splitlines()
     assert len(lines) == 3 and max(len(line) for line in lines) < 700, [len(line) for line in lines]

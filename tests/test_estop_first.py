@@ -27,6 +27,7 @@ from relay.config import FleetConfig
 from relay.options import Options
 from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, relay_process, start_relay
 from tests.helpers.postgres import running_postgres
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 TOKEN = "op"
@@ -227,9 +228,8 @@ async def test_a_flood_of_targets_neither_delays_an_estop_nor_grows_without_boun
         # At most 5 cm from 0.3 s after the estop on (issue #27's bound; the sim brakes within its limits).
         assert still and moved and math.hypot(moved["x"] - still["x"], moved["y"] - still["y"]) < 0.05, (still, moved)
         await floods
-        deadline = time.monotonic() + 30
-        while len(refusals) + len(victim.targets()) < 3000 + 3 and time.monotonic() < deadline:
-            await asyncio.sleep(0.2)  # the adds sent again after a full pool are answered
+        # The adds sent again after a full pool are answered.
+        await wait_until(lambda: len(refusals) + len(victim.targets()) >= 3000 + 3, 30, "every add answered")
         await asyncio.sleep(0.5)
         targets = victim.targets()
         assert len(targets) == 2000, len(targets)  # the cap; the deltas add up to what the relay holds

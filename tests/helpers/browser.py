@@ -5,7 +5,6 @@ tests/e2e/conftest.py."""
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import fcntl
 import json
@@ -20,6 +19,9 @@ from typing import Any
 from playwright.async_api import Page
 
 from tests.conftest import ROOT, RunningRelay
+from tests.helpers.waiting import wait_until
+
+__all__ = ["wait_until"]  # the browser tests' poll of the relay's state, with the rest of their helpers
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = ROOT / "test-artifacts"
@@ -124,15 +126,6 @@ class Client:
 
 
 OpenClient = Callable[..., Awaitable[Client]]
-
-
-async def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    """Poll a Python-side condition (the relay's state) without blocking the loop."""
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-        await asyncio.sleep(0.05)
 
 
 def record_timing(key: str, value: dict[str, Any]) -> None:
