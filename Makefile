@@ -10,7 +10,7 @@ ARGS   ?=
 
 .PHONY: setup run test lint bench clean
 
-setup: $(STAMPS)/python $(STAMPS)/npm
+setup: $(STAMPS)/python $(STAMPS)/npm $(STAMPS)/nav2_msgs
 
 $(BIN)/python:
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "Python 3.11 or newer is needed (set PYTHON=python3.11)")'
@@ -21,6 +21,12 @@ $(STAMPS)/python: pyproject.toml | $(BIN)/python
 	# zenoh too: its backend's tests (tests/test_zenoh_backend.py, two-relay fleets) and `make run ARGS="--backend
 	# zenoh"` (tools/fake_fleet.py --zenoh) run on every machine, with no ROS install.
 	$(BIN)/python -m pip install --quiet -e '.[dev,ros,zenoh]'
+	@mkdir -p $(STAMPS) && touch $@
+
+# Nav2's nav2_msgs (NavigateToPose), which the ROS wheels lack, built with ROS 2's own generators: with it the ros
+# backend reads Nav2's feedback and error codes over DDS, as with a sourced ROS 2 (tools/build_nav2_msgs.py).
+$(STAMPS)/nav2_msgs: tools/build_nav2_msgs.py relay/nav2_types.py $(STAMPS)/python
+	$(BIN)/python tools/build_nav2_msgs.py > $(VENV)/nav2_msgs-build.log 2>&1 || { cat $(VENV)/nav2_msgs-build.log; exit 1; }
 	@mkdir -p $(STAMPS) && touch $@
 
 # The client's npm packages: three.js and the controller models it serves, and the tools the tests use

@@ -21,7 +21,7 @@ A record (docs/security.md lists the fields):
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
 ``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its
-first 160 characters).
+first 120 characters).
 The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
 ``outcome`` ``started``): it tells at once whether the log can be written. While it cannot, ``failure`` says why and
 the relay refuses to move robots (``audit_unavailable``).
@@ -175,7 +175,7 @@ class CommandAudit:
         """One client frame, also one that could not be parsed (``identifier`` and ``values`` None then)."""
         if self.log is None:
             return
-        message = error.message if error else None
+        message = fit(error.message, MAX_MESSAGE) if error else None  # clipped before the note, which must be read
         if error is not None or client.role != "operator":
             # Refusals and viewers' records are budgeted per client (module docstring): a flood cannot rotate
             # the operators' records away, and what was not written is counted in the next record.
@@ -197,7 +197,7 @@ class CommandAudit:
             values=_clipped(values),
             outcome="refused" if error else "accepted",
             code=error.code if error else None,
-            message=None if message is None else fit(message, MAX_MESSAGE),
+            message=message,
         )
 
     def forget(self, client_id: str) -> None:
@@ -227,10 +227,11 @@ class CommandAudit:
 
 
 #: A record's values past this many characters of JSON are kept as their first characters (a 1000-character note, a
-#: mission's 200 steps), and so are a refusal's message and a request's id: with the fixed fields (~230), a record
-#: stays under 700 characters, as the budget above counts, whatever a hostile client puts in them.
-MAX_VALUES = 240
-MAX_MESSAGE = 160
+#: mission's 200 steps), and so are a refusal's message (before the count of records not written, ~80) and a
+#: request's id: with the fixed fields (~230), a record stays under 700 characters, as the budget above counts,
+#: whatever a hostile client puts in them.
+MAX_VALUES = 210
+MAX_MESSAGE = 120
 MAX_ID = 48
 
 

@@ -7,10 +7,12 @@ holds the loop (a parse, a database call, a starved process, a SIGSTOP) shows up
 **Dating a frame.** A motion command that waited in the relay's socket buffer while the relay was frozen must not
 be replayed (a robot once turned 0.3-0.4 rad on 9-14 stale unstamped commands after a 3 s SIGSTOP). The kernel
 does not tell asyncio when bytes arrived, but the beat does tell when the loop last ran: bytes read after a stall
-may have arrived at any moment of it, so they are dated to its start (:meth:`LoopLag.arrival`). So are bytes read
-within ``AFTERMATH`` after a stall ended: a SIGSTOP that lands after the loop's ``select`` returned and before its
-callbacks run (on a loaded machine the loop's thread spends its time there, waiting for a CPU) resumes with the beat
-first, and the reads after it saw a loop that had just run (60 of 60 stale commands were carried out). Per connection,
+may have arrived at any moment of it, so they are dated to its start (:meth:`LoopLag.arrival`). The beat may also
+run first: a SIGSTOP that lands after the loop's ``select`` returned and before its callbacks (on a loaded machine
+the loop's thread spends its time there, waiting for a CPU) resumes with the late beat, and the reads after it saw a
+loop that had just run (60 of 60 stale commands were carried out). So the late beat tells its listeners
+(:meth:`LoopLag.on_stall`): a connection whose socket holds unread bytes then (:func:`unread_bytes`, the kernel's
+count) dates them to the stall's start; bytes that arrive after the beat are read as fresh. Per connection,
 :class:`ArrivalDates` carries that date from the read to the frames it brought. Conservative by design: a frame
 sent during the last instants of a freeze is dropped too, and the deadman had stopped the robot anyway.
 
@@ -21,7 +23,10 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import fcntl
 import math
+import struct
+import termios
 from collections.abc import Callable
 
 #: Seconds between beats: the resolution of the lag figures, for a cost of ~100 callbacks a second.
@@ -31,10 +36,6 @@ PERIOD = 0.01
 STALL = 0.05
 #: How many recent beats the p99 and the recent worst are taken over (~10 s at PERIOD).
 WINDOW = 1000
-#: After a stall, reads this long are still dated to its start: the loop's next turns after the late beat, which on
-#: a loaded machine wait for a CPU. The deadman's timeout: what a stall shorter than that re-dates never becomes
-#: stale, and after a longer one a command sent within it is refused (the deadman stopped the robot anyway).
-AFTERMATH = 0.5
 
 
 class LagStats:
@@ -76,7 +77,7 @@ class LoopLag:
         self.clock, self.period, self.stall = clock, period, stall
         self.stats = LagStats()
         self.last_beat: float | None = None
-        self.last_stall: tuple[float, float] | None = None  # (when the loop last ran before it, when a beat saw it)
+        self._listeners: set[Callable[[float], None]] = set()  # told a stall's start by the beat that sees it
         self._due = 0.0
         self._handle: asyncio.TimerHandle | None = None
 
@@ -98,22 +99,25 @@ class LoopLag:
         self._schedule()
 
     def beat(self, now: float, due: float) -> None:
-        """A beat due at ``due`` ran at ``now`` (pure: the loop's part is ``_beat``)."""
+        """A beat due at ``due`` ran at ``now`` (the loop's part is ``_beat``); a stall is told to the listeners."""
         self.stats.add(now - due)
-        if now - due > self.stall and self.last_beat is not None:
-            self.last_stall = (self.last_beat, now)
-        self.last_beat = now
+        start, self.last_beat = self.last_beat, now
+        if now - due > self.stall and start is not None:
+            for listener in tuple(self._listeners):
+                listener(start)
+
+    def on_stall(self, listener: Callable[[float], None]) -> Callable[[], None]:
+        """Call ``listener(start)`` at each stall the beat sees, with when the loop last ran; returns its removal."""
+        self._listeners.add(listener)
+        return lambda: self._listeners.discard(listener)
 
     def arrival(self, now: float) -> float:
-        """When bytes read at ``now`` arrived at the latest that can be known: ``now``; or when the loop last ran if
-        it has stalled since (a beat overdue by more than ``stall``), or if a stall ended less than ``AFTERMATH``
-        ago."""
+        """When bytes read at ``now`` arrived at the latest that can be known: ``now``, or when the loop last ran
+        if it has stalled since (a beat overdue by more than ``stall``)."""
         last = self.last_beat
-        if last is not None and now - last > self.period + self.stall:
-            return last
-        if self.last_stall is not None and now - self.last_stall[1] <= AFTERMATH:
-            return self.last_stall[0]
-        return now
+        if last is None or now - last <= self.period + self.stall:
+            return now
+        return last
 
 
 class ArrivalDates:
@@ -163,6 +167,18 @@ class DatedReads(asyncio.Protocol):
 
     def resume_writing(self) -> None:
         self._inner.resume_writing()
+
+
+def unread_bytes(transport: asyncio.BaseTransport) -> bool:
+    """Whether the kernel holds bytes of this connection the loop has not read (FIONREAD); True when it cannot say."""
+    sock = transport.get_extra_info("socket")
+    if sock is None:
+        return True
+    try:
+        count: int = struct.unpack("i", fcntl.ioctl(sock.fileno(), termios.FIONREAD, b"\0\0\0\0"))[0]
+        return count > 0
+    except (OSError, ValueError):
+        return True
 
 
 def date_reads(transport: asyncio.BaseTransport | None, on_read: Callable[[], None]) -> bool:

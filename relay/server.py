@@ -25,7 +25,7 @@ from .config import FleetConfig
 from .core import BackendFactory, Relay
 from .guard import ConnectionGuard
 from .headers import SecurityHeaders
-from .loop_lag import ArrivalDates, date_reads
+from .loop_lag import ArrivalDates, date_reads, unread_bytes
 from .options import Options
 from .tls import fingerprint, server_context
 
@@ -191,8 +191,13 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     # Each frame is dated by the read that brought it, a read after a stall of the loop to the stall's start: a
     # motion command that waited longer than the deadman's timeout, in a frozen relay's socket buffer or before the
     # relay got to it, is dropped (relay.commands), stamped by its client or not (relay.loop_lag).
+    # A stall the beat sees before the reads: what the socket holds then waited through it.
     dates = ArrivalDates(relay.clock())
-    date_reads(request.transport, lambda: dates.read(relay.loop_lag.arrival(relay.clock())))
+    transport = request.transport
+    date_reads(transport, lambda: dates.read(relay.loop_lag.arrival(relay.clock())))
+    forget_stalls = relay.loop_lag.on_stall(
+        lambda start: dates.read(start) if transport is not None and unread_bytes(transport) else None
+    )
     try:
         async for msg in ws:
             if msg.type == WSMsgType.TEXT:
@@ -207,6 +212,7 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
         logger.exception("handler for client %s crashed; closing its connection", client.client_id)
         await ws.close(code=WSCloseCode.INTERNAL_ERROR, message=b"internal error")
     finally:
+        forget_stalls()
         request.app[SOCKETS_KEY].discard(ws)
         await relay.disconnect(client)
     return ws

@@ -137,17 +137,25 @@ def test_a_hostile_frame_makes_a_record_under_700_characters(tmp_path: Path) -> 
     character to six): clipped before escaping, they made records of 700 characters and more; now under it, and
     what is kept is the start of what was sent."""
     path = tmp_path / "a.jsonl"
-    audit = CommandAudit(AuditLog(path))
+    now = [0.0]
+    audit = CommandAudit(AuditLog(path), clock=lambda: now[0])
     client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1"})()
     hostile = '"\\\x01' * 200
     audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)
     refused = CommandRejected("bad_request", "target/add: field 'name' " + hostile[:375])
     audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)
     audit.frame(client, "robot1/goal_pose", "g1", {"x": 3.0, "y": 6.0}, None)
+    for _ in range(8):  # past the refusals' budget: counted, and the count told in the next record written
+        audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)
+    now[0] = 10.0
+    audit.frame(client, "target/add", hostile[:128], {"name": hostile}, refused)
     audit.close()
     lines = path.read_text().splitlines()
-    assert len(lines) == 3 and max(len(line) for line in lines) < 700, [len(line) for line in lines]
-    first, second, plain = (json.loads(line) for line in lines)
+    assert max(len(line) for line in lines) < 700, [len(line) for line in lines]
+    first, second, plain = (json.loads(line) for line in lines[:3])
+    assert json.loads(lines[-1])["message"].endswith(
+        "more refused or viewer records of this client not written since the last)"
+    )
     assert first["values"]["clipped"].startswith('{"name":"\\"\\\\') and hostile.startswith(first["id"])
     assert second["message"].startswith("target/add: field 'name' \"") and second["code"] == "bad_request"
     assert plain["values"] == {"x": 3.0, "y": 6.0} and plain["id"] == "g1"  # what fits is kept whole

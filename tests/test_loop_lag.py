@@ -10,11 +10,12 @@ import asyncio
 import math
 import secrets
 import signal
+import socket
 import time
 
 import pytest
 
-from relay.loop_lag import AFTERMATH, ArrivalDates, LagStats, LoopLag
+from relay.loop_lag import ArrivalDates, LagStats, LoopLag, unread_bytes
 from tests.conftest import ROOT, relay_process
 from tests.wsclient import TestClient
 
@@ -40,19 +41,36 @@ def test_bytes_read_after_a_stall_are_dated_to_its_start() -> None:
     assert lag.arrival(103.0) == 100.0  # the loop did not run for 3 s: the bytes may have waited all of it
 
 
-def test_bytes_read_just_after_a_stall_that_a_beat_saw_first_are_dated_to_its_start() -> None:
+def test_a_stall_the_beat_sees_first_is_told_to_the_connections_with_unread_bytes() -> None:
     """A SIGSTOP between the loop's select and its callbacks resumes with the beat first: under load, 60 of 60
-    commands that waited out a 3 s freeze were carried out, read just after a beat that had seen the stall."""
+    commands that waited out a 3 s freeze were carried out, read just after a beat that had seen the stall. Now the
+    late beat tells the connections; one whose socket holds unread bytes dates them to the stall's start."""
     lag = LoopLag(clock=lambda: 0.0, period=0.01, stall=0.05)
+    told: list[float] = []
+    forget = lag.on_stall(told.append)
     lag.beat(100.0, due=100.0)
-    lag.beat(103.0, due=100.01)  # the late beat runs first after the freeze
-    assert lag.arrival(103.001) == 100.0  # the reads after it: their bytes may have waited all of it
-    lag.beat(103.0 + AFTERMATH - 0.01, due=103.0 + AFTERMATH - 0.01)  # the loop beats on time again
-    assert lag.arrival(103.0 + AFTERMATH) == 100.0
-    assert lag.arrival(103.01 + AFTERMATH) == 103.01 + AFTERMATH  # later reads are dated as ever
-    lag.beat(110.0, due=109.99)  # on time: nothing re-dated
-    lag.beat(110.04, due=110.01)  # 30 ms late: not a stall
-    assert lag.arrival(110.045) == 110.045
+    lag.beat(100.04, due=100.01)  # 30 ms late: not a stall
+    lag.beat(103.0, due=100.05)  # the late beat, first after the freeze
+    assert told == [100.04]
+    dates = ArrivalDates(now=0.0)
+    dates.read(told[0])  # what the server does for a connection with unread bytes
+    dates.read(lag.arrival(103.001))  # then the read: a loop that has just run, dated now
+    assert dates.frame() == 100.04
+    forget()
+    lag.beat(110.0, due=109.0)
+    assert told == [100.04]
+
+
+def test_the_kernel_says_whether_a_connection_holds_unread_bytes() -> None:
+    left, right = socket.socketpair()
+    with left, right:
+        transport = type("T", (), {"get_extra_info": lambda self, key: left if key == "socket" else None})()
+        assert unread_bytes(transport) is False
+        right.sendall(b'{"identifier":"robot1/cmd_vel"}')
+        time.sleep(0.05)
+        assert unread_bytes(transport) is True
+        left.recv(100)
+        assert unread_bytes(transport) is False
 
 
 def test_frames_are_never_dated_later_than_the_read_that_brought_them() -> None:

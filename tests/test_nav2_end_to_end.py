@@ -11,6 +11,7 @@ once a status says estopped it never moves more than that again.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
 import os
 import secrets
@@ -18,9 +19,12 @@ import signal
 import socket
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from relay.config import load_config
+from relay.sim.world import SimWorld
 from tests.conftest import LOAD_SLACK, ROOT, relay_process
 from tests.wsclient import TestClient
 
@@ -80,6 +84,16 @@ async def drive_then_estop(driver: TestClient, stopper: TestClient, robot: str) 
     goal = await driver.request({"identifier": f"{robot}/goal_pose", "x": 9.0, "y": 6.0}, timeout=30)
     assert goal["identifier"] == "ack", goal
     await driver.wait_pose_near(robot, start_pose["x"], start_pose["y"] + 0.6, 0.35, timeout=60)  # rolling
+
+    # Nav2's feedback while it drives: the distance left shrinks (decoded from Nav2's own definition).
+    def feedback(m: dict[str, Any], below: float = math.inf) -> bool:
+        return bool(m["identifier"] == f"{robot}/nav" and m.get("feedback")) and (
+            m["feedback"]["distance_remaining"] < below
+        )
+
+    first = await driver.wait_for(feedback, timeout=10)
+    later = await driver.wait_for(lambda m: feedback(m, first["feedback"]["distance_remaining"] - 0.1), timeout=10)
+    assert 0 < later["feedback"]["distance_remaining"] < 12 and later["feedback"]["eta"] >= 0, later
     reply = await stopper.request({"identifier": "estop"}, timeout=10)
     assert reply["identifier"] == "ack", reply
     acked = next(t for t, m in stopper.messages if m.get("id") == reply["id"])
@@ -102,10 +116,33 @@ def token() -> str:
     return secrets.token_urlsafe(24)
 
 
+def occupied_point() -> tuple[float, float]:
+    """A point of the demo's map inside a wall (Nav2's costmap says occupied), near the middle of the site."""
+    world = SimWorld(load_config(ROOT / "robots.yaml"), on_nav=lambda *_: None)
+    for x, y in sorted(itertools.product(range(1, 18), range(1, 10)), key=lambda p: math.hypot(p[0] - 9, p[1] - 5)):
+        if world.grid.in_bounds(x, y) and not world.planner.inflated.is_free(x, y):
+            return float(x), float(y)
+    raise AssertionError("the demo's map has no wall")
+
+
+async def aborted_with_nav2s_code(client: TestClient, robot: str) -> None:
+    """A goal inside a wall: Nav2 aborts it, and the relay reports its error code, asked with GetResult."""
+    x, y = await asyncio.to_thread(occupied_point)
+    start = len(client.messages)
+    reply = await client.request({"identifier": f"{robot}/goal_pose", "x": x, "y": y}, timeout=30)
+    assert reply["identifier"] == "ack", reply
+    failed = await client.wait_for(
+        lambda m: m["identifier"] == f"{robot}/nav" and m["outcome"] == "failed", timeout=10, start=start
+    )
+    assert failed["error_code"] == 206 and "goal occupied" in failed["message"], failed  # ComputePathToPose's code
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int, token: str, tmp_path: Path) -> None:
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
+    # Nav2's feedback and error codes over DDS need nav2_msgs; the wheels have none, `make setup` builds it.
+    pytest.importorskip("nav2_msgs.action", reason="no nav2_msgs: `make setup` builds it (tools/build_nav2_msgs.py)")
     processes: list[asyncio.subprocess.Process | None] = []  # every one is stopped, whatever fails
     relay_args = (
         "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
@@ -117,6 +154,12 @@ async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int,
         processes.append(relay)
         client = await operator(base, token)
         await drive_then_estop(client, client, "robot2")
+        # Released, a goal in a wall: Nav2's abort with its error code (after the drive: the relay's GetResult client
+        # has matched Nav2's server by then; a relay just started waits 0.5 s for it, then reports no code).
+        assert (await client.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"
+        await aborted_with_nav2s_code(client, "robot1")
+        assert (await client.request({"identifier": "estop"}))["identifier"] == "ack"
+        await client.wait_for(lambda m: m["identifier"] == "robot2/status" and m.get("estopped") is True, timeout=10)
         await client.close()
         # The latch holds on the robot: the relay killed, the base still gets nothing that moves it, and a new relay
         # learns the latch from the robot's watchdog.

@@ -56,6 +56,23 @@ def test_a_finished_goal_in_the_first_status_heard_is_never_taken_for_ours() -> 
     assert goals.feedback("r", Feedback(A, 1.0, 1.0, 0, 1.0)) is not None
 
 
+def test_a_goal_aborted_at_once_in_the_first_status_heard_is_ours_when_nav2_accepted_it_after_the_send() -> None:
+    """A goal in a wall: Nav2 aborts it at once, and the first status the relay hears lists it already ABORTED. Taken
+    for an old result, it went unreported for 5 s and then failed as "never listed", without Nav2's reason."""
+    goals = Nav2Goals(["r"])
+    goals.sent("r", GOAL, 0.0, wall=1000.0)
+    [aborted] = goals.status("r", (GoalState(OLD, 900.0, STATUS_ABORTED), GoalState(A, 1000.2, STATUS_ABORTED)))
+    assert aborted == Aborted("r", A, GOAL)
+    # Accepted by a robot whose clock is half a second behind the station's: still ours.
+    goals = Nav2Goals(["r"])
+    goals.sent("r", GOAL, 0.0, wall=1000.0)
+    assert goals.status("r", (GoalState(A, 999.5, STATUS_ABORTED),)) == [Aborted("r", A, GOAL)]
+    # Accepted well before the send: an old result, not ours.
+    goals = Nav2Goals(["r"])
+    goals.sent("r", GOAL, 0.0, wall=1000.0)
+    assert goals.status("r", (GoalState(OLD, 990.0, STATUS_ABORTED),)) == []
+
+
 def test_a_preempted_goal_says_nothing_and_an_abort_is_reported_with_nav2s_reason() -> None:
     goals = Nav2Goals(["r"])
     goals.status("r", ())

@@ -9,7 +9,8 @@ Per robot, with the navigator of ``relay.sim.navigator`` (planned and followed o
 - the controller's velocity on ``navigation.autonomy`` (``<ns>/cmd_vel_nav``; Twist, or TwistStamped with
   ``cmd_vel.stamped``) at 20 Hz while a goal executes. The base moves only from ``cmd_vel``: the watchdog's.
 - with ``nav2_msgs`` importable (a sourced ROS; the PyPI wheels have none): ``<action>/_action/feedback``
-  (NavigateToPose's FeedbackMessage) and ``<action>/_action/get_result``, answered when the goal ends.
+  (NavigateToPose's FeedbackMessage) and ``<action>/_action/get_result``, answered at once (Nav2 waits for a
+  running goal's end; the relay asks only about ended ones).
 """
 
 from __future__ import annotations
@@ -83,7 +84,6 @@ class Nav2Servers:
         self.navigators: dict[str, Navigator] = {}
         self._robots: dict[str, Robot] = {}
         self._pubs: dict[tuple[str, str], Any] = {}
-        self._waiting: dict[bytes, list[Any]] = {}  # get_result requests waiting for their goal's end
         for robot in robots:
             name, action = robot.name, robot.nav_action
             self._robots[name] = robot
@@ -178,17 +178,12 @@ class Nav2Servers:
             self._publish_status(robot)
         return response
 
-    async def _on_get_result(self, robot: str, request: Any, response: Any) -> Any:
-        from rclpy.task import Future
-
+    def _on_get_result(self, robot: str, request: Any, response: Any) -> Any:
+        # Answered at once: rcl_action answers a running goal's request when it ends, which needs a coroutine, and the
+        # executor rclpy.spin uses here never awaited one (the relay got no answer). The relay asks only about goals
+        # that ended; a running one is answered with its status now.
         assert self._action is not None
-        uuid = bytes(request.goal_id.uuid)
-        goal = self.navigators[robot].result(uuid)
-        if goal is not None and goal.ended is None:
-            done: Future[bool] = Future()
-            self._waiting.setdefault(uuid, []).append(done)
-            await done  # rcl_action answers a result request when the goal ends
-            goal = self.navigators[robot].result(uuid)
+        goal = self.navigators[robot].result(bytes(request.goal_id.uuid))
         response.status = nav.UNKNOWN if goal is None else goal.status
         if goal is not None:
             response.result.error_code = goal.error_code
@@ -205,10 +200,6 @@ class Nav2Servers:
                 self._publish_feedback(robot, tick.feedback)
             if tick.status_changed:
                 self._publish_status(robot)
-                for goal in navigator.goals:
-                    if goal.ended is not None:
-                        for done in self._waiting.pop(goal.uuid, []):
-                            done.set_result(True)
 
 
 def _duration(seconds: float) -> Any:

@@ -35,6 +35,10 @@ from ..nav2_types import (
 #: Seconds a goal sent on goal_pose may wait for Nav2 to list it before it is reported failed. Nav2 lists a goal
 #: within milliseconds of accepting it; 5 s leaves room for a first DDS match on a loaded machine.
 ACCEPT_TIMEOUT = 5.0
+#: How far the robot's clock may be behind the station's for a goal in the first status heard, already ended, to be
+#: taken for the one just sent. Nav2 lists a goal it aborts at once (a goal in a wall) first as ABORTED: without this
+#: it went unreported for ACCEPT_TIMEOUT, then as "never listed". A robot clock further behind falls back to that.
+CLOCK_SKEW = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +57,7 @@ class _Robot:
     last: dict[bytes, int] = field(default_factory=dict)  # the latest array's statuses
     goal: Goal | None = None  # the goal the relay sent and follows
     sent_at: float = 0.0
+    sent_wall: float | None = None  # the station's wall clock at the send, when the backend tells it
     ours: bytes | None = None  # its Nav2 id, once a status named it
     aborted: bytes | None = None  # an aborted goal whose result is being asked
     given_up: tuple[Goal | None, bytes | None] | None = None  # a cancel's goal and id, until its answer
@@ -66,11 +71,11 @@ class Nav2Goals:
         """Whether the robot follows a goal of the relay's (sent, not ended)."""
         return self._robots[robot].goal is not None
 
-    def sent(self, robot: str, goal: Goal, now: float) -> NavEvent:
+    def sent(self, robot: str, goal: Goal, now: float, wall: float | None = None) -> NavEvent:
         r = self._robots[robot]
         if r.ours is not None:
             r.seen.add(r.ours)
-        r.goal, r.sent_at, r.ours, r.aborted = goal, now, None, None
+        r.goal, r.sent_at, r.sent_wall, r.ours, r.aborted = goal, now, wall, None, None
         return NavEvent(robot, True, goal, "started")
 
     def status(self, robot: str, goals: tuple[GoalState, ...]) -> list[NavEvent | Aborted]:
@@ -81,7 +86,12 @@ class Nav2Goals:
         r.heard = True
         r.last = {g.goal_id: g.status for g in goals}
         if r.goal is not None and r.ours is None:
-            candidates = [g for g in new if not first or g.status in ACTIVE]
+            # In the first array heard, ended goals may be old ones (it is transient local): only a running one, or
+            # one Nav2 accepted after the send, is ours.
+            since = None if r.sent_wall is None else r.sent_wall - CLOCK_SKEW
+            candidates = [
+                g for g in new if not first or g.status in ACTIVE or (since is not None and g.accepted >= since)
+            ]
             if candidates:
                 r.ours = max(candidates, key=lambda g: g.accepted).goal_id
         r.seen.update(g.goal_id for g in new if g.goal_id != r.ours)

@@ -54,11 +54,17 @@ class NavTransport(Protocol):
 
 class Navigation:
     def __init__(
-        self, config: FleetConfig, sink: EventSink, transport: NavTransport, clock: Callable[[], float] = time.monotonic
+        self,
+        config: FleetConfig,
+        sink: EventSink,
+        transport: NavTransport,
+        clock: Callable[[], float] = time.monotonic,
+        wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self._sink = sink
         self._transport = transport
         self._clock = clock
+        self._wall_clock = wall_clock  # Nav2 stamps a goal's acceptance with the robot's clock (ROS time)
         self.nav2 = tuple(r.name for r in config.robots if r.nav_interface == "nav2")
         self._goals = Nav2Goals(self.nav2)
         self._watch = GoalWatch()
@@ -130,7 +136,7 @@ class Navigation:
 
     def sent(self, robot: str, goal: Goal) -> None:
         if robot in self.nav2:
-            self._sink(self._goals.sent(robot, goal, self._clock()))
+            self._sink(self._goals.sent(robot, goal, self._clock(), wall=self._wall_clock()))
         else:
             self._sink(self._watch.started(robot, goal))
 
