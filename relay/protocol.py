@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import re
 import struct
-from collections.abc import Collection, Mapping
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any, Final, Literal, TypeAlias
 
@@ -23,12 +23,32 @@ import orjson
 
 from .errors import ProtocolError
 
+# The fields and codes every command parser uses, re-exported: relay.protocol.ErrorCode is the protocol's word.
+from .fields import MAX_COORDINATE as MAX_COORDINATE
+from .fields import MAX_ID_LENGTH as MAX_ID_LENGTH
+from .fields import MAX_YAW as MAX_YAW
+from .fields import MISSING as _MISSING
+from .fields import ErrorCode as ErrorCode
+from .fields import RequestId as RequestId
+from .fields import number as _number
+from .fields import request_id as _request_id
+from .fields import show as _show
+from .fields import string as _string
+from .inspection.wire import (
+    INSPECTION_KINDS,
+    FindingMark,
+    MissionControl,
+    MissionStart,
+    RegionRequest,
+    TargetAdd,
+    inspection_identifier,
+    parse_inspection,
+)
+
 PROTOCOL_VERSION: Final = 1
 
 #: Largest text frame the relay parses; larger ones get ``too_large`` (the socket itself caps at 1 MiB).
 MAX_TEXT_BYTES: Final = 64 * 1024
-#: Longest accepted ``id`` string: ids are echoed back, so they must stay small.
-MAX_ID_LENGTH: Final = 128
 #: Highest camera stream rate a client may ask for.
 MAX_STREAM_FPS: Final = 60.0
 #: How a camera may be streamed (``<robot>/stream`` ``codec``): JPEG frames, or H.264 video (relay/video.py).
@@ -45,52 +65,6 @@ FRAME_CREDIT: Final = 2.0
 FRAME_PREFIX: Final = struct.Struct(">I")
 
 ROBOT_NAME_PATTERN: Final = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
-
-
-class ErrorCode:
-    """The ``code`` values of ``error`` messages: short words a program can switch on."""
-
-    BAD_REQUEST: Final = "bad_request"  # not JSON, not an object, missing or ill-typed field
-    UNKNOWN_IDENTIFIER: Final = "unknown_identifier"  # no such message kind
-    UNKNOWN_ROBOT: Final = "unknown_robot"
-    OUT_OF_BOUNDS: Final = "out_of_bounds"  # goal outside the known map
-    NO_PATH: Final = "no_path"  # goal inside an obstacle or unreachable
-    NO_CAMERA: Final = "no_camera"  # the robot has no such camera, or no frame to give
-    FORBIDDEN: Final = "forbidden"  # the client's role may not do this
-    TOO_LARGE: Final = "too_large"  # frame over MAX_TEXT_BYTES
-    UNSUPPORTED: Final = "unsupported"  # e.g. a binary frame from a client (none is defined)
-    INTERNAL: Final = "internal"  # the relay failed; the message says what to report
-    RECORDING: Final = "recording"  # the robot is a recording (bag backend): it cannot be commanded
-    LEASED: Final = "leased"  # another operator controls the robot
-    RATE_LIMITED: Final = "rate_limited"  # the client sends faster than the relay accepts
-    ESTOPPED: Final = "estopped"  # the robot's emergency stop is latched: reset it before moving it
-    SUPERSEDED: Final = "superseded"  # an estop, take-over, cancel or newer goal overtook this command
-    AUDIT_UNAVAILABLE: Final = "audit_unavailable"  # the relay cannot record commands: it moves no robot
-    STALE: Final = "stale"  # a motion command older than the deadman timeout when the relay got to it: dropped
-    BUSY: Final = "busy"  # the snapshot budget or a work pool (planning, rendering) is full: try again shortly
-    OCCUPIED: Final = "occupied"  # a goal on or next to another robot (safety.GOAL_CLEARANCE)
-
-    ALL: Final = (
-        BAD_REQUEST,
-        UNKNOWN_IDENTIFIER,
-        UNKNOWN_ROBOT,
-        OUT_OF_BOUNDS,
-        NO_PATH,
-        NO_CAMERA,
-        FORBIDDEN,
-        TOO_LARGE,
-        UNSUPPORTED,
-        INTERNAL,
-        RECORDING,
-        LEASED,
-        RATE_LIMITED,
-        ESTOPPED,
-        SUPERSEDED,
-        AUDIT_UNAVAILABLE,
-        STALE,
-        BUSY,
-        OCCUPIED,
-    )
 
 
 #: Robot-scoped kinds a client may send (``<robot>/<kind>``).
@@ -124,10 +98,6 @@ SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "nav", "path", 
 MAX_JSON_DEPTH: Final = 8
 #: Longest string anywhere in a client message.
 MAX_STRING_LENGTH: Final = 1024
-#: Largest coordinate of a goal when no map bounds it (m): beyond any facility, below float trouble.
-MAX_COORDINATE: Final = 1.0e6
-#: Largest goal yaw (rad) accepted; yaws wrap, so this only catches nonsense.
-MAX_YAW: Final = 100.0
 #: ``cmd_vel.t``, milliseconds on the client's monotonic clock: a page open for a year stays below it.
 MAX_CLIENT_CLOCK: Final = 1.0e12
 #: At most this many ranges per ``<robot>/scan`` message, and at most this many messages per second.
@@ -146,7 +116,6 @@ NAME_PATTERN: Final = re.compile(r"^[^\W][\w .'-]*$")
 
 Role = Literal["operator", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
-RequestId = str | int
 
 # --------------------------------------------------------------------------------------------------
 # Identifiers and coalescing keys: built here, never by f-strings elsewhere
@@ -278,25 +247,6 @@ class Lease:
     force: bool
 
 
-_MISSING: Final = object()
-
-
-def _request_id(obj: Mapping[str, Any], *, required: bool) -> RequestId | None:
-    value = obj.get("id", _MISSING)
-    if value is _MISSING or value is None:
-        if required:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{obj.get('identifier')!s}: missing field 'id'")
-        return None
-    if isinstance(value, bool) or not isinstance(value, str | int):
-        raise ProtocolError(ErrorCode.BAD_REQUEST, "field 'id' must be a string or an integer")
-    if isinstance(value, str) and not 0 < len(value) <= MAX_ID_LENGTH:
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"field 'id' must be 1 to {MAX_ID_LENGTH} characters")
-    if isinstance(value, int) and abs(value) > 2**53:
-        # Larger integers do not survive a round trip through a JavaScript number.
-        raise ProtocolError(ErrorCode.BAD_REQUEST, "field 'id' must be an integer within +-2**53")
-    return value
-
-
 def peek_request_id(obj: object) -> RequestId | None:
     """Best-effort ``id`` of a message that failed validation, so its ``error`` can name it."""
     if not isinstance(obj, dict):
@@ -305,54 +255,6 @@ def peek_request_id(obj: object) -> RequestId | None:
         return _request_id(obj, required=False)
     except ProtocolError:
         return None
-
-
-def _number(
-    obj: Mapping[str, Any],
-    field: str,
-    identifier: str,
-    *,
-    required: bool = True,
-    low: float = -math.inf,
-    high: float = math.inf,
-) -> float | None:
-    value = obj.get(field, _MISSING)
-    if value is _MISSING or (value is None and not required):
-        if required:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field '{field}'")
-        return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ProtocolError(
-            ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be a number, got {_show(value)}"
-        )
-    number = float(value)
-    if not math.isfinite(number):
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be finite")
-    if not low <= number <= high:
-        raise ProtocolError(
-            ErrorCode.BAD_REQUEST, f"{identifier}: field '{field}' must be between {low:g} and {high:g}"
-        )
-    return number
-
-
-def _string(obj: Mapping[str, Any], field: str, identifier: str, *, required: bool) -> str | None:
-    value = obj.get(field, _MISSING)
-    if value is _MISSING or value is None:
-        if required:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field '{field}'")
-        return None
-    if not isinstance(value, str) or not 0 < len(value) <= 64:
-        raise ProtocolError(
-            ErrorCode.BAD_REQUEST,
-            f"{identifier}: field '{field}' must be a string of 1 to 64 characters, got {_show(value)}",
-        )
-    return value
-
-
-def _show(value: object) -> str:
-    """A short rendering of a bad value for an error message (never echoes a huge payload)."""
-    text = orjson.dumps(value, default=repr).decode() if not isinstance(value, float) else repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def decode_json(data: str | bytes) -> dict[str, Any]:
@@ -547,18 +449,6 @@ def _parse_object(obj: dict[str, Any], robots: Collection[str]) -> Command:
         )
     return Stream(robot=robot, id=rid, camera=camera, fps=fps, codec=codec)
 
-
-# The inspection commands (missions, findings, regions, targets) use the parser's helpers above.
-from .inspection.wire import (  # noqa: E402
-    INSPECTION_KINDS,
-    FindingMark,
-    MissionControl,
-    MissionStart,
-    RegionRequest,
-    TargetAdd,
-    inspection_identifier,
-    parse_inspection,
-)
 
 InspectionCommands: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
 Command: TypeAlias = (

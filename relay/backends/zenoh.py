@@ -36,12 +36,12 @@ from typing import Any
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
 from ..events import Event, EventSink, FrameEvent, PoseEvent
+from ..fields import show
 from ..fleet_peer import FleetPeer
 from ..log_budget import BudgetedLog
 from ..maps import map_event
 from ..options import ZenohOptions
 from ..protocol import MAX_SCAN_RATE
-from ..protocol import _show as show
 from ..rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, header_stamp, image_type
 from ..scan import RateCap
 from ..tf import TfPose

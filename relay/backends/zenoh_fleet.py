@@ -31,9 +31,9 @@ from collections.abc import Callable, Collection
 from typing import Any
 
 from ..errors import BackendUnavailable
+from ..fields import show
 from ..fleet_peer import OnEstop, OnLease, PeerLeases, RemoteLease
 from ..log_budget import BudgetedLog
-from ..protocol import _show as show
 from .zenoh_keys import (
     PEER_NAME,
     FleetEstop,

@@ -28,8 +28,8 @@ from typing import Literal
 
 import orjson
 
+from ..fields import show
 from ..protocol import NAME_PATTERN, ROBOT_NAME_PATTERN
-from ..protocol import _show as show
 
 KeyStyle = Literal["rmw_zenoh", "bridge"]
 KEY_STYLES: tuple[KeyStyle, ...] = ("rmw_zenoh", "bridge")
@@ -147,7 +147,7 @@ def heartbeat_selector(prefix: str) -> str:
 
 # -- what another relay sends, checked as a client's frame is (relay/protocol.py) ------------------------------
 # Another relay's sample is input like a client's frame: each field has a type and a bounded length, and a bad
-# one is refused whole, with a message that shows it clipped (protocol._show). A rogue peer's estop of 200 kB
+# one is refused whole, with a message that shows it clipped (fields.show). A rogue peer's estop of 200 kB
 # fields once reached every client as a 400 kB message and wrote 800 kB to the log (issue 28).
 
 #: A relay's id or a client's as they appear in keys and samples: letters, digits, ``_ . -`` (a Zenoh session id

@@ -12,6 +12,11 @@ from dataclasses import dataclass
 from typing import Any, Final, Literal, NotRequired, TypedDict
 
 from ..errors import ProtocolError
+from ..fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId
+from ..fields import number as _number
+from ..fields import request_id as _request_id
+from ..fields import show as _show
+from ..fields import string as _string
 from .records import FINDING_STATUSES, FindingStatus
 
 MISSION_ACTIONS: Final = ("pause", "resume", "skip", "abort")
@@ -311,17 +316,3 @@ def _note(value: Any, identifier: str) -> str | None:
             f"got {_show(value)}",
         )
     return value
-
-
-# Last: relay.protocol imports this module at its end, so either may be imported first; the helpers are used only
-# inside the functions above.
-from ..protocol import (  # noqa: E402
-    MAX_COORDINATE,
-    MAX_YAW,
-    ErrorCode,
-    RequestId,
-    _number,
-    _request_id,
-    _show,
-    _string,
-)

@@ -1,0 +1,90 @@
+"""No import cycle in relay/: each module's imports at load time (its top level, and the imports inside its top-level
+``if`` and ``try`` blocks) form a graph without a circle. A cycle makes import order load-bearing: relay/protocol.py
+imported relay/inspection/wire.py at its bottom, which imported protocol's helpers back, and either worked only
+because of where the lines stood. Imports inside functions are left out: they run when called, after every module
+has loaded, and are how a part reaches an optional dependency (rclpy, zenoh) without making it a requirement."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+from tests.conftest import ROOT
+
+PACKAGE = ROOT / "relay"
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def load_time_imports(path: Path, modules: set[str]) -> set[str]:
+    """The relay modules ``path`` imports when it is loaded."""
+    name = module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: set[str] = set()
+    for statement in ast.parse(path.read_text(encoding="utf-8")).body:
+        nodes = ast.walk(statement) if isinstance(statement, ast.If | ast.Try) else [statement]
+        for node in nodes:
+            if isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names if alias.name in modules)
+            elif isinstance(node, ast.ImportFrom):
+                base = package.split(".")[: len(package.split(".")) - (node.level - 1)] if node.level else []
+                origin = ".".join([*base, *([node.module] if node.module else [])])
+                for alias in node.names:
+                    target = f"{origin}.{alias.name}"
+                    if target in modules:
+                        found.add(target)
+                    elif origin in modules:
+                        found.add(origin)
+    found.discard(name)
+    return found
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every strongly connected group of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    groups: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for nxt in sorted(graph[node]):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on_stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            group = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                group.append(member)
+                if member == node:
+                    break
+            if len(group) > 1:
+                groups.append(sorted(group))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return groups
+
+
+def test_the_cycle_finder_finds_a_circle_and_nothing_else() -> None:
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": set()}
+    assert cycles(graph) == [["a", "b", "c"]]
+
+
+def test_relay_has_no_import_cycle() -> None:
+    paths = sorted(PACKAGE.rglob("*.py"))
+    modules = {module_name(path) for path in paths}
+    graph = {module_name(path): load_time_imports(path, modules) for path in paths}
+    assert len(graph) > 100 and graph["relay.protocol"] >= {"relay.fields", "relay.inspection.wire"}
+    assert cycles(graph) == [], "import cycles in relay/: " + "; ".join(" -> ".join(c) for c in cycles(graph))
