@@ -289,3 +289,17 @@ async def relay_process(
         await process.wait()
         raise AssertionError(f"the relay did not start: it printed {line!r}")
     return process, line.split("open ")[1].split("/#")[0]
+
+
+@pytest.fixture
+async def router() -> AsyncIterator[Any]:
+    """A Zenoh router on a free loopback port (tests/helpers/zenoh.py), for the tests of the zenoh backend."""
+    from tests.helpers.zenoh import Router
+    from tests.zenoh_robots import free_port
+
+    r = Router(free_port())
+    await r.open()
+    try:
+        yield r
+    finally:
+        await r.close()

@@ -25,8 +25,8 @@ ext = pytest.importorskip("zenoh.ext")
 from relay.config import parse_config  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
+from tests.helpers.zenoh import Router  # noqa: E402
 from tests.test_nav2_types import nav2_store  # noqa: E402
-from tests.test_zenoh_backend import Router, router  # noqa: E402, F401 - the router fixture
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import attachment  # noqa: E402
 
@@ -210,7 +210,7 @@ async def until(condition: Any, timeout: float, what: str) -> Any:
 
 
 @pytest.fixture
-async def relay(router: Router) -> AsyncIterator[RunningRelay]:  # noqa: F811 - the fixture
+async def relay(router: Router) -> AsyncIterator[RunningRelay]:
     options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(router.endpoint,), relay_id="A"))
     running = await start_relay(parse_config(FLEET, "fleet.yaml"), options=options)
     try:
@@ -242,7 +242,7 @@ async def goal(client: TestClient, navigator: Navigator, x: float, y: float) -> 
 
 
 async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     relay: RunningRelay,
 ) -> None:
     navigator = await asyncio.to_thread(Navigator, router.session)  # rosbags builds its serializers: off the loop
@@ -304,7 +304,7 @@ async def test_feedback_outcomes_and_cancels_over_rmw_zenohs_keys(
 
 
 async def test_a_latch_the_watchdog_holds_reaches_a_relay_started_later_and_an_unanswered_cancel_is_named(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
 ) -> None:
     # The watchdog latched before this relay started: its gate_state (with a cache, as rmw_zenoh's transient local).
     navigator = await asyncio.to_thread(lambda: Navigator(router.session, serve_cancel=False))

@@ -12,7 +12,6 @@ import math
 import struct
 import sys
 import time
-from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
@@ -24,16 +23,15 @@ zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pi
 
 from relay.backends import zenoh as zenoh_backend  # noqa: E402
 from relay.backends.zenoh import ZenohBackend  # noqa: E402
-from relay.config import FleetConfig, load_config, parse_config  # noqa: E402
+from relay.config import load_config, parse_config  # noqa: E402
 from relay.errors import BackendUnavailable  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
-from tests.conftest import ROOT, RunningRelay, start_relay  # noqa: E402
+from tests.conftest import ROOT, start_relay  # noqa: E402
+from tests.helpers.zenoh import FLEET, ODOM, Router, decode, fleet, until, zenoh_relay  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import (  # noqa: E402
     STORE,
-    Received,
     T,
-    attachment,
     free_port,
     header,
     key,
@@ -41,85 +39,6 @@ from tests.zenoh_robots import (  # noqa: E402
     odometry_by_rosbags,
     router_config,
 )
-
-FLEET = """
-safety: {deadman_timeout: 0.5, offline_after: 2.0}
-zenoh: {domain_id: 0}
-robots:
-  - name: alpha
-    pose: odom
-    limits: {linear: 0.5, angular: 1.0}
-    scan: null
-    cameras:
-      - {name: front, lens: {model: equidistant, fov: 180}, width: 64, height: 48}
-      - {name: jpeg, compressed: true, topic: camera/jpeg/compressed}
-    sensors:
-      - {name: gas, type: std_msgs/Float32, unit: ppm, warn_above: 400}
-  - name: beta
-    pose: {source: tf, base_frame: base_link}
-    limits: {linear: 0.3, angular: 0.8}
-    scan: null
-"""
-
-ODOM = ("alpha/odom", "nav_msgs::msg::dds_::Odometry_", "nav_msgs/msg/Odometry")
-
-
-class Router:
-    """A Zenoh router session on 127.0.0.1:port, which is also the robots' side."""
-
-    def __init__(self, port: int) -> None:
-        self.port = port
-        self.endpoint = f"tcp/127.0.0.1:{port}"
-        self.session: Any = None
-
-    async def open(self) -> None:
-        self.session = await asyncio.to_thread(zenoh.open, router_config(self.port))
-
-    async def close(self) -> None:
-        if self.session is not None:
-            await asyncio.to_thread(self.session.close)
-            self.session = None
-
-    def put(self, topic_key: str, payload: bytes, sequence: int = 1) -> None:
-        self.session.put(topic_key, payload, attachment=attachment(sequence))
-
-    def listen(self, selector: str) -> Received:
-        received = Received()
-        self.session.declare_subscriber(selector, received)
-        return received
-
-
-@pytest.fixture
-async def router() -> AsyncIterator[Router]:
-    r = Router(free_port())
-    await r.open()
-    try:
-        yield r
-    finally:
-        await r.close()
-
-
-def fleet() -> FleetConfig:
-    return parse_config(FLEET, "fleet.yaml")
-
-
-async def zenoh_relay(router: Router, relay_id: str = "A") -> RunningRelay:
-    options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(router.endpoint,), relay_id=relay_id))
-    return await start_relay(fleet(), options=options)
-
-
-def decode(data: bytes, type_name: str) -> Any:
-    return STORE.deserialize_cdr(data, type_name)
-
-
-async def until(condition: Any, timeout: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        await asyncio.sleep(0.05)
-    raise AssertionError(f"{what}: not within {timeout} s")
 
 
 def test_the_hand_built_odometry_is_the_one_rosbags_serializes() -> None:

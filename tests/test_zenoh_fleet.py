@@ -25,7 +25,7 @@ pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip instal
 from relay.config import load_config, parse_config
 from relay.options import Options, ZenohOptions
 from tests.conftest import ROOT, relay_process, start_relay
-from tests.test_zenoh_backend import FLEET, ODOM, Router, decode, router, until, zenoh_relay  # noqa: F401
+from tests.helpers.zenoh import FLEET, ODOM, Router, decode, until, zenoh_relay
 from tests.wsclient import TestClient
 from tests.zenoh_robots import attachment, free_port, key, odometry_by_hand
 
@@ -33,7 +33,7 @@ pytestmark = pytest.mark.slow
 
 
 async def test_estop_and_leases_are_shared_by_two_relays_and_a_killed_relay_frees_its_robot(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     tmp_path: Path,
 ) -> None:
     twists = router.listen("0/alpha/cmd_vel/*/*")

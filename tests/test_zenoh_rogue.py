@@ -24,7 +24,7 @@ from relay.backends import zenoh as zenoh_backend  # noqa: E402
 from relay.config import parse_config  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
-from tests.test_zenoh_backend import FLEET, ODOM, Router, router, until  # noqa: E402, F401
+from tests.helpers.zenoh import FLEET, ODOM, Router, until  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import key, odometry_by_hand  # noqa: E402
 
@@ -56,7 +56,7 @@ class Rogue:
 
 
 @pytest.fixture
-async def rogue(router: Router) -> AsyncIterator[Rogue]:  # noqa: F811 - the fixture
+async def rogue(router: Router) -> AsyncIterator[Rogue]:
     config = zenoh.Config()
     config.insert_json5("mode", '"client"')
     config.insert_json5("connect/endpoints", json.dumps([router.endpoint]))
@@ -74,7 +74,7 @@ def _no_silent_key_warning(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(zenoh_backend, "SILENT_AFTER", 1000.0)
 
 
-async def relay_a(router: Router, fleet: str = FLEET) -> tuple[RunningRelay, TestClient]:  # noqa: F811
+async def relay_a(router: Router, fleet: str = FLEET) -> tuple[RunningRelay, TestClient]:
     options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(router.endpoint,), relay_id="A"))
     running = await start_relay(parse_config(fleet, "fleet.yaml"), options=options)
     client = await TestClient.open(running.ws_url)
@@ -115,7 +115,7 @@ async def heard(caplog: pytest.LogCaptureFixture, what: str) -> None:
 
 
 async def test_a_rogue_estop_of_huge_fields_reaches_no_client_latches_nothing_and_writes_little(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     rogue: Rogue,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
@@ -152,7 +152,7 @@ async def test_a_rogue_estop_of_huge_fields_reaches_no_client_latches_nothing_an
 
 
 async def test_3000_malformed_samples_write_a_bounded_log_and_are_counted(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     rogue: Rogue,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
@@ -183,7 +183,7 @@ async def test_3000_malformed_samples_write_a_bounded_log_and_are_counted(
 
 
 async def test_a_rogue_lease_token_without_heartbeats_blocks_no_take_over(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     rogue: Rogue,
 ) -> None:
     """Measured before (issue 28, finding 6): a liveliness token declared by any session on
@@ -203,7 +203,7 @@ async def test_a_rogue_lease_token_without_heartbeats_blocks_no_take_over(
 
 
 async def test_a_lease_whose_relay_falls_silent_lapses_and_the_refusal_says_until_when(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     rogue: Rogue,
 ) -> None:
     """A session that plays relay B (a token and heartbeats listing alpha) holds alpha: A's operator is refused,
@@ -288,7 +288,7 @@ HOSTILE_TOKENS: list[tuple[str, bool]] = [
 
 
 async def test_hostile_samples_of_every_kind_change_nothing_and_the_log_stays_bounded(
-    router: Router,  # noqa: F811 - the fixture
+    router: Router,
     rogue: Rogue,
     caplog: pytest.LogCaptureFixture,
 ) -> None:
