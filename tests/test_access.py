@@ -19,32 +19,14 @@ import pytest
 from websockets.exceptions import InvalidStatus
 
 from relay.access import FIRST_DELAY, FREE_FAILURES
-from relay.backends.sim import SimBackend
 from relay.config import FleetConfig
 from relay.options import Options
 from relay.tls import ensure_certificate, fingerprint
 from tests.conftest import ROOT, RunningRelay, relay_process, start_relay
+from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient
 
 TOKEN = "s3cret-operator-token"
-
-
-class CommandSpy:
-    """Records every velocity, goal and stop the sim backend receives."""
-
-    def __init__(self, backend: SimBackend) -> None:
-        self.calls: list[tuple[float, str, tuple[Any, ...]]] = []
-        for name in ("send_velocity", "send_goal", "cancel"):
-            original = getattr(backend, name)
-
-            async def spy(*args: Any, _name: str = name, _original: Any = original, **kwargs: Any) -> None:
-                self.calls.append((time.monotonic(), _name, args))
-                await _original(*args, **kwargs)
-
-            setattr(backend, name, spy)
-
-    def moving_commands(self) -> list[tuple[str, tuple[Any, ...]]]:
-        return [(n, a) for _, n, a in self.calls if n == "send_goal" or (n == "send_velocity" and a[1:] != (0.0, 0.0))]
 
 
 @pytest.fixture

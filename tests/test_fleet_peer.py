@@ -19,7 +19,7 @@ from relay.core import Relay
 from relay.events import EventSink
 from relay.fleet_peer import FleetPeer, OnEstop, OnLease, PeerLeases, RemoteLease
 from relay.options import Options
-from tests.test_commands import Clock, FakeBackend, Station
+from tests.helpers.station import Clock, FakeBackend, Station
 
 
 class FakePeer:

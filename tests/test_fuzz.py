@@ -21,7 +21,7 @@ from relay.errors import ProtocolError
 from relay.options import Options
 from relay.protocol import CLIENT_ROBOT_KINDS, Command, parse_command
 from tests.conftest import RunningRelay, start_relay
-from tests.test_access import CommandSpy
+from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient
 
 logger = logging.getLogger(__name__)

@@ -15,33 +15,8 @@ import aiohttp
 from relay.config import FleetConfig
 from relay.inspection.kml import Georeference, to_map
 from relay.inspection.store import Store
-from relay.options import Options
-from tests.conftest import RunningRelay, start_relay
+from tests.helpers.inspection import TOKEN, missions, operator, relay_with_database
 from tests.wsclient import TestClient
-
-TOKEN = "op"
-
-
-async def relay_with_database(fleet_config: FleetConfig, tmp_path: Path, **options: Any) -> RunningRelay:
-    return await start_relay(
-        fleet_config,
-        options=Options(token=TOKEN, allow_viewers=True, database=str(tmp_path / "inspection.sqlite"), **options),
-    )
-
-
-async def operator(running: RunningRelay) -> TestClient:
-    client = await TestClient.open(f"{running.ws_url}?token={TOKEN}")
-    await client.hello()
-    return client
-
-
-def missions(client: TestClient) -> dict[str, dict[str, Any]]:
-    """The newest `mission` message of each mission this client received."""
-    latest: dict[str, dict[str, Any]] = {}
-    for _, message in client.messages:
-        if message["identifier"] == "mission":
-            latest[message["id"]] = message
-    return latest
 
 
 async def test_the_demo_mission_survives_its_operator_and_leaves_three_findings(

@@ -25,8 +25,8 @@ ext = pytest.importorskip("zenoh.ext")
 from relay.config import parse_config  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
+from tests.helpers.nav2 import nav2_store  # noqa: E402
 from tests.helpers.zenoh import Router  # noqa: E402
-from tests.test_nav2_types import nav2_store  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import attachment  # noqa: E402
 

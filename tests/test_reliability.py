@@ -17,7 +17,7 @@ import time
 
 from relay.config import FleetConfig
 from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, start_relay
-from tests.test_access import CommandSpy
+from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient
 
 DRIVER = """

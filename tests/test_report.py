@@ -49,7 +49,7 @@ from relay.inspection.store import Store
 from relay.options import Options
 from relay.twin.facility import Facility, load_facility
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.test_inspection import TOKEN, missions, operator, relay_with_database
+from tests.helpers.inspection import TOKEN, missions, operator, relay_with_database
 
 BERLIN = ZoneInfo("Europe/Berlin")
 
