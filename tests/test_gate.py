@@ -24,6 +24,7 @@ import pytest
 from relay.config import FleetConfig, load_config
 from relay.sim import navigator as nav
 from tests.conftest import ROOT
+from tests.helpers.nav2 import JAZZY_ACTION
 
 FLEET = textwrap.dedent(
     """\
@@ -288,29 +289,6 @@ def test_when_the_relays_heartbeat_stops_autonomy_holds_or_continues_per_robot(
 
 # -- over Zenoh -------------------------------------------------------------------------------------------------
 
-#: nav2_msgs/action/NavigateToPose.action, Nav2 Jazzy (ros-navigation/navigation2, branch jazzy), as it is.
-NAVIGATE_TO_POSE_JAZZY = """\
-#goal definition
-geometry_msgs/PoseStamped pose
-string behavior_tree
----
-#result definition
-
-# Error codes
-# Note: The expected priority order of the errors should match the message order
-uint16 NONE=0
-
-uint16 error_code
-string error_msg
----
-#feedback definition
-geometry_msgs/PoseStamped current_pose
-builtin_interfaces/Duration navigation_time
-builtin_interfaces/Duration estimated_time_remaining
-int16 number_of_recoveries
-float32 distance_remaining
-"""
-
 
 def rosidl_hashes(tmp_path: Path) -> dict[str, str]:
     """Every type's RIHS01 hash as ROS's own generator gives it: NavigateToPose's from Nav2's .action text (through
@@ -322,7 +300,7 @@ def rosidl_hashes(tmp_path: Path) -> dict[str, str]:
 
     package = tmp_path / "nav2_msgs"
     (package / "action").mkdir(parents=True)
-    (package / "action" / "NavigateToPose.action").write_text(NAVIGATE_TO_POSE_JAZZY)
+    (package / "action" / "NavigateToPose.action").write_text(JAZZY_ACTION)
     idl = tmp_path / "idl"
     adapter.convert_action_to_idl(package, "nav2_msgs", Path("action/NavigateToPose.action"), idl / "action")
     dependencies = ("geometry_msgs", "builtin_interfaces", "std_msgs", "action_msgs", "unique_identifier_msgs")

@@ -26,7 +26,7 @@ from relay.config import parse_config  # noqa: E402
 from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
 from tests.helpers.nav2 import nav2_store  # noqa: E402
-from tests.helpers.zenoh import Router  # noqa: E402
+from tests.helpers.zenoh import Router, until  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import attachment  # noqa: E402
 
@@ -197,16 +197,6 @@ class Navigator:
         for entity in self.entities:
             entity.undeclare()
         self.status_pub.undeclare()
-
-
-async def until(condition: Any, timeout: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        await asyncio.sleep(0.02)
-    raise AssertionError(f"{what}: not within {timeout} s")
 
 
 @pytest.fixture
