@@ -21,7 +21,8 @@ import pytest
 
 import relay.inspection.store as store_module
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
-from relay.inspection.store import SCHEMA_VERSION, Store, StoreError, UnknownRecord
+from relay.inspection.schema import SCHEMA_VERSION
+from relay.inspection.store import Store, StoreError, UnknownRecord
 from tests.helpers.postgres import running_postgres
 
 BUSY = 0.3  # seconds: the busy timeout of the tests, short so that a lock test takes well under a second

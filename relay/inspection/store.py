@@ -28,9 +28,9 @@ which error codes mean what (``_explain``). The upsert ``INSERT ... ON CONFLICT 
 excluded.c`` and ``UPDATE ... RETURNING`` are the same on both (SQLite >= 3.35). Steps, readings and regions are
 JSON in TEXT columns, so the schema is one text for both.
 
-**Schema versions.** Table ``schema_version`` holds the version; ``MIGRATIONS[i]`` is the list of SQL statements
-that take a database from version ``i`` to ``i + 1``. ``open`` applies the missing ones in one transaction (all
-of them or none). A database newer than this code is refused: an older relay must not write into a schema it does
+**Schema versions** (``schema.py``). Table ``schema_version`` holds the version; ``MIGRATIONS[i]`` is the list of SQL
+statements that take a database from version ``i`` to ``i + 1``. ``open`` applies the missing ones in one transaction
+(all of them or none). A database newer than this code is refused: an older relay must not write into a schema it does
 not know. To change the schema, append a tuple (e.g. ``("ALTER TABLE findings ADD COLUMN severity INTEGER",)``)
 in SQL that both databases accept, and never edit a migration that has shipped.
 
@@ -67,33 +67,7 @@ from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from .records import FINDING_STATUSES, CaptureRecord, FindingRecord, MissionRecord, Target
 from .rows import columns, record_of, row_of
-
-#: ``MIGRATIONS[i]`` takes version ``i`` to ``i + 1``. Shipped migrations are never edited (databases in the field
-#: have run them): a change is a new tuple at the end.
-MIGRATIONS: tuple[tuple[str, ...], ...] = (
-    (
-        """CREATE TABLE missions (id TEXT PRIMARY KEY, name TEXT NOT NULL, robot TEXT NOT NULL, steps TEXT NOT NULL,
-        state TEXT NOT NULL, current INTEGER NOT NULL, reason TEXT NOT NULL, created DOUBLE PRECISION NOT NULL,
-        updated DOUBLE PRECISION NOT NULL, owner TEXT NOT NULL)""",
-        """CREATE TABLE captures (id TEXT PRIMARY KEY, robot TEXT NOT NULL, t DOUBLE PRECISION NOT NULL,
-        x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, yaw DOUBLE PRECISION NOT NULL,
-        readings TEXT NOT NULL, mission TEXT, target TEXT, image TEXT, width INTEGER NOT NULL,
-        height INTEGER NOT NULL)""",
-        """CREATE TABLE findings (id TEXT PRIMARY KEY, capture TEXT NOT NULL REFERENCES captures (id),
-        robot TEXT NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, status TEXT NOT NULL,
-        note TEXT NOT NULL, source TEXT NOT NULL, created DOUBLE PRECISION NOT NULL,
-        updated DOUBLE PRECISION NOT NULL, mission TEXT, target TEXT, region TEXT)""",
-        "CREATE INDEX captures_mission ON captures (mission)",
-        "CREATE INDEX findings_mission ON findings (mission)",
-    ),
-    (  # 2: targets outlive the relay (issue #30), and the findings list pages through time
-        """CREATE TABLE targets (id TEXT PRIMARY KEY, name TEXT NOT NULL, kind TEXT NOT NULL,
-        x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, facing DOUBLE PRECISION)""",
-        "CREATE INDEX findings_created ON findings (created)",
-        "CREATE INDEX missions_created ON missions (created)",
-    ),
-)
-SCHEMA_VERSION = len(MIGRATIONS)
+from .schema import MIGRATIONS as MIGRATIONS  # re-exported: a test adds a migration to the store's
 
 _SHA256 = re.compile(r"[0-9a-f]{64}")
 _MIGRATION_LOCK = 0x78725F696E7370  # any constant: the PostgreSQL advisory lock that serialises relays' migrations

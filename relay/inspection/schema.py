@@ -1,0 +1,31 @@
+"""The inspection database's schema, as the migrations that build it: one SQL text for SQLite and PostgreSQL alike
+(``store.py`` applies them, and says how to add one)."""
+
+from __future__ import annotations
+
+#: ``MIGRATIONS[i]`` takes version ``i`` to ``i + 1``. Shipped migrations are never edited (databases in the field
+#: have run them): a change is a new tuple at the end.
+MIGRATIONS: tuple[tuple[str, ...], ...] = (
+    (
+        """CREATE TABLE missions (id TEXT PRIMARY KEY, name TEXT NOT NULL, robot TEXT NOT NULL, steps TEXT NOT NULL,
+        state TEXT NOT NULL, current INTEGER NOT NULL, reason TEXT NOT NULL, created DOUBLE PRECISION NOT NULL,
+        updated DOUBLE PRECISION NOT NULL, owner TEXT NOT NULL)""",
+        """CREATE TABLE captures (id TEXT PRIMARY KEY, robot TEXT NOT NULL, t DOUBLE PRECISION NOT NULL,
+        x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, yaw DOUBLE PRECISION NOT NULL,
+        readings TEXT NOT NULL, mission TEXT, target TEXT, image TEXT, width INTEGER NOT NULL,
+        height INTEGER NOT NULL)""",
+        """CREATE TABLE findings (id TEXT PRIMARY KEY, capture TEXT NOT NULL REFERENCES captures (id),
+        robot TEXT NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, status TEXT NOT NULL,
+        note TEXT NOT NULL, source TEXT NOT NULL, created DOUBLE PRECISION NOT NULL,
+        updated DOUBLE PRECISION NOT NULL, mission TEXT, target TEXT, region TEXT)""",
+        "CREATE INDEX captures_mission ON captures (mission)",
+        "CREATE INDEX findings_mission ON findings (mission)",
+    ),
+    (  # 2: targets outlive the relay (issue #30), and the findings list pages through time
+        """CREATE TABLE targets (id TEXT PRIMARY KEY, name TEXT NOT NULL, kind TEXT NOT NULL,
+        x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, facing DOUBLE PRECISION)""",
+        "CREATE INDEX findings_created ON findings (created)",
+        "CREATE INDEX missions_created ON missions (created)",
+    ),
+)
+SCHEMA_VERSION = len(MIGRATIONS)
