@@ -73,6 +73,8 @@ lint: setup
 	$(BIN)/ruff format --check relay tools tests
 	$(BIN)/mypy
 	cd xr_client && npx --no-install tsc -p jsconfig.json
+	# The client's formatter (prettier, xr_client/.prettierrc.json: 120 columns): a module grows by lines, not by packing.
+	cd xr_client && npx --no-install prettier --check src test
 
 # The benchmarks (bench/run.py): bench/results/*.json, docs/benchmarks.md and docs/img/bench_*.png, about
 # 15-20 minutes; QUICK=1 runs a subset in under 2 minutes into bench/results/scratch/quick/ (ignored by git).

@@ -126,7 +126,12 @@ export class App {
     this.history = new SensorHistory();
     this.connection = pageConnection(window.location, window.sessionStorage);
     this.sender = new CommandSender(this.connection, (text) => this.#notify(text, 'error'));
-    this.router = new MessageRouter({ fleet: this.fleet, goals: this.goals, history: this.history, commands: this.sender });
+    this.router = new MessageRouter({
+      fleet: this.fleet,
+      goals: this.goals,
+      history: this.history,
+      commands: this.sender,
+    });
     this.driver = new TeleopDriver(this.teleop, this.sender, this.connection, (text) => this.#notify(text, 'warning'));
     /** @type {OperatorActions} */
     this.actions = {
@@ -135,16 +140,27 @@ export class App {
       selectRobot: (name) => this.#apply(this.menu.select(name)),
       sendGoal: (goal) => this.#sendGoal(goal),
       driveStick: (source, x, y) => this.#driveStick(source, x, y),
-      enterVR: () => this.xrSession.enter(), addTarget: (point) => this.inspectionUi.addTarget(point),
+      enterVR: () => this.xrSession.enter(),
+      addTarget: (point) => this.inspectionUi.addTarget(point),
       say: (text, toast = false) => this.#notify(text, 'info', toast),
-      offerTakeOver: (goal) => this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
-      goalTo: (robot, goal) => this.#goalFor(robot, goal), apply: (effects) => this.#apply(effects), talk: (down) => this.voice.talk(down), confirmVoice: (how) => this.voice.confirmByGesture(how),
+      offerTakeOver: (goal) =>
+        this.menu.selected && this.operatorUi.offer(this.menu.selected, this.menu.holder ?? 'another operator', goal),
+      goalTo: (robot, goal) => this.#goalFor(robot, goal),
+      apply: (effects) => this.#apply(effects),
+      talk: (down) => this.voice.talk(down),
+      confirmVoice: (how) => this.voice.confirmByGesture(how),
     };
     this.#buildScene(options);
     this.#buildViews(container);
     this.frameTimer = new FrameTimer(TIMING_SAMPLES);
     this.lastFrame = performance.now();
-    this.vr = vrAvailability({ secure: window.isSecureContext, hostname: location.hostname, port: location.port, hasXR: 'xr' in navigator, vrSupported: null });
+    this.vr = vrAvailability({
+      secure: window.isSecureContext,
+      hostname: location.hostname,
+      port: location.port,
+      hasXR: 'xr' in navigator,
+      vrSupported: null,
+    });
     this.#listen();
     // Input and teleop's state on a 100 Hz clock, not the frame rate; the 20 Hz commands go out from the socket
     // worker's clock (teleop_driver.js), which neither slow frames nor this thread's timers hold back.
@@ -184,7 +200,13 @@ export class App {
     this.robotViews = this.fleetView.views;
     this.picking = new Picking(this.twin, this.robotViews, this.fleet);
     const plan = new TwinPlan(this.twin, this.picking, this.fleet);
-    this.xrSession = new XRSessionController(this.renderer, this.rig, this.camera, { fleet: this.fleet, menu: this.menu, plan }, (text) => this.#notify(text, 'error'));
+    this.xrSession = new XRSessionController(
+      this.renderer,
+      this.rig,
+      this.camera,
+      { fleet: this.fleet, menu: this.menu, plan },
+      (text) => this.#notify(text, 'error'),
+    );
   }
 
   /** The views: goals, comfort, toast, panels, the hemisphere screen, and the input of both displays. @param {HTMLElement} container */
@@ -194,33 +216,106 @@ export class App {
     this.teleportView = new TeleportView();
     this.world.add(this.teleportView.group);
     const token = operatorToken(window.location, window.sessionStorage);
-    this.inspectionUi = new InspectionUi({ world: this.world, model: this.router.inspection, sender: this.sender, panel: document.getElementById('findings'), token, transform: () => this.fleet.scene.mapToScene });
+    this.inspectionUi = new InspectionUi({
+      world: this.world,
+      model: this.router.inspection,
+      sender: this.sender,
+      panel: document.getElementById('findings'),
+      token,
+      transform: () => this.fleet.scene.mapToScene,
+    });
     this.vignette = new Vignette();
     this.camera.add(this.vignette.mesh);
     this.menuPanel = new MenuPanel();
     this.scene.add(this.menuPanel.mesh, this.menuPanel.tab);
     this.hud = new VRHud(this.camera, this.scene);
-    this.operatorUi = new OperatorUi({ sender: this.sender, storage: window.localStorage, params: new URLSearchParams(location.search), presenting: () => this.presenting, sendGoal: (robot, goal) => this.#goalFor(robot, goal) });
+    this.operatorUi = new OperatorUi({
+      sender: this.sender,
+      storage: window.localStorage,
+      params: new URLSearchParams(location.search),
+      presenting: () => this.presenting,
+      sendGoal: (robot, goal) => this.#goalFor(robot, goal),
+    });
     this.hemisphere = new HemisphereScreen(640, 640);
     this.scene.add(this.hemisphere.group);
     // JPEG pictures and H.264 video onto the hemisphere; a fallback from video to JPEG is said once.
-    this.feed = new CameraFeed({ hemisphere: this.hemisphere, sender: this.sender, say: (text) => this.#notify(text, 'warning'), params: new URLSearchParams(location.search) });
+    this.feed = new CameraFeed({
+      hemisphere: this.hemisphere,
+      sender: this.sender,
+      say: (text) => this.#notify(text, 'warning'),
+      params: new URLSearchParams(location.search),
+    });
     const inspection = this.router.inspection; // voice: its targets are places, its missions can be paused
-    this.voice = new VoiceControl({ actions: this.actions, menu: this.menu, fleet: this.fleet, targets: () => [...inspection.targets.values()], activeMission: (r) => Boolean(inspection.active(r)), presenting: () => this.presenting, toast: (text) => this.#notify(text, 'info') });
-    this.sound = new SoundControl({ fleet: this.fleet, menu: this.menu, goals: this.goals, camera: this.camera, robotViews: this.robotViews, inputSources: () => this.renderer.xr.getSession()?.inputSources ?? [] });
+    this.voice = new VoiceControl({
+      actions: this.actions,
+      menu: this.menu,
+      fleet: this.fleet,
+      targets: () => [...inspection.targets.values()],
+      activeMission: (r) => Boolean(inspection.active(r)),
+      presenting: () => this.presenting,
+      toast: (text) => this.#notify(text, 'info'),
+    });
+    this.sound = new SoundControl({
+      fleet: this.fleet,
+      menu: this.menu,
+      goals: this.goals,
+      camera: this.camera,
+      robotViews: this.robotViews,
+      inputSources: () => this.renderer.xr.getSession()?.inputSources ?? [],
+    });
     this.xrInput = new XRInput(this.renderer, this.rig, this.scene);
-    const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } = this;
+    const { camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions } =
+      this;
     this.findingCard = new FindingCard(token);
     this.scene.add(this.findingCard.mesh);
-    const inspect = new XRInspection({ ui: this.inspectionUi, card: this.findingCard, picking, menu, camera, screen: this.hemisphere, notify: (text) => this.#notify(text, 'info'), operator: () => menu.canCommand });
+    const inspect = new XRInspection({
+      ui: this.inspectionUi,
+      card: this.findingCard,
+      picking,
+      menu,
+      camera,
+      screen: this.hemisphere,
+      notify: (text) => this.#notify(text, 'info'),
+      operator: () => menu.canCommand,
+    });
     this.xrInspection = inspect;
     this.interaction = new XRInteraction({
-      xrInput: this.xrInput, camera, rig, menu, menuPanel, goalPointer, goalView, teleportView, vignette, fleet, picking, actions, inspect, estop: this.hud.estop, miniature: this.hud.miniature,
+      xrInput: this.xrInput,
+      camera,
+      rig,
+      menu,
+      menuPanel,
+      goalPointer,
+      goalView,
+      teleportView,
+      vignette,
+      fleet,
+      picking,
+      actions,
+      inspect,
+      estop: this.hud.estop,
+      miniature: this.hud.miniature,
       locomotion: this.xrSession,
       link: () => this.linkText,
     });
-    this.overlay = new Overlay({ menu, actions, sensorPanelData: (now) => this.sensorPanelData(now), povText: () => povCaption(this) });
-    const host = { camera, canvas: this.renderer.domElement, menu, goalPointer, picking, robotViews: this.robotViews, actions, presenting: () => this.presenting, fleet, markPov: (/** @type {number} */ x, /** @type {number} */ y) => inspect.clickPov(x, y) };
+    this.overlay = new Overlay({
+      menu,
+      actions,
+      sensorPanelData: (now) => this.sensorPanelData(now),
+      povText: () => povCaption(this),
+    });
+    const host = {
+      camera,
+      canvas: this.renderer.domElement,
+      menu,
+      goalPointer,
+      picking,
+      robotViews: this.robotViews,
+      actions,
+      presenting: () => this.presenting,
+      fleet,
+      markPov: (/** @type {number} */ x, /** @type {number} */ y) => inspect.clickPov(x, y),
+    };
     this.desktop = new DesktopControls(host, container, this.overlay.povPanel);
   }
 
@@ -316,7 +411,9 @@ export class App {
       case 'estop_state': {
         this.menu.setLatched(effect.latched);
         const robots = [...this.fleet.robots.keys()];
-        this.overlay.setBanner(estopBanner(effect.latched, robots, this.router.estopBy, this.fleet.clientId, this.fleet.role === 'operator'));
+        this.overlay.setBanner(
+          estopBanner(effect.latched, robots, this.router.estopBy, this.fleet.clientId, this.fleet.role === 'operator'),
+        );
         this.hud.estop.show(this.overlay.banner, this.presenting);
         break;
       }
@@ -325,7 +422,11 @@ export class App {
         this.xrInput.pulse(this.xrInput.side('left'), 0.9, 250);
         break;
       case 'offer_takeover': {
-        const holder = displayName(this.fleet.robot(effect.robot)?.status?.controller, this.fleet.names, this.fleet.clientId);
+        const holder = displayName(
+          this.fleet.robot(effect.robot)?.status?.controller,
+          this.fleet.names,
+          this.fleet.clientId,
+        );
         this.operatorUi.offer(effect.robot, holder || 'another operator', effect.goal);
         break;
       }
@@ -348,7 +449,10 @@ export class App {
       this.framed = true;
     }
     const operator = this.fleet.role === 'operator';
-    const robots = [...this.fleet.robots.values()].map((r) => ({ name: r.description.name, hasCamera: (r.description.cameras ?? []).length > 0 }));
+    const robots = [...this.fleet.robots.values()].map((r) => ({
+      name: r.description.name,
+      hasCamera: (r.description.cameras ?? []).length > 0,
+    }));
     this.#apply(this.menu.setFleet(robots, operator));
     this.#syncSelection();
     this.operatorUi.hello(operator);
@@ -357,7 +461,11 @@ export class App {
   /** Who holds the selected robot, when not this operator: the menu turns Teleop off for it and offers Take over. */
   #syncHolder() {
     const controller = this.fleet.robot(this.menu.selected)?.status?.controller;
-    this.menu.setHolder(controller && controller !== this.fleet.clientId ? displayName(controller, this.fleet.names, this.fleet.clientId) : null);
+    this.menu.setHolder(
+      controller && controller !== this.fleet.clientId
+        ? displayName(controller, this.fleet.names, this.fleet.clientId)
+        : null,
+    );
   }
 
   /**
@@ -413,8 +521,12 @@ export class App {
           if (effect.open) this.interaction.placeMenu();
           this.menuPanel.mesh.visible = effect.open && this.presenting;
           break;
-        case 'mode': this.#setMode(effect.mode); break;
-        case 'select': this.#syncSelection(); break;
+        case 'mode':
+          this.#setMode(effect.mode);
+          break;
+        case 'select':
+          this.#syncSelection();
+          break;
         case 'tool':
           this.goalPointer.cancel();
           break;
@@ -426,13 +538,19 @@ export class App {
         case 'snapshot':
           this.sender.snapshot(effect.robot, this.fleet.camera(effect.robot)?.name ?? null);
           break;
-        case 'cancel': this.sender.cancel(effect.robot); break;
-        case 'takeover': this.operatorUi.offer(effect.robot, effect.holder, null); break;
+        case 'cancel':
+          this.sender.cancel(effect.robot);
+          break;
+        case 'takeover':
+          this.operatorUi.offer(effect.robot, effect.holder, null);
+          break;
         case 'estop':
           this.driver.stop(performance.now(), true);
           this.sender.estop(effect.robot);
           break;
-        case 'estop_reset': this.sender.estopReset(); break;
+        case 'estop_reset':
+          this.sender.estopReset();
+          break;
         case 'mission':
           this.inspectionUi.command(effect, this.menu);
           break;
@@ -455,7 +573,11 @@ export class App {
       if (camera) this.hemisphere.setLens(camera.lens, camera.width, camera.height);
     }
     const robot = this.fleet.robot(this.menu.selected);
-    this.driver.setRobot(robot?.description.name ?? null, robot?.description.limits ?? { linear: 0, angular: 0 }, performance.now());
+    this.driver.setRobot(
+      robot?.description.name ?? null,
+      robot?.description.limits ?? { linear: 0, angular: 0 },
+      performance.now(),
+    );
   }
 
   /** @param {import('./menu_state.js').Mode} mode */
@@ -520,13 +642,28 @@ export class App {
     this.driver.tick(start); // confirms the held command to the socket worker once a frame, however slow
     const eye = this.camera.getWorldPosition(new THREE.Vector3());
     const link = !this.linkOk ? 'lost' : this.router.linkStale(true, start) ? 'quiet' : 'live';
-    this.fleetView.update(start, { fleet: this.fleet, smoothers: this.router.smoothers, history: this.history, selected: this.menu.selected, eye, freshness: this.router.freshness, link, scans: this.menu.scans });
+    this.fleetView.update(start, {
+      fleet: this.fleet,
+      smoothers: this.router.smoothers,
+      history: this.history,
+      selected: this.menu.selected,
+      eye,
+      freshness: this.router.freshness,
+      link,
+      scans: this.menu.scans,
+    });
     this.goalView.update(this.fleet, this.goals, start, this.router.paths);
     if (this.presenting) {
       this.interaction.update(start, dt);
       this.xrInspection.update(true);
       this.xrSession.updateSeat();
-      const overview = { twin: this.twin, views: this.robotViews, cursor: this.interaction.wimCursor, transform: this.fleet.scene.mapToScene, show: this.menu.overview && this.menu.mode === 'free_roam' };
+      const overview = {
+        twin: this.twin,
+        views: this.robotViews,
+        cursor: this.interaction.wimCursor,
+        transform: this.fleet.scene.mapToScene,
+        show: this.menu.overview && this.menu.mode === 'free_roam',
+      };
       this.hud.update(start, this.xrInput.wrist('left'), this.sensorPanelData(start), overview);
       if (this.menu.mode === 'pov') {
         // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
@@ -535,7 +672,12 @@ export class App {
       }
     } else {
       this.desktop.update(dt);
-      this.goalView.setPointer(this.fleet.scene.mapToScene, this.menu.tool === 'goal' ? this.goalPointer.marker : null, null, this.goalPointer.verdict);
+      this.goalView.setPointer(
+        this.fleet.scene.mapToScene,
+        this.menu.tool === 'goal' ? this.goalPointer.marker : null,
+        null,
+        this.goalPointer.verdict,
+      );
     }
     this.overlay.update(start);
     // In VR every frame is drawn: the XR framebuffer is cleared before each frame (WebXR), so a skipped
@@ -544,7 +686,8 @@ export class App {
     if (this.presenting || start - this.lastRender >= this.minFrameMs - 1) {
       this.lastRender = start;
       this.renderer.render(this.scene, this.camera);
-      if (!this.presenting && this.menu.mode === 'pov') this.hemisphere.renderInto(this.renderer, this.scene, this.overlay.povRect(), this.desktop.povLook);
+      if (!this.presenting && this.menu.mode === 'pov')
+        this.hemisphere.renderInto(this.renderer, this.scene, this.overlay.povRect(), this.desktop.povLook);
       // JS time of drawn frames only (update + render calls): what the frame budget is about.
       this.frameTimer.record(performance.now() - start);
       this.renders++;

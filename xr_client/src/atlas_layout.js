@@ -21,7 +21,8 @@ export class AtlasLayout {
    * @param {number} [maxWidth] the atlas's width at most (pixels)
    */
   constructor(count, cellWidth, cellHeight, maxWidth = 2048) {
-    if (cellWidth > maxWidth || cellHeight > ATLAS_MAX) throw new Error(`a ${cellWidth}x${cellHeight} cell does not fit a ${maxWidth} px atlas`);
+    if (cellWidth > maxWidth || cellHeight > ATLAS_MAX)
+      throw new Error(`a ${cellWidth}x${cellHeight} cell does not fit a ${maxWidth} px atlas`);
     this.cellWidth = cellWidth;
     this.cellHeight = cellHeight;
     this.columns = Math.max(1, Math.min(Math.max(1, count), Math.floor(maxWidth / cellWidth)));

@@ -31,7 +31,11 @@ export function round(v) {
  * @returns {import('./teleop_hold.js').HeldCommand}
  */
 export function twistFields(command) {
-  return { identifier: robotIdentifier(command.robot, 'cmd_vel'), linear: round(command.linear), angular: round(command.angular) };
+  return {
+    identifier: robotIdentifier(command.robot, 'cmd_vel'),
+    linear: round(command.linear),
+    angular: round(command.angular),
+  };
 }
 
 export class CommandSender {
@@ -97,7 +101,11 @@ export class CommandSender {
    * @param {'jpeg' | 'h264'} [codec] omitted: the relay's default, JPEG
    */
   stream(robot, camera, fps, codec) {
-    const id = this.#send(codec ? { identifier: robotIdentifier(robot, 'stream'), camera, fps, codec } : { identifier: robotIdentifier(robot, 'stream'), camera, fps });
+    const id = this.#send(
+      codec
+        ? { identifier: robotIdentifier(robot, 'stream'), camera, fps, codec }
+        : { identifier: robotIdentifier(robot, 'stream'), camera, fps },
+    );
     if (id && codec === 'h264' && fps > 0) this.pendingVideo.add(id);
     return id;
   }
@@ -138,7 +146,9 @@ export class CommandSender {
 
   /** Lift a latched emergency stop (the robots stay stopped until commanded again). @param {string} [robot] */
   estopReset(robot) {
-    return this.#send(robot ? { identifier: 'estop', robot, action: 'reset' } : { identifier: 'estop', action: 'reset' });
+    return this.#send(
+      robot ? { identifier: 'estop', robot, action: 'reset' } : { identifier: 'estop', action: 'reset' },
+    );
   }
 
   /** Start a mission file of the relay's missions/ directory ("demo"). @param {string} file */
@@ -152,7 +162,13 @@ export class CommandSender {
    * @param {string[]} targets @param {string | null} robot
    */
   missionTargets(targets, robot) {
-    if (robot) return this.#send({ identifier: 'mission/start', robot, steps: targets.map((t) => ({ inspect: t })), name: count(targets.length, 'target') });
+    if (robot)
+      return this.#send({
+        identifier: 'mission/start',
+        robot,
+        steps: targets.map((t) => ({ inspect: t })),
+        name: count(targets.length, 'target'),
+      });
     return this.#send({ identifier: 'mission/start', targets, name: count(targets.length, 'target') });
   }
 
@@ -207,7 +223,8 @@ export class CommandSender {
     }
     // Refused when asked, or later without an id: a camera whose images turned out not to be encodable (its video
     // streams end; the message starts with the camera's identifier).
-    if (error.id !== null ? this.pendingVideo.delete(String(error.id)) : error.code === ERROR_CODES.UNSUPPORTED) this.onVideoRefused(error);
+    if (error.id !== null ? this.pendingVideo.delete(String(error.id)) : error.code === ERROR_CODES.UNSUPPORTED)
+      this.onVideoRefused(error);
   }
 
   /** Whether the last refused snapshot had no image to give. */

@@ -49,8 +49,13 @@ export function operatorToken(location, storage) {
  */
 export async function accessRefusal(location, token, fetcher = fetch) {
   try {
-    const response = await fetcher(`${location.origin}/auth`, { method: 'POST', body: token ?? '', headers: { 'Content-Type': 'text/plain' } });
-    if (response.status === 401 || response.status === 403) return (await response.text()).trim() || `HTTP ${response.status}`;
+    const response = await fetcher(`${location.origin}/auth`, {
+      method: 'POST',
+      body: token ?? '',
+      headers: { 'Content-Type': 'text/plain' },
+    });
+    if (response.status === 401 || response.status === 403)
+      return (await response.text()).trim() || `HTTP ${response.status}`;
     return null;
   } catch {
     return null; // the relay is unreachable: keep trying
@@ -127,7 +132,9 @@ export class RelayConnection extends EventTarget {
       }
     });
     let opened = false;
-    socket.addEventListener('open', () => { opened = true; });
+    socket.addEventListener('open', () => {
+      opened = true;
+    });
     socket.addEventListener('close', () => this.#lost(socket, opened));
     if (this.pingTimer === undefined) {
       this.pingTimer = setInterval(() => this.#ping(), PING_PERIOD_MS);
@@ -222,5 +229,8 @@ export class RelayConnection extends EventTarget {
  */
 export function pageConnection(location, storage) {
   const token = operatorToken(location, storage);
-  return new RelayConnection(relayUrl(location, token), { refusal: () => accessRefusal(location, token), link: startWorkerLink() });
+  return new RelayConnection(relayUrl(location, token), {
+    refusal: () => accessRefusal(location, token),
+    link: startWorkerLink(),
+  });
 }

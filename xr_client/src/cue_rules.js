@@ -63,9 +63,11 @@ export class CueRules {
         }
       }
       if (before) {
-        if (before.goal === 'pending' && robot.goal === 'active') cues.push({ kind: 'goal_accepted', robot: robot.name });
+        if (before.goal === 'pending' && robot.goal === 'active')
+          cues.push({ kind: 'goal_accepted', robot: robot.name });
         if (before.goal !== 'error' && robot.goal === 'error') cues.push({ kind: 'goal_refused', robot: robot.name });
-        if (before.controller === me && robot.controller !== null && robot.controller !== me) cues.push({ kind: 'lease_lost', robot: robot.name });
+        if (before.controller === me && robot.controller !== null && robot.controller !== me)
+          cues.push({ kind: 'lease_lost', robot: robot.name });
         if (!before.latched && robot.latched) cues.push({ kind: 'estop', robot: robot.name });
       }
       this.last.set(robot.name, robot);
@@ -102,10 +104,14 @@ export class CueRules {
  */
 export function hapticFor(cue, where) {
   switch (cue.kind) {
-    case 'estop': return { intensity: 1.0, ms: 120, pulses: 3 };
-    case 'lease_lost': return { intensity: 0.8, ms: 80, pulses: 2 };
-    case 'goal_refused': return { intensity: 0.6, ms: 60, pulses: 2 };
-    case 'goal_accepted': return null; // heard, not felt: good news needs no nudge
+    case 'estop':
+      return { intensity: 1.0, ms: 120, pulses: 3 };
+    case 'lease_lost':
+      return { intensity: 0.8, ms: 80, pulses: 2 };
+    case 'goal_refused':
+      return { intensity: 0.6, ms: 60, pulses: 2 };
+    case 'goal_accepted':
+      return null; // heard, not felt: good news needs no nudge
     case 'warning': {
       const { selected, at } = where;
       if (!selected || !at) return null;

@@ -22,6 +22,8 @@ export function estopBanner(latched, robots, by, me, operator) {
   const presser = pressers.size === 1 ? [...pressers][0] : null;
   const who = presser ? ` · by ${presser === me ? 'you' : presser}` : '';
   const what = fleet ? 'ALL ROBOTS E-STOPPED' : `E-STOPPED: ${latched.join(', ')}`;
-  const hint = operator ? 'stopped and held: nothing moves them until Reset E-STOP' : 'stopped and held until an operator resets it';
+  const hint = operator
+    ? 'stopped and held: nothing moves them until Reset E-STOP'
+    : 'stopped and held until an operator resets it';
   return { fleet, robots: [...latched], text: `${what}${who}`, hint };
 }

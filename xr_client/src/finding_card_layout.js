@@ -31,7 +31,9 @@ export function cardLayout(state) {
   let y = HEADER + 150;
   const row = (/** @type {[string, string, boolean, boolean][]} */ items) => {
     const w = (COLUMN_W - gap * (items.length - 1)) / items.length;
-    items.forEach(([id, label, active, enabled], i) => buttons.push({ id, label, x: COLUMN_X + i * (w + gap), y, w, h, active, enabled }));
+    items.forEach(([id, label, active, enabled], i) =>
+      buttons.push({ id, label, x: COLUMN_X + i * (w + gap), y, w, h, active, enabled }),
+    );
     y += h + gap;
   };
   const op = state.operator;
@@ -53,7 +55,11 @@ export function cardLayout(state) {
   }
   y = CARD_PX[1] - MARGIN - h;
   row([['card:close', 'Close', false, true]]);
-  return { image: state.imageSize ? fitImage(state.imageSize) : null, text: { x: COLUMN_X, y: HEADER, w: COLUMN_W, h: 140 }, buttons };
+  return {
+    image: state.imageSize ? fitImage(state.imageSize) : null,
+    text: { x: COLUMN_X, y: HEADER, w: COLUMN_W, h: 140 },
+    buttons,
+  };
 }
 
 /** The image's rectangle inside its box, its aspect kept and centred. @param {[number, number]} size */
@@ -72,7 +78,8 @@ function fitImage([w, h]) {
  * @returns {{button: string} | {pixel: [number, number]} | null}
  */
 export function cardHit(layout, imageSize, px, py) {
-  for (const b of layout.buttons) if (px >= b.x && px <= b.x + b.w && py >= b.y && py <= b.y + b.h) return b.enabled ? { button: b.id } : null;
+  for (const b of layout.buttons)
+    if (px >= b.x && px <= b.x + b.w && py >= b.y && py <= b.y + b.h) return b.enabled ? { button: b.id } : null;
   const r = layout.image;
   if (r && imageSize && px >= r.x && px <= r.x + r.w && py >= r.y && py <= r.y + r.h) {
     return { pixel: [((px - r.x) / r.w) * imageSize[0], ((py - r.y) / r.h) * imageSize[1]] };

@@ -124,7 +124,14 @@ export class GoalTracker {
   status(robot, goal, now) {
     const display = this.goals.get(robot);
     if (display && (display.state === 'pending' || display.state === 'error')) return;
-    if (goal) this.goals.set(robot, { goal: { x: goal.x, y: goal.y, yaw: goal.yaw ?? null }, state: 'active', id: display?.id ?? null, error: null, since: now });
+    if (goal)
+      this.goals.set(robot, {
+        goal: { x: goal.x, y: goal.y, yaw: goal.yaw ?? null },
+        state: 'active',
+        id: display?.id ?? null,
+        error: null,
+        since: now,
+      });
     else this.goals.delete(robot);
   }
 

@@ -43,7 +43,10 @@ export function goalVerdict(hit, context) {
   for (const robot of context.robots) {
     const d = Math.hypot(robot.x - x, robot.y - y);
     if (robot.name !== context.selected && d < GOAL_CLEARANCE) {
-      return { kind: 'refused', reason: `too close to ${robot.name} (${d.toFixed(1)} m; goals keep ${GOAL_CLEARANCE} m from other robots)` };
+      return {
+        kind: 'refused',
+        reason: `too close to ${robot.name} (${d.toFixed(1)} m; goals keep ${GOAL_CLEARANCE} m from other robots)`,
+      };
     }
   }
   return context.holder ? { kind: 'takeover', holder: context.holder } : { kind: 'goal' };
@@ -51,7 +54,13 @@ export function goalVerdict(hit, context) {
 
 /** The robots with a pose, where they stand. @param {import('./fleet_model.js').FleetModel} fleet @returns {RobotSpot[]} */
 export function robotSpots(fleet) {
-  return [...fleet.robots.values()].filter((r) => r.pose).map((r) => ({ name: r.description.name, x: /** @type {{x: number}} */ (r.pose).x, y: /** @type {{y: number}} */ (r.pose).y }));
+  return [...fleet.robots.values()]
+    .filter((r) => r.pose)
+    .map((r) => ({
+      name: r.description.name,
+      x: /** @type {{x: number}} */ (r.pose).x,
+      y: /** @type {{y: number}} */ (r.pose).y,
+    }));
 }
 
 /** A verdict in a few words, for the pointer's label (null: nothing to say). @param {GoalVerdict | null} verdict */

@@ -105,7 +105,9 @@ export class InspectionModel {
    */
   list(filter = {}) {
     return [...this.findings.values()]
-      .filter((f) => (filter.status ? f.status === filter.status : true) && (filter.robot ? f.robot === filter.robot : true))
+      .filter(
+        (f) => (filter.status ? f.status === filter.status : true) && (filter.robot ? f.robot === filter.robot : true),
+      )
       .sort((a, b) => b.created - a.created);
   }
 

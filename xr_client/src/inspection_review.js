@@ -21,7 +21,11 @@ export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review'
 
 /** A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64. @param {string} text */
 export function targetName(text) {
-  return text.trim().replace(/[^A-Za-z0-9_-]+/g, '-').replace(/^-+|-+$/g, '').slice(0, 64);
+  return text
+    .trim()
+    .replace(/[^A-Za-z0-9_-]+/g, '-')
+    .replace(/^-+|-+$/g, '')
+    .slice(0, 64);
 }
 
 export class InspectionReview {
@@ -55,7 +59,8 @@ export class InspectionReview {
     // the ack); refused, the relay's error says why (a toast) and nothing opens.
     const live = this.live;
     const ok = live ? model.settled.get(live.request) : undefined;
-    if (live && ok === undefined && !model.awaiting.has(live.request)) this.#change(() => (this.live = null)); // a new relay
+    if (live && ok === undefined && !model.awaiting.has(live.request))
+      this.#change(() => (this.live = null)); // a new relay
     else if (live && ok !== undefined) {
       const finding = ok ? model.list().find((f) => f.target === live.target && f.source === 'operator') : undefined;
       this.#change(() => (this.live = null));
@@ -68,7 +73,9 @@ export class InspectionReview {
     if (outline) this.#change(() => ((this.proposal = outline), (this.pending = null)));
     else if (this.pending && model.settled.has(this.pending.request)) {
       // Answered without an outline: nothing to segment there (or refused); the next point asks again.
-      this.#change(() => ((this.pending = null), (this.note = 'no region found there: select a point of the image to mark one')));
+      this.#change(
+        () => ((this.pending = null), (this.note = 'no region found there: select a point of the image to mark one')),
+      );
     }
   }
 
@@ -103,7 +110,12 @@ export class InspectionReview {
 
   /** Pick a target for the next mission, or unpick it. @param {string} target */
   togglePick(target) {
-    this.#change(() => (this.picked = this.picked.includes(target) ? this.picked.filter((t) => t !== target) : [...this.picked, target]));
+    this.#change(
+      () =>
+        (this.picked = this.picked.includes(target)
+          ? this.picked.filter((t) => t !== target)
+          : [...this.picked, target]),
+    );
   }
 
   /** The picked targets as a mission, for one robot or for the fleet (null). @param {string | null} robot @returns {ReviewCommand[]} */
@@ -150,13 +162,18 @@ export class InspectionReview {
 
   /** The relay was asked to segment (its request id, for the outline that answers). @param {string} request */
   regionAsked(request) {
-    if (this.selected) this.#change(() => ((this.pending = { request, finding: /** @type {string} */ (this.selected) }), (this.proposal = null)));
+    if (this.selected)
+      this.#change(
+        () => ((this.pending = { request, finding: /** @type {string} */ (this.selected) }), (this.proposal = null)),
+      );
   }
 
   /** Keep the proposed outline as the open finding's region. @returns {ReviewCommand[]} */
   accept() {
     if (!this.selected || !this.proposal) return [];
-    const commands = /** @type {ReviewCommand[]} */ ([{ type: 'finding_update', finding: this.selected, fields: { region: this.proposal } }]);
+    const commands = /** @type {ReviewCommand[]} */ ([
+      { type: 'finding_update', finding: this.selected, fields: { region: this.proposal } },
+    ]);
     this.#change(() => (this.proposal = null));
     return commands;
   }
@@ -177,7 +194,9 @@ export class InspectionReview {
     if (this.pending) return 'segmenting…';
     if (this.note) return this.note;
     if (this.proposal) return 'keep this region? Accept, or Redo and point again';
-    return this.imageAction === 'target' ? 'select a point of the image: a new target there' : 'select a point of the image to mark a region';
+    return this.imageAction === 'target'
+      ? 'select a point of the image: a new target there'
+      : 'select a point of the image to mark a region';
   }
 
   /** @param {() => void} fn */

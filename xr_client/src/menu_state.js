@@ -205,17 +205,30 @@ export class MenuState {
       { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
       {
         id: 'mode:pov',
-        label: selected === null ? 'Robot POV (select a robot)' : selected.hasCamera ? 'Robot POV' : 'Robot POV (no camera)',
+        label:
+          selected === null ? 'Robot POV (select a robot)' : selected.hasCamera ? 'Robot POV' : 'Robot POV (no camera)',
         group: 'mode',
         active: pov,
         enabled: pov || (selected?.hasCamera ?? false),
       },
     ];
     for (const robot of this.robots) {
-      list.push({ id: `robot:${robot.name}`, label: robot.name, group: 'robots', active: robot.name === this.selected, enabled: true });
+      list.push({
+        id: `robot:${robot.name}`,
+        label: robot.name,
+        group: 'robots',
+        active: robot.name === this.selected,
+        enabled: true,
+      });
     }
     list.push(
-      { id: 'tool:teleop', label: held ? `Teleop (held by ${this.holder})` : `Teleop${why}`, group: 'tools', active: this.tool === 'teleop', enabled: command && !held },
+      {
+        id: 'tool:teleop',
+        label: held ? `Teleop (held by ${this.holder})` : `Teleop${why}`,
+        group: 'tools',
+        active: this.tool === 'teleop',
+        enabled: command && !held,
+      },
       {
         id: 'tool:goal',
         label: pov ? 'Goal (free roam only)' : `Goal${why}`,
@@ -224,20 +237,86 @@ export class MenuState {
         enabled: command && !pov,
       },
       // In Robot POV, Inspect marks a target on the live image: a gaze dwell in VR, a click on the desktop.
-      { id: 'tool:inspect', label: pov ? 'Inspect (on the image)' : 'Inspect', group: 'tools', active: this.tool === 'inspect', enabled: true },
-      { id: 'goal:cancel', label: 'Cancel goal', group: 'tools', active: false, enabled: command && this.goalActive && !held },
-      ...(held && selected ? [{ id: 'lease:take', label: `Take over from ${this.holder}`, group: 'tools', active: false, enabled: command }] : []),
-      { id: 'camera:snapshot', label: pov ? 'Snapshot' : 'Snapshot (POV only)', group: 'camera', active: false, enabled: pov && this.connected },
-      { id: 'camera:live', label: this.live ? 'Live: on' : 'Live', group: 'camera', active: this.live, enabled: pov && this.connected },
-      { id: 'mission:demo', label: 'Run demo mission', group: 'mission', active: false, enabled: this.operator && this.connected },
-      { id: 'mission:all', label: this.selected ? `All targets: ${this.selected}` : 'All targets: fleet', group: 'mission', active: false, enabled: this.operator && this.connected },
+      {
+        id: 'tool:inspect',
+        label: pov ? 'Inspect (on the image)' : 'Inspect',
+        group: 'tools',
+        active: this.tool === 'inspect',
+        enabled: true,
+      },
+      {
+        id: 'goal:cancel',
+        label: 'Cancel goal',
+        group: 'tools',
+        active: false,
+        enabled: command && this.goalActive && !held,
+      },
+      ...(held && selected
+        ? [
+            {
+              id: 'lease:take',
+              label: `Take over from ${this.holder}`,
+              group: 'tools',
+              active: false,
+              enabled: command,
+            },
+          ]
+        : []),
+      {
+        id: 'camera:snapshot',
+        label: pov ? 'Snapshot' : 'Snapshot (POV only)',
+        group: 'camera',
+        active: false,
+        enabled: pov && this.connected,
+      },
+      {
+        id: 'camera:live',
+        label: this.live ? 'Live: on' : 'Live',
+        group: 'camera',
+        active: this.live,
+        enabled: pov && this.connected,
+      },
+      {
+        id: 'mission:demo',
+        label: 'Run demo mission',
+        group: 'mission',
+        active: false,
+        enabled: this.operator && this.connected,
+      },
+      {
+        id: 'mission:all',
+        label: this.selected ? `All targets: ${this.selected}` : 'All targets: fleet',
+        group: 'mission',
+        active: false,
+        enabled: this.operator && this.connected,
+      },
       ...(this.picked
-        ? [{ id: 'mission:picked', label: `Inspect picked (${this.picked}): ${this.selected ?? 'fleet'}`, group: 'mission', active: false, enabled: this.operator && this.connected }]
+        ? [
+            {
+              id: 'mission:picked',
+              label: `Inspect picked (${this.picked}): ${this.selected ?? 'fleet'}`,
+              group: 'mission',
+              active: false,
+              enabled: this.operator && this.connected,
+            },
+          ]
         : []),
       ...(this.mission
         ? [
-            { id: 'mission:toggle', label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission', group: 'mission', active: this.mission === 'paused', enabled: this.operator && this.connected },
-            { id: 'mission:abort', label: 'Abort mission', group: 'mission', active: false, enabled: this.operator && this.connected },
+            {
+              id: 'mission:toggle',
+              label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission',
+              group: 'mission',
+              active: this.mission === 'paused',
+              enabled: this.operator && this.connected,
+            },
+            {
+              id: 'mission:abort',
+              label: 'Abort mission',
+              group: 'mission',
+              active: false,
+              enabled: this.operator && this.connected,
+            },
           ]
         : []),
       { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
@@ -246,17 +325,36 @@ export class MenuState {
       { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
       { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: this.dwellPress, enabled: true },
       { id: 'opt:mute', label: 'Mute', group: 'sound', active: this.muted, enabled: true },
-      { id: 'opt:volume-', label: `Volume − (${Math.round(this.volume * 100)} %)`, group: 'sound', active: false, enabled: this.volume > 0 },
+      {
+        id: 'opt:volume-',
+        label: `Volume − (${Math.round(this.volume * 100)} %)`,
+        group: 'sound',
+        active: false,
+        enabled: this.volume > 0,
+      },
       { id: 'opt:volume+', label: 'Volume +', group: 'sound', active: false, enabled: this.volume < 1 },
       { id: 'opt:ticks', label: 'Hazard ticks', group: 'sound', active: this.ticks, enabled: true },
       { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
       { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
     );
     if (selected) {
-      list.push({ id: 'estop:robot', label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`, group: 'estop', active: latched, enabled: this.operator && !latched, danger: true });
+      list.push({
+        id: 'estop:robot',
+        label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`,
+        group: 'estop',
+        active: latched,
+        enabled: this.operator && !latched,
+        danger: true,
+      });
     }
     if (this.estopped) {
-      list.push({ id: 'estop:reset', label: 'Reset E-STOP', group: 'estop', active: false, enabled: this.operator && this.connected });
+      list.push({
+        id: 'estop:reset',
+        label: 'Reset E-STOP',
+        group: 'estop',
+        active: false,
+        enabled: this.operator && this.connected,
+      });
     }
     return list;
   }
@@ -276,7 +374,8 @@ export class MenuState {
     else if (kind === 'robot') effects = this.#select(this.selected === arg ? null : arg);
     else if (kind === 'tool') effects = this.#setTool(this.tool === arg ? 'none' : /** @type {Tool} */ (arg));
     else if (id === 'goal:cancel' && this.selected) effects = [{ type: 'cancel', robot: this.selected }];
-    else if (id === 'lease:take' && this.selected && this.holder) effects = [{ type: 'takeover', robot: this.selected, holder: this.holder }];
+    else if (id === 'lease:take' && this.selected && this.holder)
+      effects = [{ type: 'takeover', robot: this.selected, holder: this.holder }];
     else if (id === 'camera:snapshot' && this.selected) effects = [{ type: 'snapshot', robot: this.selected }];
     else if (id === 'camera:live' && this.selected) {
       this.live = !this.live;
@@ -292,15 +391,16 @@ export class MenuState {
       // Steps of a fifth, landing on them whatever the slider left (0.63 - a step is 0.4, not 0.43).
       const steps = Math.round(this.volume * VOLUME_STEPS) + (id === 'opt:volume+' ? 1 : -1);
       this.volume = Math.max(0, Math.min(VOLUME_STEPS, steps)) / VOLUME_STEPS;
-    }
-    else if (id === 'menu:close') effects = this.setOpen(false);
+    } else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
-    else if (id === 'estop:robot' && this.selected) effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
+    else if (id === 'estop:robot' && this.selected)
+      effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     else if (id === 'mission:demo') effects = [{ type: 'mission', action: 'start', robot: null }];
     else if (id === 'mission:all') effects = [{ type: 'mission', action: 'all', robot: this.selected }];
     else if (id === 'mission:picked') effects = [{ type: 'mission', action: 'picked', robot: this.selected }];
-    else if (id === 'mission:toggle') effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
+    else if (id === 'mission:toggle')
+      effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
     else if (id === 'mission:abort') effects = [{ type: 'mission', action: 'abort', robot: this.selected }];
     this.#changed();
     return effects;

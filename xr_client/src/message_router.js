@@ -81,7 +81,9 @@ export class MessageRouter {
       case 'model':
         return this.#model(robot, /** @type {import('./protocol.js').ModelMessage} */ (message));
       case 'scan':
-        return this.fleet.robots.has(robot) ? [{ type: 'scan', robot, scan: /** @type {import('./protocol.js').ScanMessage} */ (message) }] : [];
+        return this.fleet.robots.has(robot)
+          ? [{ type: 'scan', robot, scan: /** @type {import('./protocol.js').ScanMessage} */ (message) }]
+          : [];
       case 'path': {
         const points = /** @type {import('./protocol.js').PathMessage} */ (message).points;
         if (!this.fleet.robots.has(robot)) return [];
@@ -110,7 +112,12 @@ export class MessageRouter {
       if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
         // An event, with the value that crossed: the panel goes on showing the live reading, and the two agree.
         const sensor = this.fleet.robot(robot)?.description.sensors?.find((s) => s.name === reading.name);
-        const limit = sensor?.warn_above != null && reading.value > sensor.warn_above ? `over ${sensor.warn_above}` : sensor?.warn_below != null ? `under ${sensor.warn_below}` : 'past its limit';
+        const limit =
+          sensor?.warn_above != null && reading.value > sensor.warn_above
+            ? `over ${sensor.warn_above}`
+            : sensor?.warn_below != null
+              ? `under ${sensor.warn_below}`
+              : 'past its limit';
         const text = `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${reading.value.toFixed(1)} ${reading.unit} then)`;
         return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
       }
@@ -140,17 +147,24 @@ export class MessageRouter {
           if (message.latched === true) this.estopBy.set(r, message.by);
           else this.estopBy.delete(r);
           const entry = this.fleet.robots.get(r);
-          if (entry?.status && message.latched !== undefined) entry.status = { ...entry.status, estopped: message.latched };
+          if (entry?.status && message.latched !== undefined)
+            entry.status = { ...entry.status, estopped: message.latched };
         }
         const state = /** @type {RouterEffect} */ ({ type: 'estop_state', latched: this.latched() });
-        if (message.latched === false) return [notice(`E-STOP reset: ${message.robots.join(', ')}${by}`, 'info'), state];
+        if (message.latched === false)
+          return [notice(`E-STOP reset: ${message.robots.join(', ')}${by}`, 'info'), state];
         return [{ type: 'stop_teleop' }, notice(`EMERGENCY STOP: ${message.robots.join(', ')}${by}`, 'error'), state];
       }
       case 'playback':
         this.playback = message;
         return [{ type: 'link' }];
       case 'backend':
-        return [notice(message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`, message.ok ? 'info' : 'error')];
+        return [
+          notice(
+            message.ok ? `${message.name} backend working again` : `${message.name} backend failed: ${message.message}`,
+            message.ok ? 'info' : 'error',
+          ),
+        ];
       case 'operators':
         this.fleet.names = new Map(Object.entries(message.names));
         return [{ type: 'names' }];
@@ -188,7 +202,10 @@ export class MessageRouter {
       if (entry.status) this.goals.status(name, entry.status.goal, now);
     }
     /** @type {RouterEffect[]} */
-    const effects = [{ type: 'fleet', rebuild }, { type: 'estop_state', latched: this.latched() }];
+    const effects = [
+      { type: 'fleet', rebuild },
+      { type: 'estop_state', latched: this.latched() },
+    ];
     // A second hello is a reconnect: robots may have moved meanwhile; say so rather than let them jump unexplained.
     if (this.hellos > 1) effects.push(notice('Reconnected: showing the fleet as the relay sees it now', 'info'));
     return effects;
@@ -217,11 +234,17 @@ export class MessageRouter {
       // A refused goal is offered again with the take-over: accepting sends it once the robot is taken.
       const refused = robot === null ? null : this.goals.goals.get(robot);
       const goal = refused?.id === String(error.id) ? refused.goal : null;
-      if (robot !== null && this.fleet.robots.has(robot)) effects.push({ type: 'offer_takeover', robot, text: error.message, goal });
+      if (robot !== null && this.fleet.robots.has(robot))
+        effects.push({ type: 'offer_takeover', robot, text: error.message, goal });
     }
     this.commands.failed(error);
     if (error.id !== null && this.inspection.settle(String(error.id), false)) effects.push({ type: 'inspection' });
-    const shownAtMarker = this.goals.failed(error.id === null ? null : String(error.id), error.code, error.message, now);
+    const shownAtMarker = this.goals.failed(
+      error.id === null ? null : String(error.id),
+      error.code,
+      error.message,
+      now,
+    );
     effects.push({ type: 'notify', text: `${error.code}: ${error.message}`, kind: 'error', toast: !shownAtMarker });
     return effects;
   }
@@ -234,9 +257,13 @@ export class MessageRouter {
     const me = this.fleet.clientId;
     if (lease.previous === me && lease.holder && lease.holder !== me) {
       this.takenOver.add(robot);
-      return [{ type: 'stop_teleop' }, notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error')];
+      return [
+        { type: 'stop_teleop' },
+        notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error'),
+      ];
     }
-    if (lease.previous === me && lease.reason === 'expired') return [notice(`${robot} is free again: you had not commanded it for a while`, 'info')];
+    if (lease.previous === me && lease.reason === 'expired')
+      return [notice(`${robot} is free again: you had not commanded it for a while`, 'info')];
     return [];
   }
 
@@ -262,8 +289,10 @@ export class MessageRouter {
     if (nav.outcome === 'cancelled' && lost) return [];
     const at = nav.goal ? ` (${nav.goal.x.toFixed(1)}, ${nav.goal.y.toFixed(1)})` : '';
     const why = nav.message && nav.message !== nav.outcome ? `: ${nav.message}` : '';
-    if (nav.outcome === 'reached') return [{ type: 'nav', robot, text: `${robot} reached its goal${at}`, kind: 'info', mine }];
-    if (nav.outcome === 'failed') return [{ type: 'nav', robot, text: `${robot} aborted its goal${at}${why}`, kind: 'error', mine }];
+    if (nav.outcome === 'reached')
+      return [{ type: 'nav', robot, text: `${robot} reached its goal${at}`, kind: 'info', mine }];
+    if (nav.outcome === 'failed')
+      return [{ type: 'nav', robot, text: `${robot} aborted its goal${at}${why}`, kind: 'error', mine }];
     return [{ type: 'nav', robot, text: `${robot}'s goal${at} cancelled${why}`, kind: 'warning', mine }];
   }
 

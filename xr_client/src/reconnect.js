@@ -94,12 +94,15 @@ export class ReconnectPolicy {
 
   /** The status line: "connected · 12 ms", "reconnecting in 3 s", "connecting…". @param {number} now */
   describe(now) {
-    if (this.state === 'refused') return `refused: ${this.refusal} · open the address the relay printed (…/#token=…) and reload`;
-    if (this.state === 'connected') return this.latency === null ? 'connected' : `connected · ${Math.round(this.latency)} ms`;
+    if (this.state === 'refused')
+      return `refused: ${this.refusal} · open the address the relay printed (…/#token=…) and reload`;
+    if (this.state === 'connected')
+      return this.latency === null ? 'connected' : `connected · ${Math.round(this.latency)} ms`;
     if (this.state === 'reconnecting' && this.retryAt !== null) {
       const countdown = `reconnecting in ${Math.max(0, Math.ceil((this.retryAt - now) / 1000))} s`;
       // A relay that refuses every attempt usually wants its operator token (the browser cannot see why).
-      if (!this.everOpened && this.attempts >= 3) return `cannot connect · ${countdown} · open the address the relay printed (…/#token=…)`;
+      if (!this.everOpened && this.attempts >= 3)
+        return `cannot connect · ${countdown} · open the address the relay printed (…/#token=…)`;
       return `disconnected · ${countdown}`;
     }
     return this.attempts > 1 ? 'reconnecting…' : 'connecting…';

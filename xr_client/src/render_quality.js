@@ -27,6 +27,9 @@ export function renderQuality(renderer, params) {
   const asked = params.get('quality');
   const maxFps = Number(params.get('maxfps')) || (software && asked !== 'high' ? SOFTWARE_MAX_FPS : null);
   const lowQuality = asked === 'low' || (software && asked !== 'high');
-  const reason = software && asked !== 'high' ? `software rendering (${renderer}): lower quality, ${maxFps} frames/s; ?quality=high to override` : '';
+  const reason =
+    software && asked !== 'high'
+      ? `software rendering (${renderer}): lower quality, ${maxFps} frames/s; ?quality=high to override`
+      : '';
   return { lowQuality, maxFps, software, reason };
 }

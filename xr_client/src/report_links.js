@@ -21,7 +21,11 @@ export function reportLinks(mission, token) {
   if (group) {
     const base = `/report/${encodeURIComponent(group)}`;
     links.push({ text: 'Report', href: `${base}.html${query}`, title: `the report of mission ${group}` });
-    links.push({ text: 'Work orders', href: `${base}.workorders.csv${query}`, title: `work orders (CSV) of mission ${group}` });
+    links.push({
+      text: 'Work orders',
+      href: `${base}.workorders.csv${query}`,
+      title: `work orders (CSV) of mission ${group}`,
+    });
   }
   links.push({ text: 'Range…', href: `/report/range.html${query}`, title: 'a report of chosen dates' });
   return links;

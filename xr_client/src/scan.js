@@ -29,7 +29,8 @@ export function scanToPoints(message, out) {
     return n;
   }
   const ranges = message.ranges;
-  if (!Array.isArray(ranges) || !Number.isFinite(message.angle_min) || !Number.isFinite(message.angle_increment)) return 0;
+  if (!Array.isArray(ranges) || !Number.isFinite(message.angle_min) || !Number.isFinite(message.angle_increment))
+    return 0;
   const lo = Number.isFinite(message.range_min) ? message.range_min : 0;
   const hi = Number.isFinite(message.range_max) ? message.range_max : Infinity;
   for (let i = 0; i < ranges.length && n < capacity; i++) {

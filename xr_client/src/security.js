@@ -9,7 +9,11 @@
  * @returns {{available: boolean, reason: string, fix: string}}
  */
 export function vrAvailability(page) {
-  const local = page.hostname === 'localhost' || page.hostname === '127.0.0.1' || page.hostname === '[::1]' || page.hostname.endsWith('.localhost');
+  const local =
+    page.hostname === 'localhost' ||
+    page.hostname === '127.0.0.1' ||
+    page.hostname === '[::1]' ||
+    page.hostname.endsWith('.localhost');
   if (!page.secure && !local) {
     const port = page.port || '8080';
     return {
@@ -35,7 +39,11 @@ export function vrAvailability(page) {
       fix: 'Connect a headset (or add ?emulate=quest3 to the address to try the VR view with an emulated headset).',
     };
   }
-  return { available: page.vrSupported === true, reason: page.vrSupported === null ? 'checking for a VR device…' : '', fix: '' };
+  return {
+    available: page.vrSupported === true,
+    reason: page.vrSupported === null ? 'checking for a VR device…' : '',
+    fix: '',
+  };
 }
 
 /**
@@ -54,5 +62,11 @@ export async function pageVrAvailability({ ask }) {
       supported = false;
     }
   }
-  return vrAvailability({ secure: window.isSecureContext, hostname: location.hostname, port: location.port, hasXR: 'xr' in navigator, vrSupported: supported });
+  return vrAvailability({
+    secure: window.isSecureContext,
+    hostname: location.hostname,
+    port: location.port,
+    hasXR: 'xr' in navigator,
+    vrSupported: supported,
+  });
 }

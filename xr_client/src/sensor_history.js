@@ -55,7 +55,14 @@ export class SensorHistory {
    */
   sparkline(robot, sensor, now, width, height, thresholds = {}) {
     const { t, v } = this.values(robot, sensor);
-    if (v.length === 0) return { points: /** @type {[number, number][]} */ ([]), min: 0, max: 0, breaks: /** @type {number[]} */ ([]), lines: /** @type {number[]} */ ([]) };
+    if (v.length === 0)
+      return {
+        points: /** @type {[number, number][]} */ ([]),
+        min: 0,
+        max: 0,
+        breaks: /** @type {number[]} */ ([]),
+        lines: /** @type {number[]} */ ([]),
+      };
     let min = Infinity;
     let max = -Infinity;
     for (const x of v) {

@@ -25,16 +25,27 @@ export function sensorPanel(fleet, selected, history, link, now, mission = '', a
   return {
     robot: entry?.description.name ?? null,
     colour: entry?.description.colour ?? '#888',
-    status: entry ? `${status?.estopped ? 'E-STOPPED · ' : ''}${status?.online === false ? 'offline' : (status?.mode ?? '')}${status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : ''}${mission ? ` · ${mission}` : ''}` : '',
+    status: entry
+      ? `${status?.estopped ? 'E-STOPPED · ' : ''}${status?.online === false ? 'offline' : (status?.mode ?? '')}${status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : ''}${mission ? ` · ${mission}` : ''}`
+      : '',
     link: link.text,
     linkOk: link.ok,
     sensors: (entry?.description.sensors ?? []).map((s) => {
       const reading = entry?.sensors.get(s.name);
       const key = `${entry?.description.name}/${s.name}`;
       const silent = age?.freshness.age(key, now) ?? null;
-      const old = reading !== undefined && age !== null && silent !== null && (age.linkStale || age.freshness.stale(key, now));
+      const old =
+        reading !== undefined && age !== null && silent !== null && (age.linkStale || age.freshness.stale(key, now));
       const stale = old ? `${formatSilence(/** @type {number} */ (silent))} ago` : null;
-      return { name: s.name, unit: reading?.unit ?? s.unit, value: reading?.value ?? null, warning: reading?.warning ?? false, stale, above: s.warn_above ?? null, below: s.warn_below ?? null };
+      return {
+        name: s.name,
+        unit: reading?.unit ?? s.unit,
+        value: reading?.value ?? null,
+        warning: reading?.warning ?? false,
+        stale,
+        above: s.warn_above ?? null,
+        below: s.warn_below ?? null,
+      };
     }),
     history: history,
     now,

@@ -81,7 +81,10 @@ export function sliceWalls(triangles, heights) {
         const zb = triangles[b + 2];
         if ((za - h) * (zb - h) > 0 || za === zb) continue;
         const k = (h - za) / (zb - za);
-        points.push(triangles[a] + (triangles[b] - triangles[a]) * k, triangles[a + 1] + (triangles[b + 1] - triangles[a + 1]) * k);
+        points.push(
+          triangles[a] + (triangles[b] - triangles[a]) * k,
+          triangles[a + 1] + (triangles[b + 1] - triangles[a + 1]) * k,
+        );
       }
       if (points.length >= 4) out.push([points[0], points[1], points[2], points[3]]);
     }
@@ -160,7 +163,8 @@ export function sightFree(grid, ax, ay, bx, by) {
   const reach = Math.max(0, length - 0.3);
   const step = grid.resolution / 2;
   for (let s = 0; s <= reach; s += step) {
-    if (roomAt(grid, ax + ((bx - ax) * s) / length, ay + ((by - ay) * s) / length) < grid.resolution * 1.01) return false;
+    if (roomAt(grid, ax + ((bx - ax) * s) / length, ay + ((by - ay) * s) / length) < grid.resolution * 1.01)
+      return false;
   }
   return true;
 }
@@ -188,7 +192,12 @@ function bestFacing(robots) {
     const inSight = inside.filter((r) => r.sight()).map((r) => r.name);
     if (inside.length === best.inView.length && inSight.length <= best.inSight.length) continue;
     const spread = Math.max(...inside.map((r) => wrap(r.bearing - first.bearing)));
-    best = { yaw: Math.atan2(Math.sin(first.bearing + spread / 2), Math.cos(first.bearing + spread / 2)), inView: inside.map((r) => r.name), inSight, spread };
+    best = {
+      yaw: Math.atan2(Math.sin(first.bearing + spread / 2), Math.cos(first.bearing + spread / 2)),
+      inView: inside.map((r) => r.name),
+      inSight,
+      spread,
+    };
   }
   return best;
 }
@@ -224,17 +233,27 @@ export function startPose(world) {
     for (let y = minY + spacing / 2; y < maxY; y += spacing) {
       const room = roomAt(grid, x, y);
       if (room < MIN_ROOM_M) continue;
-      if (rooms && !rooms.some((r) => x >= r.bounds[0] && x <= r.bounds[2] && y >= r.bounds[1] && y <= r.bounds[3])) continue;
+      if (rooms && !rooms.some((r) => x >= r.bounds[0] && x <= r.bounds[2] && y >= r.bounds[1] && y <= r.bounds[3]))
+        continue;
       if (robots.some((r) => Math.hypot(r.x - x, r.y - y) < NEAR_M)) continue;
       if (world.floor && !world.floor(x, y)) continue;
       const facing = bestFacing(
-        robots.map((r) => ({ name: r.name, bearing: Math.atan2(r.y - y, r.x - x), sight: () => sighted.has(r.name) && sightFree(grid, x, y, r.x, r.y) })),
+        robots.map((r) => ({
+          name: r.name,
+          bearing: Math.atan2(r.y - y, r.x - x),
+          sight: () => sighted.has(r.name) && sightFree(grid, x, y, r.x, r.y),
+        })),
       );
       const yaw = robots.length ? facing.yaw : 0;
       const ahead = openAhead(grid, x, y, yaw, AHEAD_M * 2);
-      const table = { x: x + TABLE_DISTANCE_M * Math.cos(yaw + TABLE_BEARING), y: y + TABLE_DISTANCE_M * Math.sin(yaw + TABLE_BEARING) };
-      const tableFree = roomAt(grid, table.x, table.y) >= TABLE_RADIUS_M && sightFree(grid, x, y, table.x, table.y)
-        && robots.every((r) => Math.hypot(r.x - table.x, r.y - table.y) >= TABLE_RADIUS_M + TABLE_CLEAR_M);
+      const table = {
+        x: x + TABLE_DISTANCE_M * Math.cos(yaw + TABLE_BEARING),
+        y: y + TABLE_DISTANCE_M * Math.sin(yaw + TABLE_BEARING),
+      };
+      const tableFree =
+        roomAt(grid, table.x, table.y) >= TABLE_RADIUS_M &&
+        sightFree(grid, x, y, table.x, table.y) &&
+        robots.every((r) => Math.hypot(r.x - table.x, r.y - table.y) >= TABLE_RADIUS_M + TABLE_CLEAR_M);
       const inView = robots.filter((r) => facing.inView.includes(r.name));
       const distance = inView.reduce((sum, r) => sum + Math.hypot(r.x - x, r.y - y), 0) / (inView.length || 1);
       // What counts, in order (compared as a tuple; ties keep the first spot found: deterministic).
@@ -247,7 +266,10 @@ export function startPose(world) {
         -Math.round(distance), // then nearer them (by metres: labels fade out past 16 m)
       ];
       if (!best || greater(key, best.key)) {
-        best = { key, pose: { x, y, yaw, inView: facing.inView, inSight: facing.inSight, room, ahead, table, tableFree } };
+        best = {
+          key,
+          pose: { x, y, yaw, inView: facing.inView, inSight: facing.inSight, room, ahead, table, tableFree },
+        };
       }
     }
   }

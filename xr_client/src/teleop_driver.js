@@ -94,7 +94,13 @@ export class TeleopDriver {
     const loop = this.loop;
     const active = loop.driving && loop.robot !== null && (loop.command.linear !== 0 || loop.command.angular !== 0);
     const held = active ? twistFields({ robot: /** @type {string} */ (loop.robot), ...loop.command }) : null;
-    const same = held === this.posted || (held !== null && this.posted !== null && held.identifier === this.posted.identifier && held.linear === this.posted.linear && held.angular === this.posted.angular);
+    const same =
+      held === this.posted ||
+      (held !== null &&
+        this.posted !== null &&
+        held.identifier === this.posted.identifier &&
+        held.linear === this.posted.linear &&
+        held.angular === this.posted.angular);
     if (same && (held === null || now - this.postedAt < CONFIRM_MS)) return;
     this.workerClock = this.link.hold(held, this.epoch);
     this.posted = held;
@@ -115,7 +121,9 @@ export class TeleopDriver {
     this.expiries++;
     // The worker sent the zero; the loop stops as for any stop (the stick must come back to the centre).
     this.stop(performance.now(), true);
-    this.notify(`Teleop stopped: this page did not answer for ${(silent / 1000).toFixed(1)} s. Centre the stick to drive again.`);
+    this.notify(
+      `Teleop stopped: this page did not answer for ${(silent / 1000).toFixed(1)} s. Centre the stick to drive again.`,
+    );
   };
 
   dispose() {

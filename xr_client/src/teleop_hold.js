@@ -89,7 +89,10 @@ export class TeleopHold {
       this.epoch++;
       this.sent++;
       const zero = { identifier: held.identifier, linear: 0, angular: 0 };
-      return { send: [zero], expired: { identifier: held.identifier, silent: now - this.confirmedAt, epoch: this.epoch } };
+      return {
+        send: [zero],
+        expired: { identifier: held.identifier, silent: now - this.confirmedAt, epoch: this.epoch },
+      };
     }
     if (now < this.due) return { send: [], expired: null };
     this.due = nextDue(this.due, now, this.period);
@@ -103,5 +106,10 @@ export class TeleopHold {
  * @param {HeldCommand} command @param {number} t
  */
 export function stampedText(command, t) {
-  return JSON.stringify({ identifier: command.identifier, linear: command.linear, angular: command.angular, t: Math.round(t) });
+  return JSON.stringify({
+    identifier: command.identifier,
+    linear: command.linear,
+    angular: command.angular,
+    t: Math.round(t),
+  });
 }

@@ -82,11 +82,20 @@ export class H264Decoder {
     this.startOnKey = false;
     /** Counts for the state snapshot and the tests. */
     this.counts = {
-      packets: 0, fed: 0, keyframes: 0, skipped: 0, decoded: 0, dropped: 0, errors: 0, restarts: 0,
+      packets: 0,
+      fed: 0,
+      keyframes: 0,
+      skipped: 0,
+      decoded: 0,
+      dropped: 0,
+      errors: 0,
+      restarts: 0,
       /** Decoding (re)started this many times, and this many times on a keyframe (always, by construction). */
-      starts: 0, startsOnKey: 0,
+      starts: 0,
+      startsOnKey: 0,
       /** Packets that came after a gap in `seq` (packets the relay dropped), and how many of them were keyframes. */
-      gaps: 0, gapKeyframes: 0,
+      gaps: 0,
+      gapKeyframes: 0,
     };
     this.lastError = '';
     /** Decoder errors since the last decoded picture. */
@@ -161,13 +170,15 @@ export class H264Decoder {
     this.phase = 'checking';
     const generation = this.generation;
     const answer = codec ? this.platform.supported({ codec, optimizeForLatency: true }) : Promise.resolve(false);
-    answer.then(
-      (ok) => ok,
-      () => false, // a malformed codec string rejects (TypeError): not decodable either
-    ).then((ok) => {
-      this.support.set(codec, ok);
-      if (generation === this.generation && this.phase === 'checking') this.#checked(codec, ok);
-    });
+    answer
+      .then(
+        (ok) => ok,
+        () => false, // a malformed codec string rejects (TypeError): not decodable either
+      )
+      .then((ok) => {
+        this.support.set(codec, ok);
+        if (generation === this.generation && this.phase === 'checking') this.#checked(codec, ok);
+      });
   }
 
   /** @param {string} codec @param {boolean} ok */

@@ -35,24 +35,81 @@ export const CONFIRM_MS = 8000;
  *   targets: {name: string, x: number, y: number}[], selected: string | null}} Vocabulary
  */
 
-const NUMBERS = new Map(Object.entries({
-  zero: 0, one: 1, won: 1, two: 2, three: 3, four: 4, five: 5, six: 6, seven: 7, eight: 8, nine: 9, ten: 10,
-  eleven: 11, twelve: 12, thirteen: 13, fourteen: 14, fifteen: 15, sixteen: 16, seventeen: 17, eighteen: 18,
-  nineteen: 19, twenty: 20, first: 1, second: 2, third: 3,
-}));
+const NUMBERS = new Map(
+  Object.entries({
+    zero: 0,
+    one: 1,
+    won: 1,
+    two: 2,
+    three: 3,
+    four: 4,
+    five: 5,
+    six: 6,
+    seven: 7,
+    eight: 8,
+    nine: 9,
+    ten: 10,
+    eleven: 11,
+    twelve: 12,
+    thirteen: 13,
+    fourteen: 14,
+    fifteen: 15,
+    sixteen: 16,
+    seventeen: 17,
+    eighteen: 18,
+    nineteen: 19,
+    twenty: 20,
+    first: 1,
+    second: 2,
+    third: 3,
+  }),
+);
 /** What recognisers write for a number right after "robot" ("robot to go to ..."). */
 const AFTER_ROBOT = new Map(Object.entries({ to: 2, too: 2, for: 4, fore: 4, ate: 8 }));
-const FILLERS = new Set(['please', 'uh', 'um', 'er', 'okay', 'ok', 'hey', 'now', 'the', 'a', 'could', 'can', 'would',
-  'you', 'kindly', 'station', 'number', 'just', 'then']);
+const FILLERS = new Set([
+  'please',
+  'uh',
+  'um',
+  'er',
+  'okay',
+  'ok',
+  'hey',
+  'now',
+  'the',
+  'a',
+  'could',
+  'can',
+  'would',
+  'you',
+  'kindly',
+  'station',
+  'number',
+  'just',
+  'then',
+]);
 /** Words that, with a robot and nothing else, select it ("switch to robot one"). */
 const SELECT = new Set(['select', 'choose', 'switch', 'pick', 'focus', 'to', 'on', 'use']);
-const GO = [['go', 'to'], ['drive', 'to'], ['navigate', 'to'], ['move', 'to'], ['head', 'to'], ['goto'], ['go'],
-  ['send', 'to'], ['travel', 'to']];
+const GO = [
+  ['go', 'to'],
+  ['drive', 'to'],
+  ['navigate', 'to'],
+  ['move', 'to'],
+  ['head', 'to'],
+  ['goto'],
+  ['go'],
+  ['send', 'to'],
+  ['travel', 'to'],
+];
 
 /** Lower case, no punctuation, words and digits apart ("robot2" -> "robot 2"). @param {string} text */
 export function words(text) {
-  return text.toLowerCase().replace(/[-_]/g, ' ').replace(/[^a-z0-9 ]+/g, ' ').replace(/([a-z])(\d)/g, '$1 $2')
-    .split(/\s+/).filter(Boolean);
+  return text
+    .toLowerCase()
+    .replace(/[-_]/g, ' ')
+    .replace(/[^a-z0-9 ]+/g, ' ')
+    .replace(/([a-z])(\d)/g, '$1 $2')
+    .split(/\s+/)
+    .filter(Boolean);
 }
 
 /** The number a robot's name ends in (robot1 -> 1), or null. @param {string} name */
@@ -113,14 +170,20 @@ function findPlace(w, vocab) {
   for (const room of vocab.rooms) {
     for (const spoken of new Set([words(room.title).join(' '), words(room.name).join(' ')])) {
       if (spoken && text.includes(` ${spoken} `) && (!best || spoken.length > best.length)) {
-        best = { place: { kind: 'room', name: room.name, title: room.title, ...roomPoint(room) }, length: spoken.length };
+        best = {
+          place: { kind: 'room', name: room.name, title: room.title, ...roomPoint(room) },
+          length: spoken.length,
+        };
       }
     }
   }
   for (const target of vocab.targets) {
     const spoken = words(target.name).join(' ');
     if (spoken && text.includes(` ${spoken} `) && (!best || spoken.length > best.length)) {
-      best = { place: { kind: 'target', name: target.name, title: target.name, x: target.x, y: target.y }, length: spoken.length };
+      best = {
+        place: { kind: 'target', name: target.name, title: target.name, x: target.x, y: target.y },
+        length: spoken.length,
+      };
     }
   }
   return best ? best.place : null;
@@ -132,7 +195,9 @@ function findPlace(w, vocab) {
  */
 export function parse(transcript, vocab) {
   const heard = transcript.trim();
-  const all = words(heard).map((t) => (NUMBERS.has(t) && t !== 'won' && t !== 'first' && t !== 'second' && t !== 'third' ? String(NUMBERS.get(t)) : t));
+  const all = words(heard).map((t) =>
+    NUMBERS.has(t) && t !== 'won' && t !== 'first' && t !== 'second' && t !== 'third' ? String(NUMBERS.get(t)) : t,
+  );
   // "robot two" arrives as "robot 2"; "robot to" too (AFTER_ROBOT): restore the spoken word for takeRobot.
   const w = all.filter((t) => !FILLERS.has(t));
   const refuse = (/** @type {string} */ reason) => ({ heard, refused: reason });
@@ -143,7 +208,11 @@ export function parse(transcript, vocab) {
 
   // Stops first, whatever else the phrase holds: they never wait.
   const stopWord = has('stop') || has('halt') || has('freeze') || has('estop') || (has('e') && has('stop'));
-  if (has('emergency') || has('estop') || (stopWord && (has('all') || has('everything') || has('everyone') || has('robots') || has('fleet')))) {
+  if (
+    has('emergency') ||
+    has('estop') ||
+    (stopWord && (has('all') || has('everything') || has('everyone') || has('robots') || has('fleet')))
+  ) {
     return { heard, command: { kind: 'stop_all' } };
   }
   if (stopWord && !has('mission')) {
@@ -153,14 +222,29 @@ export function parse(transcript, vocab) {
   }
   if (unknown) return refuse(`no ${unknown} in this fleet (${vocab.robots.join(', ')})`);
 
-  if (rest.length === 1 && ['confirm', 'yes', 'go', 'affirmative', 'execute', 'proceed', 'yeah'].includes(rest[0])) return { heard, command: { kind: 'confirm' } };
+  if (rest.length === 1 && ['confirm', 'yes', 'go', 'affirmative', 'execute', 'proceed', 'yeah'].includes(rest[0]))
+    return { heard, command: { kind: 'confirm' } };
   if (has('do', 'it') && rest.length <= 2) return { heard, command: { kind: 'confirm' } };
-  if ((rest.length === 1 && ['cancel', 'no', 'negative'].includes(rest[0])) || has('never', 'mind')) return { heard, command: { kind: 'cancel' } };
+  if ((rest.length === 1 && ['cancel', 'no', 'negative'].includes(rest[0])) || has('never', 'mind'))
+    return { heard, command: { kind: 'cancel' } };
 
   if (hasRest('mission')) {
     /** @type {[string[], 'start' | 'pause' | 'resume' | 'abort'][]} */
-    const actions = [[['start'], 'start'], [['begin'], 'start'], [['run'], 'start'], [['launch'], 'start'], [['pause'], 'pause'], [['hold'], 'pause'],
-      [['resume'], 'resume'], [['continue'], 'resume'], [['abort'], 'abort'], [['cancel'], 'abort'], [['end'], 'abort'], [['stop'], 'abort'], [['halt'], 'abort']];
+    const actions = [
+      [['start'], 'start'],
+      [['begin'], 'start'],
+      [['run'], 'start'],
+      [['launch'], 'start'],
+      [['pause'], 'pause'],
+      [['hold'], 'pause'],
+      [['resume'], 'resume'],
+      [['continue'], 'resume'],
+      [['abort'], 'abort'],
+      [['cancel'], 'abort'],
+      [['end'], 'abort'],
+      [['stop'], 'abort'],
+      [['halt'], 'abort'],
+    ];
     for (const [seq, action] of actions) if (hasRest(...seq)) return { heard, command: { kind: 'mission', action } };
     return refuse('mission: say start, pause, resume or abort mission');
   }
@@ -168,12 +252,26 @@ export function parse(transcript, vocab) {
     return { heard, command: { kind: 'snapshot', robot: robot ?? vocab.selected } };
   }
   if (hasRest('teleport') || hasRest('take', 'me') || hasRest('bring', 'me') || hasRest('jump')) {
-    return robot ? { heard, command: { kind: 'teleport', robot } } : refuse('teleport: to which robot? say "teleport to robot one"');
+    return robot
+      ? { heard, command: { kind: 'teleport', robot } }
+      : refuse('teleport: to which robot? say "teleport to robot one"');
   }
-  if (hasRest('pov') || hasRest('point', 'of', 'view') || hasRest('camera', 'view') || hasRest('robot', 'view') || hasRest('first', 'person')) {
+  if (
+    hasRest('pov') ||
+    hasRest('point', 'of', 'view') ||
+    hasRest('camera', 'view') ||
+    hasRest('robot', 'view') ||
+    hasRest('first', 'person')
+  ) {
     return { heard, command: { kind: 'view', view: 'pov' } };
   }
-  if (hasRest('free', 'roam') || hasRest('overview') || hasRest('twin', 'view') || hasRest('free', 'view') || hasRest('map', 'view')) {
+  if (
+    hasRest('free', 'roam') ||
+    hasRest('overview') ||
+    hasRest('twin', 'view') ||
+    hasRest('free', 'view') ||
+    hasRest('map', 'view')
+  ) {
     return { heard, command: { kind: 'view', view: 'free_roam' } };
   }
   if (robot && rest.every((t) => SELECT.has(t))) return { heard, command: { kind: 'select', robot } };
@@ -182,7 +280,11 @@ export function parse(transcript, vocab) {
     const place = findPlace(rest, vocab);
     if (!place) {
       const at = rest.lastIndexOf('to');
-      const name = (at >= 0 ? rest.slice(at + 1) : rest.filter((t) => !['go', 'drive', 'navigate', 'move', 'head', 'send', 'travel'].includes(t))).join(' ');
+      const name = (
+        at >= 0
+          ? rest.slice(at + 1)
+          : rest.filter((t) => !['go', 'drive', 'navigate', 'move', 'head', 'send', 'travel'].includes(t))
+      ).join(' ');
       const rooms = vocab.rooms.map((r) => r.title.toLowerCase()).join(', ');
       return refuse(`no room or target called "${name || '?'}" (rooms: ${rooms || 'none'})`);
     }
@@ -195,22 +297,35 @@ export function parse(transcript, vocab) {
 
 /** Whether a command makes a robot move (and so waits for a confirmation). @param {VoiceCommand} command */
 export function moves(command) {
-  return command.kind === 'goto' || (command.kind === 'mission' && (command.action === 'start' || command.action === 'resume'));
+  return (
+    command.kind === 'goto' ||
+    (command.kind === 'mission' && (command.action === 'start' || command.action === 'resume'))
+  );
 }
 
 /** What a command does, for the operator to read. @param {VoiceCommand} command */
 export function describe(command) {
   switch (command.kind) {
-    case 'select': return `select ${command.robot}`;
-    case 'goto': return `${command.robot} go to ${command.place.title}`;
-    case 'stop': return `stop ${command.robot}`;
-    case 'stop_all': return 'stop all robots';
-    case 'snapshot': return command.robot ? `snapshot of ${command.robot}` : 'snapshot';
-    case 'mission': return `${command.action} mission`;
-    case 'teleport': return `teleport to ${command.robot}`;
-    case 'view': return command.view === 'pov' ? 'Robot POV view' : 'free roam view';
-    case 'confirm': return 'confirm';
-    case 'cancel': return 'cancel';
+    case 'select':
+      return `select ${command.robot}`;
+    case 'goto':
+      return `${command.robot} go to ${command.place.title}`;
+    case 'stop':
+      return `stop ${command.robot}`;
+    case 'stop_all':
+      return 'stop all robots';
+    case 'snapshot':
+      return command.robot ? `snapshot of ${command.robot}` : 'snapshot';
+    case 'mission':
+      return `${command.action} mission`;
+    case 'teleport':
+      return `teleport to ${command.robot}`;
+    case 'view':
+      return command.view === 'pov' ? 'Robot POV view' : 'free roam view';
+    case 'confirm':
+      return 'confirm';
+    case 'cancel':
+      return 'cancel';
   }
 }
 

@@ -118,7 +118,8 @@ export class WorkerLink extends EventTarget {
     console.warn('the socket worker failed; the connection runs on the page from now on');
     this.failed = true;
     this.worker.terminate();
-    for (const socket of this.sockets.values()) socket.receive({ type: 'close', code: 1006, reason: 'socket worker failed', wasClean: false });
+    for (const socket of this.sockets.values())
+      socket.receive({ type: 'close', code: 1006, reason: 'socket worker failed', wasClean: false });
     this.sockets.clear();
   };
 

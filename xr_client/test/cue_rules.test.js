@@ -1,7 +1,15 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { CueRules, HAPTIC_NEAR_M, TICK_FASTEST_MS, TICK_SLOWEST_MS, WARNING_REPEAT_MS, hapticFor, tickInterval } from '../src/cue_rules.js';
+import {
+  CueRules,
+  HAPTIC_NEAR_M,
+  TICK_FASTEST_MS,
+  TICK_SLOWEST_MS,
+  WARNING_REPEAT_MS,
+  hapticFor,
+  tickInterval,
+} from '../src/cue_rules.js';
 
 /** @param {Partial<import('../src/cue_rules.js').RobotView>} o @returns {import('../src/cue_rules.js').RobotView} */
 const robot = (o) => ({ name: 'robot1', x: 0, y: 0, warnings: [], goal: null, controller: null, latched: false, ...o });
@@ -10,20 +18,38 @@ test('a warning sounds when its sensor crosses, repeats while it stays over, sto
   const rules = new CueRules();
   assert.deepEqual(rules.update([robot({})], 'me', 0), []);
   assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100), [{ kind: 'warning', robot: 'robot1' }]);
-  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS - 1), [], 'not before the repeat');
-  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS), [{ kind: 'warning', robot: 'robot1' }]);
+  assert.deepEqual(
+    rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS - 1),
+    [],
+    'not before the repeat',
+  );
+  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS), [
+    { kind: 'warning', robot: 'robot1' },
+  ]);
   assert.deepEqual(rules.update([robot({})], 'me', 5000), [], 'back under: quiet');
-  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 5100), [{ kind: 'warning', robot: 'robot1' }], 'over again: at once');
+  assert.deepEqual(
+    rules.update([robot({ warnings: ['gas'] })], 'me', 5100),
+    [{ kind: 'warning', robot: 'robot1' }],
+    'over again: at once',
+  );
 });
 
 test('goal accepted, goal refused, lease lost, estop: once each, on the change', () => {
   const rules = new CueRules();
   rules.update([robot({ goal: 'pending', controller: 'me' })], 'me', 0);
-  assert.deepEqual(rules.update([robot({ goal: 'active', controller: 'me' })], 'me', 10), [{ kind: 'goal_accepted', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({ goal: 'active', controller: 'me' })], 'me', 10), [
+    { kind: 'goal_accepted', robot: 'robot1' },
+  ]);
   assert.deepEqual(rules.update([robot({ goal: 'active', controller: 'me' })], 'me', 20), []);
-  assert.deepEqual(rules.update([robot({ goal: 'error', controller: 'me' })], 'me', 30), [{ kind: 'goal_refused', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({ goal: 'error', controller: 'me' })], 'me', 30), [
+    { kind: 'goal_refused', robot: 'robot1' },
+  ]);
   assert.deepEqual(rules.update([robot({ controller: 'tess' })], 'me', 40), [{ kind: 'lease_lost', robot: 'robot1' }]);
-  assert.deepEqual(rules.update([robot({ controller: null })], 'me', 50), [], 'released by another: nothing lost by me');
+  assert.deepEqual(
+    rules.update([robot({ controller: null })], 'me', 50),
+    [],
+    'released by another: nothing lost by me',
+  );
   assert.deepEqual(rules.update([robot({ latched: true })], 'me', 60), [{ kind: 'estop', robot: 'robot1' }]);
   assert.deepEqual(rules.update([robot({ latched: true })], 'me', 70), []);
 });
@@ -31,7 +57,9 @@ test('goal accepted, goal refused, lease lost, estop: once each, on the change',
 test('a fleet-wide estop is one earcon, not one per robot', () => {
   const rules = new CueRules();
   rules.update([robot({}), robot({ name: 'robot2' })], 'me', 0);
-  assert.deepEqual(rules.update([robot({ latched: true }), robot({ name: 'robot2', latched: true })], 'me', 10), [{ kind: 'estop', robot: null }]);
+  assert.deepEqual(rules.update([robot({ latched: true }), robot({ name: 'robot2', latched: true })], 'me', 10), [
+    { kind: 'estop', robot: null },
+  ]);
 });
 
 test('hazard ticks: slow at nothing, faster as the reading rises, capped; due at their interval', () => {
@@ -52,12 +80,30 @@ test('hazard ticks: slow at nothing, faster as the reading rises, capped; due at
 
 test('haptics: estop, lease lost and refusals always; warnings only near the selected robot; good news none', () => {
   const selected = { name: 'robot1', x: 0, y: 0 };
-  assert.deepEqual(hapticFor({ kind: 'estop', robot: null }, { selected: null, at: null }), { intensity: 1, ms: 120, pulses: 3 });
+  assert.deepEqual(hapticFor({ kind: 'estop', robot: null }, { selected: null, at: null }), {
+    intensity: 1,
+    ms: 120,
+    pulses: 3,
+  });
   assert.ok(hapticFor({ kind: 'lease_lost', robot: 'robot1' }, { selected, at: null }));
   assert.ok(hapticFor({ kind: 'goal_refused', robot: 'robot1' }, { selected, at: null }));
   assert.equal(hapticFor({ kind: 'goal_accepted', robot: 'robot1' }, { selected, at: null }), null);
-  assert.ok(hapticFor({ kind: 'warning', robot: 'robot2' }, { selected, at: { x: HAPTIC_NEAR_M - 0.1, y: 0 } }), 'near');
-  assert.equal(hapticFor({ kind: 'warning', robot: 'robot2' }, { selected, at: { x: HAPTIC_NEAR_M + 0.1, y: 0 } }), null, 'far');
-  assert.ok(hapticFor({ kind: 'warning', robot: 'robot1' }, { selected, at: { x: 50, y: 0 } }), 'the selected robot itself');
-  assert.equal(hapticFor({ kind: 'warning', robot: 'robot2' }, { selected: null, at: { x: 0, y: 0 } }), null, 'nothing selected');
+  assert.ok(
+    hapticFor({ kind: 'warning', robot: 'robot2' }, { selected, at: { x: HAPTIC_NEAR_M - 0.1, y: 0 } }),
+    'near',
+  );
+  assert.equal(
+    hapticFor({ kind: 'warning', robot: 'robot2' }, { selected, at: { x: HAPTIC_NEAR_M + 0.1, y: 0 } }),
+    null,
+    'far',
+  );
+  assert.ok(
+    hapticFor({ kind: 'warning', robot: 'robot1' }, { selected, at: { x: 50, y: 0 } }),
+    'the selected robot itself',
+  );
+  assert.equal(
+    hapticFor({ kind: 'warning', robot: 'robot2' }, { selected: null, at: { x: 0, y: 0 } }),
+    null,
+    'nothing selected',
+  );
 });

@@ -9,7 +9,12 @@ test('no latch, no banner; the whole fleet latched reads as one fleet-wide stop'
   assert.equal(estopBanner([], FLEET, new Map(), 'c1', true), null);
   const by = new Map(FLEET.map((r) => [r, 'c1']));
   const banner = estopBanner(FLEET, FLEET, by, 'c1', true);
-  assert.deepEqual(banner, { fleet: true, robots: FLEET, text: 'ALL ROBOTS E-STOPPED · by you', hint: 'stopped and held: nothing moves them until Reset E-STOP' });
+  assert.deepEqual(banner, {
+    fleet: true,
+    robots: FLEET,
+    text: 'ALL ROBOTS E-STOPPED · by you',
+    hint: 'stopped and held: nothing moves them until Reset E-STOP',
+  });
 });
 
 test('one robot stopped names it and who stopped it; a viewer is told an operator resets it', () => {
@@ -20,6 +25,18 @@ test('one robot stopped names it and who stopped it; a viewer is told an operato
 });
 
 test('robots stopped by different operators, or by whom nobody said (a reconnect), name no one', () => {
-  assert.equal(estopBanner(['robot1', 'robot2'], FLEET, new Map([['robot1', 'c1'], ['robot2', 'c2']]), 'c1', true)?.text, 'E-STOPPED: robot1, robot2');
+  assert.equal(
+    estopBanner(
+      ['robot1', 'robot2'],
+      FLEET,
+      new Map([
+        ['robot1', 'c1'],
+        ['robot2', 'c2'],
+      ]),
+      'c1',
+      true,
+    )?.text,
+    'E-STOPPED: robot1, robot2',
+  );
   assert.equal(estopBanner(['robot1'], FLEET, new Map(), 'c1', true)?.text, 'E-STOPPED: robot1');
 });

@@ -2,7 +2,15 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
-import { gltfToRos, mapToScene, mapYawToScene, normalizeAngle, rosToGltf, sceneToMap, sceneYawToMap } from '../src/frames.js';
+import {
+  gltfToRos,
+  mapToScene,
+  mapYawToScene,
+  normalizeAngle,
+  rosToGltf,
+  sceneToMap,
+  sceneYawToMap,
+} from '../src/frames.js';
 
 const pinned = JSON.parse(readFileSync(new URL('./fixtures/frames_points.json', import.meta.url), 'utf8'));
 
@@ -35,5 +43,5 @@ test('a yaw about ROS +z is the same rotation about glTF +y', () => {
   near(forward, [Math.cos(sceneYaw), 0, -Math.sin(sceneYaw)]);
   assert.ok(Math.abs(sceneYawToMap(t, sceneYaw) - yaw) < 1e-12);
   assert.ok(Math.abs(normalizeAngle(3 * Math.PI) - Math.PI) < 1e-12);
-  assert.ok(Math.abs(normalizeAngle(-3 * Math.PI / 2) - Math.PI / 2) < 1e-12);
+  assert.ok(Math.abs(normalizeAngle((-3 * Math.PI) / 2) - Math.PI / 2) < 1e-12);
 });

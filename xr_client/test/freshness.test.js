@@ -56,15 +56,28 @@ test('a quiet relay makes the panel say every reading is old, with its age; a re
   const sender = new CommandSender(/** @type {any} */ ({ send: () => null }), () => {});
   const router = new MessageRouter({ fleet, goals: new GoalTracker(), history, commands: sender });
   router.route(hello, 0);
-  const sensor = (/** @type {number} */ t) => router.route({ identifier: 'robot1/sensor', name: 'gas', value: 5, unit: 'ppm', warning: false, stamp: t / 1000 }, t);
+  const sensor = (/** @type {number} */ t) =>
+    router.route(
+      { identifier: 'robot1/sensor', name: 'gas', value: 5, unit: 'ppm', warning: false, stamp: t / 1000 },
+      t,
+    );
   for (let t = 0; t <= 2000; t += 200) sensor(t);
-  const panel = (/** @type {number} */ now) => sensorPanel(fleet, 'robot1', history, { text: '', ok: true }, now, '', { freshness: router.freshness, linkStale: router.linkStale(true, now) });
+  const panel = (/** @type {number} */ now) =>
+    sensorPanel(fleet, 'robot1', history, { text: '', ok: true }, now, '', {
+      freshness: router.freshness,
+      linkStale: router.linkStale(true, now),
+    });
   assert.equal(panel(2100).sensors.find((s) => s.name === 'gas')?.stale, null);
   assert.equal(router.linkStale(true, 2100), false);
   assert.equal(router.linkStale(true, 2000 + 3100), true, 'silence past the pings');
   assert.equal(router.linkStale(false, 2100), true, 'no link');
   assert.equal(panel(2000 + 3100).sensors.find((s) => s.name === 'gas')?.stale, '3 s ago');
-  assert.deepEqual(router.route(hello, 9000).at(-1), { type: 'notify', text: 'Reconnected: showing the fleet as the relay sees it now', kind: 'info', toast: true });
+  assert.deepEqual(router.route(hello, 9000).at(-1), {
+    type: 'notify',
+    text: 'Reconnected: showing the fleet as the relay sees it now',
+    kind: 'info',
+    toast: true,
+  });
 });
 
 test('a sparkline spans its warning threshold, so noise far below it draws flat, and the line has a height', async () => {

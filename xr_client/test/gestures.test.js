@@ -6,8 +6,22 @@ import { pointHandPose } from '../node_modules/iwer/lib/device/configs/hand/poin
 import { relaxedHandPose } from '../node_modules/iwer/lib/device/configs/hand/relaxed.js';
 import { fistHandPose } from './fixtures/hand_poses.js';
 import {
-  DWELL_MS, DWELL_TOLERANCE_M, Dwell, FIST_ENGAGE, FIST_HOLD_MS, FIST_RELEASE, FistHold, JOYSTICK_DEAD_M,
-  JOYSTICK_RANGE_M, PalmUp, PinchDetector, PinchJoystick, distance, fingerReach, palmNormal, position,
+  DWELL_MS,
+  DWELL_TOLERANCE_M,
+  Dwell,
+  FIST_ENGAGE,
+  FIST_HOLD_MS,
+  FIST_RELEASE,
+  FistHold,
+  JOYSTICK_DEAD_M,
+  JOYSTICK_RANGE_M,
+  PalmUp,
+  PinchDetector,
+  PinchJoystick,
+  distance,
+  fingerReach,
+  palmNormal,
+  position,
 } from '../src/gestures.js';
 
 /** Thumb tip and index tip of a recorded pose (IWER's, captured from a Quest's hand tracking). @param {any} pose */
@@ -20,7 +34,11 @@ function tips(pose) {
 const lerp = (a, b, t) => /** @type {import('../src/gestures.js').Vec3} */ (a.map((v, i) => v + (b[i] - v) * t));
 
 test('the recorded poses: a pinch is a pinch, pointing and a relaxed hand are not', () => {
-  for (const [pose, pinched] of [[pinchHandPose, true], [pointHandPose, false], [relaxedHandPose, false]]) {
+  for (const [pose, pinched] of [
+    [pinchHandPose, true],
+    [pointHandPose, false],
+    [relaxedHandPose, false],
+  ]) {
     const { thumb, index } = tips(pose);
     const detector = new PinchDetector();
     assert.equal(detector.update(distance(thumb, index)).pinched, pinched);
@@ -62,7 +80,10 @@ test('palm up: the recorded relaxed hand faces down; turned over, up; half-way k
 
 test('dwell: fills over DWELL_MS, fires once, restarts when the gaze moves on, tolerates small wander', () => {
   const dwell = new Dwell();
-  const on = (/** @type {number} */ x, id = 'hemisphere') => ({ id, point: /** @type {import('../src/gestures.js').Vec3} */ ([x, 1.5, -2]) });
+  const on = (/** @type {number} */ x, id = 'hemisphere') => ({
+    id,
+    point: /** @type {import('../src/gestures.js').Vec3} */ ([x, 1.5, -2]),
+  });
   assert.deepEqual(dwell.update(on(0), 0), { fill: 0, fire: false, id: 'hemisphere' });
   assert.equal(dwell.update(on(DWELL_TOLERANCE_M * 0.8), DWELL_MS / 2).fill, 0.5, 'a small wander keeps the dwell');
   const fired = dwell.update(on(0), DWELL_MS);
@@ -78,10 +99,21 @@ test('pinch-drag joystick: dead zone, full speed at the range, forward follows t
   const stick = new PinchJoystick();
   assert.deepEqual(stick.update([0, 1, 0], 0, limits), { linear: 0, angular: 0 }, 'no pinch: nothing');
   stick.start([0, 1, 0]);
-  assert.deepEqual(stick.update([JOYSTICK_DEAD_M * 0.9, 1, -JOYSTICK_DEAD_M * 0.9], 0, limits), { linear: 0, angular: 0 });
-  assert.deepEqual(stick.update([0, 1, -JOYSTICK_RANGE_M], 0, limits), { linear: 0.8, angular: 0 }, 'forward (-z): full');
+  assert.deepEqual(stick.update([JOYSTICK_DEAD_M * 0.9, 1, -JOYSTICK_DEAD_M * 0.9], 0, limits), {
+    linear: 0,
+    angular: 0,
+  });
+  assert.deepEqual(
+    stick.update([0, 1, -JOYSTICK_RANGE_M], 0, limits),
+    { linear: 0.8, angular: 0 },
+    'forward (-z): full',
+  );
   assert.deepEqual(stick.update([0, 1, JOYSTICK_RANGE_M * 2], 0, limits), { linear: -0.8, angular: 0 }, 'clamped back');
-  assert.deepEqual(stick.update([JOYSTICK_RANGE_M, 1, 0], 0, limits), { linear: 0, angular: -1.2 }, 'right turns clockwise');
+  assert.deepEqual(
+    stick.update([JOYSTICK_RANGE_M, 1, 0], 0, limits),
+    { linear: 0, angular: -1.2 },
+    'right turns clockwise',
+  );
   // The head turned 90 degrees left (yaw +pi/2 faces -x): moving the hand along -x is forward.
   const turned = stick.update([-JOYSTICK_RANGE_M, 1, 0], Math.PI / 2, limits);
   assert.ok(Math.abs(turned.linear - 0.8) < 1e-3 && Math.abs(turned.angular) < 1e-3, JSON.stringify(turned));
@@ -90,10 +122,12 @@ test('pinch-drag joystick: dead zone, full speed at the range, forward follows t
 });
 
 /** A recorded pose's joints by name (positions), for fingerReach. @param {any} pose */
-const joints = (pose) => (/** @type {string} */ name) => (pose.jointTransforms[name] ? position(pose.jointTransforms[name].offsetMatrix) : null);
+const joints = (pose) => (/** @type {string} */ name) =>
+  pose.jointTransforms[name] ? position(pose.jointTransforms[name].offsetMatrix) : null;
 
 /** Joint positions of a pose part-way from one to another (a hand closing). @param {any} a @param {any} b @param {number} t */
-const between = (a, b, t) => (/** @type {string} */ name) => lerp(position(a.jointTransforms[name].offsetMatrix), position(b.jointTransforms[name].offsetMatrix), t);
+const between = (a, b, t) => (/** @type {string} */ name) =>
+  lerp(position(a.jointTransforms[name].offsetMatrix), position(b.jointTransforms[name].offsetMatrix), t);
 
 test('a fist: the fist made from the recorded point pose is one; the recorded relaxed, pinch and point poses are not', () => {
   const fist = /** @type {number[]} */ (fingerReach(joints(fistHandPose)));
@@ -108,7 +142,11 @@ test('a fist: the fist made from the recorded point pose is one; the recorded re
     return p && /** @type {import('../src/gestures.js').Vec3} */ ([-p[0], p[1], p[2]]);
   };
   assert.deepEqual(fingerReach(mirrored), fist);
-  assert.equal(fingerReach(() => null), null, 'an untracked hand has no reach');
+  assert.equal(
+    fingerReach(() => null),
+    null,
+    'an untracked hand has no reach',
+  );
 });
 
 test('fist and hold: the E-STOP fires once after FIST_HOLD_MS closed, not before, and again only after opening', () => {
@@ -146,7 +184,9 @@ test('closing the hand and opening it, with jitter: one fist and one opening, no
   let closed = false;
   let t = 0;
   for (const s of [...steps, ...steps.reverse()]) {
-    const reach = /** @type {number[]} */ (fingerReach(between(relaxedHandPose, fistHandPose, s))).map((r) => r + jitter());
+    const reach = /** @type {number[]} */ (fingerReach(between(relaxedHandPose, fistHandPose, s))).map(
+      (r) => r + jitter(),
+    );
     const now = hold.update(reach, (t += 10)).closed;
     if (now !== closed) changes.push((closed = now));
   }

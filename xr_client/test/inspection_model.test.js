@@ -11,21 +11,43 @@ import { CommandSender } from '../src/command_sender.js';
 /** @param {Partial<import('../src/protocol.js').MissionMessage>} fields @returns {import('../src/protocol.js').MissionMessage} */
 function mission(fields) {
   return {
-    identifier: 'mission', id: 'm-1.robot1', name: 'Demo inspection', robot: 'robot1', state: 'running', current: 0,
+    identifier: 'mission',
+    id: 'm-1.robot1',
+    name: 'Demo inspection',
+    robot: 'robot1',
+    state: 'running',
+    current: 0,
     steps: [
       { kind: 'inspect', target: 'spill', x: null, y: null, yaw: null, seconds: null },
       { kind: 'dwell', target: null, x: null, y: null, yaw: null, seconds: 2 },
     ],
-    reason: '', owner: 'c1', updated: 1, ...fields,
+    reason: '',
+    owner: 'c1',
+    updated: 1,
+    ...fields,
   };
 }
 
 /** @param {Partial<import('../src/protocol.js').FindingMessage>} fields @returns {import('../src/protocol.js').FindingMessage} */
 function finding(fields) {
   return {
-    identifier: 'finding', id: 'f-1', capture: 'c-1', mission: 'm-1.robot1', target: 'spill', robot: 'robot1', x: 1.8,
-    y: 8.2, status: 'anomaly', note: 'gas 698.2 ppm (over 400 ppm)', source: 'rule', region: null,
-    image: '/captures/ab.jpg', readings: { gas: 698.2 }, created: 10, updated: 10, ...fields,
+    identifier: 'finding',
+    id: 'f-1',
+    capture: 'c-1',
+    mission: 'm-1.robot1',
+    target: 'spill',
+    robot: 'robot1',
+    x: 1.8,
+    y: 8.2,
+    status: 'anomaly',
+    note: 'gas 698.2 ppm (over 400 ppm)',
+    source: 'rule',
+    region: null,
+    image: '/captures/ab.jpg',
+    readings: { gas: 698.2 },
+    created: 10,
+    updated: 10,
+    ...fields,
   };
 }
 
@@ -38,7 +60,9 @@ test('missions are followed by state, and the operator is told of every change t
     { text: "robot1's mission paused: c2 takes over", kind: 'warning' },
   ]);
   assert.equal(model.progress('robot1'), 'mission: step 2 of 2 (dwell) · paused: c2 takes over');
-  assert.deepEqual(model.apply(mission({ current: 1, state: 'running' })), [{ text: "robot1's mission running again", kind: 'info' }]);
+  assert.deepEqual(model.apply(mission({ current: 1, state: 'running' })), [
+    { text: "robot1's mission running again", kind: 'info' },
+  ]);
   assert.deepEqual(model.apply(mission({ current: 2, state: 'aborted', reason: 'emergency stop by c1' })), [
     { text: "robot1's mission aborted: emergency stop by c1", kind: 'error' },
   ]);
@@ -51,24 +75,42 @@ test('findings are listed newest first, filtered, and an anomaly is announced on
   assert.equal(model.apply(finding({}))[0].kind, 'warning');
   assert.deepEqual(model.apply(finding({ note: 'updated' })), []); // an update of a known finding: no new notice
   model.apply(finding({ id: 'f-2', status: 'ok', target: 'panels', robot: 'robot2', created: 20 }));
-  assert.deepEqual(model.list().map((f) => f.id), ['f-2', 'f-1']);
-  assert.deepEqual(model.list({ status: 'anomaly' }).map((f) => f.id), ['f-1']);
-  assert.deepEqual(model.list({ robot: 'robot2' }).map((f) => f.id), ['f-2']);
+  assert.deepEqual(
+    model.list().map((f) => f.id),
+    ['f-2', 'f-1'],
+  );
+  assert.deepEqual(
+    model.list({ status: 'anomaly' }).map((f) => f.id),
+    ['f-1'],
+  );
+  assert.deepEqual(
+    model.list({ robot: 'robot2' }).map((f) => f.id),
+    ['f-2'],
+  );
 });
 
 test('the router hands inspection messages to the model and resets it on hello', () => {
   const inspection = new InspectionModel();
   const router = new MessageRouter({
-    fleet: new FleetModel(), goals: new GoalTracker(), history: new SensorHistory(),
-    commands: new CommandSender({ send: () => null }, () => {}), inspection,
+    fleet: new FleetModel(),
+    goals: new GoalTracker(),
+    history: new SensorHistory(),
+    commands: new CommandSender({ send: () => null }, () => {}),
+    inspection,
   });
-  const targets = { identifier: /** @type {'targets'} */ ('targets'), targets: [{ id: 'spill', name: 'Spill', kind: 'gas', x: 1.8, y: 8.2, facing: null }] };
+  const targets = {
+    identifier: /** @type {'targets'} */ ('targets'),
+    targets: [{ id: 'spill', name: 'Spill', kind: 'gas', x: 1.8, y: 8.2, facing: null }],
+  };
   assert.deepEqual(router.route(targets, 0), [{ type: 'inspection' }]);
   assert.equal(inspection.targets.get('spill')?.name, 'Spill');
   // Later changes come as deltas: a target added or replaced, another removed; the rest stays.
   const changed = {
     identifier: /** @type {'targets_changed'} */ ('targets_changed'),
-    added: [{ id: 'valve', name: 'Valve 12', kind: 'valve', x: 15.6, y: 7.6, facing: null }, { id: 'spill', name: 'Drum 7', kind: 'gas', x: 1.8, y: 8.2, facing: null }],
+    added: [
+      { id: 'valve', name: 'Valve 12', kind: 'valve', x: 15.6, y: 7.6, facing: null },
+      { id: 'spill', name: 'Drum 7', kind: 'gas', x: 1.8, y: 8.2, facing: null },
+    ],
     removed: [],
   };
   assert.deepEqual(router.route(changed, 0), [{ type: 'inspection' }]);
@@ -79,18 +121,46 @@ test('the router hands inspection messages to the model and resets it on hello',
   const effects = router.route(finding({}), 0);
   assert.equal(effects[0].type, 'inspection');
   assert.equal(effects[1].type, 'notify');
-  router.route({ identifier: 'region', id: 'r7', capture: 'c-1', outline: [[1, 2], [3, 4], [5, 6]] }, 0);
-  assert.deepEqual(inspection.regions.get('r7'), [[1, 2], [3, 4], [5, 6]]);
+  router.route(
+    {
+      identifier: 'region',
+      id: 'r7',
+      capture: 'c-1',
+      outline: [
+        [1, 2],
+        [3, 4],
+        [5, 6],
+      ],
+    },
+    0,
+  );
+  assert.deepEqual(inspection.regions.get('r7'), [
+    [1, 2],
+    [3, 4],
+    [5, 6],
+  ]);
 });
 
 test("the sensor panel's status line carries the selected robot's mission progress", async () => {
   const { sensorPanel } = await import('../src/sensor_panel.js');
   const fleet = new FleetModel();
-  const hello = JSON.parse((await import('node:fs')).readFileSync(new URL('./fixtures/hello.json', import.meta.url), 'utf8'));
+  const hello = JSON.parse(
+    (await import('node:fs')).readFileSync(new URL('./fixtures/hello.json', import.meta.url), 'utf8'),
+  );
   fleet.apply(hello);
   const model = new InspectionModel();
   model.apply(mission({}));
-  const panel = sensorPanel(fleet, 'robot1', new SensorHistory(), { text: 'connected', ok: true }, 0, model.progress('robot1'));
+  const panel = sensorPanel(
+    fleet,
+    'robot1',
+    new SensorHistory(),
+    { text: 'connected', ok: true },
+    0,
+    model.progress('robot1'),
+  );
   assert.match(panel.status, / · mission: step 1 of 2 \(inspect spill\)$/);
-  assert.doesNotMatch(sensorPanel(fleet, 'robot2', new SensorHistory(), { text: '', ok: true }, 0, model.progress('robot2')).status, /mission/);
+  assert.doesNotMatch(
+    sensorPanel(fleet, 'robot2', new SensorHistory(), { text: '', ok: true }, 0, model.progress('robot2')).status,
+    /mission/,
+  );
 });

@@ -9,15 +9,32 @@ import { MenuState } from '../src/menu_state.js';
 /** @param {Partial<import('../src/protocol.js').FindingMessage>} fields @returns {import('../src/protocol.js').FindingMessage} */
 function finding(fields) {
   return {
-    identifier: 'finding', id: 'f-1', capture: 'c-1', mission: 'm-1.robot1', target: 'spill', robot: 'robot1', x: 1.8,
-    y: 8.2, status: 'anomaly', note: 'gas 698.2 ppm (over 400 ppm)', source: 'rule', region: null,
-    image: '/captures/ab.jpg', readings: { gas: 698.2 }, created: 10, updated: 10, ...fields,
+    identifier: 'finding',
+    id: 'f-1',
+    capture: 'c-1',
+    mission: 'm-1.robot1',
+    target: 'spill',
+    robot: 'robot1',
+    x: 1.8,
+    y: 8.2,
+    status: 'anomaly',
+    note: 'gas 698.2 ppm (over 400 ppm)',
+    source: 'rule',
+    region: null,
+    image: '/captures/ab.jpg',
+    readings: { gas: 698.2 },
+    created: 10,
+    updated: 10,
+    ...fields,
   };
 }
 
 /** @param {string[]} ids */
 function targets(ids) {
-  return { identifier: /** @type {'targets'} */ ('targets'), targets: ids.map((id) => ({ id, name: id, kind: 'gas', x: 1, y: 2, yaw: null })) };
+  return {
+    identifier: /** @type {'targets'} */ ('targets'),
+    targets: ids.map((id) => ({ id, name: id, kind: 'gas', x: 1, y: 2, yaw: null })),
+  };
 }
 
 test('targets are picked in order, unpicked by a second select, and sent once as one mission', () => {
@@ -29,7 +46,9 @@ test('targets are picked in order, unpicked by a second select, and sent once as
   review.togglePick('panels');
   review.togglePick('spill');
   assert.deepEqual(review.picked, ['leak', 'panels']);
-  assert.deepEqual(review.startPicked('robot2'), [{ type: 'mission_targets', targets: ['leak', 'panels'], robot: 'robot2' }]);
+  assert.deepEqual(review.startPicked('robot2'), [
+    { type: 'mission_targets', targets: ['leak', 'panels'], robot: 'robot2' },
+  ]);
   assert.deepEqual(review.startPicked(null)[0], { type: 'mission_targets', targets: ['leak', 'panels'], robot: null });
   review.picksSent();
   assert.deepEqual(review.startPicked(null), [], 'nothing picked: no mission');
@@ -52,7 +71,12 @@ test('a region is asked at the selected pixel, proposed when its outline arrives
   assert.equal(review.hint(), 'segmenting…');
   review.sync(model);
   assert.equal(review.proposal, null, 'no outline yet');
-  const outline = [[200, 220], [280, 220], [280, 300], [200, 300]];
+  const outline = [
+    [200, 220],
+    [280, 220],
+    [280, 300],
+    [200, 300],
+  ];
   model.apply({ identifier: 'region', id: 'r-7', capture: 'c-1', outline });
   review.sync(model);
   assert.deepEqual(review.proposal, outline);
@@ -74,10 +98,18 @@ test('a click on the image makes a target there in target mode, named without a 
   const review = new InspectionReview();
   review.select('f-1');
   review.setImageAction('target');
-  assert.deepEqual(review.imageClick(model, 5, 6), [{ type: 'target_pixel', target: 'spot-3', capture: 'c-1', u: 5, v: 6 }]);
+  assert.deepEqual(review.imageClick(model, 5, 6), [
+    { type: 'target_pixel', target: 'spot-3', capture: 'c-1', u: 5, v: 6 },
+  ]);
   assert.equal(review.imageAction, 'region');
-  assert.deepEqual(review.imageClick(model, 5, 6, { target: true, name: ' valve #4 ' }), [{ type: 'target_pixel', target: 'valve-4', capture: 'c-1', u: 5, v: 6 }]);
-  assert.deepEqual(review.imageClick(model, 5, 6, { target: true, name: '###' }), [], 'a name of nothing but symbols sends nothing');
+  assert.deepEqual(review.imageClick(model, 5, 6, { target: true, name: ' valve #4 ' }), [
+    { type: 'target_pixel', target: 'valve-4', capture: 'c-1', u: 5, v: 6 },
+  ]);
+  assert.deepEqual(
+    review.imageClick(model, 5, 6, { target: true, name: '###' }),
+    [],
+    'a name of nothing but symbols sends nothing',
+  );
   assert.equal(targetName('a'.repeat(80)).length, 64);
   assert.equal(nextName(model, 'point'), 'point-3');
 });
@@ -98,7 +130,13 @@ test('opening another finding, or losing the open one, drops the region being ma
 
 test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and disables what a viewer cannot do', () => {
   const size = /** @type {[number, number]} */ ([480, 480]);
-  const layout = cardLayout({ status: 'anomaly', proposal: false, imageAction: 'region', operator: true, imageSize: size });
+  const layout = cardLayout({
+    status: 'anomaly',
+    proposal: false,
+    imageAction: 'region',
+    operator: true,
+    imageSize: size,
+  });
   const image = /** @type {NonNullable<typeof layout.image>} */ (layout.image);
   assert.ok(Math.abs(image.w - image.h) < 1e-9, 'a square capture stays square');
   assert.ok(image.x >= 0 && image.x + image.w <= CARD_PX[0] && image.y + image.h <= CARD_PX[1]);
@@ -111,16 +149,25 @@ test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and
     assert.ok(b.x > image.x + image.w, `${b.id} right of the image`);
     assert.deepEqual(cardHit(layout, size, b.x + b.w / 2, b.y + b.h / 2), { button: b.id });
   }
-  assert.deepEqual(layout.buttons.filter((b) => b.active).map((b) => b.id), ['status:anomaly', 'image:region']);
+  assert.deepEqual(
+    layout.buttons.filter((b) => b.active).map((b) => b.id),
+    ['status:anomaly', 'image:region'],
+  );
   const proposed = cardLayout({ status: 'ok', proposal: true, imageAction: 'region', operator: true, imageSize: size });
   assert.ok(proposed.buttons.some((b) => b.id === 'region:accept'));
   const viewer = cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: false, imageSize: size });
-  const ok = /** @type {import('../src/finding_card_layout.js').CardButton} */ (viewer.buttons.find((b) => b.id === 'status:ok'));
+  const ok = /** @type {import('../src/finding_card_layout.js').CardButton} */ (
+    viewer.buttons.find((b) => b.id === 'status:ok')
+  );
   assert.equal(cardHit(viewer, size, ok.x + 5, ok.y + 5), null, 'a viewer cannot set a status');
-  const close = /** @type {import('../src/finding_card_layout.js').CardButton} */ (viewer.buttons.find((b) => b.id === 'card:close'));
+  const close = /** @type {import('../src/finding_card_layout.js').CardButton} */ (
+    viewer.buttons.find((b) => b.id === 'card:close')
+  );
   assert.deepEqual(cardHit(viewer, size, close.x + 5, close.y + 5), { button: 'card:close' });
   // A wide capture is letterboxed: its rectangle keeps 16:9.
-  const wide = /** @type {NonNullable<typeof layout.image>} */ (cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: true, imageSize: [1280, 720] }).image);
+  const wide = /** @type {NonNullable<typeof layout.image>} */ (
+    cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: true, imageSize: [1280, 720] }).image
+  );
   assert.ok(Math.abs(wide.w / wide.h - 16 / 9) < 1e-9);
   assert.equal(cardHit(layout, null, px, py), null, 'no image loaded: the image area is nothing yet');
 });
@@ -133,7 +180,11 @@ test('the menu offers Inspect in free roam to viewers too, and the picked target
   assert.equal(menu.tool, 'inspect');
   menu.setFleet([{ name: 'robot1', hasCamera: true }], true);
   assert.equal(menu.tool, 'inspect', 'becoming an operator keeps the tool');
-  assert.equal(menu.buttons().find((b) => b.id === 'mission:picked'), undefined, 'nothing picked: no button');
+  assert.equal(
+    menu.buttons().find((b) => b.id === 'mission:picked'),
+    undefined,
+    'nothing picked: no button',
+  );
   menu.setPicked(2);
   menu.press('robot:robot1');
   const button = menu.buttons().find((b) => b.id === 'mission:picked');
@@ -152,14 +203,33 @@ test('a point of the live image asks for a target there; its finding opens with 
   model.apply(targets(['spill', 'spot-1']));
   const review = new InspectionReview();
   const [command] = review.liveClick(model, 'robot2', 300, 410);
-  assert.deepEqual(command, { type: 'target_live', target: 'spot-3', robot: 'robot2', u: 300, v: 410 }, 'named without a keyboard');
+  assert.deepEqual(
+    command,
+    { type: 'target_live', target: 'spot-3', robot: 'robot2', u: 300, v: 410 },
+    'named without a keyboard',
+  );
   model.await('r-9');
   review.liveAsked('r-9', 'spot-3');
   assert.deepEqual(review.liveClick(model, 'robot2', 10, 10), [], 'one at a time');
   // The relay's answer, in its order: targets, the finding, the region, then the ack.
   model.apply(targets(['spill', 'spot-1', 'spot-3']));
-  model.apply(finding({ id: 'f-9', capture: 'c-9', target: 'spot-3', robot: 'robot2', status: 'needs_review', source: 'operator', mission: null }));
-  const outline = [[280, 390], [320, 390], [320, 430], [280, 430]];
+  model.apply(
+    finding({
+      id: 'f-9',
+      capture: 'c-9',
+      target: 'spot-3',
+      robot: 'robot2',
+      status: 'needs_review',
+      source: 'operator',
+      mission: null,
+    }),
+  );
+  const outline = [
+    [280, 390],
+    [320, 390],
+    [320, 430],
+    [280, 430],
+  ];
   model.apply({ identifier: 'region', id: 'r-9', capture: 'c-9', outline });
   review.sync(model);
   assert.equal(review.selected, null, 'nothing opens before the ack');
@@ -182,7 +252,7 @@ test('a refused live target opens nothing, and a region answered without an outl
   review.sync(model);
   assert.equal(review.selected, null);
   assert.equal(review.live, null);
-  assert.equal(model.settle('r-1', true), false, 'answered once; other acks are not the review\'s');
+  assert.equal(model.settle('r-1', true), false, "answered once; other acks are not the review's");
   review.select('f-1');
   review.imageClick(model, 5, 5);
   model.await('r-2');

@@ -1,7 +1,15 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { FADE_END, FADE_START, LABEL_ANGLE, LABEL_MAX, LABEL_MIN, labelHeight, labelOpacity } from '../src/label_rule.js';
+import {
+  FADE_END,
+  FADE_START,
+  LABEL_ANGLE,
+  LABEL_MAX,
+  LABEL_MIN,
+  labelHeight,
+  labelOpacity,
+} from '../src/label_rule.js';
 
 test('a label keeps about two degrees on screen, within its limits in metres', () => {
   assert.equal(labelHeight(10), LABEL_ANGLE * 10); // 0.35 m at 10 m

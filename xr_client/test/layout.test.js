@@ -31,7 +31,12 @@ test('no panels: the whole window; panels over nearly everything: the whole wind
   const wall = { left: 0, top: 0, right: 1100, bottom: 800 };
   assert.deepEqual(freeRect(viewport, [wall]), { left: 0, top: 0, right: 1280, bottom: 800 });
   // A hidden panel (an empty rectangle, as getBoundingClientRect gives for display: none) is ignored.
-  assert.deepEqual(freeRect(viewport, [{ left: 0, top: 0, right: 0, bottom: 0 }]), { left: 0, top: 0, right: 1280, bottom: 800 });
+  assert.deepEqual(freeRect(viewport, [{ left: 0, top: 0, right: 0, bottom: 0 }]), {
+    left: 0,
+    top: 0,
+    right: 1280,
+    bottom: 800,
+  });
 });
 
 test('compact below 1100 x 700; the scale bar takes round lengths that fit', () => {

@@ -2,11 +2,24 @@
 /** The lens models against the reference values that docs/lenses.md gives and tests/test_lens.py pins. */
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { directionToUv, fieldHalfAngle, fisheyeFold, hemisphereGeometry, intrinsics, projectOptical, rho } from '../src/lens.js';
+import {
+  directionToUv,
+  fieldHalfAngle,
+  fisheyeFold,
+  hemisphereGeometry,
+  intrinsics,
+  projectOptical,
+  rho,
+} from '../src/lens.js';
 
 const DEG = Math.PI / 180;
 /** An optical-frame direction at theta from the axis, azimuth phi (0 = right, 90 = down). */
-const optical = (/** @type {number} */ theta, phi = 0) => /** @type {[number, number, number]} */ ([Math.sin(theta) * Math.cos(phi), Math.sin(theta) * Math.sin(phi), Math.cos(theta)]);
+const optical = (/** @type {number} */ theta, phi = 0) =>
+  /** @type {[number, number, number]} */ ([
+    Math.sin(theta) * Math.cos(phi),
+    Math.sin(theta) * Math.sin(phi),
+    Math.cos(theta),
+  ]);
 /** The same direction in three.js (forward -z, +y up). */
 const three = (/** @type {number} */ theta, phi = 0) => {
   const [x, y, z] = optical(theta, phi);
@@ -111,5 +124,8 @@ test('the cap spans the field, its UVs are the lens mapping, and its triangles f
 
 test('an unknown lens model, or a fisheye without K and D, is an error that says what is expected', () => {
   assert.throws(() => directionToUv({ model: 'orthographic', fov: 90 }, 0.1, 0, -1, 10, 10), /equidistant/);
-  assert.throws(() => directionToUv({ model: 'opencv_fisheye', fov: 180 }, 0.1, 0, -1, 10, 10), /opencv_fisheye needs K/);
+  assert.throws(
+    () => directionToUv({ model: 'opencv_fisheye', fov: 180 }, 0.1, 0, -1, 10, 10),
+    /opencv_fisheye needs K/,
+  );
 });

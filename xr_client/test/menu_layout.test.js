@@ -6,7 +6,14 @@ import { buttonAt, layoutMenu } from '../src/menu_layout.js';
 
 test('every menu button gets a rectangle inside the panel, rows do not overlap, hits map back', () => {
   const menu = new MenuState();
-  menu.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: false }, { name: 'robot3', hasCamera: true }], true);
+  menu.setFleet(
+    [
+      { name: 'robot1', hasCamera: true },
+      { name: 'robot2', hasCamera: false },
+      { name: 'robot3', hasCamera: true },
+    ],
+    true,
+  );
   const buttons = menu.buttons();
   const rects = layoutMenu(buttons, 1024, 700);
   assert.deepEqual(rects.map((r) => r.id).sort(), buttons.map((b) => b.id).sort());

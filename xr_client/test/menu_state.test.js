@@ -6,7 +6,14 @@ import { MAX_STREAM_FPS } from '../src/protocol.js';
 
 function menu() {
   const m = new MenuState();
-  m.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: true }, { name: 'robot3', hasCamera: false }], true);
+  m.setFleet(
+    [
+      { name: 'robot1', hasCamera: true },
+      { name: 'robot2', hasCamera: true },
+      { name: 'robot3', hasCamera: false },
+    ],
+    true,
+  );
   return m;
 }
 /** @param {MenuState} m @param {string} id */
@@ -41,12 +48,19 @@ test('Teleop and Goal are exclusive, need a robot, and labels and disabled state
   m.press('tool:teleop');
   assert.equal(m.tool, 'teleop');
   // Switching to Goal stops driving first.
-  assert.deepEqual(m.press('tool:goal'), [{ type: 'stop_teleop', robot: 'robot2' }, { type: 'tool', tool: 'goal' }]);
+  assert.deepEqual(m.press('tool:goal'), [
+    { type: 'stop_teleop', robot: 'robot2' },
+    { type: 'tool', tool: 'goal' },
+  ]);
   assert.equal(m.tool, 'goal');
   assert.equal(button(m, 'camera:snapshot')?.enabled, false);
   // Robot POV: goal off (no floor there), camera buttons on, a snapshot at once.
   const effects = m.press('mode:pov');
-  assert.deepEqual(effects, [{ type: 'tool', tool: 'none' }, { type: 'mode', mode: 'pov' }, { type: 'snapshot', robot: 'robot2' }]);
+  assert.deepEqual(effects, [
+    { type: 'tool', tool: 'none' },
+    { type: 'mode', mode: 'pov' },
+    { type: 'snapshot', robot: 'robot2' },
+  ]);
   assert.equal(button(m, 'tool:goal')?.enabled, false);
   assert.equal(button(m, 'tool:goal')?.label, 'Goal (free roam only)');
   assert.equal(button(m, 'camera:snapshot')?.enabled, true);
@@ -82,8 +96,15 @@ test('opening the menu while driving asks for a stop; E-STOP turns teleop off', 
   const m = menu();
   m.press('robot:robot1');
   m.press('tool:teleop');
-  assert.deepEqual(m.toggle(), [{ type: 'stop_teleop', robot: 'robot1' }, { type: 'menu', open: true }]);
-  assert.deepEqual(m.press('estop'), [{ type: 'stop_teleop', robot: 'robot1' }, { type: 'tool', tool: 'none' }, { type: 'estop' }]);
+  assert.deepEqual(m.toggle(), [
+    { type: 'stop_teleop', robot: 'robot1' },
+    { type: 'menu', open: true },
+  ]);
+  assert.deepEqual(m.press('estop'), [
+    { type: 'stop_teleop', robot: 'robot1' },
+    { type: 'tool', tool: 'none' },
+    { type: 'estop' },
+  ]);
   assert.equal(m.tool, 'none');
 });
 
@@ -119,9 +140,16 @@ test('a reconnect keeps the selection, asks for the live stream again, and drops
   m.press('camera:live');
   m.setConnected(false);
   assert.equal(button(m, 'camera:live')?.enabled, false);
-  assert.deepEqual(m.setFleet([{ name: 'robot1', hasCamera: true }, { name: 'robot2', hasCamera: true }], true), [
-    { type: 'stream', robot: 'robot2', fps: MAX_STREAM_FPS },
-  ]);
+  assert.deepEqual(
+    m.setFleet(
+      [
+        { name: 'robot1', hasCamera: true },
+        { name: 'robot2', hasCamera: true },
+      ],
+      true,
+    ),
+    [{ type: 'stream', robot: 'robot2', fps: MAX_STREAM_FPS }],
+  );
   const effects = m.setFleet([{ name: 'robot1', hasCamera: true }], true);
   assert.equal(m.selected, null);
   assert.equal(m.mode, 'free_roam');
@@ -159,7 +187,10 @@ test('the mission buttons: the demo, every target for the selected robot or the 
   assert.equal(menu.buttons().find((b) => b.id === 'mission:all')?.label, 'All targets: fleet');
   menu.select('robot1');
   assert.deepEqual(menu.press('mission:all'), [{ type: 'mission', action: 'all', robot: 'robot1' }]);
-  assert.equal(menu.buttons().find((b) => b.id === 'mission:toggle'), undefined); // no mission: no controls
+  assert.equal(
+    menu.buttons().find((b) => b.id === 'mission:toggle'),
+    undefined,
+  ); // no mission: no controls
   menu.setMission('running');
   assert.deepEqual(menu.press('mission:toggle'), [{ type: 'mission', action: 'pause', robot: 'robot1' }]);
   menu.setMission('paused');

@@ -20,7 +20,16 @@ function frame(header, payload) {
 }
 
 test('binary frames: the header says the size, the payload is the rest', () => {
-  const header = { identifier: 'robot1/camera/front', seq: 3, stamp: 1.5, encoding: 'jpeg', width: 640, height: 480, lens: { model: 'equidistant', fov: 180 }, request_id: null };
+  const header = {
+    identifier: 'robot1/camera/front',
+    seq: 3,
+    stamp: 1.5,
+    encoding: 'jpeg',
+    width: 640,
+    height: 480,
+    lens: { model: 'equidistant', fov: 180 },
+    request_id: null,
+  };
   const { header: h, payload } = parseFrame(frame(header, [0xff, 0xd8, 0xff]));
   assert.deepEqual(h, header);
   assert.deepEqual(Array.from(payload), [0xff, 0xd8, 0xff]);
@@ -89,11 +98,17 @@ test('pose smoothing: no jump, at most one update behind, far poses snap', () =>
 
 test('snap turn re-arms past the threshold; the teleport gesture fires once on release', () => {
   const snap = new SnapTurn();
-  assert.deepEqual([0.2, 0.8, 0.9, 0.5, 0.2, 0.75].map((x) => snap.update(x)), [0, -SNAP_ANGLE, 0, 0, 0, -SNAP_ANGLE]);
+  assert.deepEqual(
+    [0.2, 0.8, 0.9, 0.5, 0.2, 0.75].map((x) => snap.update(x)),
+    [0, -SNAP_ANGLE, 0, 0, 0, -SNAP_ANGLE],
+  );
   assert.equal(snap.update(-0.1), 0);
   assert.equal(snap.update(-0.9), SNAP_ANGLE);
   const tp = new TeleportGesture();
-  assert.deepEqual([0, -0.8, -0.9, -0.5, -0.1, 0].map((y) => tp.update(y)), ['idle', 'aim', 'aim', 'aim', 'teleport', 'idle']);
+  assert.deepEqual(
+    [0, -0.8, -0.9, -0.5, -0.1, 0].map((y) => tp.update(y)),
+    ['idle', 'aim', 'aim', 'aim', 'teleport', 'idle'],
+  );
 });
 
 test('smooth locomotion follows the heading; the vignette fades in fast and out slowly', () => {
@@ -113,16 +128,37 @@ test('VR availability says why and how to fix it', () => {
   assert.match(lan.reason, /secure context/);
   assert.match(lan.fix, /--tls auto/);
   assert.match(lan.fix, /adb reverse tcp:8080 tcp:8080/);
-  assert.equal(vrAvailability({ secure: false, hostname: '127.0.0.1', port: '8080', hasXR: true, vrSupported: true }).available, true);
-  assert.match(vrAvailability({ secure: true, hostname: 'x', port: '', hasXR: false, vrSupported: null }).reason, /no WebXR/);
+  assert.equal(
+    vrAvailability({ secure: false, hostname: '127.0.0.1', port: '8080', hasXR: true, vrSupported: true }).available,
+    true,
+  );
+  assert.match(
+    vrAvailability({ secure: true, hostname: 'x', port: '', hasXR: false, vrSupported: null }).reason,
+    /no WebXR/,
+  );
 });
 
 test('scans: LaserScan-like ranges or points, in the robot frame', () => {
   const out = new Float32Array(16);
   const n = scanToPoints({ angle_min: 0, angle_increment: Math.PI / 2, ranges: [1, null, 2, 99], range_max: 10 }, out);
   assert.equal(n, 2);
-  assert.deepEqual(Array.from(out.slice(0, 4)).map((v) => Math.round(v * 1e6) / 1e6), [1, 0, -2, 0]);
-  assert.equal(scanToPoints({ points: [[1, 2], [3, 'x'], [5, 6]] }, out), 2);
+  assert.deepEqual(
+    Array.from(out.slice(0, 4)).map((v) => Math.round(v * 1e6) / 1e6),
+    [1, 0, -2, 0],
+  );
+  assert.equal(
+    scanToPoints(
+      {
+        points: [
+          [1, 2],
+          [3, 'x'],
+          [5, 6],
+        ],
+      },
+      out,
+    ),
+    2,
+  );
   assert.equal(scanToPoints({}, out), 0);
 });
 
@@ -142,11 +178,18 @@ test('every cmd_vel carries the client clock as t, so the relay can drop a comma
   /** @type {Record<string, unknown>[]} */
   const sent = [];
   let now = 1234.4;
-  const sender = new CommandSender({ send: (m) => (sent.push(m), '') }, () => {}, () => now);
+  const sender = new CommandSender(
+    { send: (m) => (sent.push(m), '') },
+    () => {},
+    () => now,
+  );
   sender.twist({ robot: 'robot1', linear: 0.2, angular: -0.1 });
   now = 1284.6;
   sender.twist({ robot: 'robot1', linear: 0, angular: 0 });
-  assert.deepEqual(sent.map((m) => m.t), [1234, 1285]);
+  assert.deepEqual(
+    sent.map((m) => m.t),
+    [1234, 1285],
+  );
   assert.deepEqual(Object.keys(sent[0]).sort(), ['angular', 'identifier', 'linear', 't']);
 });
 

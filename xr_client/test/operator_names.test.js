@@ -13,7 +13,7 @@ test('holders read as people: you, their name, a mission, or their id when they 
 });
 
 test('a name is trimmed and kept to letters, digits and a few marks; anything else is refused before sending', () => {
-  assert.equal(cleanName('  Zoë   O\'Neil '), "Zoë O'Neil");
+  assert.equal(cleanName("  Zoë   O'Neil "), "Zoë O'Neil");
   assert.equal(cleanName('Ops-2 (night)'), null);
   assert.equal(cleanName('<b>x</b>'), null);
   assert.equal(cleanName(''), null);

@@ -17,7 +17,7 @@ test('global identifiers have no robot, even those with a slash', () => {
   assert.deepEqual(parseIdentifier('/pose'), { robot: null, kind: '/pose' });
 });
 
-test('error codes are the relay\'s', () => {
+test("error codes are the relay's", () => {
   assert.equal(ERROR_CODES.LEASED, 'leased');
   assert.ok(Object.isFrozen(ERROR_CODES));
 });

@@ -14,7 +14,10 @@ test('the relay address comes from the page origin, ws or wss to match', () => {
 test('the operator token comes from the #token= fragment and is kept for the tab', () => {
   /** @type {Map<string, string>} */
   const store = new Map();
-  const storage = { getItem: (/** @type {string} */ k) => store.get(k) ?? null, setItem: (/** @type {string} */ k, /** @type {string} */ v) => void store.set(k, v) };
+  const storage = {
+    getItem: (/** @type {string} */ k) => store.get(k) ?? null,
+    setItem: (/** @type {string} */ k, /** @type {string} */ v) => void store.set(k, v),
+  };
   assert.equal(operatorToken(new URL('http://h:8080/'), storage), null);
   assert.equal(operatorToken(new URL('http://h:8080/?emulate=quest3#token=s3cret'), storage), 's3cret');
   assert.equal(operatorToken(new URL('http://h:8080/'), storage), 's3cret'); // a reload without the fragment
@@ -59,7 +62,10 @@ test('a refused token stops the retries and says what to do', () => {
   p.refused('wrong operator token');
   assert.equal(p.state, 'refused');
   assert.equal(p.retryAt, null);
-  assert.equal(p.describe(5_000), 'refused: wrong operator token · open the address the relay printed (…/#token=…) and reload');
+  assert.equal(
+    p.describe(5_000),
+    'refused: wrong operator token · open the address the relay printed (…/#token=…) and reload',
+  );
 });
 
 test('accessRefusal asks the relay why, and only a refusal stops the retries', async () => {
@@ -67,14 +73,21 @@ test('accessRefusal asks the relay why, and only a refusal stops the retries', a
   /** @type {{url: string, body: unknown}[]} */
   const asked = [];
   /** @param {number} status @param {string} text */
-  const answer = (status, text) => /** @type {typeof fetch} */ (async (url, init) => {
-    asked.push({ url: String(url), body: init?.body });
-    return new Response(text, { status });
-  });
+  const answer = (status, text) =>
+    /** @type {typeof fetch} */ (
+      async (url, init) => {
+        asked.push({ url: String(url), body: init?.body });
+        return new Response(text, { status });
+      }
+    );
   assert.equal(await accessRefusal(where, 'stale', answer(401, 'wrong operator token\n')), 'wrong operator token');
   assert.deepEqual(asked[0], { url: 'http://127.0.0.1:8080/auth', body: 'stale' });
   assert.equal(await accessRefusal(where, 'good', answer(200, '{"role": "operator"}')), null);
   assert.equal(await accessRefusal(where, null, answer(403, 'origin x is not allowed')), 'origin x is not allowed');
-  const unreachable = /** @type {typeof fetch} */ (async () => { throw new TypeError('Failed to fetch'); });
+  const unreachable = /** @type {typeof fetch} */ (
+    async () => {
+      throw new TypeError('Failed to fetch');
+    }
+  );
   assert.equal(await accessRefusal(where, 'good', unreachable), null);
 });

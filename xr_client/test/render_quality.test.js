@@ -9,7 +9,10 @@ const GPU = 'ANGLE (NVIDIA, NVIDIA GeForce RTX 3060 (0x00002503) Direct3D11 vs_5
 test('software renderers are told from GPUs by their WebGL renderer string', () => {
   assert.equal(isSoftwareRenderer(SWIFTSHADER), true);
   assert.equal(isSoftwareRenderer('llvmpipe (LLVM 15.0.6, 256 bits)'), true);
-  assert.equal(isSoftwareRenderer('ANGLE (Microsoft, Microsoft Basic Render Driver Direct3D11 vs_5_0 ps_5_0, D3D11)'), true);
+  assert.equal(
+    isSoftwareRenderer('ANGLE (Microsoft, Microsoft Basic Render Driver Direct3D11 vs_5_0 ps_5_0, D3D11)'),
+    true,
+  );
   assert.equal(isSoftwareRenderer(GPU), false);
   assert.equal(isSoftwareRenderer('Adreno (TM) 740'), false); // a Quest 3
   assert.equal(isSoftwareRenderer(null), false); // hidden: assume a GPU
@@ -22,7 +25,12 @@ test('quality drops by itself on a software renderer; the address overrides', ()
   assert.equal(soft.lowQuality, true);
   assert.equal(soft.maxFps, SOFTWARE_MAX_FPS);
   assert.match(soft.reason, /^software rendering \(ANGLE/);
-  assert.deepEqual(renderQuality(SWIFTSHADER, new URLSearchParams('quality=high')), { lowQuality: false, maxFps: null, software: true, reason: '' });
+  assert.deepEqual(renderQuality(SWIFTSHADER, new URLSearchParams('quality=high')), {
+    lowQuality: false,
+    maxFps: null,
+    software: true,
+    reason: '',
+  });
   assert.equal(renderQuality(SWIFTSHADER, new URLSearchParams('maxfps=2')).maxFps, 2);
   assert.equal(renderQuality(GPU, new URLSearchParams('quality=low')).lowQuality, true);
 });

@@ -20,7 +20,11 @@ function station(worker) {
     /** @param {any} message */
     send: (message) => (log.push(['send', message.linear]), ''),
   };
-  const sender = new CommandSender(connection, () => {}, () => 0);
+  const sender = new CommandSender(
+    connection,
+    () => {},
+    () => 0,
+  );
   /** @type {string[]} */
   const notices = [];
   const driver = new TeleopDriver(new TeleopLoop(), sender, connection, (text) => notices.push(text));
@@ -30,15 +34,24 @@ function station(worker) {
 test('with the worker: the page sends the first command and the zero, the worker the repeats; null before the zero', () => {
   const { log, driver } = station(true);
   driver.stick('keyboard', 0, -1, robot2, 0);
-  assert.deepEqual(log, [['hold', 0.6, 0], ['send', 0.6]]);
+  assert.deepEqual(log, [
+    ['hold', 0.6, 0],
+    ['send', 0.6],
+  ]);
   log.length = 0;
   for (let t = 10; t < 1000; t += 10) driver.tick(t);
-  assert.ok(log.every(([kind]) => kind === 'hold'), 'no repeats from the page');
+  assert.ok(
+    log.every(([kind]) => kind === 'hold'),
+    'no repeats from the page',
+  );
   // Confirmed while the page runs, at least every CONFIRM_MS.
   assert.ok(log.length >= 1000 / CONFIRM_MS - 1 && log.length <= 1000 / CONFIRM_MS + 1, `${log.length} confirmations`);
   log.length = 0;
   driver.stick('keyboard', 0, 0, robot2, 1000);
-  assert.deepEqual(log.slice(-2), [['hold', null, 0], ['send', 0]]);
+  assert.deepEqual(log.slice(-2), [
+    ['hold', null, 0],
+    ['send', 0],
+  ]);
 });
 
 test('without a worker the page sends every command at 20 Hz, as before', () => {
@@ -61,7 +74,10 @@ test('a switch of robot: the worker stops repeating before the old robot gets it
   driver.stick('xr-right', 0, -1, robot2, 0);
   log.length = 0;
   driver.setRobot('robot1', limits, 30);
-  assert.deepEqual(log, [['hold', null, 0], ['send', 0]]);
+  assert.deepEqual(log, [
+    ['hold', null, 0],
+    ['send', 0],
+  ]);
 });
 
 test('the worker stopped the robot: the page stops its loop, says so, and drives again only from the centre', () => {
@@ -80,5 +96,8 @@ test('the worker stopped the robot: the page stops its loop, says so, and drives
   assert.deepEqual(log, []);
   driver.stick('keyboard', 0, 0, robot2, 2100);
   driver.stick('keyboard', 0, -1, robot2, 2200);
-  assert.deepEqual(log, [['hold', 0.6, 1], ['send', 0.6]]);
+  assert.deepEqual(log, [
+    ['hold', 0.6, 1],
+    ['send', 0.6],
+  ]);
 });

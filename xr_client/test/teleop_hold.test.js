@@ -42,7 +42,10 @@ test('the worker repeats the held command at 20 Hz whatever the page confirms at
   const { sent, expiries } = run(hold, 0, 3000, frames);
   // Repeats at 50, 100, ... 3000: 60 in 3 s, never a burst, all the held command.
   assert.equal(sent.length, 60);
-  assert.deepEqual(sent.map(([t]) => t), Array.from({ length: 60 }, (_, k) => 50 * (k + 1)));
+  assert.deepEqual(
+    sent.map(([t]) => t),
+    Array.from({ length: 60 }, (_, k) => 50 * (k + 1)),
+  );
   assert.ok(sent.every(([, c]) => c === hold.held || c.linear === 0.6));
   assert.deepEqual(expiries, []);
 });
@@ -99,8 +102,15 @@ test('a new value keeps the cadence; another robot starts a new one; a dropped s
 test("the worker's frames are the bytes CommandSender.twist sends", () => {
   /** @type {string[]} */
   const wire = [];
-  const sender = new CommandSender({ send: (m) => (wire.push(JSON.stringify(m)), '') }, () => {}, () => 1234.4);
-  for (const command of [{ robot: 'robot2', linear: 0.123456, angular: -1.8 }, { robot: 'robot1', linear: 0, angular: 0 }]) {
+  const sender = new CommandSender(
+    { send: (m) => (wire.push(JSON.stringify(m)), '') },
+    () => {},
+    () => 1234.4,
+  );
+  for (const command of [
+    { robot: 'robot2', linear: 0.123456, angular: -1.8 },
+    { robot: 'robot1', linear: 0, angular: 0 },
+  ]) {
     sender.twist(command);
     assert.equal(stampedText(twistFields(command), 1234.4), wire.at(-1));
   }

@@ -102,7 +102,10 @@ function host() {
 
 /** The decoder's host, recording what it asked. @param {ReturnType<typeof host>} h */
 function wire(h) {
-  return { restart: (/** @type {string} */ why) => h.restart(why), unsupported: (/** @type {string} */ c) => h.unsupportedCodec(c) };
+  return {
+    restart: (/** @type {string} */ why) => h.restart(why),
+    unsupported: (/** @type {string} */ c) => h.unsupportedCodec(c),
+  };
 }
 
 let seq = 0;
@@ -111,8 +114,16 @@ function packet(keyframe, o = {}) {
   seq = o.seq ?? seq + 1;
   /** @type {import('../src/camera_frame.js').FrameHeader} */
   const header = {
-    identifier: o.identifier ?? CAMERA, seq, stamp: seq / 15, encoding: 'h264', width: 480, height: 480,
-    lens: { model: 'equidistant', fov: 180 }, request_id: null, keyframe, codec: o.codec ?? 'avc1.42C01E',
+    identifier: o.identifier ?? CAMERA,
+    seq,
+    stamp: seq / 15,
+    encoding: 'h264',
+    width: 480,
+    height: 480,
+    lens: { model: 'equidistant', fov: 180 },
+    request_id: null,
+    keyframe,
+    codec: o.codec ?? 'avc1.42C01E',
   };
   return /** @type {[typeof header, Uint8Array]} */ ([header, new Uint8Array([0, 0, 0, 1, keyframe ? 0x65 : 0x41])]);
 }
@@ -134,7 +145,11 @@ test('decoding starts at the first keyframe: deltas before it are skipped, the c
   assert.equal(d.phase, 'decoding');
   assert.equal(decoders.length, 1);
   assert.deepEqual(decoders[0].config, { codec: 'avc1.42C01E', optimizeForLatency: true });
-  assert.deepEqual(decoders[0].chunks.map((/** @type {any} */ c) => c.type), ['key', 'delta'], 'the key first, then the one that waited');
+  assert.deepEqual(
+    decoders[0].chunks.map((/** @type {any} */ c) => c.type),
+    ['key', 'delta'],
+    'the key first, then the one that waited',
+  );
   assert.equal(d.counts.skipped, 2);
   assert.equal(d.counts.startsOnKey, 1);
   assert.equal(d.counts.starts, 1);
@@ -154,9 +169,15 @@ test('at most one frame is held: an untaken frame is closed when the next arrive
   assert.equal(frames.length, 3);
   assert.equal(d.counts.decoded, 3);
   assert.equal(d.counts.dropped, 2);
-  assert.deepEqual(frames.map((f) => f.closed), [true, true, false]);
+  assert.deepEqual(
+    frames.map((f) => f.closed),
+    [true, true, false],
+  );
   const taken = d.take();
-  assert.ok(taken && taken.frame === frames[2] && taken.header.seq === frames[2].timestamp, 'the newest, with its own header');
+  assert.ok(
+    taken && taken.frame === frames[2] && taken.header.seq === frames[2].timestamp,
+    'the newest, with its own header',
+  );
   assert.equal(d.take(), null, 'handed on once');
   d.push(...packet(false));
   decoders[0].flush();
@@ -183,7 +204,10 @@ test('a decoder error: the relay is asked again, and decoding resumes at the nex
   d.push(...packet(true));
   assert.equal(decoders.length, 2, 'the support answer is remembered: the keyframe goes in at once');
   assert.equal(platform.checks, 1);
-  assert.deepEqual(decoders[1].chunks.map((/** @type {any} */ c) => c.type), ['key']);
+  assert.deepEqual(
+    decoders[1].chunks.map((/** @type {any} */ c) => c.type),
+    ['key'],
+  );
   decoders[1].flush();
   assert.equal(d.counts.decoded, 1);
   assert.equal(d.counts.starts, 2);
@@ -320,6 +344,10 @@ test('every decoded picture is timed with its own packet’s stamp, dropped ones
   for (const p of sent.slice(1)) d.push(...p);
   decoders[0].flush();
   assert.equal(d.counts.dropped, 3, 'three were replaced before the page took them, and still decoded');
-  assert.deepEqual(times.recent(10), sent.slice(1).map(([h], i) => [h.stamp, 1001 + i]), 'the last three of four, oldest first');
+  assert.deepEqual(
+    times.recent(10),
+    sent.slice(1).map(([h], i) => [h.stamp, 1001 + i]),
+    'the last three of four, oldest first',
+  );
   assert.deepEqual(times.recent(1), [[sent[3][0].stamp, 1003]]);
 });

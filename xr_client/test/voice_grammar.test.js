@@ -12,7 +12,10 @@ const VOCAB = {
     { name: 'power_distribution', title: 'Power distribution', bounds: [6, 3, 12, 10] },
     { name: 'plumbing', title: 'Plumbing', bounds: [12, 3, 18, 10] },
   ],
-  targets: [{ name: 'pressure gauge', x: 14.2, y: 8.5 }, { name: 'valve_b', x: 3.1, y: 9.0 }],
+  targets: [
+    { name: 'pressure gauge', x: 14.2, y: 8.5 },
+    { name: 'valve_b', x: 3.1, y: 9.0 },
+  ],
   selected: null,
 };
 const SELECTED = { ...VOCAB, selected: 'robot3' };
@@ -63,9 +66,14 @@ for (const [text, robot, place] of GOTO) {
 
 test('a room sends the robot to its middle; a target to its own point', () => {
   const room = command('robot two go to power distribution');
-  assert.ok(room.kind === 'goto' && room.place.kind === 'room' && room.place.x === 9 && room.place.y === 6.5, JSON.stringify(room));
+  assert.ok(
+    room.kind === 'goto' && room.place.kind === 'room' && room.place.x === 9 && room.place.y === 6.5,
+    JSON.stringify(room),
+  );
   const target = command('robot one go to the pressure gauge');
-  assert.ok(target.kind === 'goto' && target.place.kind === 'target' && target.place.x === 14.2 && target.place.y === 8.5);
+  assert.ok(
+    target.kind === 'goto' && target.place.kind === 'target' && target.place.x === 14.2 && target.place.y === 8.5,
+  );
 });
 
 test('"go to <place>" without a robot takes the selected one, or asks which', () => {
@@ -74,8 +82,20 @@ test('"go to <place>" without a robot takes the selected one, or asks which', ()
   assert.match(refusal('go to plumbing'), /which robot\? say "robot one go to plumbing"/);
 });
 
-const STOP_ALL = ['stop all', 'Stop all!', 'stop all robots', 'emergency stop', 'e-stop', 'estop', 'stop everything',
-  'everyone stop', 'halt all', 'STOP THE FLEET', 'please stop all robots now', 'emergency'];
+const STOP_ALL = [
+  'stop all',
+  'Stop all!',
+  'stop all robots',
+  'emergency stop',
+  'e-stop',
+  'estop',
+  'stop everything',
+  'everyone stop',
+  'halt all',
+  'STOP THE FLEET',
+  'please stop all robots now',
+  'emergency',
+];
 for (const text of STOP_ALL) {
   test(`stop all: "${text}"`, () => {
     assert.deepEqual(command(text), { kind: 'stop_all' });
@@ -113,7 +133,11 @@ test('select, snapshot, views, teleport, missions', () => {
   assert.deepEqual(command('pause mission'), { kind: 'mission', action: 'pause' });
   assert.deepEqual(command('resume the mission'), { kind: 'mission', action: 'resume' });
   assert.deepEqual(command('abort mission'), { kind: 'mission', action: 'abort' });
-  assert.deepEqual(command('stop the mission'), { kind: 'mission', action: 'abort' }, '"stop" with "mission" ends the mission');
+  assert.deepEqual(
+    command('stop the mission'),
+    { kind: 'mission', action: 'abort' },
+    '"stop" with "mission" ends the mission',
+  );
   assert.deepEqual(command('confirm'), { kind: 'confirm' });
   assert.deepEqual(command('yes'), { kind: 'confirm' });
   assert.deepEqual(command('Go.'), { kind: 'confirm' });
@@ -124,7 +148,10 @@ test('select, snapshot, views, teleport, missions', () => {
 test('refusals say why: an unknown robot, an unknown room, a missing teleport target, gibberish, silence', () => {
   assert.match(refusal('robot seven go to plumbing'), /no robot 7 in this fleet \(robot1, robot2, robot3\)/);
   assert.match(refusal('robot 9'), /no robot 9/);
-  assert.match(refusal('robot one go to the kitchen'), /no room or target called "kitchen" \(rooms: corridor, chemical storage, power distribution, plumbing\)/);
+  assert.match(
+    refusal('robot one go to the kitchen'),
+    /no room or target called "kitchen" \(rooms: corridor, chemical storage, power distribution, plumbing\)/,
+  );
   assert.match(refusal('teleport'), /to which robot/);
   assert.match(refusal('make me a sandwich'), /not a command: "make me a sandwich"/);
   assert.match(refusal('   '), /nothing was heard/);
@@ -141,7 +168,11 @@ test('motion waits for a confirmation; stops act at once and drop what waited; c
   assert.equal(ask.length, 1);
   assert.equal(ask[0].type, 'ask');
   assert.equal(describe(/** @type {any} */ (ask[0]).command), 'robot2 go to Power distribution');
-  assert.deepEqual(v.hear(parse('confirm', VOCAB), 2000).map((e) => e.type), ['run'], 'confirmed in time');
+  assert.deepEqual(
+    v.hear(parse('confirm', VOCAB), 2000).map((e) => e.type),
+    ['run'],
+    'confirmed in time',
+  );
   assert.deepEqual(v.hear(parse('confirm', VOCAB), 2100), [{ type: 'say', text: 'nothing to confirm' }]);
 
   v.hear(parse('robot one go to plumbing', VOCAB), 3000);
@@ -158,8 +189,18 @@ test('motion waits for a confirmation; stops act at once and drop what waited; c
   assert.equal(v.expire(4500 + CONFIRM_MS + 2), null, 'once');
   v.hear(parse('robot one go to plumbing', VOCAB), 5000);
   assert.deepEqual(v.hear(parse('cancel', VOCAB), 5100), [{ type: 'say', text: 'cancelled: robot1 go to Plumbing' }]);
-  assert.deepEqual(v.hear(parse('pause mission', VOCAB), 5200).map((e) => e.type), ['run'], 'a pause is a stop: at once');
-  assert.deepEqual(v.hear(parse('robot two', VOCAB), 5300).map((e) => e.type), ['run'], 'selecting moves nothing');
+  assert.deepEqual(
+    v.hear(parse('pause mission', VOCAB), 5200).map((e) => e.type),
+    ['run'],
+    'a pause is a stop: at once',
+  );
+  assert.deepEqual(
+    v.hear(parse('robot two', VOCAB), 5300).map((e) => e.type),
+    ['run'],
+    'selecting moves nothing',
+  );
   const refused = v.hear(parse('robot seven go to plumbing', VOCAB), 5400);
-  assert.deepEqual(refused, [{ type: 'say', text: 'heard "robot seven go to plumbing": no robot 7 in this fleet (robot1, robot2, robot3)' }]);
+  assert.deepEqual(refused, [
+    { type: 'say', text: 'heard "robot seven go to plumbing": no robot 7 in this fleet (robot1, robot2, robot3)' },
+  ]);
 });

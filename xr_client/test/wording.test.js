@@ -17,5 +17,8 @@ test('a mission of one step is done "(1 step)"', () => {
   const mission = { id: 'm1', robot: 'robot1', state: 'running', steps: [{ inspect: 'spill' }], step: 0, reason: null };
   model.apply(/** @type {any} */ ({ identifier: 'mission', ...mission }));
   const notices = model.apply(/** @type {any} */ ({ identifier: 'mission', ...mission, state: 'done' }));
-  assert.deepEqual(notices.map((n) => n.text), ["robot1's mission done (1 step)"]);
+  assert.deepEqual(
+    notices.map((n) => n.text),
+    ["robot1's mission done (1 step)"],
+  );
 });

@@ -42,7 +42,10 @@ test('a WebSocket-like proxy: opens, sends only while open, passes text and Arra
   assert.deepEqual(worker.posted[1], { type: 'open', id: socket.id, url: 'ws://host/ws?batch=1&token=t' });
   /** @type {any[]} */
   const events = [];
-  for (const type of ['open', 'message', 'close']) socket.addEventListener(type, (e) => events.push([type, /** @type {any} */ (e).data ?? /** @type {any} */ (e).code ?? null]));
+  for (const type of ['open', 'message', 'close'])
+    socket.addEventListener(type, (e) =>
+      events.push([type, /** @type {any} */ (e).data ?? /** @type {any} */ (e).code ?? null]),
+    );
   socket.send('early'); // not open yet: nothing goes out (RelayConnection never does this)
   assert.equal(worker.posted.length, 2);
   worker.say({ type: 'open', id: socket.id });
@@ -57,7 +60,12 @@ test('a WebSocket-like proxy: opens, sends only while open, passes text and Arra
   assert.equal(socket.readyState, WorkerSocket.CLOSING);
   worker.say({ type: 'close', id: socket.id, code: 1001, reason: 'going away', wasClean: true });
   assert.equal(socket.readyState, WorkerSocket.CLOSED);
-  assert.deepEqual(events, [['open', null], ['message', '[]'], ['message', frame], ['close', 1001]]);
+  assert.deepEqual(events, [
+    ['open', null],
+    ['message', '[]'],
+    ['message', frame],
+    ['close', 1001],
+  ]);
 });
 
 test("the worker clock's news are events; a worker that fails closes its sockets like a lost network", () => {

@@ -36,10 +36,13 @@ export class CameraFeed {
     const { hemisphere, sender } = host;
     /** When each picture was decoded, beside its publisher's stamp (both paths): what latency is measured on. */
     this.times = new PictureTimes();
-    this.jpeg = new FrameDecoder(() => ({ width: hemisphere.width, height: hemisphere.height }), (bitmap, header) => {
-      this.times.record(header.stamp, performance.now());
-      hemisphere.show(bitmap, header);
-    });
+    this.jpeg = new FrameDecoder(
+      () => ({ width: hemisphere.width, height: hemisphere.height }),
+      (bitmap, header) => {
+        this.times.record(header.stamp, performance.now());
+        hemisphere.show(bitmap, header);
+      },
+    );
     this.hasDecoder = typeof VideoDecoder !== 'undefined' && typeof EncodedVideoChunk !== 'undefined';
     /** `?video=jpeg`: never ask for video (a browser whose decoder misbehaves, a comparison). */
     this.forced = host.params.get('video');
@@ -51,14 +54,19 @@ export class CameraFeed {
     this.request = null;
     this.video = new H264Decoder(this.hasDecoder ? webCodecs() : unavailable(), {
       restart: () => this.#again(),
-      unsupported: (why) => this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${why})`),
+      unsupported: (why) =>
+        this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${why})`),
       decoded: (header) => this.times.record(header.stamp, performance.now()),
     });
     // The decoder hands out what the browser's VideoDecoder gave it: VideoFrames.
-    hemisphere.pull = () => /** @type {{frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null} */ (this.video.take());
+    hemisphere.pull = () =>
+      /** @type {{frame: VideoFrame, header: import('../camera_frame.js').FrameHeader} | null} */ (this.video.take());
     sender.onVideoRefused = (error) => {
       const r = this.request;
-      const ours = error.id !== null ? String(error.id) === r?.id : Boolean(r && error.message.startsWith(`${r.camera.identifier}:`));
+      const ours =
+        error.id !== null
+          ? String(error.id) === r?.id
+          : Boolean(r && error.message.startsWith(`${r.camera.identifier}:`));
       if (ours) this.#fallBack(`video decoding unavailable: JPEG frames (${error.message})`);
     };
   }

@@ -13,7 +13,15 @@ export function sensorPanelData(app, now) {
   // An open socket that brings nothing is not a working link: say how long the relay has been silent.
   const quiet = age.linkStale && app.linkOk ? ` · no answer for ${formatSilence(now - app.router.lastMessage)}` : '';
   const link = { text: app.linkText + quiet, ok: app.linkOk && !quiet };
-  return sensorPanel(app.fleet, app.menu.selected, app.history, link, now, app.inspectionUi.progress(app.menu.selected), age);
+  return sensorPanel(
+    app.fleet,
+    app.menu.selected,
+    app.history,
+    link,
+    now,
+    app.inspectionUi.progress(app.menu.selected),
+    age,
+  );
 }
 
 /** The POV panel's caption. @param {import('../app.js').App} app */
@@ -21,5 +29,7 @@ export function povCaption(app) {
   const s = app.hemisphere;
   const robot = app.menu.selected ?? '–';
   const live = app.menu.live ? 'live' : 'snapshot';
-  return s.lastIdentifier ? `${robot} · ${live} · frame ${s.lastSeq}` : `${robot} · ${app.sender.noImageYet ? 'no image yet (no_camera)' : 'waiting for an image'}`;
+  return s.lastIdentifier
+    ? `${robot} · ${live} · frame ${s.lastSeq}`
+    : `${robot} · ${app.sender.noImageYet ? 'no image yet (no_camera)' : 'waiting for an image'}`;
 }

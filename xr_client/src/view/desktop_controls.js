@@ -40,7 +40,14 @@ export class DesktopControls {
     this.orbit.screenSpacePanning = false;
     // The wheel zooms toward what is under the cursor, not the orbit centre (as in RViz, Foxglove, any map).
     this.orbit.zoomToCursor = true;
-    this.views = new DesktopViews({ camera: host.camera, orbit: this.orbit, canvas: host.canvas, fleet: host.fleet, robotViews: host.robotViews, menu: host.menu });
+    this.views = new DesktopViews({
+      camera: host.camera,
+      orbit: this.orbit,
+      canvas: host.canvas,
+      fleet: host.fleet,
+      robotViews: host.robotViews,
+      menu: host.menu,
+    });
     /** @type {Set<string>} */
     this.keys = new Set();
     /** Keys pressed while Teleop was on: they drove the robot, and never fly the camera (an E-STOP that turns
@@ -61,7 +68,12 @@ export class DesktopControls {
     this.povDrag = null;
     /** @type {(() => void)[]} */
     this.unlisten = [];
-    const on = (/** @type {EventTarget} */ target, /** @type {string} */ type, /** @type {(e: any) => void} */ fn, /** @type {AddEventListenerOptions} */ options = {}) => {
+    const on = (
+      /** @type {EventTarget} */ target,
+      /** @type {string} */ type,
+      /** @type {(e: any) => void} */ fn,
+      /** @type {AddEventListenerOptions} */ options = {},
+    ) => {
       target.addEventListener(type, fn, options);
       this.unlisten.push(() => target.removeEventListener(type, fn, options));
     };
@@ -89,16 +101,25 @@ export class DesktopControls {
       const rect = povPanel.getBoundingClientRect();
       this.host.markPov(((e.clientX - rect.left) / rect.width) * 2 - 1, 1 - ((e.clientY - rect.top) / rect.height) * 2);
     });
-    on(povPanel, 'wheel', (e) => {
-      e.preventDefault();
-      this.povLook.fov = Math.max(40, Math.min(140, this.povLook.fov + e.deltaY * 0.05));
-    }, { passive: false });
+    on(
+      povPanel,
+      'wheel',
+      (e) => {
+        e.preventDefault();
+        this.povLook.fov = Math.max(40, Math.min(140, this.povLook.fov + e.deltaY * 0.05));
+      },
+      { passive: false },
+    );
   }
 
   /** Entering VR: the headset drives the camera; the desktop view is kept to come back to. */
   suspend() {
     const camera = this.host.camera;
-    this.saved = { position: camera.position.clone(), quaternion: camera.quaternion.clone(), target: this.orbit.target.clone() };
+    this.saved = {
+      position: camera.position.clone(),
+      quaternion: camera.quaternion.clone(),
+      target: this.orbit.target.clone(),
+    };
     this.orbit.enabled = false;
     this.views.suspend();
   }
@@ -140,14 +161,23 @@ export class DesktopControls {
    * @param {PointerEvent} e @returns {import('../goal_verdict.js').GoalVerdict}
    */
   #aimGoal(e) {
-    const { point, verdict } = this.host.picking.verdictAt(this.host.picking.pickTwin(this.#ndc(e)), this.host.menu.selected, this.host.menu.holder);
+    const { point, verdict } = this.host.picking.verdictAt(
+      this.host.picking.pickTwin(this.#ndc(e)),
+      this.host.menu.selected,
+      this.host.menu.holder,
+    );
     const robot = this.#robotUnder(e);
     const outcome = robot ? /** @type {const} */ ({ kind: 'select', robot }) : verdict;
     this.host.goalPointer.aim(point, outcome);
     // The same words beside the cursor: the marker's label is small seen from above the whole site.
     const tip = this.tip;
     if (tip) {
-      const text = outcome.kind === 'goal' ? `goal for ${this.host.menu.selected}` : outcome.kind === 'none' ? outcome.reason : verdictText(outcome);
+      const text =
+        outcome.kind === 'goal'
+          ? `goal for ${this.host.menu.selected}`
+          : outcome.kind === 'none'
+            ? outcome.reason
+            : verdictText(outcome);
       tip.textContent = text;
       tip.dataset.kind = outcome.kind;
       tip.style.left = `${e.clientX + 16}px`;
@@ -182,7 +212,12 @@ export class DesktopControls {
   #pointerMove(e) {
     if (this.host.presenting()) return;
     const menu = this.host.menu;
-    if (menu.tool === 'goal' && menu.mode === 'free_roam' && (e.target === this.host.canvas || this.goalPointerId !== null)) this.#aimGoal(e);
+    if (
+      menu.tool === 'goal' &&
+      menu.mode === 'free_roam' &&
+      (e.target === this.host.canvas || this.goalPointerId !== null)
+    )
+      this.#aimGoal(e);
   }
 
   /** @param {PointerEvent} e */
@@ -233,8 +268,13 @@ export class DesktopControls {
     const p = new THREE.Vector3();
     for (const [name, view] of this.host.robotViews) {
       if (!view.group.visible) continue;
-      p.copy(view.group.position).setY(view.group.position.y + 0.15).project(this.host.camera);
-      const d = Math.hypot(rect.left + ((p.x + 1) / 2) * rect.width - e.clientX, rect.top + ((1 - p.y) / 2) * rect.height - e.clientY);
+      p.copy(view.group.position)
+        .setY(view.group.position.y + 0.15)
+        .project(this.host.camera);
+      const d = Math.hypot(
+        rect.left + ((p.x + 1) / 2) * rect.width - e.clientX,
+        rect.top + ((1 - p.y) / 2) * rect.height - e.clientY,
+      );
       if (d < bestDistance) {
         bestDistance = d;
         best = name;
@@ -263,7 +303,12 @@ export class DesktopControls {
       if (down && !e.repeat && !this.host.presenting()) this.views.choose(view);
       return;
     }
-    if (!['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(code)) return;
+    if (
+      !['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(
+        code,
+      )
+    )
+      return;
     e.preventDefault();
     if (down) this.keys.add(code);
     else this.keys.delete(code);
@@ -283,7 +328,8 @@ export class DesktopControls {
 
   /** @param {number} dt s */
   update(dt) {
-    if (this.tip && !this.tip.hidden && (this.host.menu.tool !== 'goal' || this.host.menu.mode !== 'free_roam')) this.tip.hidden = true;
+    if (this.tip && !this.tip.hidden && (this.host.menu.tool !== 'goal' || this.host.menu.mode !== 'free_roam'))
+      this.tip.hidden = true;
     const flying = new Set([...this.keys].filter((k) => !this.driving.has(k)));
     if (this.host.menu.tool !== 'teleop' && flying.size > 0) {
       // Fly: move the camera and its orbit target together, along the ground.
@@ -314,4 +360,3 @@ export class DesktopControls {
     this.orbit.dispose();
   }
 }
-

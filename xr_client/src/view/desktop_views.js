@@ -61,7 +61,9 @@ export class DesktopViews {
     /** @type {(() => void)[]} */
     this.unlisten = [];
     const onClick = (/** @type {MouseEvent} */ e) => {
-      const button = /** @type {HTMLElement | null} */ (/** @type {HTMLElement} */ (e.target).closest('button[data-view]'));
+      const button = /** @type {HTMLElement | null} */ (
+        /** @type {HTMLElement} */ (e.target).closest('button[data-view]')
+      );
       if (button) this.choose(/** @type {string} */ (button.dataset.view));
     };
     this.toolbar?.addEventListener('click', onClick);
@@ -73,7 +75,10 @@ export class DesktopViews {
     host.orbit.addEventListener('change', onChange);
     const onStart = () => (this.auto = null); // the operator's hand on the view (a drag, the wheel)
     host.orbit.addEventListener('start', onStart);
-    this.unlisten.push(() => host.orbit.removeEventListener('change', onChange), () => host.orbit.removeEventListener('start', onStart));
+    this.unlisten.push(
+      () => host.orbit.removeEventListener('change', onChange),
+      () => host.orbit.removeEventListener('start', onStart),
+    );
   }
 
   /** A toolbar button or its key. @param {string} view 'frame' | 'top' | 'follow' */
@@ -103,7 +108,11 @@ export class DesktopViews {
     const south = origin.sub(new THREE.Vector3(...mapToScene(t, 0, 1))).normalize();
     const box = fleetBox(this.host.fleet);
     // A hair to the south: straight down with "up" on screen toward the map's north.
-    this.#fit(box, box.getCenter(new THREE.Vector3()), new THREE.Vector3(0, 1, 0).addScaledVector(south, 1e-4).normalize());
+    this.#fit(
+      box,
+      box.getCenter(new THREE.Vector3()),
+      new THREE.Vector3(0, 1, 0).addScaledVector(south, 1e-4).normalize(),
+    );
     this.#setMode('top');
     this.auto = 'top';
   }
@@ -129,7 +138,11 @@ export class DesktopViews {
   /** Per frame, before the orbit's update. @param {number} now */
   update(now) {
     const { canvas } = this.host;
-    if (now - this.lastLayout > LAYOUT_EVERY || canvas.clientWidth !== this.width || canvas.clientHeight !== this.height) {
+    if (
+      now - this.lastLayout > LAYOUT_EVERY ||
+      canvas.clientWidth !== this.width ||
+      canvas.clientHeight !== this.height
+    ) {
       // Framed and untouched since: the fleet stays framed in what the panels leave free.
       if (this.layout(now) && this.auto) this.choose(this.auto);
     }
@@ -211,7 +224,8 @@ export class DesktopViews {
     this.layout(performance.now());
     /** @type {THREE.Vector3[]} */
     const corners = [];
-    for (const x of [box.min.x, box.max.x]) for (const y of [0, 1]) for (const z of [box.min.z, box.max.z]) corners.push(new THREE.Vector3(x, y, z));
+    for (const x of [box.min.x, box.max.x])
+      for (const y of [0, 1]) for (const z of [box.min.z, box.max.z]) corners.push(new THREE.Vector3(x, y, z));
     const { width, height } = this;
     const f = this.free;
     const fits = (/** @type {number} */ d) => {
@@ -290,9 +304,12 @@ export function fleetBox(fleet) {
   const t = fleet.scene.mapToScene;
   if (fleet.bounds) {
     const [a, b, c, d] = fleet.bounds;
-    box.expandByPoint(new THREE.Vector3(...mapToScene(t, a, b))).expandByPoint(new THREE.Vector3(...mapToScene(t, c, d)));
+    box
+      .expandByPoint(new THREE.Vector3(...mapToScene(t, a, b)))
+      .expandByPoint(new THREE.Vector3(...mapToScene(t, c, d)));
   }
-  for (const r of fleet.robots.values()) if (r.pose) box.expandByPoint(new THREE.Vector3(...mapToScene(t, r.pose.x, r.pose.y)));
+  for (const r of fleet.robots.values())
+    if (r.pose) box.expandByPoint(new THREE.Vector3(...mapToScene(t, r.pose.x, r.pose.y)));
   if (box.isEmpty()) box.set(new THREE.Vector3(-5, 0, -5), new THREE.Vector3(5, 0, 5));
   return box;
 }

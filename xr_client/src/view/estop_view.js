@@ -86,7 +86,12 @@ class AlarmBanner {
     this.texture.colorSpace = THREE.SRGBColorSpace;
     this.texture.generateMipmaps = false;
     this.texture.minFilter = THREE.LinearFilter;
-    this.material = new THREE.SpriteMaterial({ map: this.texture, transparent: true, depthTest: false, depthWrite: false });
+    this.material = new THREE.SpriteMaterial({
+      map: this.texture,
+      transparent: true,
+      depthTest: false,
+      depthWrite: false,
+    });
     this.sprite = new THREE.Sprite(this.material);
     this.sprite.name = 'estop-banner';
     this.sprite.scale.set((BANNER_HEIGHT_M * BANNER_PX[0]) / BANNER_PX[1], BANNER_HEIGHT_M, 1);

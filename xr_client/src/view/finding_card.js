@@ -50,7 +50,13 @@ export class FindingCard {
     const key = `${finding.id}|${finding.updated}|${review.version}|${context.hover}|${context.operator}|${this.imageState}`;
     if (key === this.key) return;
     this.key = key;
-    this.layout = cardLayout({ status: finding.status, proposal: review.proposal !== null, imageAction: review.imageAction, operator: context.operator, imageSize: this.imageSize });
+    this.layout = cardLayout({
+      status: finding.status,
+      proposal: review.proposal !== null,
+      imageAction: review.imageAction,
+      operator: context.operator,
+      imageSize: this.imageSize,
+    });
     this.#draw(finding, review.outline(model), review.hint(), context.hover);
   }
 
@@ -90,26 +96,52 @@ export class FindingCard {
     ctx.arc(40, 34, 12, 0, Math.PI * 2);
     ctx.fill();
     ctx.fillStyle = '#fff';
-    fitText(ctx, `${finding.target ?? 'finding'} · ${finding.robot} · ${finding.status.replace('_', ' ')}`, 64, 34, w - 100, 30, 700);
+    fitText(
+      ctx,
+      `${finding.target ?? 'finding'} · ${finding.robot} · ${finding.status.replace('_', ' ')}`,
+      64,
+      34,
+      w - 100,
+      30,
+      700,
+    );
     const box = this.layout.image;
     if (box && this.image && this.imageSize) {
       ctx.drawImage(this.image, box.x, box.y, box.w, box.h);
       if (outline && outline.length > 2) this.#outline(ctx, box, this.imageSize, outline);
     } else {
       ctx.fillStyle = '#9aa5b8';
-      fitText(ctx, this.imageState === 'failed' ? 'the image could not be loaded' : finding.image ? 'loading the image…' : 'no image', 40, h / 2, 560, 26);
+      fitText(
+        ctx,
+        this.imageState === 'failed'
+          ? 'the image could not be loaded'
+          : finding.image
+            ? 'loading the image…'
+            : 'no image',
+        40,
+        h / 2,
+        560,
+        26,
+      );
     }
     const text = this.layout.text;
     ctx.fillStyle = '#dfe6f0';
     fitText(ctx, finding.note || '(no note)', text.x, text.y + 20, text.w, 24);
     ctx.fillStyle = '#9aa5b8';
-    const readings = Object.entries(finding.readings).map(([k, v]) => `${k} ${v.toFixed(1)}`).join(' · ');
+    const readings = Object.entries(finding.readings)
+      .map(([k, v]) => `${k} ${v.toFixed(1)}`)
+      .join(' · ');
     fitText(ctx, readings || 'no readings', text.x, text.y + 60, text.w, 22);
     fitText(ctx, hint, text.x, text.y + 100, text.w, 20);
     for (const b of this.layout.buttons) {
       const hovered = hover === b.id && b.enabled;
       ctx.globalAlpha = b.enabled ? 1 : 0.4;
-      fillRounded(ctx, [b.x, b.y, b.w, b.h], 14, b.active ? (hovered ? '#3d8bff' : '#2a6fdb') : hovered ? '#3a4456' : '#252c3a');
+      fillRounded(
+        ctx,
+        [b.x, b.y, b.w, b.h],
+        14,
+        b.active ? (hovered ? '#3d8bff' : '#2a6fdb') : hovered ? '#3a4456' : '#252c3a',
+      );
       ctx.fillStyle = '#fff';
       ctx.textAlign = 'center';
       fitText(ctx, b.label, b.x + b.w / 2, b.y + b.h / 2 + 1, b.w - 16, 24, b.active ? 700 : 500);
@@ -168,12 +200,15 @@ export class FindingCard {
     const [w, h] = CARD_PX;
     this.mesh.updateWorldMatrix(true, false);
     const world = (/** @type {number} */ x, /** @type {number} */ y) => {
-      const v = new THREE.Vector3((x / w - 0.5) * CARD_M[0], (0.5 - y / h) * CARD_M[1], 0).applyMatrix4(this.mesh.matrixWorld);
+      const v = new THREE.Vector3((x / w - 0.5) * CARD_M[0], (0.5 - y / h) * CARD_M[1], 0).applyMatrix4(
+        this.mesh.matrixWorld,
+      );
       return [v.x, v.y, v.z];
     };
     /** @type {Record<string, number[]>} */
     const out = Object.fromEntries(this.layout.buttons.map((b) => [b.id, world(b.x + b.w / 2, b.y + b.h / 2)]));
-    if (pixel && this.layout.image && this.imageSize) out.pixel = world(...pixelToCard(this.layout.image, this.imageSize, pixel[0], pixel[1]));
+    if (pixel && this.layout.image && this.imageSize)
+      out.pixel = world(...pixelToCard(this.layout.image, this.imageSize, pixel[0], pixel[1]));
     return out;
   }
 

@@ -30,12 +30,19 @@ export class FindingsPanel {
     this.review = review;
     this.run = run;
     this.token = token;
-    root.addEventListener('click', (event) => this.#click(/** @type {HTMLElement} */ (event.target), /** @type {MouseEvent} */ (event)));
+    root.addEventListener('click', (event) =>
+      this.#click(/** @type {HTMLElement} */ (event.target), /** @type {MouseEvent} */ (event)),
+    );
     // The outline is in the image's pixels: its overlay takes the image's size once it is known.
-    root.addEventListener('load', (event) => {
-      const img = event.target;
-      if (img instanceof HTMLImageElement) img.nextElementSibling?.setAttribute('viewBox', `0 0 ${img.naturalWidth} ${img.naturalHeight}`);
-    }, true);
+    root.addEventListener(
+      'load',
+      (event) => {
+        const img = event.target;
+        if (img instanceof HTMLImageElement)
+          img.nextElementSibling?.setAttribute('viewBox', `0 0 ${img.naturalWidth} ${img.naturalHeight}`);
+      },
+      true,
+    );
     root.addEventListener('change', (event) => {
       this.filter = /** @type {any} */ (/** @type {HTMLSelectElement} */ (event.target).value);
       this.render();
@@ -46,9 +53,17 @@ export class FindingsPanel {
     const findings = this.model.list({ status: this.filter || null });
     this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0;
     const selected = this.review.selected;
-    const options = ['', ...FINDING_STATUSES].map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`).join('');
+    const options = ['', ...FINDING_STATUSES]
+      .map(
+        (s) =>
+          `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`,
+      )
+      .join('');
     const items = findings
-      .map((f) => `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" data-status="${esc(f.status)}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`)
+      .map(
+        (f) =>
+          `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" data-status="${esc(f.status)}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`,
+      )
       .join('');
     // The report and work orders of the mission the selected (else the newest) finding came from, and a range.
     const about = (selected ? this.model.findings.get(selected) : null) ?? findings[0] ?? null;
@@ -73,7 +88,9 @@ export class FindingsPanel {
       })
       .join('');
     const who = this.robot ? `with ${esc(this.robot)}` : 'with the fleet';
-    const start = picked.length ? `<button type="button" data-mission="start">Inspect ${picked.length} ${who}</button>` : '<small>pick targets in order</small>';
+    const start = picked.length
+      ? `<button type="button" data-mission="start">Inspect ${picked.length} ${who}</button>`
+      : '<small>pick targets in order</small>';
     return `<div class="head"><b>Targets</b>${start}</div><ol class="targets">${rows}</ol>`;
   }
 
@@ -83,12 +100,19 @@ export class FindingsPanel {
     if (!f) return '';
     const region = review.outline(this.model);
     const src = f.image ? `${f.image}${this.token ? `?token=${encodeURIComponent(this.token)}` : ''}` : '';
-    const outline = region ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${review.proposal ? 'proposal' : ''}"/>` : '';
+    const outline = region
+      ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${review.proposal ? 'proposal' : ''}"/>`
+      : '';
     const picture = src
       ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
       : '<p>no image</p>';
-    const readings = Object.entries(f.readings).map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`).join(' · ');
-    const buttons = FINDING_STATUSES.map((s) => `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`).join('');
+    const readings = Object.entries(f.readings)
+      .map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`)
+      .join(' · ');
+    const buttons = FINDING_STATUSES.map(
+      (s) =>
+        `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`,
+    ).join('');
     const regionButtons = review.proposal
       ? '<button type="button" data-region="accept">Accept region</button><button type="button" data-region="redo">Redo</button>'
       : `<small>${review.pending ? review.hint() : 'click the image to mark a region; shift-click: a new target there'}</small>`;

@@ -41,7 +41,9 @@ export class FleetInstances {
     arrow.closePath();
     const edge = new THREE.RingGeometry(FOOTPRINT - 0.025, FOOTPRINT, 40).rotateX(-Math.PI / 2).translate(0, 0.014, 0);
     const arrowGeometry = new THREE.ShapeGeometry(arrow).rotateX(-Math.PI / 2).translate(0, 0.016, 0);
-    const outline = /** @type {THREE.BufferGeometry} */ (mergeGeometries([edge.deleteAttribute('normal'), arrowGeometry.deleteAttribute('normal')]));
+    const outline = /** @type {THREE.BufferGeometry} */ (
+      mergeGeometries([edge.deleteAttribute('normal'), arrowGeometry.deleteAttribute('normal')])
+    );
     edge.dispose();
     arrowGeometry.dispose();
     // White materials: the instance colour is the robot's (three multiplies the two).
@@ -49,7 +51,12 @@ export class FleetInstances {
     const trimMaterial = new THREE.MeshStandardMaterial({ color: '#222831', roughness: 0.8 });
     const domeMaterial = new THREE.MeshStandardMaterial({ color: '#0b0d12', roughness: 0.2, metalness: 0.5 });
     const fill = new THREE.MeshBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.28, depthWrite: false });
-    const solid = new THREE.MeshBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.95, depthWrite: false });
+    const solid = new THREE.MeshBasicMaterial({
+      color: '#ffffff',
+      transparent: true,
+      opacity: 0.95,
+      depthWrite: false,
+    });
     /** @param {THREE.BufferGeometry} geometry @param {THREE.Material} material @param {string} name */
     const instanced = (geometry, material, name) => {
       const mesh = new THREE.InstancedMesh(geometry, material, n);
@@ -124,7 +131,8 @@ export class FleetInstances {
 
   /** After place() for this frame's robots: upload the matrices. */
   placed() {
-    for (const mesh of [this.bodies, this.trims, this.domes, this.discs, this.outlines]) mesh.instanceMatrix.needsUpdate = true;
+    for (const mesh of [this.bodies, this.trims, this.domes, this.discs, this.outlines])
+      mesh.instanceMatrix.needsUpdate = true;
   }
 
   dispose() {

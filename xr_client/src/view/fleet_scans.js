@@ -42,7 +42,10 @@ export class FleetScans {
     this.positions = new Float32Array(this.capacity * 3);
     this.colours = new Float32Array(this.capacity * 3);
     this.geometry.dispose(); // the old buffers on the GPU; the geometry is set up again below
-    this.geometry.setAttribute('position', new THREE.BufferAttribute(this.positions, 3).setUsage(THREE.DynamicDrawUsage));
+    this.geometry.setAttribute(
+      'position',
+      new THREE.BufferAttribute(this.positions, 3).setUsage(THREE.DynamicDrawUsage),
+    );
     this.geometry.setAttribute('color', new THREE.BufferAttribute(this.colours, 3).setUsage(THREE.DynamicDrawUsage));
   }
 

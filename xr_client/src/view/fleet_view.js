@@ -116,7 +116,8 @@ export class FleetView {
       }
       view.showScan(scans);
       view.ring.visible = view.name === selected;
-      if (n <= share || (i - first + n) % n < share) this.#status(view, entry, fleet, history, selected, freshness, link, now);
+      if (n <= share || (i - first + n) % n < share)
+        this.#status(view, entry, fleet, history, selected, freshness, link, now);
       this.distances[i] = view.group.visible && view.hasModel ? eye.distanceTo(view.group.position) : Infinity;
     }
     nearestDetailed(this.distances, undefined, this.detailed);
@@ -149,7 +150,14 @@ export class FleetView {
     // Old news is never drawn as live: the whole fleet when the relay went quiet, a robot whose pose stopped.
     const silent = freshness.age(name, now);
     const since = silent !== null ? ` · ${formatSilence(silent)}` : '';
-    const stale = link === 'lost' ? `connection lost${since}` : link === 'quiet' ? `relay silent${since}` : freshness.stale(name, now) && silent !== null ? `no pose for ${formatSilence(silent)}` : null;
+    const stale =
+      link === 'lost'
+        ? `connection lost${since}`
+        : link === 'quiet'
+          ? `relay silent${since}`
+          : freshness.stale(name, now) && silent !== null
+            ? `no pose for ${formatSilence(silent)}`
+            : null;
     view.setStatus({
       name,
       mode: status?.mode ?? 'unknown',

@@ -49,7 +49,8 @@ export class FrameDecoder {
   async #decode({ frame, generation }) {
     const { header, payload } = frame;
     if (header.identifier !== this.accept || generation !== this.generation) return;
-    if (header.encoding !== 'jpeg' && header.encoding !== 'png') throw new Error(`unsupported frame encoding ${header.encoding}`);
+    if (header.encoding !== 'jpeg' && header.encoding !== 'png')
+      throw new Error(`unsupported frame encoding ${header.encoding}`);
     const { width, height } = this.size();
     const blob = new Blob([/** @type {Uint8Array<ArrayBuffer>} */ (payload)], { type: `image/${header.encoding}` });
     const bitmap = await createImageBitmap(blob, {

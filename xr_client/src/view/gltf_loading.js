@@ -16,7 +16,10 @@ export class ModelLoader {
   constructor(renderer) {
     this.draco = new DRACOLoader().setDecoderPath(`${LIBS}draco/gltf/`);
     this.ktx2 = new KTX2Loader().setTranscoderPath(`${LIBS}basis/`).detectSupport(renderer);
-    this.loader = new GLTFLoader().setDRACOLoader(this.draco).setKTX2Loader(this.ktx2).setMeshoptDecoder(MeshoptDecoder);
+    this.loader = new GLTFLoader()
+      .setDRACOLoader(this.draco)
+      .setKTX2Loader(this.ktx2)
+      .setMeshoptDecoder(MeshoptDecoder);
     /** @type {Map<string, Promise<import('three/addons/loaders/GLTFLoader.js').GLTF>>} */
     this.cache = new Map();
   }
@@ -44,7 +47,10 @@ export class ModelLoader {
     const promise = this.cache.get(url);
     if (!promise) return;
     this.cache.delete(url);
-    promise.then((gltf) => disposeModel(gltf.scene), () => {});
+    promise.then(
+      (gltf) => disposeModel(gltf.scene),
+      () => {},
+    );
   }
 
   dispose() {

@@ -24,7 +24,13 @@ class Marker {
     this.arrowGeometry = new THREE.ShapeGeometry(
       new THREE.Shape([new THREE.Vector2(0.3, -0.09), new THREE.Vector2(0.62, 0), new THREE.Vector2(0.3, 0.09)]),
     ).rotateX(-Math.PI / 2);
-    this.material = new THREE.MeshBasicMaterial({ color: colour, side: THREE.DoubleSide, transparent: true, opacity: 0.9, depthWrite: false });
+    this.material = new THREE.MeshBasicMaterial({
+      color: colour,
+      side: THREE.DoubleSide,
+      transparent: true,
+      opacity: 0.9,
+      depthWrite: false,
+    });
     this.ring = new THREE.Mesh(this.ringGeometry, this.material);
     this.arrow = new THREE.Mesh(this.arrowGeometry, this.material);
     this.ring.position.y = this.arrow.position.y = 0.015;
@@ -77,7 +83,10 @@ export class GoalView {
     this.arcPositions = new Float32Array(ARC_CAPACITY * 3);
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(this.arcPositions, 3).setUsage(THREE.DynamicDrawUsage));
-    this.arc = new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.8 }));
+    this.arc = new THREE.Line(
+      geometry,
+      new THREE.LineBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.8 }),
+    );
     this.arc.frustumCulled = false;
     this.arc.raycast = () => {};
     this.arc.visible = false;
@@ -93,7 +102,10 @@ export class GoalView {
       const positions = new Float32Array(PATH_CAPACITY * 3);
       const geometry = new THREE.BufferGeometry();
       geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3).setUsage(THREE.DynamicDrawUsage));
-      const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: colour, transparent: true, opacity: 0.85 }));
+      const line = new THREE.Line(
+        geometry,
+        new THREE.LineBasicMaterial({ color: colour, transparent: true, opacity: 0.85 }),
+      );
       line.name = `path:${robot}`;
       line.frustumCulled = false;
       line.raycast = () => {};
@@ -167,7 +179,8 @@ export class GoalView {
     const colour = verdict ? verdictColour(verdict) : '#ffffff';
     this.pointer.material.color.set(colour);
     /** @type {THREE.LineBasicMaterial} */ (this.arc.material).color.set(colour);
-    if (marker) this.pointer.show(t, marker, verdictText(verdict), 0.95, verdict?.kind === 'select' ? '#ffffff' : '#e02424');
+    if (marker)
+      this.pointer.show(t, marker, verdictText(verdict), 0.95, verdict?.kind === 'select' ? '#ffffff' : '#e02424');
     else this.pointer.hide();
     setLine(this.arc, this.arcPositions, arc);
   }

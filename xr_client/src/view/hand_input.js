@@ -85,7 +85,13 @@ export class HandInput {
     this.ring.visible = false;
     this.ringBase = new THREE.Mesh(
       new THREE.RingGeometry(RING_RADIUS_M * 0.8, RING_RADIUS_M, 48),
-      new THREE.MeshBasicMaterial({ color: ALARM_RED, transparent: true, opacity: 0.35, depthTest: false, side: THREE.DoubleSide }),
+      new THREE.MeshBasicMaterial({
+        color: ALARM_RED,
+        transparent: true,
+        opacity: 0.35,
+        depthTest: false,
+        side: THREE.DoubleSide,
+      }),
     );
     this.arcMaterial = new THREE.MeshBasicMaterial({ color: ALARM_RED, depthTest: false, side: THREE.DoubleSide });
     this.arc = new THREE.Mesh(this.#arcGeometry(0), this.arcMaterial);
@@ -119,7 +125,18 @@ export class HandInput {
     for (const slot of hands) {
       seen.add(slot.index);
       let state = this.hands.get(slot.index);
-      if (!state) this.hands.set(slot.index, (state = { pinch: new PinchDetector(), palm: new PalmUp(), stick: new PinchJoystick(), fist: new FistHold(), driving: null, pressed: null }));
+      if (!state)
+        this.hands.set(
+          slot.index,
+          (state = {
+            pinch: new PinchDetector(),
+            palm: new PalmUp(),
+            stick: new PinchJoystick(),
+            fist: new FistHold(),
+            driving: null,
+            pressed: null,
+          }),
+        );
       const joints = /** @type {Record<string, THREE.Object3D>} */ (/** @type {any} */ (slot.hand).joints ?? {});
       const thumb = worldOf(joints['thumb-tip']);
       const index = worldOf(joints['index-finger-tip']);
@@ -133,7 +150,10 @@ export class HandInput {
       this.tips[side] = index;
       // A fist held closed: E-STOP, once per closing. A closed hand drives nothing meanwhile (its thumb may well
       // touch its index: that is no pinch to drive with).
-      const fist = state.fist.update(fingerReach((name) => worldOf(joints[name])), now);
+      const fist = state.fist.update(
+        fingerReach((name) => worldOf(joints[name])),
+        now,
+      );
       this.fists[side] = fist.closed ? (state.fist.fired ? 1 : fist.fill) : 0;
       if (fist.fire) {
         this.stats.fistStops++;
@@ -168,7 +188,10 @@ export class HandInput {
       if (state.palm.update([up.x, up.y, up.z]) && !fist.closed && palm === null) {
         const forward = new THREE.Vector3(0, 0, -1).applyQuaternion(turn);
         const across = new THREE.Vector3(1, 0, 0).applyQuaternion(turn);
-        const base = wrist.getWorldPosition(new THREE.Vector3()).addScaledVector(up, BUTTON_LIFT_M).addScaledVector(forward, BUTTON_FORWARD_M);
+        const base = wrist
+          .getWorldPosition(new THREE.Vector3())
+          .addScaledVector(up, BUTTON_LIFT_M)
+          .addScaledVector(forward, BUTTON_FORWARD_M);
         palm = {
           slot: slot.index,
           estop: base.clone().addScaledVector(across, BUTTON_SIDE_M),
@@ -241,7 +264,14 @@ export class HandInput {
 
   /** The filled part of the ring, clockwise from the top. @param {number} fill 0..1 */
   #arcGeometry(fill) {
-    return new THREE.RingGeometry(RING_RADIUS_M * 0.8, RING_RADIUS_M, 48, 1, Math.PI / 2, -Math.max(0.001, fill * Math.PI * 2));
+    return new THREE.RingGeometry(
+      RING_RADIUS_M * 0.8,
+      RING_RADIUS_M,
+      48,
+      1,
+      Math.PI / 2,
+      -Math.max(0.001, fill * Math.PI * 2),
+    );
   }
 
   /** @param {{stick: PinchJoystick, driving: string | null}} state */

@@ -137,7 +137,11 @@ export class HemisphereScreen {
     if (key === this.lensKey) return;
     this.lensKey = key;
     this.lens = { lens, width: imageWidth, height: imageHeight };
-    const { positions, uvs, indices } = hemisphereGeometry(lens, imageWidth, imageHeight, { radius: RADIUS, rings: 48, segments: 96 });
+    const { positions, uvs, indices } = hemisphereGeometry(lens, imageWidth, imageHeight, {
+      radius: RADIUS,
+      rings: 48,
+      segments: 96,
+    });
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(positions, 3));
     geometry.setAttribute('uv', new THREE.BufferAttribute(uvs, 2));
@@ -167,7 +171,8 @@ export class HemisphereScreen {
   showVideo(frame, header) {
     // A frame of another size than the texture (a camera that changed its resolution): a texture of its size,
     // once; texSubImage2D into storage of another size would fail.
-    if (frame.displayWidth !== this.width || frame.displayHeight !== this.height) this.setSize(frame.displayWidth, frame.displayHeight);
+    if (frame.displayWidth !== this.width || frame.displayHeight !== this.height)
+      this.setSize(frame.displayWidth, frame.displayHeight);
     const size = header.lens.model === 'opencv_fisheye' && this.calibration ? this.calibration : header;
     this.setLens(header.lens, size.width, size.height);
     this.#replace(frame, header);
@@ -196,7 +201,10 @@ export class HemisphereScreen {
   pixelAt(direction) {
     const shown = this.lens;
     if (!shown || !this.calibration || !this.lastIdentifier || !this.group.visible) return null;
-    const local = direction.clone().applyQuaternion(this.group.getWorldQuaternion(new THREE.Quaternion()).invert()).normalize();
+    const local = direction
+      .clone()
+      .applyQuaternion(this.group.getWorldQuaternion(new THREE.Quaternion()).invert())
+      .normalize();
     if (Math.acos(Math.max(-1, Math.min(1, -local.z))) > fieldHalfAngle(shown.lens)) return null;
     const [u, v] = projectOptical(shown.lens, local.x, -local.y, -local.z, shown.width, shown.height);
     if (!(u >= 0 && u < shown.width && v >= 0 && v < shown.height)) return null;
@@ -221,7 +229,13 @@ export class HemisphereScreen {
     ctx.strokeStyle = '#2c3444';
     ctx.lineWidth = canvas.width / 200;
     ctx.beginPath();
-    ctx.arc(canvas.width / 2, canvas.height / 2, Math.min(canvas.width, canvas.height) / 2 - ctx.lineWidth, 0, 2 * Math.PI);
+    ctx.arc(
+      canvas.width / 2,
+      canvas.height / 2,
+      Math.min(canvas.width, canvas.height) / 2 - ctx.lineWidth,
+      0,
+      2 * Math.PI,
+    );
     ctx.stroke();
     ctx.fillStyle = '#9aa5b8';
     ctx.font = font(canvas.width / 26);

@@ -24,7 +24,16 @@ export class InspectionUi {
     this.view = new InspectionView(parts.world);
     /** Names a new target in the page (never window.prompt: it held the page, and E-STOP's keys with it). */
     this.names = new TargetDialog(/** @type {HTMLDialogElement | null} */ (document.getElementById('target-dialog')));
-    this.panel = parts.panel ? new FindingsPanel(parts.panel, parts.model, this.review, (commands) => this.run(commands), parts.token, this.names) : null;
+    this.panel = parts.panel
+      ? new FindingsPanel(
+          parts.panel,
+          parts.model,
+          this.review,
+          (commands) => this.run(commands),
+          parts.token,
+          this.names,
+        )
+      : null;
   }
 
   /** Send what the review decided (nothing queues while disconnected: a refused send changes nothing). @param {import('../inspection_review.js').ReviewCommand[]} commands */
@@ -40,8 +49,7 @@ export class InspectionUi {
           this.model.await(String(request));
           this.review.liveAsked(String(request), c.target);
         }
-      }
-      else if (c.type === 'mission_targets') {
+      } else if (c.type === 'mission_targets') {
         if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
       } else if (c.type === 'region') {
         const request = sender.region(c.capture, c.u, c.v);
@@ -92,7 +100,10 @@ export class InspectionUi {
 
   /** A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog. @param {{x: number, y: number}} point */
   async addTarget(point) {
-    const name = await this.names.ask(`Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`, nextName(this.model, 'target'));
+    const name = await this.names.ask(
+      `Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`,
+      nextName(this.model, 'target'),
+    );
     if (name) this.run([{ type: 'target_at', target: name, x: point.x, y: point.y }]);
   }
 

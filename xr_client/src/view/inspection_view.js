@@ -15,8 +15,18 @@ export class InspectionView {
   /** @type {LabelSprite[]} */
   #labels = [];
   #ring = new THREE.RingGeometry(0.28, 0.36, 32).rotateX(-Math.PI / 2);
-  #ringMaterial = new THREE.MeshBasicMaterial({ color: 0x4fc3f7, transparent: true, opacity: 0.85, side: THREE.DoubleSide });
-  #pickedMaterial = new THREE.MeshBasicMaterial({ color: 0xffb020, transparent: true, opacity: 0.95, side: THREE.DoubleSide });
+  #ringMaterial = new THREE.MeshBasicMaterial({
+    color: 0x4fc3f7,
+    transparent: true,
+    opacity: 0.85,
+    side: THREE.DoubleSide,
+  });
+  #pickedMaterial = new THREE.MeshBasicMaterial({
+    color: 0xffb020,
+    transparent: true,
+    opacity: 0.95,
+    side: THREE.DoubleSide,
+  });
   /** A target is picked by a disc a little wider than its ring (a ray grazing the floor misses a thin ring). */
   #disc = new THREE.CircleGeometry(0.5, 24).rotateX(-Math.PI / 2);
   #hidden = new THREE.MeshBasicMaterial({ visible: false });
@@ -26,7 +36,12 @@ export class InspectionView {
   #head = new THREE.SphereGeometry(0.09, 16, 12).translate(0, 1.25, 0);
   /** @type {Record<string, THREE.MeshBasicMaterial>} */
   // Pins are drawn over the twin (no depth test), like RViz markers: findings in a room are seen from the corridor.
-  #pinMaterials = Object.fromEntries(Object.entries(STATUS_COLOURS).map(([status, colour]) => [status, new THREE.MeshBasicMaterial({ color: colour, depthTest: false, transparent: true, opacity: 0.92 })]));
+  #pinMaterials = Object.fromEntries(
+    Object.entries(STATUS_COLOURS).map(([status, colour]) => [
+      status,
+      new THREE.MeshBasicMaterial({ color: colour, depthTest: false, transparent: true, opacity: 0.92 }),
+    ]),
+  );
   #key = '';
 
   /** @param {THREE.Group} world */
@@ -55,7 +70,9 @@ export class InspectionView {
       ring.add(disc);
       this.#pickables.push(disc);
       const label = new LabelSprite({ worldHeight: 0.18 });
-      label.set([order >= 0 ? `${order + 1} · ${target.name}` : target.name, target.kind], { accent: order >= 0 ? '#ffb020' : '#4fc3f7' });
+      label.set([order >= 0 ? `${order + 1} · ${target.name}` : target.name, target.kind], {
+        accent: order >= 0 ? '#ffb020' : '#4fc3f7',
+      });
       label.sprite.position.set(...mapToScene(transform, target.x, target.y, 0.45));
       this.#labels.push(label);
       this.group.add(ring, label.sprite);

@@ -16,7 +16,12 @@ export class LabelSprite {
     this.texture.colorSpace = THREE.SRGBColorSpace;
     this.texture.generateMipmaps = false;
     this.texture.minFilter = THREE.LinearFilter;
-    this.material = new THREE.SpriteMaterial({ map: this.texture, transparent: true, depthTest: !options.onTop, depthWrite: false });
+    this.material = new THREE.SpriteMaterial({
+      map: this.texture,
+      transparent: true,
+      depthTest: !options.onTop,
+      depthWrite: false,
+    });
     this.sprite = new THREE.Sprite(this.material);
     const worldHeight = options.worldHeight ?? 0.22;
     this.sprite.scale.set((worldHeight * this.canvas.width) / this.canvas.height, worldHeight, 1);
@@ -93,7 +98,13 @@ export class WarningSprite {
     const texture = new THREE.CanvasTexture(canvas);
     texture.colorSpace = THREE.SRGBColorSpace;
     // Visible from anywhere: no depth test, and a fixed angular size whatever the distance.
-    return new THREE.SpriteMaterial({ map: texture, depthTest: false, depthWrite: false, sizeAttenuation: false, transparent: true });
+    return new THREE.SpriteMaterial({
+      map: texture,
+      depthTest: false,
+      depthWrite: false,
+      sizeAttenuation: false,
+      transparent: true,
+    });
   }
 
   /** Frees the material unless it is shared (its owner frees that). */

@@ -68,7 +68,12 @@ export class MapAnnotations {
     const [x0, y0, x1, y1] = bounds;
     /** @type {number[]} */
     const points = [];
-    const line = (/** @type {number} */ ax, /** @type {number} */ ay, /** @type {number} */ bx, /** @type {number} */ by) => {
+    const line = (
+      /** @type {number} */ ax,
+      /** @type {number} */ ay,
+      /** @type {number} */ bx,
+      /** @type {number} */ by,
+    ) => {
       points.push(...mapToScene(t, ax, ay, 0.006), ...mapToScene(t, bx, by, 0.006));
       this.gridLines++;
     };
@@ -76,7 +81,12 @@ export class MapAnnotations {
     for (let y = Math.ceil(y0 / GRID_STEP) * GRID_STEP; y <= y1 + 1e-6; y += GRID_STEP) line(x0, y, x1, y);
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.Float32BufferAttribute(points, 3));
-    const material = new THREE.LineBasicMaterial({ color: '#9fb4d6', transparent: true, opacity: 0.16, depthWrite: false });
+    const material = new THREE.LineBasicMaterial({
+      color: '#9fb4d6',
+      transparent: true,
+      opacity: 0.16,
+      depthWrite: false,
+    });
     const grid = new THREE.LineSegments(geometry, material);
     grid.name = 'map-grid';
     grid.raycast = () => {};
@@ -120,7 +130,13 @@ export class MapAnnotations {
     texture.colorSpace = THREE.SRGBColorSpace;
     texture.anisotropy = 4;
     const geometry = new THREE.PlaneGeometry(width, height).rotateX(-Math.PI / 2);
-    const material = new THREE.MeshBasicMaterial({ map: texture, transparent: true, depthWrite: false, polygonOffset: true, polygonOffsetFactor: -2 });
+    const material = new THREE.MeshBasicMaterial({
+      map: texture,
+      transparent: true,
+      depthWrite: false,
+      polygonOffset: true,
+      polygonOffsetFactor: -2,
+    });
     const mesh = new THREE.Mesh(geometry, material);
     mesh.name = name;
     mesh.raycast = () => {}; // the floor under it stays what pointing hits

@@ -35,7 +35,11 @@ export function mergedCopy(content) {
     geometry.morphAttributes = {};
     if (!geometry.getAttribute('normal')) geometry.computeVertexNormals();
     geometry.applyMatrix4(new THREE.Matrix4().multiplyMatrices(toParent, mesh.matrixWorld));
-    if (textured && !geometry.getAttribute('uv')) geometry = geometry.setAttribute('uv', new THREE.Float32BufferAttribute(new Float32Array(geometry.getAttribute('position').count * 2), 2));
+    if (textured && !geometry.getAttribute('uv'))
+      geometry = geometry.setAttribute(
+        'uv',
+        new THREE.Float32BufferAttribute(new Float32Array(geometry.getAttribute('position').count * 2), 2),
+      );
     let list = byMaterial.get(material);
     if (!list) byMaterial.set(material, (list = []));
     list.push(geometry);

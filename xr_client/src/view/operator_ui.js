@@ -29,7 +29,7 @@ export class OperatorUi {
       const name = cleanName(input?.value ?? '');
       if (!name) {
         event.preventDefault();
-        input?.setCustomValidity('letters, digits, spaces and . _ - \' only, at most 40');
+        input?.setCustomValidity("letters, digits, spaces and . _ - ' only, at most 40");
         input?.reportValidity();
         return;
       }
@@ -73,7 +73,8 @@ export class OperatorUi {
     }
     this.offered = { robot, goal };
     const text = this.takeoverDialog.querySelector('p');
-    if (text) text.textContent = `${robot} is controlled by ${holder}. Take it over? It stops first, and ${holder === 'a mission' ? 'the mission pauses' : `${holder} is told`}.`;
+    if (text)
+      text.textContent = `${robot} is controlled by ${holder}. Take it over? It stops first, and ${holder === 'a mission' ? 'the mission pauses' : `${holder} is told`}.`;
     const accept = /** @type {HTMLButtonElement | null} */ (this.takeoverDialog.querySelector('button[value="take"]'));
     if (accept) accept.textContent = goal ? `Take over and send ${robot} there` : `Take over ${robot}`;
     // Not modal: a modal dialog's backdrop would take the clicks meant for the menu's E-STOP while it waits.

@@ -63,8 +63,11 @@ export class Overlay {
     /** @type {(() => void)[]} */
     this.unlisten = [];
     const onMenuClick = (/** @type {MouseEvent} */ e) => {
-      const button = /** @type {HTMLElement | null} */ (/** @type {HTMLElement} */ (e.target).closest('button[data-button]'));
-      if (button && !(/** @type {HTMLButtonElement} */ (button).disabled)) host.actions.pressMenu(/** @type {string} */ (button.dataset.button));
+      const button = /** @type {HTMLElement | null} */ (
+        /** @type {HTMLElement} */ (e.target).closest('button[data-button]')
+      );
+      if (button && !(/** @type {HTMLButtonElement} */ (button).disabled))
+        host.actions.pressMenu(/** @type {string} */ (button.dataset.button));
     };
     this.menu.addEventListener('click', onMenuClick);
     this.unlisten.push(() => this.menu.removeEventListener('click', onMenuClick));
@@ -105,10 +108,14 @@ export class Overlay {
       close.textContent = '×';
       close.title = 'Close this notice';
       close.setAttribute('aria-label', 'Close this notice');
-      close.addEventListener('click', () => {
-        this.vrNotice.hidden = true;
-        writeSession(VR_NOTICE_KEY, availability.reason);
-      }, { once: true });
+      close.addEventListener(
+        'click',
+        () => {
+          this.vrNotice.hidden = true;
+          writeSession(VR_NOTICE_KEY, availability.reason);
+        },
+        { once: true },
+      );
       this.vrNotice.append(reason, fix, close);
     }
   }

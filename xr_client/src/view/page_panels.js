@@ -20,7 +20,9 @@ export class PagePanels {
     this.open = { menu: !compact, sensors: true, help: !compact };
     try {
       const saved = JSON.parse(storage?.getItem(KEY) ?? 'null');
-      if (saved && typeof saved === 'object') for (const k of /** @type {(keyof PanelsOpen)[]} */ (['menu', 'sensors', 'help'])) if (typeof saved[k] === 'boolean') this.open[k] = saved[k];
+      if (saved && typeof saved === 'object')
+        for (const k of /** @type {(keyof PanelsOpen)[]} */ (['menu', 'sensors', 'help']))
+          if (typeof saved[k] === 'boolean') this.open[k] = saved[k];
     } catch {
       // An unreadable saved layout is forgotten: the defaults stand.
     }
@@ -28,22 +30,32 @@ export class PagePanels {
     /** @type {(() => void)[]} */
     this.unlisten = [];
     const onClick = (/** @type {MouseEvent} */ e) => {
-      const button = /** @type {HTMLElement | null} */ (/** @type {HTMLElement} */ (e.target).closest('button[data-panel]'));
+      const button = /** @type {HTMLElement | null} */ (
+        /** @type {HTMLElement} */ (e.target).closest('button[data-panel]')
+      );
       if (button) this.toggle(/** @type {keyof PanelsOpen} */ (button.dataset.panel));
     };
     const onKey = (/** @type {KeyboardEvent} */ e) => {
       const target = /** @type {HTMLElement} */ (e.target);
-      if (e.key === '?' && !(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA'))) this.toggle('help');
+      if (e.key === '?' && !(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')))
+        this.toggle('help');
     };
     const onResize = () => {
       document.body.classList.toggle('compact', isCompact({ width: window.innerWidth, height: window.innerHeight }));
       // Panels hang below the header, however many lines it takes in a narrow window.
-      document.documentElement.style.setProperty('--header', `${document.querySelector('header')?.offsetHeight ?? 44}px`);
+      document.documentElement.style.setProperty(
+        '--header',
+        `${document.querySelector('header')?.offsetHeight ?? 44}px`,
+      );
     };
     document.addEventListener('click', onClick);
     window.addEventListener('keydown', onKey);
     window.addEventListener('resize', onResize);
-    this.unlisten.push(() => document.removeEventListener('click', onClick), () => window.removeEventListener('keydown', onKey), () => window.removeEventListener('resize', onResize));
+    this.unlisten.push(
+      () => document.removeEventListener('click', onClick),
+      () => window.removeEventListener('keydown', onKey),
+      () => window.removeEventListener('resize', onResize),
+    );
     this.#apply();
     onResize();
     this.resizeObserver = new ResizeObserver(onResize);

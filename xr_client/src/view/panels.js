@@ -76,9 +76,16 @@ export class MenuPanel {
       const hovered = hover === rect.id && button.enabled;
       roundRect(ctx, rect.x, rect.y, rect.w, rect.h, 16);
       ctx.fillStyle = button.danger
-        ? hovered ? '#ff4d4d' : '#d31f1f'
-        : button.active ? hovered ? '#3d8bff' : '#2a6fdb'
-        : hovered ? '#3a4456' : '#252c3a';
+        ? hovered
+          ? '#ff4d4d'
+          : '#d31f1f'
+        : button.active
+          ? hovered
+            ? '#3d8bff'
+            : '#2a6fdb'
+          : hovered
+            ? '#3a4456'
+            : '#252c3a';
       if (!button.enabled) ctx.globalAlpha = 0.4;
       ctx.fill();
       if (hovered) {
@@ -88,7 +95,15 @@ export class MenuPanel {
       }
       ctx.fillStyle = '#fff';
       ctx.textAlign = 'center';
-      fitText(ctx, button.label, rect.x + rect.w / 2, rect.y + rect.h / 2 + 1, rect.w - 20, button.danger ? 34 : 26, button.danger || button.active ? 700 : 500);
+      fitText(
+        ctx,
+        button.label,
+        rect.x + rect.w / 2,
+        rect.y + rect.h / 2 + 1,
+        rect.w - 20,
+        button.danger ? 34 : 26,
+        button.danger || button.active ? 700 : 500,
+      );
       ctx.globalAlpha = 1;
     }
     this.texture.needsUpdate = true;
@@ -181,7 +196,12 @@ export class WristPanel {
     if (key === this.key && data.now - this.lastDraw < 250) return;
     this.key = key;
     this.lastDraw = data.now;
-    drawSensorPanel(/** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d')), this.canvas.width, this.canvas.height, data);
+    drawSensorPanel(
+      /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d')),
+      this.canvas.width,
+      this.canvas.height,
+      data,
+    );
     this.texture.needsUpdate = true;
   }
 

@@ -39,11 +39,15 @@ export class Picking {
    */
   pickTwin(raycaster) {
     const content = this.twin.content;
-    const hit = raycaster.intersectObjects(content ? [content, ...this.twin.floorTargets] : this.twin.floorTargets, true)[0];
+    const hit = raycaster.intersectObjects(
+      content ? [content, ...this.twin.floorTargets] : this.twin.floorTargets,
+      true,
+    )[0];
     if (!hit) return null;
     const floors = this.twin.floorTargets;
     let floor = false;
-    for (let o = /** @type {THREE.Object3D | null} */ (hit.object); o && !floor; o = o.parent) floor = floors.includes(o);
+    for (let o = /** @type {THREE.Object3D | null} */ (hit.object); o && !floor; o = o.parent)
+      floor = floors.includes(o);
     if (!floor && hit.face) {
       const up = hit.face.normal.clone().transformDirection(hit.object.matrixWorld).y;
       floor = up > 0.7 && hit.point.y <= this.twin.box.min.y + 0.1;
@@ -59,7 +63,12 @@ export class Picking {
    *   `hit` the floor it lands on, `surface` whatever it meets first (a wall too: the pointer says why not)
    */
   arcToFloor(origin, direction) {
-    return this.#along(arcPoints([origin.x, origin.y, origin.z], [direction.x, direction.y, direction.z], { floorY: this.#floorY() - 1, maxPoints: 64 }).points);
+    return this.#along(
+      arcPoints([origin.x, origin.y, origin.z], [direction.x, direction.y, direction.z], {
+        floorY: this.#floorY() - 1,
+        maxPoints: 64,
+      }).points,
+    );
   }
 
   /**
@@ -68,7 +77,10 @@ export class Picking {
    */
   rayToFloor(origin, direction) {
     const end = origin.clone().addScaledVector(direction.clone().normalize(), 30);
-    return this.#along([/** @type {[number, number, number]} */ (origin.toArray()), /** @type {[number, number, number]} */ (end.toArray())]);
+    return this.#along([
+      /** @type {[number, number, number]} */ (origin.toArray()),
+      /** @type {[number, number, number]} */ (end.toArray()),
+    ]);
   }
 
   #floorY() {
@@ -86,7 +98,12 @@ export class Picking {
       this.raycaster.set(a, b.sub(a).normalize());
       this.raycaster.far = length;
       const hit = this.pickTwin(this.raycaster);
-      if (hit) return { points: [...points.slice(0, i), /** @type {[number, number, number]} */ (hit.point.toArray())], hit: hit.floor ? hit.point : null, surface: hit };
+      if (hit)
+        return {
+          points: [...points.slice(0, i), /** @type {[number, number, number]} */ (hit.point.toArray())],
+          hit: hit.floor ? hit.point : null,
+          surface: hit,
+        };
     }
     return { points, hit: null, surface: null };
   }
@@ -99,7 +116,12 @@ export class Picking {
    */
   verdictAt(surface, selected, holder = null) {
     const point = surface ? this.sceneToMapPoint(surface.point) : null;
-    const verdict = goalVerdict(point && surface ? { point, floor: surface.floor } : null, { robots: robotSpots(this.fleet), selected, bounds: this.fleet.bounds, holder });
+    const verdict = goalVerdict(point && surface ? { point, floor: surface.floor } : null, {
+      robots: robotSpots(this.fleet),
+      selected,
+      bounds: this.fleet.bounds,
+      holder,
+    });
     return { point, verdict };
   }
 

@@ -160,7 +160,14 @@ export class RobotView {
   /** Whether the scan must be packed again: a new one came, or the robot moved since (1 cm, 0.3 degree). */
   scanMoved() {
     const p = this.packed;
-    return this.scanNew || !(Math.abs(p.x - this.group.position.x) < 0.01 && Math.abs(p.z - this.group.position.z) < 0.01 && Math.abs(p.yaw - this.yaw) < 0.005);
+    return (
+      this.scanNew ||
+      !(
+        Math.abs(p.x - this.group.position.x) < 0.01 &&
+        Math.abs(p.z - this.group.position.z) < 0.01 &&
+        Math.abs(p.yaw - this.yaw) < 0.005
+      )
+    );
   }
 
   /** The scan was packed with the robot here. @param {number} x @param {number} z @param {number} yaw */

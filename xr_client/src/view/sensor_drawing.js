@@ -70,7 +70,10 @@ export function drawSensorPanel(ctx, width, height, data) {
     const sh = rowHeight * 0.4;
     const sy = y + rowHeight * 0.45;
     if (data.robot) {
-      const { points, min, max, breaks, lines } = data.history.sparkline(data.robot, s.name, data.now, sw, sh, { above: s.above, below: s.below });
+      const { points, min, max, breaks, lines } = data.history.sparkline(data.robot, s.name, data.now, sw, sh, {
+        above: s.above,
+        below: s.below,
+      });
       // The warning threshold, dashed: how far the reading is from it is what the operator reads.
       ctx.strokeStyle = 'rgba(255,107,107,0.7)';
       ctx.lineWidth = 1.5 * u;
@@ -86,7 +89,9 @@ export function drawSensorPanel(ctx, width, height, data) {
       ctx.lineWidth = 2.5 * u;
       ctx.beginPath();
       // A gap in the data is a gap in the line, never a straight stroke across it.
-      points.forEach(([px, py], k) => (k === 0 || breaks.includes(k) ? ctx.moveTo(sx + px, sy + py) : ctx.lineTo(sx + px, sy + py)));
+      points.forEach(([px, py], k) =>
+        k === 0 || breaks.includes(k) ? ctx.moveTo(sx + px, sy + py) : ctx.lineTo(sx + px, sy + py),
+      );
       ctx.stroke();
       if (points.length) {
         ctx.fillStyle = '#6f7a8e';
@@ -100,7 +105,14 @@ export function drawSensorPanel(ctx, width, height, data) {
   });
   if (data.sensors.length === 0) {
     ctx.fillStyle = '#8892a6';
-    fitText(ctx, data.robot ? 'this robot has no sensors' : 'select a robot in the menu', 20 * u, top + 30 * u, width - 40 * u, 20 * u);
+    fitText(
+      ctx,
+      data.robot ? 'this robot has no sensors' : 'select a robot in the menu',
+      20 * u,
+      top + 30 * u,
+      width - 40 * u,
+      20 * u,
+    );
   }
 }
 

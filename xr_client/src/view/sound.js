@@ -16,11 +16,25 @@
 
 /** Tones of each earcon: [start s, duration s, frequency Hz, end frequency Hz, wave, peak gain]. */
 const TONES = /** @type {Record<SoundKind, [number, number, number, number, OscillatorType, number][]>} */ ({
-  warning: [[0, 0.12, 880, 880, 'square', 0.25], [0.14, 0.12, 660, 660, 'square', 0.25], [0.28, 0.12, 880, 880, 'square', 0.25]],
-  goal_accepted: [[0, 0.09, 523, 523, 'sine', 0.4], [0.1, 0.14, 784, 784, 'sine', 0.4]],
+  warning: [
+    [0, 0.12, 880, 880, 'square', 0.25],
+    [0.14, 0.12, 660, 660, 'square', 0.25],
+    [0.28, 0.12, 880, 880, 'square', 0.25],
+  ],
+  goal_accepted: [
+    [0, 0.09, 523, 523, 'sine', 0.4],
+    [0.1, 0.14, 784, 784, 'sine', 0.4],
+  ],
   goal_refused: [[0, 0.25, 330, 200, 'sawtooth', 0.25]],
-  lease_lost: [[0, 0.06, 440, 440, 'triangle', 0.4], [0.1, 0.06, 440, 440, 'triangle', 0.4], [0.2, 0.06, 440, 440, 'triangle', 0.4]],
-  estop: [[0, 0.22, 220, 180, 'square', 0.35], [0.3, 0.22, 220, 180, 'square', 0.35]],
+  lease_lost: [
+    [0, 0.06, 440, 440, 'triangle', 0.4],
+    [0.1, 0.06, 440, 440, 'triangle', 0.4],
+    [0.2, 0.06, 440, 440, 'triangle', 0.4],
+  ],
+  estop: [
+    [0, 0.22, 220, 180, 'square', 0.35],
+    [0.3, 0.22, 220, 180, 'square', 0.35],
+  ],
   tick: [[0, 0.004, 2400, 2400, 'square', 0.3]],
 });
 
@@ -55,9 +69,15 @@ export class Soundscape {
   listen(at, forward, up) {
     const l = this.ctx.listener;
     if (l.positionX) {
-      l.positionX.value = at.x; l.positionY.value = at.y; l.positionZ.value = at.z;
-      l.forwardX.value = forward.x; l.forwardY.value = forward.y; l.forwardZ.value = forward.z;
-      l.upX.value = up.x; l.upY.value = up.y; l.upZ.value = up.z;
+      l.positionX.value = at.x;
+      l.positionY.value = at.y;
+      l.positionZ.value = at.z;
+      l.forwardX.value = forward.x;
+      l.forwardY.value = forward.y;
+      l.forwardZ.value = forward.z;
+      l.upX.value = up.x;
+      l.upY.value = up.y;
+      l.upZ.value = up.z;
     } else {
       l.setPosition(at.x, at.y, at.z);
       l.setOrientation(forward.x, forward.y, forward.z, up.x, up.y, up.z);
@@ -78,7 +98,9 @@ export class Soundscape {
       panner.refDistance = 2;
       panner.rolloffFactor = 0.6;
       if (panner.positionX) {
-        panner.positionX.value = at.x; panner.positionY.value = at.y; panner.positionZ.value = at.z;
+        panner.positionX.value = at.x;
+        panner.positionY.value = at.y;
+        panner.positionZ.value = at.z;
       } else {
         panner.setPosition(at.x, at.y, at.z);
       }
@@ -95,7 +117,7 @@ export class Soundscape {
       // A short attack and release: no clicks at the edges.
       env.gain.setValueAtTime(0, t0);
       env.gain.linearRampToValueAtTime(peak, t0 + Math.min(0.01, duration / 3));
-      env.gain.setValueAtTime(peak, t0 + Math.max(duration - 0.02, duration * 2 / 3));
+      env.gain.setValueAtTime(peak, t0 + Math.max(duration - 0.02, (duration * 2) / 3));
       env.gain.linearRampToValueAtTime(0, t0 + duration);
       osc.connect(env).connect(out);
       osc.start(t0);

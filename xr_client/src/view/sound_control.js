@@ -109,7 +109,10 @@ export class SoundControl {
     for (const [name, entry] of fleet.robots) {
       const warnings = [...entry.sensors.values()].filter((r) => r.warning).map((r) => r.name);
       robots.push({
-        name, x: entry.pose?.x ?? 0, y: entry.pose?.y ?? 0, warnings,
+        name,
+        x: entry.pose?.x ?? 0,
+        y: entry.pose?.y ?? 0,
+        warnings,
         goal: goals.goals.get(name)?.state ?? null,
         controller: entry.status?.controller ?? null,
         latched: menu.latched.includes(name),
@@ -130,7 +133,8 @@ export class SoundControl {
       scape?.play(cue.kind, cue.robot ? this.#place(cue.robot) : null);
       const robot = cue.robot ? fleet.robot(cue.robot) : null;
       const pulse = hapticFor(cue, {
-        selected: selected?.pose && menu.selected ? { name: menu.selected, x: selected.pose.x, y: selected.pose.y } : null,
+        selected:
+          selected?.pose && menu.selected ? { name: menu.selected, x: selected.pose.x, y: selected.pose.y } : null,
         at: robot?.pose ?? null,
       });
       if (pulse) this.#pulse(pulse);
@@ -157,7 +161,12 @@ export class SoundControl {
       const send = (/** @type {number} */ left) => {
         if (left <= 0 || this.disposed) return;
         if (typeof actuator.pulse === 'function') actuator.pulse(pulse.intensity, pulse.ms);
-        else actuator.playEffect?.('dual-rumble', { duration: pulse.ms, strongMagnitude: pulse.intensity, weakMagnitude: pulse.intensity });
+        else
+          actuator.playEffect?.('dual-rumble', {
+            duration: pulse.ms,
+            strongMagnitude: pulse.intensity,
+            weakMagnitude: pulse.intensity,
+          });
         if (left > 1) setTimeout(() => send(left - 1), pulse.ms + 60);
       };
       send(pulse.pulses);
@@ -167,8 +176,13 @@ export class SoundControl {
   /** What the state snapshot shows (`window.__xrRelay.state.sound`). */
   state() {
     return {
-      started: this.scape !== null, muted: this.muted, volume: this.volume, geiger: this.geiger,
-      played: { ...this.played }, pulses: this.pulses, ticks: this.ticks,
+      started: this.scape !== null,
+      muted: this.muted,
+      volume: this.volume,
+      geiger: this.geiger,
+      played: { ...this.played },
+      pulses: this.pulses,
+      ticks: this.ticks,
     };
   }
 

@@ -18,10 +18,17 @@ export function snapshotState(app) {
     inspection: {
       targets: app.inspectionUi.model.targets.size,
       missions: Object.fromEntries([...app.inspectionUi.model.missions.values()].map((m) => [m.robot, m.state])),
-      findings: app.inspectionUi.model.list().map((f) => ({ id: f.id, target: f.target, status: f.status, region: f.region !== null, x: f.x, y: f.y })),
+      findings: app.inspectionUi.model
+        .list()
+        .map((f) => ({ id: f.id, target: f.target, status: f.status, region: f.region !== null, x: f.x, y: f.y })),
       pins: app.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
       picked: [...app.inspectionUi.review.picked],
-      review: { selected: app.inspectionUi.review.selected, pending: app.inspectionUi.review.pending !== null, proposal: app.inspectionUi.review.proposal !== null, imageAction: app.inspectionUi.review.imageAction },
+      review: {
+        selected: app.inspectionUi.review.selected,
+        pending: app.inspectionUi.review.pending !== null,
+        proposal: app.inspectionUi.review.proposal !== null,
+        imageAction: app.inspectionUi.review.imageAction,
+      },
       card: { visible: app.findingCard.mesh.visible, image: app.findingCard.imageSize, draws: app.findingCard.draws },
     },
     clientId: app.fleet.clientId,
@@ -40,7 +47,10 @@ export function snapshotState(app) {
     xr: {
       hover: app.presenting ? interaction.hovered() : {},
       vignette: app.vignette.strength,
-      teleport: interaction.teleport.aiming || interaction.pinchTeleport ? (interaction.teleportHit?.toArray() ?? 'no floor') : null,
+      teleport:
+        interaction.teleport.aiming || interaction.pinchTeleport
+          ? (interaction.teleportHit?.toArray() ?? 'no floor')
+          : null,
     },
     estop: {
       latched: [...menu.latched],
@@ -51,43 +61,81 @@ export function snapshotState(app) {
       wrist: app.hud.estop.button.mesh.parent !== null,
       /** The wrist E-STOP is drawn: it and what carries it are visible (a controller's grip, a hand's grip pose). */
       wristDrawn: app.presenting && shown(app.hud.estop.button.mesh),
-      points: app.presenting && app.hud.estop.button.mesh.parent ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() } : {},
+      points:
+        app.presenting && app.hud.estop.button.mesh.parent
+          ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() }
+          : {},
     },
     camera: app.camera.position.toArray(),
     eye: app.camera.getWorldPosition(new THREE.Vector3()).toArray(),
     view: viewState(app),
     panel: panelState(app),
     overview: {
-      visible: app.hud.miniature.group.visible, cursor: app.interaction.wimCursor, arrows: app.hud.miniature.robots.size, scale: app.hud.miniature.scale,
-      position: app.hud.miniature.group.position.toArray(), radius: app.hud.miniature.table.scale.x,
+      visible: app.hud.miniature.group.visible,
+      cursor: app.interaction.wimCursor,
+      arrows: app.hud.miniature.robots.size,
+      scale: app.hud.miniature.scale,
+      position: app.hud.miniature.group.position.toArray(),
+      radius: app.hud.miniature.table.scale.x,
     },
     /** Where VR started (map frame; start_pose.js), and what it saw from there. */
     start: app.xrSession.plan.last,
-    paths: Object.fromEntries([...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0])),
+    paths: Object.fromEntries(
+      [...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0]),
+    ),
     markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
     rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
     world: app.world.visible,
-    labels: { capacity: app.fleetView.atlas.layout.capacity, whole: app.fleetView.atlas.uploads.whole, cells: app.fleetView.atlas.uploads.cells, scans: app.fleetView.scans.drawn },
-    map: { rooms: app.fleetView.annotations.rooms, grid: app.fleetView.annotations.gridLines, north: app.fleetView.annotations.north },
+    labels: {
+      capacity: app.fleetView.atlas.layout.capacity,
+      whole: app.fleetView.atlas.uploads.whole,
+      cells: app.fleetView.atlas.uploads.cells,
+      scans: app.fleetView.scans.drawn,
+    },
+    map: {
+      rooms: app.fleetView.annotations.rooms,
+      grid: app.fleetView.annotations.gridLines,
+      north: app.fleetView.annotations.north,
+    },
     robots: Object.fromEntries(
       [...app.robotViews].map(([name, v]) => [
         name,
         {
-          position: v.group.position.toArray(), visible: v.group.visible, controller: app.fleet.robot(name)?.status?.controller ?? null, offline: v.offline, stale: v.stale, label: v.label.key, warning: v.warning.sprite.visible,
+          position: v.group.position.toArray(),
+          visible: v.group.visible,
+          controller: app.fleet.robot(name)?.status?.controller ?? null,
+          offline: v.offline,
+          stale: v.stale,
+          label: v.label.key,
+          warning: v.warning.sprite.visible,
           scan: { points: v.scanCount, visible: v.scanVisible },
           // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
           heading: headingOf(app, v),
           labelHeight: v.label.sprite.scale.y,
-          labelOpacity: app.fleetView.atlas.opacities.getX(v.index), detailed: v.detailed,
+          labelOpacity: app.fleetView.atlas.opacities.getX(v.index),
+          detailed: v.detailed,
           labelPixels: app.presenting ? null : labelPixels(app, v),
         },
       ]),
     ),
-    goal: { pointer: app.goalPointer.state, hover: app.goalPointer.hover, marker: app.goalPointer.marker, verdict: app.goalPointer.verdict, colour: `#${app.goalView.pointer.material.color.getHexString()}`, sent: app.sender.counts.goals },
+    goal: {
+      pointer: app.goalPointer.state,
+      hover: app.goalPointer.hover,
+      marker: app.goalPointer.marker,
+      verdict: app.goalPointer.verdict,
+      colour: `#${app.goalView.pointer.material.color.getHexString()}`,
+      sent: app.sender.counts.goals,
+    },
     teleop: {
-      robot: app.teleop.robot, source: app.teleop.source, driving: app.teleop.driving, sent: app.teleop.sent, last: app.teleop.lastCommand,
+      robot: app.teleop.robot,
+      source: app.teleop.source,
+      driving: app.teleop.driving,
+      sent: app.teleop.sent,
+      last: app.teleop.lastCommand,
       // Where the socket and the 20 Hz clock run (a worker, or this page without one); stops the worker made.
-      worker: app.connection.link !== null && !app.connection.link.failed, workerClock: app.driver.workerClock, expiries: app.driver.expiries,
+      worker: app.connection.link !== null && !app.connection.link.failed,
+      workerClock: app.driver.workerClock,
+      expiries: app.driver.expiries,
     },
     commands: { ...app.sender.counts },
     twin: { state: app.twin.state, url: app.twin.url ?? null, floor: app.twin.floorTargets.map((o) => o.name) },
@@ -112,9 +160,19 @@ export function snapshotState(app) {
     sound: app.sound.state(),
     hands: app.interaction.handInput.state(),
     gaze: { ...app.interaction.gaze },
-    timing: { renders: app.renders, frames: app.frameCount, recent: app.frameTimer.recent(120), ...app.frameTimer.stats() },
+    timing: {
+      renders: app.renders,
+      frames: app.frameCount,
+      recent: app.frameTimer.recent(120),
+      ...app.frameTimer.stats(),
+    },
     textures: app.renderer.info.memory.textures,
-    draw: { calls: app.renderer.info.render.calls, triangles: app.renderer.info.render.triangles, pixelRatio: app.renderer.getPixelRatio(), maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null },
+    draw: {
+      calls: app.renderer.info.render.calls,
+      triangles: app.renderer.info.render.triangles,
+      pixelRatio: app.renderer.getPixelRatio(),
+      maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null,
+    },
   };
 }
 
@@ -126,8 +184,21 @@ function panelState(app) {
     robot,
     sensors: data.sensors.map((x) => {
       const values = robot ? app.history.values(robot, x.name).v : [];
-      const line = robot ? app.history.sparkline(robot, x.name, data.now, 100, 40, { above: x.above, below: x.below }) : null;
-      return { name: x.name, value: x.value, stale: x.stale ?? null, gaps: robot ? app.history.breaks(robot, x.name).length : 0, lowest: values.length ? Math.min(...values) : null, thresholds: line?.lines.length ?? 0, spread: line && line.points.length ? Math.max(...line.points.map((p) => p[1])) - Math.min(...line.points.map((p) => p[1])) : 0 };
+      const line = robot
+        ? app.history.sparkline(robot, x.name, data.now, 100, 40, { above: x.above, below: x.below })
+        : null;
+      return {
+        name: x.name,
+        value: x.value,
+        stale: x.stale ?? null,
+        gaps: robot ? app.history.breaks(robot, x.name).length : 0,
+        lowest: values.length ? Math.min(...values) : null,
+        thresholds: line?.lines.length ?? 0,
+        spread:
+          line && line.points.length
+            ? Math.max(...line.points.map((p) => p[1])) - Math.min(...line.points.map((p) => p[1]))
+            : 0,
+      };
     }),
   };
 }
@@ -153,7 +224,9 @@ function headingOf(app, view) {
 function labelPixels(app, view) {
   const sprite = view.label.sprite;
   const anchor = sprite.getWorldPosition(new THREE.Vector3());
-  const up = new THREE.Vector3(0, sprite.scale.y, 0).applyQuaternion(app.camera.getWorldQuaternion(new THREE.Quaternion()));
+  const up = new THREE.Vector3(0, sprite.scale.y, 0).applyQuaternion(
+    app.camera.getWorldQuaternion(new THREE.Quaternion()),
+  );
   const a = anchor.clone().project(app.camera);
   const b = anchor.clone().add(up).project(app.camera);
   const rect = app.renderer.domElement.getBoundingClientRect();

@@ -19,14 +19,18 @@ export class TargetDialog {
     /** @type {(() => void)[]} */
     this.unlisten = [];
     if (!element) return;
-    const onClose = () => this.#answer(element.returnValue === 'ok' ? targetName(this.input?.value ?? '') || null : null);
+    const onClose = () =>
+      this.#answer(element.returnValue === 'ok' ? targetName(this.input?.value ?? '') || null : null);
     const onKey = (/** @type {KeyboardEvent} */ e) => {
       // A dialog opened with show() has no Esc of its own (showModal's would bring a backdrop that takes every click).
       if (e.code === 'Escape') element.close('cancel');
     };
     element.addEventListener('close', onClose);
     element.addEventListener('keydown', onKey);
-    this.unlisten.push(() => element.removeEventListener('close', onClose), () => element.removeEventListener('keydown', onKey));
+    this.unlisten.push(
+      () => element.removeEventListener('close', onClose),
+      () => element.removeEventListener('keydown', onKey),
+    );
   }
 
   get open() {

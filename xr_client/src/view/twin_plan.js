@@ -35,8 +35,15 @@ export class TwinPlan {
     if (!grid) return null;
     const t = this.fleet.scene.mapToScene;
     const point = new THREE.Vector3();
-    const robots = [...this.fleet.robots.values()].filter((r) => r.pose).map((r) => ({ name: r.description.name, x: /** @type {{x: number}} */ (r.pose).x, y: /** @type {{y: number}} */ (r.pose).y }));
-    const floor = (/** @type {number} */ x, /** @type {number} */ y) => this.picking.isFloorAt(point.fromArray(mapToScene(t, x, y, 0)));
+    const robots = [...this.fleet.robots.values()]
+      .filter((r) => r.pose)
+      .map((r) => ({
+        name: r.description.name,
+        x: /** @type {{x: number}} */ (r.pose).x,
+        y: /** @type {{y: number}} */ (r.pose).y,
+      }));
+    const floor = (/** @type {number} */ x, /** @type {number} */ y) =>
+      this.picking.isFloorAt(point.fromArray(mapToScene(t, x, y, 0)));
     const rooms = this.fleet.rooms.map((r) => ({ name: r.name, bounds: r.bounds }));
     this.last = startPose({ grid, robots, rooms, floor });
     // A twin whose every spot reads as something other than floor (a roof over it: the rays down meet it first).
@@ -73,7 +80,9 @@ export class TwinPlan {
       const index = mesh.geometry.index;
       const n = index ? index.count : position.count;
       for (let k = 0; k < n; k++) {
-        v.fromBufferAttribute(/** @type {THREE.BufferAttribute} */ (position), index ? index.getX(k) : k).applyMatrix4(mesh.matrixWorld);
+        v.fromBufferAttribute(/** @type {THREE.BufferAttribute} */ (position), index ? index.getX(k) : k).applyMatrix4(
+          mesh.matrixWorld,
+        );
         out.push(...sceneToMap(t, v.x, v.y, v.z));
       }
     });
@@ -84,7 +93,12 @@ export class TwinPlan {
   #heights() {
     const box = this.twin.box;
     const floorY = box.isEmpty() ? 0 : box.min.y;
-    const floorZ = sceneToMap(this.fleet.scene.mapToScene, box.isEmpty() ? 0 : box.getCenter(new THREE.Vector3()).x, floorY, 0)[2];
+    const floorZ = sceneToMap(
+      this.fleet.scene.mapToScene,
+      box.isEmpty() ? 0 : box.getCenter(new THREE.Vector3()).x,
+      floorY,
+      0,
+    )[2];
     return WALL_HEIGHTS_M.map((h) => floorZ + h);
   }
 

@@ -51,8 +51,12 @@ export class VoiceControl {
         button.textContent = 'Voice: not in this browser';
         button.title = 'This browser has no speech recognition (Web Speech API): use the menu, keys or controllers';
       } else {
-        button.addEventListener('pointerdown', (e) => { e.preventDefault(); this.talk(true); });
-        for (const type of ['pointerup', 'pointerleave', 'pointercancel']) button.addEventListener(type, () => this.talk(false));
+        button.addEventListener('pointerdown', (e) => {
+          e.preventDefault();
+          this.talk(true);
+        });
+        for (const type of ['pointerup', 'pointerleave', 'pointercancel'])
+          button.addEventListener(type, () => this.talk(false));
       }
     }
     window.addEventListener('keydown', (e) => {
@@ -60,7 +64,8 @@ export class VoiceControl {
     });
     window.addEventListener('keydown', (e) => {
       // Enter confirms a spoken command that waits (the desktop's pinch); typing in a field is not a confirmation.
-      if (e.key === 'Enter' && !e.repeat && !(e.target instanceof HTMLInputElement) && this.confirmByGesture('Enter')) e.preventDefault();
+      if (e.key === 'Enter' && !e.repeat && !(e.target instanceof HTMLInputElement) && this.confirmByGesture('Enter'))
+        e.preventDefault();
     });
     window.addEventListener('keyup', (e) => {
       if (e.key === 'v' || e.key === 'V') this.talk(false);
@@ -88,7 +93,8 @@ export class VoiceControl {
       }
     };
     recognition.onerror = (event) => {
-      if (event?.error !== 'no-speech' && event?.error !== 'aborted') this.#show('', `voice: ${event?.error ?? 'recognition failed'}`);
+      if (event?.error !== 'no-speech' && event?.error !== 'aborted')
+        this.#show('', `voice: ${event?.error ?? 'recognition failed'}`);
     };
     recognition.onend = () => {
       this.listening = false;
@@ -126,8 +132,7 @@ export class VoiceControl {
       this.#show(heard, `${describe(effect.command)}? say "confirm" or ${gesture} ("cancel" drops it)`);
       // The question must not outstay its answer: a confirmation after CONFIRM_MS does nothing, so say it lapsed.
       setTimeout(() => this.#lapse(heard), effect.until - performance.now() + 20);
-    }
-    else this.#show(heard, this.#run(effect.command));
+    } else this.#show(heard, this.#run(effect.command));
   }
 
   /**
@@ -178,9 +183,13 @@ export class VoiceControl {
           actions.apply([{ type: 'mission', action: 'all', robot: menu.selected }]);
           return `mission over every target started for ${menu.selected ?? 'the fleet'}`;
         }
-        const robots = menu.selected ? [menu.selected] : [...this.host.fleet.robots.keys()].filter((r) => this.host.activeMission(r));
+        const robots = menu.selected
+          ? [menu.selected]
+          : [...this.host.fleet.robots.keys()].filter((r) => this.host.activeMission(r));
         for (const robot of robots) actions.apply([{ type: 'mission', action: c.action, robot }]);
-        return robots.length ? `${c.action} mission of ${robots.join(', ')}` : `${c.action} mission: no mission is running`;
+        return robots.length
+          ? `${c.action} mission of ${robots.join(', ')}`
+          : `${c.action} mission: no mission is running`;
       }
       case 'teleport':
         actions.selectRobot(c.robot);

@@ -27,7 +27,10 @@ export class XRInput {
   constructor(renderer, rig, scene) {
     this.controllerModels = new XRControllerModelFactory().setPath(PROFILES_PATH);
     this.handModels = new XRHandModelFactory().setPath(`${PROFILES_PATH}/generic-hand/`);
-    this.rayGeometry = new THREE.BufferGeometry().setFromPoints([new THREE.Vector3(0, 0, 0), new THREE.Vector3(0, 0, -1)]);
+    this.rayGeometry = new THREE.BufferGeometry().setFromPoints([
+      new THREE.Vector3(0, 0, 0),
+      new THREE.Vector3(0, 0, -1),
+    ]);
     this.rayMaterial = new THREE.LineBasicMaterial({ color: '#ffffff', transparent: true, opacity: 0.6 });
     this.cursorGeometry = new THREE.SphereGeometry(0.012, 12, 8);
     this.cursorMaterial = new THREE.MeshBasicMaterial({ color: '#ffffff', depthTest: false });
@@ -52,7 +55,19 @@ export class XRInput {
       rig.add(controller, grip, hand);
       scene.add(cursor);
       /** @type {InputSlot} */
-      const slot = { index, controller, grip, hand, ray, cursor, source: null, events: [], selecting: false, pointer: false, mode: null };
+      const slot = {
+        index,
+        controller,
+        grip,
+        hand,
+        ray,
+        cursor,
+        source: null,
+        events: [],
+        selecting: false,
+        pointer: false,
+        mode: null,
+      };
       this.slots.push(slot);
       this.#listen(controller, 'connected', (/** @type {any} */ event) => {
         slot.source = event.data;
@@ -96,7 +111,10 @@ export class XRInput {
 
   /** The controller (or hand) of one side, if connected. @param {'left' | 'right'} handedness */
   side(handedness) {
-    return this.slots.find((s) => s.source?.handedness === handedness && s.source.targetRayMode === 'tracked-pointer') ?? null;
+    return (
+      this.slots.find((s) => s.source?.handedness === handedness && s.source.targetRayMode === 'tracked-pointer') ??
+      null
+    );
   }
 
   /**
@@ -153,7 +171,8 @@ export class XRInput {
     const actuator = gamepad?.hapticActuators?.[0] ?? gamepad?.vibrationActuator;
     try {
       if (actuator?.pulse) actuator.pulse(intensity, ms);
-      else actuator?.playEffect?.('dual-rumble', { duration: ms, strongMagnitude: intensity, weakMagnitude: intensity });
+      else
+        actuator?.playEffect?.('dual-rumble', { duration: ms, strongMagnitude: intensity, weakMagnitude: intensity });
     } catch {
       // Haptics are a courtesy: a device without them is not an error.
     }

@@ -82,7 +82,8 @@ export class XRInspection {
    */
   liveAt(direction) {
     const { menu, screen } = this.host;
-    if (menu.tool !== 'inspect' || menu.mode !== 'pov' || menu.open || !menu.selected || !this.host.operator()) return null;
+    if (menu.tool !== 'inspect' || menu.mode !== 'pov' || menu.open || !menu.selected || !this.host.operator())
+      return null;
     return screen.pixelAt(direction);
   }
 
@@ -128,7 +129,8 @@ export class XRInspection {
     if (id.startsWith('insp:card:')) this.#button(id.slice('insp:card:'.length));
     else if (id === 'insp:image') {
       const what = hit?.uv ? card.hitAtUv(hit.uv) : null;
-      if (what && 'pixel' in what && this.host.operator()) ui.run(review.imageClick(model, what.pixel[0], what.pixel[1]));
+      if (what && 'pixel' in what && this.host.operator())
+        ui.run(review.imageClick(model, what.pixel[0], what.pixel[1]));
     } else if (id.startsWith('insp:finding:')) {
       review.select(id.slice('insp:finding:'.length));
     } else if (id.startsWith('insp:target:')) {
@@ -149,10 +151,12 @@ export class XRInspection {
   #button(button) {
     const review = this.host.ui.review;
     if (button === 'card:close') review.select(null);
-    else if (button.startsWith('status:')) this.host.ui.run(review.setStatus(/** @type {any} */ (button.slice('status:'.length))));
+    else if (button.startsWith('status:'))
+      this.host.ui.run(review.setStatus(/** @type {any} */ (button.slice('status:'.length))));
     else if (button === 'region:accept') this.host.ui.run(review.accept());
     else if (button === 'region:redo') review.redo();
-    else if (button === 'image:region' || button === 'image:target') review.setImageAction(button === 'image:region' ? 'region' : 'target');
+    else if (button === 'image:region' || button === 'image:target')
+      review.setImageAction(button === 'image:region' ? 'region' : 'target');
   }
 
   /** Draw the card for this frame (it redraws only on a change). @param {boolean} presenting */

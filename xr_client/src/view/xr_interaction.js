@@ -48,7 +48,10 @@ export class XRInteraction {
     /** The dwell's last state, for the state snapshot. */
     this.gaze = { id: /** @type {string | null} */ (null), fill: 0, fired: 0 };
     /** Pinch-drag teleop and the palm-up wrist button (view/hand_input.js). */
-    this.handInput = new HandInput({ xrInput: host.xrInput, menu: host.menu, actions: host.actions, camera: host.camera }, host.rig.parent ?? host.rig);
+    this.handInput = new HandInput(
+      { xrInput: host.xrInput, menu: host.menu, actions: host.actions, camera: host.camera },
+      host.rig.parent ?? host.rig,
+    );
     /** @type {Map<number, ButtonEdge>} */
     this.menuEdges = new Map();
     /** Whether a thumbstick is held in (push-to-talk). */
@@ -108,11 +111,14 @@ export class XRInteraction {
     // the menu or the tool (the menu's estop button: viewers are refused the same way).
     for (const slot of input.active()) {
       if (edgeOf(this.menuEdges, slot.index).update(input.pressed(slot, MENU_BUTTON))) host.actions.toggleMenu();
-      if (edgeOf(this.estopEdges, slot.index).update(input.pressed(slot, ESTOP_BUTTON))) host.actions.pressMenu('estop');
+      if (edgeOf(this.estopEdges, slot.index).update(input.pressed(slot, ESTOP_BUTTON)))
+        host.actions.pressMenu('estop');
     }
     // 1a. Hands and controllers may swap at any moment (the operator puts the controllers down): a robot driven by
     // the stick that went away must not keep the last command, so teleop stops at once, and says so.
-    const kinds = [...new Set(input.active().map((slot) => (slot.source?.hand ? 'hands' : 'controllers')))].sort().join(' and ');
+    const kinds = [...new Set(input.active().map((slot) => (slot.source?.hand ? 'hands' : 'controllers')))]
+      .sort()
+      .join(' and ');
     if (this.inputKinds !== null && kinds !== this.inputKinds && host.menu.tool === 'teleop' && host.menu.selected) {
       host.actions.apply([{ type: 'stop_teleop', robot: host.menu.selected }]);
       host.actions.say(`teleop stopped: input changed to ${kinds || 'nothing'}`, true);
@@ -158,8 +164,7 @@ export class XRInteraction {
       else if (first && host.miniature.owns(first.object)) {
         id = 'wim';
         this.wimHits.set(slot.index, first);
-      }
-      else if (first) id = robotOf(first.object) ?? host.inspect.idOf(first);
+      } else if (first) id = robotOf(first.object) ?? host.inspect.idOf(first);
       if (!first) {
         const floor = host.inspect.floorAt(this.raycaster);
         if (floor) [id, hit] = [floor.id, { point: floor.point, distance: floor.point.distanceTo(origin) }];
@@ -178,7 +183,9 @@ export class XRInteraction {
     const at = onTable ? this.#wimAt(onTable) : null;
     this.wimCursor = at ? { point: at.point, verdict: at.verdict } : null;
     host.estop.hover([...this.hover.values()].includes('estop'));
-    const menuHover = [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && !h.startsWith('insp:') && h !== 'menu:tab') ?? null;
+    const menuHover =
+      [...this.hover.values()].find((h) => h && !h.startsWith('pick:') && !h.startsWith('insp:') && h !== 'menu:tab') ??
+      null;
     panel.setTabHover([...this.hover.values()].includes('menu:tab'));
     panel.update(menu, menuHover, host.link());
   }
@@ -197,7 +204,8 @@ export class XRInteraction {
     let id = null;
     /** @type {[number, number] | null} */
     let live = null;
-    if (first?.object === host.menuPanel.mesh && first.uv) id = host.menu.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
+    if (first?.object === host.menuPanel.mesh && first.uv)
+      id = host.menu.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
     else if (first) {
       const name = host.inspect.idOf(first);
       id = name === 'insp:image' ? name : null;
@@ -237,10 +245,14 @@ export class XRInteraction {
         if (id === 'menu:tab') host.actions.toggleMenu();
         else if (id?.startsWith('pick:')) host.actions.selectRobot(id.slice(5));
         else if (id === 'wim') this.#wimSelect(slot);
-        else if (!id && host.actions.confirmVoice(slot.source?.hand ? 'pinch' : slot.mode === 'transient-pointer' ? 'look and pinch' : 'trigger')) {
+        else if (
+          !id &&
+          host.actions.confirmVoice(
+            slot.source?.hand ? 'pinch' : slot.mode === 'transient-pointer' ? 'look and pinch' : 'trigger',
+          )
+        ) {
           input.pulse(slot, 0.6, 30); // a spoken goal waited: this select on nothing is its "confirm"
-        }
-        else if (id?.startsWith('insp:')) {
+        } else if (id?.startsWith('insp:')) {
           input.pulse(slot, 0.6, 30);
           host.inspect.select(id, hit);
         } else if (id) {
@@ -251,7 +263,8 @@ export class XRInteraction {
           // The arc on a robot selects it (it never becomes a goal into that robot); a refusal says why.
           const verdict = host.goalPointer.verdict;
           if (verdict?.kind === 'select') host.actions.selectRobot(verdict.robot);
-          else if (verdict?.kind === 'takeover' && host.goalPointer.hover) host.actions.offerTakeOver({ ...host.goalPointer.hover, yaw: null });
+          else if (verdict?.kind === 'takeover' && host.goalPointer.hover)
+            host.actions.offerTakeOver({ ...host.goalPointer.hover, yaw: null });
           else if (host.goalPointer.press()) this.goalSlot = slot;
           else if (verdict?.kind === 'refused') input.pulse(slot, 0.3, 60);
         } else if ((slot.source?.hand || slot.mode === 'transient-pointer') && this.#pinchTeleports()) {
@@ -277,7 +290,9 @@ export class XRInteraction {
     const input = host.xrInput;
     // 4. The goal pointer follows the pointing hand (the one that last selected, else the right one).
     const goalActive = this.#goalActive();
-    const pointing = goalActive ? (this.goalSlot ?? (this.lastPointer?.source ? this.lastPointer : null) ?? input.side('right')) : null;
+    const pointing = goalActive
+      ? (this.goalSlot ?? (this.lastPointer?.source ? this.lastPointer : null) ?? input.side('right'))
+      : null;
     // The hand that shows the goal arc shows no straight ray.
     for (const s of input.active()) s.ray.visible = s.pointer && s !== pointing;
     if (goalActive) {
@@ -332,14 +347,21 @@ export class XRInteraction {
       this.teleport.cancel();
     }
     const hand = this.pinchTeleport;
-    if (hand && (!hand.source || !this.#pinchTeleports())) this.pinchTeleport = null; // tracking lost, menu opened
+    if (hand && (!hand.source || !this.#pinchTeleports()))
+      this.pinchTeleport = null; // tracking lost, menu opened
     else if (hand && !teleportPoints) {
       const { origin, direction } = input.ray(hand);
-      const arc = hand.mode === 'transient-pointer' ? host.picking.rayToFloor(origin, direction) : host.picking.arcToFloor(origin, direction);
+      const arc =
+        hand.mode === 'transient-pointer'
+          ? host.picking.rayToFloor(origin, direction)
+          : host.picking.arcToFloor(origin, direction);
       teleportPoints = arc.points;
       this.teleportHit = arc.hit;
     }
-    host.teleportView.set(teleportPoints, teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null);
+    host.teleportView.set(
+      teleportPoints,
+      teleportPoints ? this.teleportHit && [this.teleportHit.x, this.teleportHit.y, this.teleportHit.z] : null,
+    );
   }
 
   /** @param {number} dt s */
@@ -365,7 +387,11 @@ export class XRInteraction {
     const tab = panel.tab;
     tab.visible = !menu.open;
     if (tab.visible) {
-      const target = new THREE.Vector3(this.head.x - Math.sin(this.headYaw) * 0.55, this.head.y - 0.5, this.head.z - Math.cos(this.headYaw) * 0.55);
+      const target = new THREE.Vector3(
+        this.head.x - Math.sin(this.headYaw) * 0.55,
+        this.head.y - 0.5,
+        this.head.z - Math.cos(this.headYaw) * 0.55,
+      );
       tab.position.lerp(target, tab.position.lengthSq() === 0 ? 1 : Math.min(1, dt * 3));
       tab.lookAt(this.head);
     }
@@ -385,7 +411,15 @@ export class XRInteraction {
     const at = host.miniature.toTwin(origin, direction, host.fleet.scene.mapToScene);
     if (!at) return null;
     const floor = host.picking.isFloorAt(at.scene);
-    const verdict = goalVerdict({ point: at.point, floor }, { robots: robotSpots(host.fleet), selected: host.menu.selected, bounds: host.fleet.bounds, holder: host.menu.holder });
+    const verdict = goalVerdict(
+      { point: at.point, floor },
+      {
+        robots: robotSpots(host.fleet),
+        selected: host.menu.selected,
+        bounds: host.fleet.bounds,
+        holder: host.menu.holder,
+      },
+    );
     return { ...at, floor, verdict };
   }
 
@@ -399,7 +433,8 @@ export class XRInteraction {
     const at = this.#wimAt(slot);
     if (!at) return;
     if (at.verdict.kind === 'select') host.actions.selectRobot(at.verdict.robot);
-    else if (at.verdict.kind === 'takeover' && this.#goalActive()) host.actions.offerTakeOver({ ...at.point, yaw: null });
+    else if (at.verdict.kind === 'takeover' && this.#goalActive())
+      host.actions.offerTakeOver({ ...at.point, yaw: null });
     else if (this.#goalActive()) {
       host.goalPointer.aim(at.point, at.verdict);
       if (host.goalPointer.press()) [this.goalSlot, this.goalViaWim] = [slot, true];
@@ -508,7 +543,12 @@ class Reticle {
   constructor() {
     this.group = new THREE.Group();
     this.group.position.set(0, 0, -1);
-    const material = new THREE.MeshBasicMaterial({ color: 0xffffff, transparent: true, opacity: 0.5, depthTest: false });
+    const material = new THREE.MeshBasicMaterial({
+      color: 0xffffff,
+      transparent: true,
+      opacity: 0.5,
+      depthTest: false,
+    });
     this.ring = new THREE.Mesh(new THREE.RingGeometry(0.008, 0.011, 32), material);
     this.arcMaterial = new THREE.MeshBasicMaterial({ color: 0x3d8bff, depthTest: false });
     this.arc = new THREE.Mesh(new THREE.RingGeometry(0.012, 0.017, 32, 1, Math.PI / 2, 0.001), this.arcMaterial);
@@ -529,7 +569,14 @@ class Reticle {
     if (rounded === this.fill) return;
     this.fill = rounded;
     this.arc.geometry.dispose();
-    this.arc.geometry = new THREE.RingGeometry(0.012, 0.017, 32, 1, Math.PI / 2, Math.max(0.001, rounded * Math.PI * 2));
+    this.arc.geometry = new THREE.RingGeometry(
+      0.012,
+      0.017,
+      32,
+      1,
+      Math.PI / 2,
+      Math.max(0.001, rounded * Math.PI * 2),
+    );
     this.arc.visible = rounded > 0;
   }
 
