@@ -137,6 +137,7 @@ def render() -> str:
         "PROTOCOL_VERSION": protocol.PROTOCOL_VERSION,
         "MAX_TEXT_BYTES": protocol.MAX_TEXT_BYTES,
         "MAX_STREAM_FPS": protocol.MAX_STREAM_FPS,
+        "MAX_SCAN_POINTS": protocol.MAX_SCAN_POINTS,
         "GOAL_CLEARANCE": safety.GOAL_CLEARANCE,
         "FRAME_PREFIX_BYTES": protocol.FRAME_PREFIX.size,
         "ERROR_CODES": dict(sorted(codes.items())),

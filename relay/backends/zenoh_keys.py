@@ -32,7 +32,6 @@ from ..fields import show
 from ..protocol import NAME_PATTERN, ROBOT_NAME_PATTERN
 
 KeyStyle = Literal["rmw_zenoh", "bridge"]
-KEY_STYLES: tuple[KeyStyle, ...] = ("rmw_zenoh", "bridge")
 
 #: rmw's GID storage: 16 bytes (RMW_GID_STORAGE_SIZE since Iron).
 GID_SIZE = 16

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
 from pathlib import Path
 
 import yaml
@@ -79,14 +78,6 @@ def _target(reader: _Reader, node: Node, path: str) -> Target:
         ident, name, kind, reader.number(f["x"], f"{path}.x"), reader.number(f["y"], f"{path}.y"),
         None if facing is None else math.radians(facing),
     )  # fmt: skip
-
-
-def check_unique(targets: Iterable[Target]) -> None:
-    seen: set[str] = set()
-    for target in targets:
-        if target.id in seen:
-            raise ValueError(f"two targets are named {target.id!r}")
-        seen.add(target.id)
 
 
 def standoff(target: Target, grid: OccupancyGrid | None, near: tuple[float, float]) -> tuple[float, float, float]:

@@ -13,9 +13,6 @@
 
 /** @typedef {import('./protocol.js').Transform2D} MapToScene where the map frame sits in the twin (hello.scene.map_to_scene) */
 
-/** @type {Readonly<MapToScene>} */
-export const IDENTITY = Object.freeze({ x: 0, y: 0, z: 0, yaw: 0 });
-
 /**
  * @param {number} x @param {number} y @param {number} z
  * @returns {[number, number, number]}

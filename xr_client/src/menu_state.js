@@ -39,9 +39,6 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'mission', action: 'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
  */
 
-export const MODE_FREE_ROAM = 'free_roam';
-export const MODE_POV = 'pov';
-
 /** The menu's volume buttons step in fifths of full volume. */
 const VOLUME_STEPS = 5;
 

@@ -5,6 +5,7 @@
 export const PROTOCOL_VERSION = 1;
 export const MAX_TEXT_BYTES = 65536;
 export const MAX_STREAM_FPS = 60.0;
+export const MAX_SCAN_POINTS = 360;
 export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});

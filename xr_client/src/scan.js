@@ -1,13 +1,14 @@
 // @ts-check
 /**
- * Laser scans (`<robot>/scan`, a future relay message; see docs/client.md) to points in the robot frame.
+ * Laser scans (`<robot>/scan`: relay.messages.scan_message, docs/protocol.md) to points in the robot frame.
  * Two accepted shapes, both in the robot's base frame (REP 103, metres):
- * - like sensor_msgs/LaserScan: `angle_min`, `angle_increment`, `ranges` (null, NaN or values outside
- *   [range_min, range_max] are no return), optional `range_min`, `range_max`;
+ * - what the relay sends, like sensor_msgs/LaserScan: `angle_min`, `angle_increment`, `ranges` (null, NaN or values
+ *   outside [range_min, range_max] are no return), optional `range_min`, `range_max`;
  * - or `points`: a list of [x, y] pairs.
  */
+import { MAX_SCAN_POINTS } from './protocol.js';
 
-export const MAX_SCAN_POINTS = 2048;
+export { MAX_SCAN_POINTS }; // the relay thins a scan to this many ranges: the view's buffer holds them all
 
 /**
  * @param {any} message
