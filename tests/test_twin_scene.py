@@ -22,7 +22,8 @@ from relay.geometry import yaw_to_quaternion
 from relay.occupancy import OccupancyGrid
 from relay.sim.floorplan import FloorPlan, demo_facility, rasterise
 from relay.sim.planner import Planner
-from relay.twin.facility import Facility, decode_rows, encode_rows, facility_glb, load_facility
+from relay.twin.facility import Facility, decode_rows, encode_rows, load_facility
+from relay.twin.facility_glb import facility_glb
 from relay.twin.frames import ROS_TO_GLTF
 from relay.twin.gltf import Geometry, Material, Mesh, Node, Primitive, build_glb, read_glb_json
 from relay.twin.map_twin import grid_to_glb, map_yaml_layers, ros_map_layers

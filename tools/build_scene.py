@@ -17,7 +17,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from relay.sim.floorplan import demo_facility  # noqa: E402
-from relay.twin.facility import facility_glb, facility_yaml  # noqa: E402
+from relay.twin.facility import facility_yaml  # noqa: E402
+from relay.twin.facility_glb import facility_glb  # noqa: E402
 
 GLB_NAME = "facility.glb"
 YAML_NAME = "facility.yaml"

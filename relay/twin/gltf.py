@@ -17,8 +17,7 @@ the vertex count allows, else uint32), NORMAL unless its geometry has no normals
 robot models, :mod:`relay.twin.urdf`), and a metallic-roughness material. It passes the Khronos
 glTF validator without errors or warnings (tests/gltf_validate.py).
 
-Geometry generators (:func:`box`, :func:`cylinder`, :func:`polygon`, :func:`sphere`) use ``math`` trig on
-plain floats rather than vectorised numpy trig, whose SIMD code paths may differ in the last bit between CPUs.
+The solids the generated scenes are made of (boxes, cylinders, polygons, spheres) are in :mod:`relay.twin.shapes`.
 """
 
 from __future__ import annotations
@@ -31,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from .frames import ROS_TO_GLTF
 
@@ -41,13 +40,9 @@ __all__ = [
     "Mesh",
     "Node",
     "Primitive",
-    "box",
     "build_glb",
-    "cylinder",
     "merge",
-    "polygon",
     "read_glb_json",
-    "sphere",
 ]
 
 # glTF enums (spec section 5).
@@ -401,128 +396,3 @@ def read_glb_json(data: bytes) -> dict[str, Any]:
     if not isinstance(doc, dict):
         raise ValueError("GLB JSON chunk is not an object")
     return doc
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Geometry generators (ROS frame, z up)
-
-# Corner order per face of an axis-aligned box, counter-clockwise seen from outside; indices into the
-# 8 corners numbered by bits (x: 1, y: 2, z: 4).
-_BOX_FACES: tuple[tuple[tuple[int, int, int, int], tuple[float, float, float]], ...] = (
-    ((0, 2, 3, 1), (0.0, 0.0, -1.0)),  # bottom
-    ((4, 5, 7, 6), (0.0, 0.0, 1.0)),  # top
-    ((0, 1, 5, 4), (0.0, -1.0, 0.0)),  # south (-y)
-    ((3, 2, 6, 7), (0.0, 1.0, 0.0)),  # north (+y)
-    ((2, 0, 4, 6), (-1.0, 0.0, 0.0)),  # west (-x)
-    ((1, 3, 7, 5), (1.0, 0.0, 0.0)),  # east (+x)
-)
-
-
-def box(lo: ArrayLike, hi: ArrayLike, *, bottom: bool = True) -> Geometry:
-    """An axis-aligned box from corner ``lo`` to ``hi`` with flat-shaded faces.
-
-    ``bottom=False`` omits the bottom face (boxes standing on an opaque floor never show it).
-    Contract: ``lo < hi`` component-wise.
-    """
-    lo_a = np.asarray(lo, dtype=np.float64)
-    hi_a = np.asarray(hi, dtype=np.float64)
-    if lo_a.shape != (3,) or hi_a.shape != (3,) or not (lo_a < hi_a).all():
-        raise ValueError(f"box needs lo < hi in x, y and z, got {lo_a} and {hi_a}")
-    corners = np.array([[(hi_a if (i >> k) & 1 else lo_a)[k] for k in range(3)] for i in range(8)])
-    faces = _BOX_FACES if bottom else _BOX_FACES[1:]
-    positions = np.concatenate([corners[list(quad)] for quad, _ in faces])
-    normals = np.repeat(np.array([n for _, n in faces]), 4, axis=0)
-    base = 4 * np.arange(len(faces))[:, None]
-    triangles = np.concatenate([base + np.array([0, 1, 2]), base + np.array([0, 2, 3])])
-    return Geometry(positions, normals, triangles)
-
-
-def _ring(segments: int) -> list[tuple[float, float]]:
-    return [(math.cos(math.tau * i / segments), math.sin(math.tau * i / segments)) for i in range(segments)]
-
-
-def cylinder(
-    radius: float, start: ArrayLike, end: ArrayLike, *, segments: int = 24, caps: tuple[bool, bool] = (True, True)
-) -> Geometry:
-    """A cylinder of ``radius`` around the segment ``start -> end``, smooth sides, flat caps.
-
-    ``caps`` chooses the (start, end) caps. Contract: ``radius > 0``, ``start != end``, ``segments >= 3``.
-    """
-    p0 = np.asarray(start, dtype=np.float64)
-    p1 = np.asarray(end, dtype=np.float64)
-    axis = p1 - p0
-    length = float(np.linalg.norm(axis))
-    if not (radius > 0.0 and length > 0.0 and segments >= 3):
-        raise ValueError("cylinder needs radius > 0, start != end and at least 3 segments")
-    w = axis / length
-    # Any unit vector not parallel to the axis seeds the perpendicular frame.
-    seed = np.array([0.0, 0.0, 1.0]) if abs(w[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    u = np.cross(seed, w)
-    u /= np.linalg.norm(u)
-    v = np.cross(w, u)
-    ring = np.array([c * u + s * v for c, s in _ring(segments)])
-    positions = [p0 + radius * ring, p1 + radius * ring]
-    normals = [ring, ring]
-    k = np.arange(segments)
-    k1 = (k + 1) % segments
-    triangles = [
-        np.stack([k, k1, segments + k1], axis=1),
-        np.stack([k, segments + k1, segments + k], axis=1),
-    ]
-    count = 2 * segments
-    for end_point, sign, enabled in ((p0, -1.0, caps[0]), (p1, 1.0, caps[1])):
-        if not enabled:
-            continue
-        positions += [end_point[None, :], end_point + radius * ring]
-        normals.append(np.repeat((sign * w)[None, :], segments + 1, axis=0))
-        centre, rim = count, count + 1 + k
-        rim1 = count + 1 + k1
-        tri = np.stack([np.full(segments, centre), rim1, rim], axis=1)
-        triangles.append(tri if sign < 0 else tri[:, [0, 2, 1]])
-        count += segments + 1
-    return Geometry(np.concatenate(positions), np.concatenate(normals), np.concatenate(triangles))
-
-
-def polygon(outline: ArrayLike, z: float, centre: ArrayLike | None = None) -> Geometry:
-    """A flat, up-facing polygon at height ``z`` from a counter-clockwise ``(k, 2)`` outline.
-
-    Triangulated as a fan from ``centre`` (default: the mean of the outline points), so the outline must
-    be star-shaped around that point (true for convex shapes and for blobs drawn in polar coordinates
-    around it). Contract: ``k >= 3``.
-    """
-    ring = np.asarray(outline, dtype=np.float64)
-    if ring.ndim != 2 or ring.shape[1] != 2 or ring.shape[0] < 3:
-        raise ValueError(f"outline must be a (k>=3, 2) array, got {ring.shape}")
-    centre = ring.mean(axis=0) if centre is None else np.asarray(centre, dtype=np.float64)
-    k = ring.shape[0]
-    xy = np.concatenate([centre[None, :], ring])
-    positions = np.concatenate([xy, np.full((k + 1, 1), float(z))], axis=1)
-    normals = np.repeat(np.array([[0.0, 0.0, 1.0]]), k + 1, axis=0)
-    i = np.arange(k)
-    triangles = np.stack([np.zeros(k, dtype=np.int64), 1 + i, 1 + (i + 1) % k], axis=1)
-    return Geometry(positions, normals, triangles)
-
-
-def sphere(radius: float, centre: ArrayLike = (0.0, 0.0, 0.0), *, segments: int = 12, rings: int = 8) -> Geometry:
-    """A UV sphere (smooth normals). Contract: ``radius > 0``, ``segments >= 3``, ``rings >= 2``."""
-    if not (radius > 0.0 and segments >= 3 and rings >= 2):
-        raise ValueError("sphere needs radius > 0, segments >= 3 and rings >= 2")
-    c = np.asarray(centre, dtype=np.float64)
-    # Poles are single vertices; rings in between share vertices for smooth shading.
-    dirs = [(0.0, 0.0, -1.0)]
-    for j in range(1, rings):
-        phi = math.pi * j / rings - 0.5 * math.pi
-        dirs += [(math.cos(phi) * x, math.cos(phi) * y, math.sin(phi)) for x, y in _ring(segments)]
-    dirs.append((0.0, 0.0, 1.0))
-    normals = np.array(dirs)
-    top = len(dirs) - 1
-    tris: list[tuple[int, int, int]] = []
-    for i in range(segments):
-        i1 = (i + 1) % segments
-        tris.append((0, 1 + i1, 1 + i))
-        last = 1 + (rings - 2) * segments
-        tris.append((top, last + i, last + i1))
-        for j in range(rings - 2):
-            a, b = 1 + j * segments, 1 + (j + 1) * segments
-            tris += [(a + i, a + i1, b + i1), (a + i, b + i1, b + i)]
-    return Geometry(c + radius * normals, normals, np.array(tris))
