@@ -80,7 +80,13 @@ async def _relay(database: str, cwd: Path, env: dict[str, str]) -> tuple[asyncio
 
 async def _output(process: asyncio.subprocess.Process) -> str:
     if process.returncode is None:
-        process.terminate()
+        # A relay that failed at start-up exits by itself: wait for that first. Terminating an exited child that
+        # asyncio's watcher had not reaped yet reaps it in subprocess.Popen's poll, and the watcher then reports
+        # "Unknown child process", exit status 255 (seen twice in three CI-like runs).
+        try:
+            await asyncio.wait_for(process.wait(), 1.0)
+        except TimeoutError:
+            process.terminate()
     out, err = await asyncio.wait_for(process.communicate(), 30)
     return out.decode() + err.decode()
 
