@@ -10,7 +10,7 @@ services ``A_SendGoal`` (``goal_id`` + goal -> ``accepted`` + ``stamp``) and ``A
 ``S_Request`` and ``S_Response``. :func:`action_types` and :func:`service_types` do the same from the text, so the
 RIHS01 hashes rosbags computes are those of the definitions above.
 
-**The type store** is the one the project uses everywhere (``relay.record.typestore``: the running distribution's,
+**The type store** is the one the project uses everywhere (``relay.ros_env.typestore``: the running distribution's,
 else the latest), with these types added (:func:`typestore`). rosbags' objects have rclpy's attribute names.
 """
 
@@ -166,8 +166,8 @@ def register(store: Any) -> Any:
 
 
 def typestore() -> Any:
-    """The project's type store (``relay.record.typestore``) with Nav2's action types registered."""
-    from .record import typestore as project_typestore
+    """The project's type store (``relay.ros_env.typestore``) with Nav2's action types registered."""
+    from .ros_env import typestore as project_typestore
 
     return register(project_typestore())
 

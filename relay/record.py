@@ -35,6 +35,7 @@ from typing import Any, Literal
 from . import rosmsg
 from .config import FleetConfig, load_config
 from .errors import BackendUnavailable, ConfigError
+from .ros_env import load_rclpy, typestore
 
 logger = logging.getLogger(__name__)
 
@@ -88,17 +89,6 @@ def _message_class(msgtype: str) -> Any:
     """The rclpy message class of ``pkg/msg/Type``; ImportError or AttributeError when not installed."""
     package, _, name = msgtype.rpartition("/")
     return getattr(importlib.import_module(package.replace("/", ".")), name)
-
-
-def typestore() -> Any:
-    """rosbags' type store of the running ROS distribution (``ROS_DISTRO``), else the latest LTS."""
-    from rosbags.typesys import Stores, get_typestore
-
-    distro = os.environ.get("ROS_DISTRO", "").strip().lower()
-    try:
-        return get_typestore(Stores(f"ros2_{distro}"))
-    except ValueError:
-        return get_typestore(Stores.LATEST)
 
 
 def _offered_qos(node: Any, topic: str) -> list[Any]:
@@ -270,7 +260,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.out.exists():
         log.error("%s already exists; choose a new --out directory", args.out)
         return EXIT_USAGE
-    from .backends.ros import load_rclpy
 
     try:
         rclpy = load_rclpy()

@@ -179,7 +179,7 @@ async def test_raw_tf_composes_the_robots_pose_and_corrupt_tf_or_scans_change_no
 ) -> None:
     """TF and LaserScan arrive raw and are decoded by rosbags (no tf2_msgs needed to read them)."""
     from relay.backends.ros import RosBackend
-    from relay.record import typestore
+    from relay.ros_env import typestore
 
     config = parse_config(
         "robots:\n  - name: t1\n    pose: {source: tf}\n    limits: {linear: 0.5, angular: 1.0}\n", "fleet.yaml"
@@ -205,7 +205,7 @@ async def test_raw_tf_composes_the_robots_pose_and_corrupt_tf_or_scans_change_no
 
 async def test_a_raw_laser_scan_becomes_a_scan_event() -> None:
     from relay.backends.ros import RosBackend
-    from relay.record import typestore
+    from relay.ros_env import typestore
 
     config = parse_config("robots:\n  - name: s1\n    limits: {linear: 0.5, angular: 1.0}\n", "fleet.yaml")
     events: list[Event] = []

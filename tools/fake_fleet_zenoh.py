@@ -38,7 +38,7 @@ from relay.backends.zenoh_keys import GID_SIZE, Attachment, topic_key, topic_sel
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
 from relay.errors import ConfigError  # noqa: E402
 from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
-from relay.record import typestore  # noqa: E402
+from relay.ros_env import typestore  # noqa: E402
 from relay.rosmsg import POSE_TYPES, image_type  # noqa: E402
 from relay.sim import navigator as nav  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402

@@ -27,7 +27,6 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from types import ModuleType
 from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
@@ -37,6 +36,7 @@ from ..geometry import yaw_to_quaternion
 from ..maps import map_event
 from ..occupancy import OccupancyGrid
 from ..protocol import MAX_SCAN_RATE
+from ..ros_env import load_rclpy
 from ..rosmsg import (
     POSE_MESSAGES,
     SENSOR_TYPES,
@@ -61,21 +61,9 @@ HEARTBEAT_PERIOD = 0.1
 #: History depth of image subscriptions (see ``_qos``).
 IMAGE_DEPTH = 10
 
-INSTALL_HINT = (
-    "the ros backend needs rclpy: install the ROS 2 wheels with `pip install '.[ros]'` (as `make run` does), "
-    "or source a ROS 2 installation first (`source /opt/ros/<distro>/setup.bash`)"
-)
-
 
 def _import(module: str, name: str) -> Any:
     return getattr(importlib.import_module(module), name)
-
-
-def load_rclpy() -> ModuleType:
-    try:
-        return importlib.import_module("rclpy")
-    except ImportError as exc:
-        raise BackendUnavailable(f"{INSTALL_HINT} ({exc})") from None
 
 
 def check_messages(config: FleetConfig) -> dict[str, Any]:

@@ -21,12 +21,15 @@ import os
 import time
 import zoneinfo
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from datetime import tzinfo
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .records import CaptureRecord, FindingRecord, MissionRecord
+from .report_html import as_html, range_form
+
+# What a report is (report_rows), named here too: the server, the CLI and the service ask this module.
+from .report_rows import RANGE as RANGE
 from .report_rows import (
     WORK_ORDER_FIELDS,
     Limit,
@@ -39,6 +42,8 @@ from .report_rows import (
     rows_of,
     work_orders,
 )
+from .report_rows import Report as Report
+from .report_rows import Scope as Scope
 
 if TYPE_CHECKING:
     from ..config import FleetConfig
@@ -49,8 +54,6 @@ if TYPE_CHECKING:
 #: not ``.csv``).
 KINDS = ("workorders.csv", "workorders.json", "html", "json", "csv")
 CONTENT_TYPES = {"html": "text/html", "json": "application/json", "csv": "text/csv"}
-#: The stem of a range report's name: ``/report/range.html?from=...&to=...`` (mission ids start with ``m-``).
-RANGE = "range"
 #: The most findings one report holds. The HTML embeds each finding's image (the demo's 480x480 JPEGs are about
 #: 30 kB, 40 kB in base64): 1000 findings make a 40 MB page, about what a browser still opens comfortably; a
 #: range holding more is refused with a message saying to narrow it, never cut short without saying so.
@@ -84,29 +87,6 @@ class ReportError(ValueError):
 
 class ReportRefused(ValueError):
     """A report that cannot be made as asked (a range holding too many findings); the message says what to do."""
-
-
-@dataclass(frozen=True)
-class Scope:
-    """What a report covers: a mission or a fleet mission's group (``mission``), or the findings whose capture was
-    taken in ``[start, end)`` (Unix seconds)."""
-
-    mission: str | None = None
-    start: float | None = None
-    end: float | None = None
-
-    @property
-    def stem(self) -> str:
-        return self.mission if self.mission is not None else RANGE
-
-
-@dataclass(frozen=True)
-class Report:
-    scope: Scope
-    site: SiteInfo
-    missions: list[MissionRecord]
-    rows: list[Row]
-    made: float  # when the report was made (Unix seconds)
 
 
 def split_name(name: str) -> tuple[str, str] | None:
@@ -331,8 +311,6 @@ def _cell(text: str) -> str:
 def render(report: Report, kind: str, store: Store, grid: OccupancyGrid | None, image_url: Callable[[str], str]) -> str:
     """The report as ``kind`` (one of ``KINDS``)."""
     if kind == "html":
-        from .report_html import as_html
-
         return as_html(report, store, grid)
     writers = {
         "json": as_json, "csv": as_csv, "workorders.csv": work_orders_csv, "workorders.json": work_orders_json,
@@ -350,8 +328,6 @@ def range_form_page(
 ) -> str:
     """``/report/range.html`` without a range, or with one that cannot be read: the page that asks for one
     (report_html.range_form)."""
-    from .report_html import range_form
-
     return range_form(name, zone, now, token, problem, asked)
 
 

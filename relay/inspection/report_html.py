@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from .report_rows import (
+    Report,
     Row,
     iso_time,
     local_time,
@@ -32,7 +33,6 @@ if TYPE_CHECKING:
 
     from ..occupancy import OccupancyGrid
     from .records import MissionRecord
-    from .report import Report
     from .store import Store
 
 COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css

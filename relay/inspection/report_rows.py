@@ -16,7 +16,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import date, datetime, timedelta, tzinfo
 
-from .records import CaptureRecord, FindingRecord
+from .records import CaptureRecord, FindingRecord, MissionRecord
 
 #: A finding's status as people say it (the store keeps the code).
 STATUS_WORDS = {"ok": "OK", "anomaly": "Anomaly", "needs_review": "Needs review"}
@@ -316,3 +316,30 @@ def work_orders(rows: Sequence[Row], zone: tzinfo | None, image_url: Callable[[s
             )
         )  # fmt: skip
     return orders
+
+
+#: The stem of a range report's name: ``/report/range.html?from=...&to=...`` (mission ids start with ``m-``).
+RANGE = "range"
+
+
+@dataclass(frozen=True)
+class Scope:
+    """What a report covers: a mission or a fleet mission's group (``mission``), or the findings whose capture was
+    taken in ``[start, end)`` (Unix seconds)."""
+
+    mission: str | None = None
+    start: float | None = None
+    end: float | None = None
+
+    @property
+    def stem(self) -> str:
+        return self.mission if self.mission is not None else RANGE
+
+
+@dataclass(frozen=True)
+class Report:
+    scope: Scope
+    site: SiteInfo
+    missions: list[MissionRecord]
+    rows: list[Row]
+    made: float  # when the report was made (Unix seconds)
