@@ -67,7 +67,7 @@ _SOURCE = re.compile(r" at /\S+\.rs:\d+\.?")
 
 
 def _why(exc: Exception) -> str:
-    """A Zenoh error without the Rust source locations it carries (``... at <the cargo registry>/.../config.rs:86.``)."""
+    """A Zenoh error without the Rust source locations it carries (``... at <cargo registry>/.../config.rs:86.``)."""
     return _SOURCE.sub("", str(exc)).strip()
 
 
