@@ -7,11 +7,7 @@ from __future__ import annotations
 import asyncio
 import os
 import secrets
-import shutil
-import socket
-import subprocess
 import sys
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -19,7 +15,7 @@ import aiohttp
 import pytest
 
 from tests.conftest import ROOT, RunningRelay
-from tests.helpers.postgres import postgres_binaries
+from tests.helpers.postgres import running_postgres
 from tests.wsclient import TestClient
 
 TOKEN = secrets.token_urlsafe(32)
@@ -29,41 +25,9 @@ TOKEN = secrets.token_urlsafe(32)
 def password_server() -> Iterator[tuple[str, str]]:
     """A throwaway PostgreSQL server on 127.0.0.1 that asks for a password (scram-sha-256) of its user ``relay``:
     its URL without the password, and the password."""
-    pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
-    binaries, why = postgres_binaries()
-    if binaries is None:
-        pytest.skip(why)
-    data = Path(tempfile.mkdtemp(prefix="xr-relay-pgpw-"))
     password = "pw-" + secrets.token_urlsafe(12)
-    (data / "pwfile").write_text(password + "\n")
-    run_as: list[str] = []
-    if os.geteuid() == 0:  # PostgreSQL refuses to run as root (see tests/test_store.py)
-        import pwd
-
-        account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
-        for path in (data, data / "pwfile"):
-            shutil.chown(path, account)
-        run_as = ["runuser", "-u", account, "--"]
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
-    try:
-        subprocess.run(
-            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "scram-sha-256", "-U", "relay",
-             "--pwfile", str(data / "pwfile"), "--no-sync"],
-            check=True, capture_output=True,
-        )  # fmt: skip
-        options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off"
-        started = subprocess.run(
-            [*pg_ctl, "-o", options, "-l", str(data / "log"), "-w", "-t", "60", "start"], capture_output=True
-        )
-        if started.returncode != 0:
-            raise RuntimeError(f"PostgreSQL did not start: {started.stderr.decode(errors='replace')}")
-        yield f"postgresql://relay@127.0.0.1:{port}/postgres", password
-    finally:
-        subprocess.run([*pg_ctl, "-m", "fast", "stop"], capture_output=True)
-        shutil.rmtree(data, ignore_errors=True)
+    with running_postgres(password) as (url, _):
+        yield url, password
 
 
 async def _relay(database: str, cwd: Path, env: dict[str, str]) -> tuple[asyncio.subprocess.Process, str]:

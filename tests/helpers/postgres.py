@@ -41,9 +41,10 @@ def postgres_binaries() -> tuple[Path | None, str]:
 
 
 @contextlib.contextmanager
-def running_postgres() -> Iterator[tuple[str, list[str]]]:
-    """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``): its admin URL and the ``pg_ctl``
-    command line (a test may stop it); skips the test when no server can be had."""
+def running_postgres(password: str | None = None) -> Iterator[tuple[str, list[str]]]:
+    """A throwaway PostgreSQL server on 127.0.0.1, user ``relay`` (trust auth; with ``password``, scram-sha-256
+    asking for it): its URL without a password and the ``pg_ctl`` command line (a test may stop it); skips the test
+    when no server can be had."""
     pytest.importorskip("psycopg", reason="psycopg is not installed (pip install 'psycopg[binary]>=3.1')")
     binaries, why = postgres_binaries()
     if binaries is None:
@@ -56,13 +57,19 @@ def running_postgres() -> Iterator[tuple[str, list[str]]]:
         account = "postgres" if "postgres" in {p.pw_name for p in pwd.getpwall()} else "nobody"
         shutil.chown(data, account)
         run_as = ["runuser", "-u", account, "--"]
+    auth = ["-A", "trust"]
+    if password is not None:
+        (data / "pwfile").write_text(password + "\n")
+        if run_as:
+            shutil.chown(data / "pwfile", run_as[2])
+        auth = ["-A", "scram-sha-256", "--pwfile", str(data / "pwfile")]
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     pg_ctl = [*run_as, str(binaries / "pg_ctl"), "-D", str(data / "db")]
     try:
         subprocess.run(
-            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), "-A", "trust", "-U", "relay", "--no-sync"],
+            [*run_as, str(binaries / "initdb"), "-D", str(data / "db"), *auth, "-U", "relay", "--no-sync"],
             check=True,
             capture_output=True,
         )
