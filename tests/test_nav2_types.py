@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from relay import nav2_types
-from relay.backends.ros_ingest import RawDecoder
+from relay.backends.ingest import RawDecoder
 from relay.nav2_types import (
     CANCEL_RESPONSE,
     FEEDBACK_MESSAGE,

@@ -1,6 +1,7 @@
-"""The ros backend's intake (relay/backends/ros_ingest.py, relay/cdr.py): the inbox that hands events to the loop in
-batches, the raw decoders, and the executor that spins from a thread and stops when asked, whatever happened
-while it spun. Real threads, a real asyncio loop, real rclpy where the test needs it (skipped without it)."""
+"""The ros backend's intake (relay/backends/ingest.py, relay/cdr.py, relay/backends/ros_spinner.py): the inbox that
+hands events to the loop in batches, the raw decoders, and the executor that spins from a thread and stops when
+asked, whatever happened while it spun. Real threads, a real asyncio loop, real rclpy where the test needs it
+(skipped without it)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from typing import Any
 
 import pytest
 
-from relay.backends.ros_ingest import BATCH_INTERVAL, INBOX_LIMIT, Inbox, RawDecoder, Spinner, pose_reader
+from relay.backends.ingest import BATCH_INTERVAL, INBOX_LIMIT, Inbox, RawDecoder, pose_reader
+from relay.backends.ros_spinner import Spinner
 from relay.config import parse_config
 from relay.events import Event, PoseEvent, ScanEvent, SensorEvent
 from relay.tf import TfPose

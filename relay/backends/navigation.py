@@ -52,6 +52,11 @@ class NavTransport(Protocol):
         """Ask the GetResult of ``goal_id``; None when this backend cannot (no nav2_msgs over DDS)."""
 
 
+#: How a transport hands what arrived from the robots (Nav2's status and feedback, the watchdog's gate_state) to the
+#: backend's Navigation: ``arrive(call)`` runs ``call(navigation)`` on the loop, through the backend's one crossing.
+Arrive = Callable[[Callable[["Navigation"], None]], None]
+
+
 class Navigation:
     def __init__(
         self,

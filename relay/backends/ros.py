@@ -3,61 +3,39 @@
 rclpy is imported lazily when the backend is created, so the relay runs without ROS for the other
 backends; without it, this backend refuses to start with one line saying how to get it.
 
-**The thread boundary.** One executor thread spins the node. Callbacks run there, turn a message into an
-immutable event (``relay.events``) and cross to the asyncio loop in exactly one place, :meth:`RosBackend._post`
-(the :class:`~relay.backends.ros_ingest.Inbox`: one loop wake-up per batch; :meth:`RosBackend._hop` is the
-same crossing for a finished camera frame).
-Nothing else is shared between the threads, except each camera's ``relay.frame_encoder.LatestFrameEncoder``,
-which guards its own state. Image conversion and JPEG encoding run in a small worker pool, never on the
-loop and never on the executor thread (which must keep draining DDS).
+**The thread boundary.** One executor thread spins the node (relay/backends/ros_spinner.py). Callbacks run there
+and cross to the asyncio loop as relay/backends/live.py says, as the zenoh backend's do.
 
-Executor and decoding: every high-rate topic raw, poses decoded by hand, TF, scans and images by rosbags,
-the EventsExecutor spun from its thread until a future is done (relay/backends/ros_ingest.py says why, with
-the figures; bench/bench_ros_ingest.py measures it against bare subscribers every run). Low-rate topics
-(sensors, paths, the map, robot descriptions) keep rclpy's messages.
+Executor and decoding: every high-rate topic raw, poses decoded by hand, TF, scans and images by rosbags
+(relay/backends/ingest.py says why, with the figures), the EventsExecutor spun from its thread until a future is
+done (relay/backends/ros_spinner.py; bench/bench_ros_ingest.py measures it against bare subscribers every run).
+Low-rate topics (sensors, paths, the map, robot descriptions) keep rclpy's messages.
 """
 
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import contextlib
 import importlib
 import logging
 import os
-import time
 from collections.abc import Callable
 from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, FrameEvent, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..events import EventSink, PathEvent, RobotModelEvent, SensorEvent
 from ..geometry import yaw_to_quaternion
-from ..maps import map_event
-from ..occupancy import OccupancyGrid
-from ..protocol import MAX_SCAN_RATE
 from ..ros_env import load_rclpy
-from ..rosmsg import (
-    POSE_MESSAGES,
-    SENSOR_TYPES,
-    header_stamp,
-    message_stamp,
-)
-from ..scan import RateCap
-from ..tf import TfPose
+from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, message_stamp
 from . import dds_profile
-from .base import Backend
-from .navigation import Navigation
-from .raw_readers import read_scan, read_tf
-from .ros_cameras import RosCameras
-from .ros_ingest import Inbox, LoopCrossing, RawDecoder, Spinner, pose_reader
+from .ingest import RawDecoder
+from .live import LiveBackend
 from .ros_nav2 import RosNav2, needed_messages
+from .ros_spinner import Spinner
 
 logger = logging.getLogger(__name__)
 
-#: Seconds between heartbeats (std_msgs/Header on ``ros.heartbeat_topic``) while the event loop runs; the
-#: watchdog's timeout (the deadman's, 0.5 s by default) spans five of them.
-HEARTBEAT_PERIOD = 0.1
 #: History depth of image subscriptions (see ``_qos``).
 IMAGE_DEPTH = 10
 
@@ -110,35 +88,29 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
     return classes
 
 
-class RosBackend(LoopCrossing, Backend):
+def _stamp(header: Any, when: float) -> None:
+    header.stamp.sec, header.stamp.nanosec = int(when), int((when - int(when)) * 1e9)
+
+
+class RosBackend(LiveBackend):
+    """The robots of a ROS 2 graph: one rclpy node, its executor thread, and its publishers of commands."""
+
     name = "ros"
 
     def __init__(self, config: FleetConfig, sink: EventSink) -> None:
-        super().__init__(config, sink)
+        # Goals, their outcomes and the watchdogs' gates (relay/backends/navigation.py, shared with zenoh).
+        self._nav2 = RosNav2(config, self._hop, self._to_navigation, self._decode_raw)
+        super().__init__(config, sink, self._nav2, warn=logger.warning)
         # Importing rclpy and the message packages takes a few hundred milliseconds: ``start`` does it in
         # a worker thread, and a missing package still stops the relay before it serves anything.
         self._rclpy: Any = None
         self._messages: dict[str, Any] = {}
-        self._loop: asyncio.AbstractEventLoop | None = None
         self._context: Any = None
         self._node: Any = None
         self._spinner: Spinner | None = None
-        self._inbox: Inbox | None = None
-        self._decode: RawDecoder | None = None
-        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="jpeg")
         self._cmd_pubs: dict[str, Any] = {}
         self._goal_pubs: dict[str, Any] = {}
-        self._tf: dict[str, TfPose] = {}
-        self._scan_cap = RateCap(MAX_SCAN_RATE)
-        self._cameras = RosCameras(
-            config, self._pool, self._hop, self.sink, self._subscribe_image, self._destroy, self._decode_raw
-        )
-        # Goals, their outcomes and the watchdogs' gates (relay/backends/navigation.py, shared with zenoh).
-        self._nav2 = RosNav2(config, self._hop, self._decode_raw)
-        self._nav = self._nav2.navigation = Navigation(config, sink, self._nav2)
-        self._grid: OccupancyGrid | None = None
         self._heartbeat_pub: Any = None
-        self._heartbeat_task: asyncio.Task[None] | None = None
         #: The Fast DDS profile in effect (dds_profile.apply), for /healthz.
         self.dds_profile = ""
 
@@ -148,12 +120,7 @@ class RosBackend(LoopCrossing, Backend):
     # -- lifecycle --------------------------------------------------------------------------------
 
     async def start(self) -> None:
-        self._loop = asyncio.get_running_loop()
-        self._inbox = Inbox(self._loop, self._deliver)
-        await asyncio.to_thread(self._start_node)
-        if self._heartbeat_pub is not None:
-            self._heartbeat_task = asyncio.create_task(self._beat(), name="ros-heartbeat")
-        self._nav.start()
+        await super().start()
         logger.info(
             "ros backend: node xr_relay in ROS_DOMAIN_ID %s, %d robots, %s executor",
             os.environ.get("ROS_DOMAIN_ID", "0"),
@@ -161,7 +128,7 @@ class RosBackend(LoopCrossing, Backend):
             self._spinner.kind if self._spinner is not None else "no",
         )
 
-    def _start_node(self) -> None:
+    def _connect(self) -> None:
         """Worker thread: import ROS, check every message package, create the node and start spinning."""
         self.dds_profile = dds_profile.apply(self.config.ros.dds_profile)  # before the first participant
         self._rclpy = rclpy = load_rclpy()
@@ -187,6 +154,9 @@ class RosBackend(LoopCrossing, Backend):
         self._spinner = Spinner(executors, self._context, self.config.ros.executor, self._executor_failed)
         self._spinner.start(self._node)
 
+    def _connected(self) -> bool:
+        return self._node is not None
+
     def health(self) -> dict[str, object]:
         return {"dds_profile": self.dds_profile}
 
@@ -194,64 +164,33 @@ class RosBackend(LoopCrossing, Backend):
         if self._node is not None:
             self.failure = why
 
-    def ingest_stats(self) -> dict[str, int]:
-        """Messages taken from DDS into the relay, poses replaced by newer ones before the loop got to them,
-        events dropped over the inbox's bound (bench/bench_ros_ingest.py reads these)."""
-        inbox = self._inbox.stats() if self._inbox is not None else {"received": 0, "coalesced": 0, "dropped": 0}
-        return {**inbox, **self._cameras.stats()}
-
     async def recover(self) -> None:
         """Re-create the node, its subscriptions and publishers, and the executor thread."""
         old_spinner, old_node, old_context = self._spinner, self._node, self._context
 
         def rebuild() -> None:
             with contextlib.suppress(Exception):  # the old node is already half gone: best effort
-                if old_spinner is not None:
-                    old_spinner.stop()
-                old_node.destroy_node()
-                if old_context.ok():
-                    self._rclpy.shutdown(context=old_context)
+                _shut_down(self._rclpy, old_spinner, old_node, old_context)
             self._cameras.forget_subscriptions()
-            self._start_node()
+            self._connect()
 
         await asyncio.to_thread(rebuild)
         self._cameras.resubscribe()
         self.failure = None
         logger.warning("ros backend recovered: node and subscriptions re-created")
 
-    async def _beat(self) -> None:
-        """The heartbeat the watchdogs wait for, published from the event loop: a loop that cannot run (a frozen
-        or starved relay) sends none, and every watchdog stops its robot."""
+    def _send_heartbeat(self, when: float) -> None:
+        if self._heartbeat_pub is None or self._node is None:
+            return
         header = self._msg("std_msgs.msg", "Header")()
         header.frame_id = "xr_relay"
-        while True:
-            when = time.time()
-            header.stamp.sec, header.stamp.nanosec = int(when), int((when - int(when)) * 1e9)
-            if self._heartbeat_pub is not None and self._node is not None:
-                with contextlib.suppress(Exception):  # a node being rebuilt (recover): the next beat goes out
-                    self._heartbeat_pub.publish(header)
-            await asyncio.sleep(HEARTBEAT_PERIOD)
+        _stamp(header, when)
+        self._heartbeat_pub.publish(header)
 
-    async def stop(self) -> None:
-        if self._node is None:
-            return
-        if self._heartbeat_task is not None:
-            self._heartbeat_task.cancel()
-        for robot in self.config.robots:
-            await self.stop_robot(robot.name)
-        await self._nav.close(wait=0.5)  # Nav2's answers to the cancels, while the node still spins
+    async def _disconnect(self) -> None:
         spinner, node, context = self._spinner, self._node, self._context
         self._node = None
-
-        def shutdown() -> None:
-            if spinner is not None:
-                spinner.stop()
-            node.destroy_node()
-            if context.ok():
-                self._rclpy.shutdown(context=context)
-
-        await asyncio.to_thread(shutdown)
-        self._pool.shutdown(wait=False, cancel_futures=True)
+        await asyncio.to_thread(_shut_down, self._rclpy, spinner, node, context)
 
     def _qos(self, kind: str) -> Any:
         qos = importlib.import_module("rclpy.qos")
@@ -273,14 +212,13 @@ class RosBackend(LoopCrossing, Backend):
         name = robot.name
         source = robot.pose.source
         pose_cls = self._msg(*POSE_MESSAGES[source])
-        # raw=True: bytes, decoded here as far as the relay needs (relay/backends/ros_ingest.py has the figures).
+        # raw=True: bytes, decoded here as far as the relay needs (relay/backends/ingest.py has the figures).
         if source == "tf":
-            self._tf[name] = TfPose(robot.pose.map_frame, robot.pose.odom_frame, robot.pose.base_frame)
+            on_tf = self._tf_reader(robot)
             for topic, qos in ((robot.pose.topic, "pose"), (robot.pose.topic + "_static", "map")):
-                node.create_subscription(pose_cls, topic, lambda m, r=name: self._on_tf(r, m), self._qos(qos), raw=True)
+                node.create_subscription(pose_cls, topic, on_tf, self._qos(qos), raw=True)
         else:
-            on_pose = pose_reader(name, child_frame=source == "odom", put=self._post)
-            node.create_subscription(pose_cls, robot.pose.topic, on_pose, self._qos("pose"), raw=True)
+            node.create_subscription(pose_cls, robot.pose.topic, self._pose_reader(robot), self._qos("pose"), raw=True)
         for sensor in robot.sensors:
             kind = SENSOR_TYPES[sensor.type]
             node.create_subscription(
@@ -326,65 +264,22 @@ class RosBackend(LoopCrossing, Backend):
             self._msg("geometry_msgs.msg", "PoseStamped"), robot.goal_topic, self._qos("commands")
         )
 
-    # -- the thread boundary ----------------------------------------------------------------------
-
-    def _deliver(self, event: Event) -> None:
-        """On the loop: the relay's sink, then whether the pose reached a bare goal_pose robot's goal."""
-        self.sink(event)
-        if isinstance(event, PoseEvent):
-            self._nav.pose(event)
-
-    # -- callbacks (executor thread) --------------------------------------------------------------
-
-    def _decode_raw(self, data: bytes, type_name: str) -> Any:
-        """A raw message decoded whole (rosbags); ValueError naming the type when the bytes are not one."""
-        if self._decode is None:
-            self._decode = RawDecoder()
-        return self._decode(data, type_name)
-
-    def _on_tf(self, robot: str, data: bytes) -> None:
-        read_tf(robot, self._tf[robot], data, self._decode_raw, self._post)
-
-    def _on_scan(self, robot: str, data: bytes) -> None:
-        read_scan(robot, self._scan_cap, data, self._decode_raw, self._post)
-
-    def _on_map(self, message: Any) -> None:
-        try:
-            self._post(map_event(message, header_stamp(message.header), self.config.ros.map_topic))
-        except ValueError as exc:
-            logger.warning("%s: %s", self.config.ros.map_topic, exc)
+    def _map_message(self, data: Any) -> Any:
+        return data  # rclpy's message
 
     # -- commands (loop thread) -------------------------------------------------------------------
 
-    def _robot(self, name: str) -> Robot:
-        robot = self.config.robot(name)
-        assert robot is not None
-        return robot
-
-    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
-        spec = self._robot(robot)
-        stamped = spec.cmd_vel_stamped or spec.watchdog_topic is not None
+    def _publish_velocity(self, spec: Robot, linear: float, angular: float, *, stamped: bool, stamp: float) -> None:
         message = self._msg("geometry_msgs.msg", "TwistStamped" if stamped else "Twist")()
         twist = message.twist if stamped else message
         if stamped:
-            # The watchdog judges a command's age by this stamp: the time the operator's command reached the relay.
-            when = time.time() if stamp is None else stamp
-            message.header.stamp.sec = int(when)
-            message.header.stamp.nanosec = int((when - int(when)) * 1e9)
+            _stamp(message.header, stamp)
             message.header.frame_id = spec.pose.base_frame
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)
-        self._cmd_pubs[robot].publish(message)
-        if linear != 0.0 or angular != 0.0:
-            self._nav.teleop(robot)
+        self._cmd_pubs[spec.name].publish(message)
 
-    async def send_goal(
-        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
-    ) -> None:
-        spec = self._robot(robot)
-        await self._nav.before_goal(robot)  # a cancel still in flight would cancel this goal too
-        if not current():
-            return
+    def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         message = self._msg("geometry_msgs.msg", "PoseStamped")()
         message.header.stamp = self._node.get_clock().now().to_msg()
         message.header.frame_id = spec.pose.map_frame
@@ -394,29 +289,9 @@ class RosBackend(LoopCrossing, Backend):
         qx, qy, qz, qw = yaw_to_quaternion(yaw if yaw is not None else 0.0)
         message.pose.orientation.x, message.pose.orientation.y = qx, qy
         message.pose.orientation.z, message.pose.orientation.w = qz, qw
-        self._goal_pubs[robot].publish(message)
-        self._nav.sent(robot, (x, y, yaw))
+        self._goal_pubs[spec.name].publish(message)
 
-    async def cancel(self, robot: str) -> None:
-        # Nav2's goals are cancelled (the request sent, not awaited) and the watchdog holds autonomy; then zero.
-        self._nav.stop(robot, "cancelled")
-        await self.send_velocity(robot, 0.0, 0.0)
-
-    async def estop_robot(self, robot: str) -> None:
-        # The zero first (the path the estop-latency test times), then the gate's latch and Nav2's cancel, sent
-        # and not awaited: nothing here waits for the robot.
-        try:
-            await self.send_velocity(robot, 0.0, 0.0)
-        finally:
-            self._nav.stop(robot, "emergency stop", "estop")
-
-    def release_estop(self, robot: str) -> None:
-        self._nav.release(robot)
-
-    def map_grid(self) -> OccupancyGrid | None:
-        return None  # the live /map reaches the relay as a MapEvent
-
-    # -- cameras (relay.backends.ros_cameras) -----------------------------------------------------
+    # -- cameras (relay.backends.cameras) ---------------------------------------------------------
 
     def _subscribe_image(self, camera: Camera, callback: Callable[[Any], None]) -> Any:
         if self._node is None:
@@ -425,15 +300,15 @@ class RosBackend(LoopCrossing, Backend):
         # Raw: the executor thread only reads the stamp; a worker decodes the image it will encode.
         return self._node.create_subscription(cls, camera.topic, callback, self._qos("images"), raw=True)
 
-    def _destroy(self, subscription: Any) -> None:
+    def _unsubscribe(self, subscription: Any) -> None:
         if self._node is not None:
             self._node.destroy_subscription(subscription)
 
-    def set_stream(self, robot: str, camera: str, fps: float) -> None:
-        self._cameras.set_stream(robot, camera, fps)
 
-    def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:
-        self._cameras.set_jpeg(robot, camera, wanted)
-
-    async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
-        return await self._cameras.snapshot(robot, camera)
+def _shut_down(rclpy: Any, spinner: Spinner | None, node: Any, context: Any) -> None:
+    """Worker thread: stop the executor, destroy the node, shut its context down."""
+    if spinner is not None:
+        spinner.stop()
+    node.destroy_node()
+    if context.ok():
+        rclpy.shutdown(context=context)

@@ -8,8 +8,8 @@ out and the watchdog's gate_state in. Status and feedback are read raw (rosbags,
 zenoh backend reads them.
 
 Callbacks run on the executor thread: they decode into immutable snapshots and cross to the loop through the
-backend's ``hop`` (its one crossing, relay/backends/ros_ingest.py). Requests are sent from the loop; rclpy completes
-their futures on the executor thread, and the answer crosses the same way.
+backend's ``arrive`` (its one crossing, relay/backends/live.py). Requests are sent from the loop; rclpy completes
+their futures on the executor thread, and the answer crosses through its ``hop``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from ..config import FleetConfig, Robot
 from ..events import GateWord
 from ..nav2_types import ALL_GOALS, CancelAnswer, Decode, ResultAnswer, read_feedback, read_status
 from ..scan import RateCap
-from .navigation import Navigation
+from .navigation import Arrive
 
 logger = logging.getLogger(__name__)
 
@@ -51,12 +51,11 @@ def gate_word(text: str) -> GateWord | None:
 class RosNav2:
     """The rclpy entities of Nav2's action and the gates, created on each (re)built node by :meth:`create`."""
 
-    def __init__(self, config: FleetConfig, hop: Hop, decode: Decode) -> None:
+    def __init__(self, config: FleetConfig, hop: Hop, arrive: Arrive, decode: Decode) -> None:
         self._config = config
         self._hop = hop
+        self._arrive = arrive
         self._decode = decode
-        #: Set by the backend once it exists (it needs this transport to be built).
-        self.navigation: Navigation | None = None
         self._feedback_cap = RateCap(FEEDBACK_RATE)
         self._cancel: dict[str, Any] = {}
         self._result: dict[str, Any] = {}
@@ -107,18 +106,13 @@ class RosNav2:
 
     # -- callbacks (executor thread) --------------------------------------------------------------
 
-    def _to_loop(self, call: Callable[[Navigation], None]) -> None:
-        navigation = self.navigation
-        if navigation is not None:
-            self._hop(lambda: call(navigation))
-
     def _on_status(self, robot: str, data: bytes) -> None:
         try:
             goals = read_status(data, self._decode)
         except ValueError as exc:
             logger.warning("%s: Nav2 status: %s", robot, exc)
             return
-        self._to_loop(lambda n: n.status(robot, goals))
+        self._arrive(lambda n: n.status(robot, goals))
 
     def _on_feedback(self, robot: str, data: bytes) -> None:
         if not self._feedback_cap.allow(robot, time.monotonic()):
@@ -128,7 +122,7 @@ class RosNav2:
         except ValueError as exc:
             logger.warning("%s: Nav2 feedback: %s", robot, exc)
             return
-        self._to_loop(lambda n: n.feedback(robot, feedback))
+        self._arrive(lambda n: n.feedback(robot, feedback))
 
     def _on_gate_state(self, robot: str, message: Any) -> None:
         word = gate_word(str(message.data))
@@ -137,7 +131,7 @@ class RosNav2:
                 "%s: the watchdog's gate_state %r is none of drive, hold, estop: ignored", robot, message.data
             )
             return
-        self._to_loop(lambda n: n.gate_state(robot, word))
+        self._arrive(lambda n: n.gate_state(robot, word))
 
     # -- the transport (loop thread) --------------------------------------------------------------
 

@@ -13,7 +13,7 @@ backend, with CDR through rosbags (relay/nav2_types.py) and rmw_zenoh's keys (re
   the key is the service's name.
 
 Replies and samples arrive on Zenoh's threads: they are decoded there and cross to the loop through the backend's
-``hop`` (its one crossing).
+``hop`` and ``arrive`` (its one crossing).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from ..nav2_types import (
     read_status,
 )
 from ..scan import RateCap
-from .navigation import Navigation
+from .navigation import Arrive
 from .ros_nav2 import FEEDBACK_RATE, gate_word
 from .zenoh_keys import GID_SIZE, Attachment, topic_selector
 from .zenoh_session import ZenohSettings
@@ -68,12 +68,13 @@ class Publish(Protocol):
 
 
 class ZenohNav2:
-    def __init__(self, config: FleetConfig, settings: ZenohSettings, hop: Hop) -> None:
+    """Nav2's action and the watchdogs' gates on a Zenoh session: the transport of relay/backends/navigation.py."""
+
+    def __init__(self, config: FleetConfig, settings: ZenohSettings, hop: Hop, arrive: Arrive) -> None:
         self._config = config
         self._settings = settings
         self._hop = hop
-        #: Set by the backend once it exists (it needs this transport to be built).
-        self.navigation: Navigation | None = None
+        self._arrive = arrive
         self._feedback_cap = RateCap(FEEDBACK_RATE)
         self._sequence = itertools.count(1)
         self._session: Any = None
@@ -132,22 +133,17 @@ class ZenohNav2:
 
     # -- samples (Zenoh's threads) ----------------------------------------------------------------
 
-    def _to_loop(self, call: Callable[[Navigation], None]) -> None:
-        navigation = self.navigation
-        if navigation is not None:
-            self._hop(lambda: call(navigation))
-
     def _on_status(self, robot: str, data: bytes) -> None:
         assert self._decode is not None
         goals = read_status(data, self._decode)  # a ValueError is named once per key by the backend's subscriber
-        self._to_loop(lambda n: n.status(robot, goals))
+        self._arrive(lambda n: n.status(robot, goals))
 
     def _on_feedback(self, robot: str, data: bytes) -> None:
         assert self._decode is not None
         if not self._feedback_cap.allow(robot, time.monotonic()):
             return
         feedback = read_feedback(data, self._decode)
-        self._to_loop(lambda n: n.feedback(robot, feedback))
+        self._arrive(lambda n: n.feedback(robot, feedback))
 
     def _on_gate_state(self, robot: str, data: bytes) -> None:
         assert self._decode is not None
@@ -155,7 +151,7 @@ class ZenohNav2:
         word = gate_word(text)
         if word is None:
             raise ValueError(f"the watchdog's gate_state {text[:40]!r} is none of drive, hold, estop")
-        self._to_loop(lambda n: n.gate_state(robot, word))
+        self._arrive(lambda n: n.gate_state(robot, word))
 
     # -- the transport (loop thread) --------------------------------------------------------------
 

@@ -1,10 +1,10 @@
-"""The live graph's cameras (``ros`` backend): subscribed only while a client streams one or waits for a snapshot.
+"""The live robots' cameras (``ros``, ``zenoh``): subscribed only while a client streams one or waits for a snapshot.
 
-An image topic costs DDS bandwidth and a JPEG encode per frame, so a camera nobody watches is not subscribed.
-Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the executor thread as the
-raw CDR bytes and their stamp (read in place); a worker decodes the image it encodes (``decode``: rosbags, the
-pixels a view of the bytes) and the encoded frames reach the loop through the backend's thread crossing. rclpy is
-not imported here: the backend passes in how to subscribe.
+An image topic costs network bandwidth and a JPEG encode per frame, so a camera nobody watches is not subscribed.
+Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the receiving thread (rclpy's
+executor, a Zenoh callback) as the raw CDR bytes and their stamp (read in place); a worker decodes the image it
+encodes (``decode``: rosbags, the pixels a view of the bytes) and the encoded frames reach the loop through the
+backend's thread crossing. Neither rclpy nor zenoh is imported here: the backend passes in how to subscribe.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ SNAPSHOT_MAX_AGE = 1.0
 #: How long a snapshot waits for the next frame (the on-demand subscription must first be discovered).
 SNAPSHOT_TIMEOUT = 5.0
 
-#: ``subscribe(camera, callback)`` returns a subscription handle (None when there is no node);
+#: ``subscribe(camera, callback)`` returns a subscription handle (None when there is no node or session);
 #: ``unsubscribe(handle)`` destroys it.
 Subscribe = Callable[[Camera, Callable[[Any], None]], Any]
 Unsubscribe = Callable[[Any], None]
@@ -43,7 +43,9 @@ class _Camera:
     jpeg: bool = True
 
 
-class RosCameras:
+class OnDemandCameras:
+    """Every camera of the fleet: its encoder, and its subscription while someone watches."""
+
     def __init__(
         self,
         config: FleetConfig,
@@ -96,12 +98,12 @@ class RosCameras:
             self._stop_if_idle(robot, camera)
 
     def forget_subscriptions(self) -> None:
-        """The node they belonged to is gone (the backend is rebuilding it)."""
+        """The node or session they belonged to is gone (the backend is rebuilding it)."""
         for state in self._cameras.values():
             state.subscription = None
 
     def resubscribe(self) -> None:
-        """After a rebuilt node: the cameras that clients stream are subscribed again."""
+        """After a rebuilt node or session: the cameras that clients stream are subscribed again."""
         for (robot, camera), state in self._cameras.items():
             if state.frames.fps > 0:
                 self._start(robot, camera)
@@ -109,7 +111,7 @@ class RosCameras:
     def _start(self, robot: str, camera: str) -> None:
         state = self._cameras[(robot, camera)]
         if state.subscription is None:
-            # Executor thread: the image with its stamp, encoded only if a stream or a snapshot wants it.
+            # The receiving thread: the image with its stamp, encoded only if a stream or a snapshot wants it.
             frames = state.frames
 
             def on_image(data: bytes) -> None:
