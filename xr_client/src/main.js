@@ -5,8 +5,8 @@
  * developer without a headset, and the end-to-end tests, can enter VR and drive emulated controllers
  * (the emulated device is `window.__iwer`). Then it waits for the local font (canvas-drawn labels need
  * it loaded) and starts the application. `?maxfps=N` draws at most N frames a second (input, teleop and
- * the connection keep their own pace): for software-rendered browsers such as CI's. `window.__xrRelay.state` is a read-only snapshot of the client's
- * state for tests and debugging.
+ * the connection keep their own pace): for software-rendered browsers such as CI's. `window.__xrRelay.state` is a
+ * read-only snapshot of the client's state for tests and debugging.
  */
 
 export {}; // a module: top-level await below
@@ -44,7 +44,7 @@ const app = new App(container, { maxFps: quality.maxFps ?? undefined, lowQuality
 app.start();
 if (quality.reason) {
   console.info(quality.reason);
-  app.overlay.say(quality.reason, 'info', 8000);
+  app.views.overlay.say(quality.reason, 'info', 8000);
 }
 /** @type {any} */ (window).__xrRelay = Object.freeze({
   get state() {
@@ -55,11 +55,16 @@ if (quality.reason) {
   /** @param {number} x @param {number} y @param {number} [z] map point -> scene (glTF) point */
   mapToScene: (x, y, z) => mapToScene(app.fleet.scene.mapToScene, x, y, z),
   /** @param {number} x @param {number} y map point -> where it is on VR's overview table (world) */
-  overviewPoint: (x, y) => app.hud.miniature.worldPoint(x, y, app.fleet.scene.mapToScene),
-  /** @param {[number, number] | null} [pixel] the VR finding card's buttons (and a pixel of its capture) -> scene points */
-  cardPoints: (pixel) => app.findingCard.points(pixel ?? null),
-  /** The last n camera pictures decoded: [publisher stamp (s), page time (ms)] pairs (picture_times.js). @param {number} n */
-  pictureTimes: (n) => app.feed.times.recent(n),
+  overviewPoint: (x, y) => app.views.hud.miniature.worldPoint(x, y, app.fleet.scene.mapToScene),
+  /**
+   * @param {[number, number] | null} [pixel] the VR finding card's buttons (and a pixel of its capture) -> scene points
+   */
+  cardPoints: (pixel) => app.views.findingCard.points(pixel ?? null),
+  /**
+   * The last n camera pictures decoded: [publisher stamp (s), page time (ms)] pairs (picture_times.js).
+   * @param {number} n
+   */
+  pictureTimes: (n) => app.views.feed.times.recent(n),
   /** How this browser draws and what the station asks of it (render_quality.js). */
   quality,
   version: 1,

@@ -9,24 +9,25 @@ import { formatSilence } from '../freshness.js';
 
 /** What the wrist and corner sensor panels show. @param {import('../app.js').App} app @param {number} now */
 export function sensorPanelData(app, now) {
-  const age = { freshness: app.router.freshness, linkStale: app.router.linkStale(app.linkOk, now) };
+  const age = { freshness: app.router.freshness, linkStale: app.router.linkStale(app.relay.linkOk, now) };
   // An open socket that brings nothing is not a working link: say how long the relay has been silent.
-  const quiet = age.linkStale && app.linkOk ? ` · no answer for ${formatSilence(now - app.router.lastMessage)}` : '';
-  const link = { text: app.linkText + quiet, ok: app.linkOk && !quiet };
+  const quiet =
+    age.linkStale && app.relay.linkOk ? ` · no answer for ${formatSilence(now - app.router.lastMessage)}` : '';
+  const link = { text: app.relay.linkText + quiet, ok: app.relay.linkOk && !quiet };
   return sensorPanel(
     app.fleet,
     app.menu.selected,
     app.history,
     link,
     now,
-    app.inspectionUi.progress(app.menu.selected),
+    app.views.inspectionUi.progress(app.menu.selected),
     age,
   );
 }
 
 /** The POV panel's caption. @param {import('../app.js').App} app */
 export function povCaption(app) {
-  const s = app.hemisphere;
+  const s = app.views.hemisphere;
   const robot = app.menu.selected ?? '–';
   const live = app.menu.live ? 'live' : 'snapshot';
   return s.lastIdentifier

@@ -1,35 +1,40 @@
 // @ts-check
 /**
  * The read-only snapshot of the client behind `window.__xrRelay.state`: what the end-to-end tests wait on
- * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, video decoding, frame timing) and what a developer
- * reads in a console. Building it changes nothing.
+ * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, video decoding, frame timing) and what a
+ * developer reads in a console. Building it changes nothing.
  */
 import * as THREE from 'three';
 import { mapToScene, sceneYawToMap } from '../frames.js';
 
 /** @param {import('../app.js').App} app */
 export function snapshotState(app) {
-  const rigQuaternion = app.rig.getWorldQuaternion(new THREE.Quaternion());
-  const { hemisphere, menu, interaction } = app;
-  const decoder = app.feed.jpeg;
+  const rigQuaternion = app.stage.rig.getWorldQuaternion(new THREE.Quaternion());
+  const { hemisphere, interaction } = app.views;
+  const menu = app.menu;
+  const decoder = app.views.feed.jpeg;
   return {
-    connected: app.linkOk,
-    link: app.linkText,
+    connected: app.relay.linkOk,
+    link: app.relay.linkText,
     inspection: {
-      targets: app.inspectionUi.model.targets.size,
-      missions: Object.fromEntries([...app.inspectionUi.model.missions.values()].map((m) => [m.robot, m.state])),
-      findings: app.inspectionUi.model
+      targets: app.views.inspectionUi.model.targets.size,
+      missions: Object.fromEntries([...app.views.inspectionUi.model.missions.values()].map((m) => [m.robot, m.state])),
+      findings: app.views.inspectionUi.model
         .list()
         .map((f) => ({ id: f.id, target: f.target, status: f.status, region: f.region !== null, x: f.x, y: f.y })),
-      pins: app.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
-      picked: [...app.inspectionUi.review.picked],
+      pins: app.views.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
+      picked: [...app.views.inspectionUi.review.picked],
       review: {
-        selected: app.inspectionUi.review.selected,
-        pending: app.inspectionUi.review.pending !== null,
-        proposal: app.inspectionUi.review.proposal !== null,
-        imageAction: app.inspectionUi.review.imageAction,
+        selected: app.views.inspectionUi.review.selected,
+        pending: app.views.inspectionUi.review.pending !== null,
+        proposal: app.views.inspectionUi.review.proposal !== null,
+        imageAction: app.views.inspectionUi.review.imageAction,
       },
-      card: { visible: app.findingCard.mesh.visible, image: app.findingCard.imageSize, draws: app.findingCard.draws },
+      card: {
+        visible: app.views.findingCard.mesh.visible,
+        image: app.views.findingCard.imageSize,
+        draws: app.views.findingCard.draws,
+      },
     },
     clientId: app.fleet.clientId,
     presenting: app.presenting,
@@ -41,12 +46,14 @@ export function snapshotState(app) {
       tool: menu.tool,
       live: menu.live,
       buttons: menu.buttons(),
-      centres: app.presenting && menu.open ? app.menuPanel.buttonCentres() : {},
-      tab: app.menuPanel.tab.visible ? app.menuPanel.tab.getWorldPosition(new THREE.Vector3()).toArray() : null,
+      centres: app.presenting && menu.open ? app.views.menuPanel.buttonCentres() : {},
+      tab: app.views.menuPanel.tab.visible
+        ? app.views.menuPanel.tab.getWorldPosition(new THREE.Vector3()).toArray()
+        : null,
     },
     xr: {
       hover: app.presenting ? interaction.hovered() : {},
-      vignette: app.vignette.strength,
+      vignette: app.views.vignette.strength,
       teleport:
         interaction.teleport.aiming || interaction.pinchTeleport
           ? (interaction.teleportHit?.toArray() ?? 'no floor')
@@ -54,51 +61,57 @@ export function snapshotState(app) {
     },
     estop: {
       latched: [...menu.latched],
-      banner: app.overlay.banner?.text ?? null,
-      fleet: app.overlay.banner?.fleet ?? false,
+      banner: app.views.overlay.banner?.text ?? null,
+      fleet: app.views.overlay.banner?.fleet ?? false,
       page: !document.getElementById('estop-banner')?.hidden,
-      vr: app.hud.estop.banner.sprite.visible,
-      wrist: app.hud.estop.button.mesh.parent !== null,
+      vr: app.views.hud.estop.banner.sprite.visible,
+      wrist: app.views.hud.estop.button.mesh.parent !== null,
       /** The wrist E-STOP is drawn: it and what carries it are visible (a controller's grip, a hand's grip pose). */
-      wristDrawn: app.presenting && shown(app.hud.estop.button.mesh),
+      wristDrawn: app.presenting && shown(app.views.hud.estop.button.mesh),
       points:
-        app.presenting && app.hud.estop.button.mesh.parent
-          ? { wrist: app.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() }
+        app.presenting && app.views.hud.estop.button.mesh.parent
+          ? { wrist: app.views.hud.estop.button.mesh.getWorldPosition(new THREE.Vector3()).toArray() }
           : {},
     },
-    camera: app.camera.position.toArray(),
-    eye: app.camera.getWorldPosition(new THREE.Vector3()).toArray(),
+    camera: app.stage.camera.position.toArray(),
+    eye: app.stage.camera.getWorldPosition(new THREE.Vector3()).toArray(),
     view: viewState(app),
     panel: panelState(app),
     overview: {
-      visible: app.hud.miniature.group.visible,
-      cursor: app.interaction.wimCursor,
-      arrows: app.hud.miniature.robots.size,
-      scale: app.hud.miniature.scale,
-      position: app.hud.miniature.group.position.toArray(),
-      radius: app.hud.miniature.table.scale.x,
+      visible: app.views.hud.miniature.group.visible,
+      cursor: app.views.interaction.wimCursor,
+      arrows: app.views.hud.miniature.robots.size,
+      scale: app.views.hud.miniature.scale,
+      position: app.views.hud.miniature.group.position.toArray(),
+      radius: app.views.hud.miniature.table.scale.x,
     },
     /** Where VR started (map frame; start_pose.js), and what it saw from there. */
-    start: app.xrSession.plan.last,
+    start: app.stage.xrSession.plan.last,
     paths: Object.fromEntries(
-      [...app.goalView.paths].filter(([, p]) => p.line.visible).map(([robot, p]) => [robot, p.source?.length ?? 0]),
+      [...app.views.goalView.paths]
+        .filter(([, p]) => p.line.visible)
+        .map(([robot, p]) => [robot, p.source?.length ?? 0]),
     ),
-    markers: Object.fromEntries([...app.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
-    rig: { position: app.rig.position.toArray(), quaternion: rigQuaternion.toArray(), yaw: app.rig.rotation.y },
-    world: app.world.visible,
+    markers: Object.fromEntries([...app.views.goalView.markers].map(([robot, m]) => [robot, m.group.visible])),
+    rig: {
+      position: app.stage.rig.position.toArray(),
+      quaternion: rigQuaternion.toArray(),
+      yaw: app.stage.rig.rotation.y,
+    },
+    world: app.stage.world.visible,
     labels: {
-      capacity: app.fleetView.atlas.layout.capacity,
-      whole: app.fleetView.atlas.uploads.whole,
-      cells: app.fleetView.atlas.uploads.cells,
-      scans: app.fleetView.scans.drawn,
+      capacity: app.stage.fleetView.atlas.layout.capacity,
+      whole: app.stage.fleetView.atlas.uploads.whole,
+      cells: app.stage.fleetView.atlas.uploads.cells,
+      scans: app.stage.fleetView.scans.drawn,
     },
     map: {
-      rooms: app.fleetView.annotations.rooms,
-      grid: app.fleetView.annotations.gridLines,
-      north: app.fleetView.annotations.north,
+      rooms: app.stage.fleetView.annotations.rooms,
+      grid: app.stage.fleetView.annotations.gridLines,
+      north: app.stage.fleetView.annotations.north,
     },
     robots: Object.fromEntries(
-      [...app.robotViews].map(([name, v]) => [
+      [...app.stage.robotViews].map(([name, v]) => [
         name,
         {
           position: v.group.position.toArray(),
@@ -109,10 +122,11 @@ export function snapshotState(app) {
           label: v.label.key,
           warning: v.warning.sprite.visible,
           scan: { points: v.scanCount, visible: v.scanVisible },
-          // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and on the desktop page (px).
+          // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and
+          // on the desktop page (px).
           heading: headingOf(app, v),
           labelHeight: v.label.sprite.scale.y,
-          labelOpacity: app.fleetView.atlas.opacities.getX(v.index),
+          labelOpacity: app.stage.fleetView.atlas.opacities.getX(v.index),
           detailed: v.detailed,
           labelPixels: app.presenting ? null : labelPixels(app, v),
         },
@@ -123,7 +137,7 @@ export function snapshotState(app) {
       hover: app.goalPointer.hover,
       marker: app.goalPointer.marker,
       verdict: app.goalPointer.verdict,
-      colour: `#${app.goalView.pointer.material.color.getHexString()}`,
+      colour: `#${app.views.goalView.pointer.material.color.getHexString()}`,
       sent: app.sender.counts.goals,
     },
     teleop: {
@@ -138,7 +152,11 @@ export function snapshotState(app) {
       expiries: app.driver.expiries,
     },
     commands: { ...app.sender.counts },
-    twin: { state: app.twin.state, url: app.twin.url ?? null, floor: app.twin.floorTargets.map((o) => o.name) },
+    twin: {
+      state: app.stage.twin.state,
+      url: app.stage.twin.url ?? null,
+      floor: app.stage.twin.floorTargets.map((o) => o.name),
+    },
     pov: {
       visible: hemisphere.group.visible,
       uploads: hemisphere.uploads,
@@ -153,30 +171,33 @@ export function snapshotState(app) {
       snapshots: { ...app.sender.snapshots },
     },
     // The live stream's codec and the H.264 decoder's counts (view/camera_feed.js, video_decoder.js).
-    video: app.feed.state(),
-    voice: { ...app.voice.state(), toast: app.hud.toast.sprite.visible },
+    video: app.views.feed.state(),
+    voice: { ...app.views.voice.state(), toast: app.views.hud.toast.sprite.visible },
     /** The message line (and, in VR, the HUD's toast) says this now. */
-    notice: app.overlay.message.textContent,
-    sound: app.sound.state(),
-    hands: app.interaction.handInput.state(),
-    gaze: { ...app.interaction.gaze },
+    notice: app.views.overlay.message.textContent,
+    sound: app.views.sound.state(),
+    hands: app.views.interaction.handInput.state(),
+    gaze: { ...app.views.interaction.gaze },
     timing: {
-      renders: app.renders,
-      frames: app.frameCount,
-      recent: app.frameTimer.recent(120),
-      ...app.frameTimer.stats(),
+      renders: app.loop.renders,
+      frames: app.loop.frameCount,
+      recent: app.loop.frameTimer.recent(120),
+      ...app.loop.frameTimer.stats(),
     },
-    textures: app.renderer.info.memory.textures,
+    textures: app.stage.renderer.info.memory.textures,
     draw: {
-      calls: app.renderer.info.render.calls,
-      triangles: app.renderer.info.render.triangles,
-      pixelRatio: app.renderer.getPixelRatio(),
-      maxFps: app.minFrameMs ? 1000 / app.minFrameMs : null,
+      calls: app.stage.renderer.info.render.calls,
+      triangles: app.stage.renderer.info.render.triangles,
+      pixelRatio: app.stage.renderer.getPixelRatio(),
+      maxFps: app.loop.minFrameMs ? 1000 / app.loop.minFrameMs : null,
     },
   };
 }
 
-/** What the sensor panels show: each reading, whether it is old (and how old), and the gaps in its sparkline. @param {import('../app.js').App} app */
+/**
+ * What the sensor panels show: each reading, whether it is old (and how old), and the gaps in its sparkline.
+ * @param {import('../app.js').App} app
+ */
 function panelState(app) {
   const data = app.sensorPanelData(performance.now());
   const robot = data.robot;
@@ -209,42 +230,51 @@ function panelState(app) {
  * @returns {[number, number]}
  */
 export function mapToPage(app, x, y, z = 0) {
-  const v = new THREE.Vector3(...mapToScene(app.fleet.scene.mapToScene, x, y, z)).project(app.camera);
-  const rect = app.renderer.domElement.getBoundingClientRect();
+  const v = new THREE.Vector3(...mapToScene(app.fleet.scene.mapToScene, x, y, z)).project(app.stage.camera);
+  const rect = app.stage.renderer.domElement.getBoundingClientRect();
   return [rect.left + ((v.x + 1) / 2) * rect.width, rect.top + ((1 - v.y) / 2) * rect.height];
 }
 
-/** The footprint arrow's direction in the map frame (rad, CCW from east). @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view */
+/**
+ * The footprint arrow's direction in the map frame (rad, CCW from east). @param {import('../app.js').App} app
+ * @param {import('./robot_view.js').RobotView} view
+ */
 function headingOf(app, view) {
   const d = new THREE.Vector3(1, 0, 0).transformDirection(view.heading.matrixWorld);
   return sceneYawToMap(app.fleet.scene.mapToScene, Math.atan2(-d.z, d.x));
 }
 
-/** How tall a robot's label is on the desktop page (px): the sprite faces the camera. @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view */
+/**
+ * How tall a robot's label is on the desktop page (px): the sprite faces the camera.
+ * @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view
+ */
 function labelPixels(app, view) {
   const sprite = view.label.sprite;
   const anchor = sprite.getWorldPosition(new THREE.Vector3());
   const up = new THREE.Vector3(0, sprite.scale.y, 0).applyQuaternion(
-    app.camera.getWorldQuaternion(new THREE.Quaternion()),
+    app.stage.camera.getWorldQuaternion(new THREE.Quaternion()),
   );
-  const a = anchor.clone().project(app.camera);
-  const b = anchor.clone().add(up).project(app.camera);
-  const rect = app.renderer.domElement.getBoundingClientRect();
+  const a = anchor.clone().project(app.stage.camera);
+  const b = anchor.clone().add(up).project(app.stage.camera);
+  const rect = app.stage.renderer.domElement.getBoundingClientRect();
   return Math.hypot(((b.x - a.x) / 2) * rect.width, ((b.y - a.y) / 2) * rect.height);
 }
 
-/** The desktop view: its mode, the free part of the window, the compass and scale bar, the panels. @param {import('../app.js').App} app */
+/**
+ * The desktop view: its mode, the free part of the window, the compass and scale bar, the panels.
+ * @param {import('../app.js').App} app
+ */
 function viewState(app) {
-  const views = app.desktop.views;
+  const views = app.views.desktop.views;
   return {
     mode: views.mode,
     free: views.free,
     target: views.host.orbit.target.toArray(),
-    distance: app.camera.position.distanceTo(views.host.orbit.target),
+    distance: app.stage.camera.position.distanceTo(views.host.orbit.target),
     polar: views.host.orbit.getPolarAngle(),
     compass: views.compass,
     scale: { text: views.scale.text, px: views.scale.px },
-    panels: { ...app.overlay.panels.open },
+    panels: { ...app.views.overlay.panels.open },
     compact: document.body.classList.contains('compact'),
   };
 }

@@ -1,0 +1,104 @@
+// @ts-check
+/**
+ * The station's one frame loop, for the desktop and for VR: each frame the held teleop command is confirmed, the
+ * fleet, goals and the display's input and HUD are updated, and the stage is drawn (outside VR at most maxFps times a
+ * second), with the JS time of each drawn frame recorded.
+ */
+import * as THREE from 'three';
+import { FrameTimer } from '../frame_timer.js';
+
+const TIMING_SAMPLES = 1200;
+
+/**
+ * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
+ *   router: import('../message_router.js').MessageRouter, history: import('../sensor_history.js').SensorHistory,
+ *   goals: import('../goal_pointer.js').GoalTracker, goalPointer: import('../goal_pointer.js').GoalPointer,
+ *   driver: import('../teleop_driver.js').TeleopDriver, linkOk: () => boolean, povYaw: () => number,
+ *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData}} FrameHost
+ *   what a frame reads besides the stage and the views
+ */
+
+export class FrameLoop {
+  /** Drawn frames (the frame loop may skip drawing outside VR, see maxFps). */
+  renders = 0;
+  /** Frames run, drawn or not. */
+  frameCount = 0;
+  lastRender = -Infinity;
+
+  /**
+   * @param {FrameHost} host @param {import('./stage.js').Stage} stage @param {import('./views.js').StationViews} views
+   * @param {number | undefined} maxFps at most this many drawn frames a second outside VR (none: every frame)
+   */
+  constructor(host, stage, views, maxFps) {
+    this.host = host;
+    this.stage = stage;
+    this.views = views;
+    this.minFrameMs = maxFps ? 1000 / maxFps : 0;
+    this.frameTimer = new FrameTimer(TIMING_SAMPLES);
+    this.lastFrame = performance.now();
+  }
+
+  /** @param {number} _time @param {XRFrame | undefined} _frame */
+  frame(_time, _frame) {
+    const { fleet, menu, router, goalPointer } = this.host;
+    const { stage, views } = this;
+    const { camera } = stage;
+    const hemisphere = views.hemisphere;
+    const start = performance.now();
+    const dt = Math.min(0.1, (start - this.lastFrame) / 1000);
+    this.lastFrame = start;
+    this.host.driver.tick(start); // confirms the held command to the socket worker once a frame, however slow
+    const eye = camera.getWorldPosition(new THREE.Vector3());
+    const link = !this.host.linkOk() ? 'lost' : router.linkStale(true, start) ? 'quiet' : 'live';
+    stage.fleetView.update(start, {
+      fleet,
+      smoothers: router.smoothers,
+      history: this.host.history,
+      selected: menu.selected,
+      eye,
+      freshness: router.freshness,
+      link,
+      scans: menu.scans,
+    });
+    views.goalView.update(fleet, this.host.goals, start, router.paths);
+    if (stage.presenting) {
+      views.interaction.update(start, dt);
+      views.xrInspection.update(true);
+      stage.xrSession.updateSeat();
+      const overview = {
+        twin: stage.twin,
+        views: stage.robotViews,
+        cursor: views.interaction.wimCursor,
+        transform: fleet.scene.mapToScene,
+        show: menu.overview && menu.mode === 'free_roam',
+      };
+      views.hud.update(start, views.xrInput.wrist('left'), this.host.sensorPanelData(start), overview);
+      if (menu.mode === 'pov') {
+        // The screen is centred on the eyes: a wide-angle image is only undistorted from its centre.
+        camera.getWorldPosition(hemisphere.group.position);
+        hemisphere.group.rotation.set(0, this.host.povYaw(), 0);
+      }
+    } else {
+      views.desktop.update(dt);
+      views.goalView.setPointer(
+        fleet.scene.mapToScene,
+        menu.tool === 'goal' ? goalPointer.marker : null,
+        null,
+        goalPointer.verdict,
+      );
+    }
+    views.overlay.update(start);
+    // In VR every frame is drawn: the XR framebuffer is cleared before each frame (WebXR), so a skipped
+    // frame would be a blank one.
+    this.frameCount++;
+    if (stage.presenting || start - this.lastRender >= this.minFrameMs - 1) {
+      this.lastRender = start;
+      stage.renderer.render(stage.scene, camera);
+      if (!stage.presenting && menu.mode === 'pov')
+        hemisphere.renderInto(stage.renderer, stage.scene, views.overlay.povRect(), views.desktop.povLook);
+      // JS time of drawn frames only (update + render calls): what the frame budget is about.
+      this.frameTimer.record(performance.now() - start);
+      this.renders++;
+    }
+  }
+}

@@ -1,0 +1,108 @@
+// @ts-check
+/**
+ * The menu's effects carried out (menu_state.js decides them): the menu panel shown, the mode changed, the
+ * selection followed (its camera on the POV screen, its teleop limits, who holds it), commands sent. Nothing queues
+ * while disconnected (the sender refuses).
+ */
+import { displayName } from '../operator_names.js';
+
+/**
+ * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
+ *   sender: import('../command_sender.js').CommandSender, driver: import('../teleop_driver.js').TeleopDriver,
+ *   goalPointer: import('../goal_pointer.js').GoalPointer}} MenuEffectsHost the behaviour the effects touch
+ */
+
+export class MenuEffects {
+  /**
+   * @param {MenuEffectsHost} host @param {import('./views.js').StationViews} views
+   * @param {import('./view_modes.js').ViewModes} modes
+   */
+  constructor(host, views, modes) {
+    this.host = host;
+    this.views = views;
+    this.modes = modes;
+  }
+
+  /** Carry out what the menu decided. @param {import('../menu_state.js').MenuEffect[]} effects */
+  apply(effects) {
+    const { fleet, menu, sender, driver } = this.host;
+    const views = this.views;
+    for (const effect of effects) {
+      switch (effect.type) {
+        case 'stop_teleop':
+          driver.stop(performance.now());
+          break;
+        case 'menu':
+          if (effect.open) views.interaction.placeMenu();
+          views.menuPanel.mesh.visible = effect.open && views.presenting();
+          break;
+        case 'mode':
+          this.modes.setMode(effect.mode);
+          break;
+        case 'select':
+          this.syncSelection();
+          break;
+        case 'tool':
+          this.host.goalPointer.cancel();
+          break;
+        case 'stream': {
+          const camera = fleet.camera(effect.robot);
+          if (camera) views.feed.stream(effect.robot, camera, effect.fps);
+          break;
+        }
+        case 'snapshot':
+          sender.snapshot(effect.robot, fleet.camera(effect.robot)?.name ?? null);
+          break;
+        case 'cancel':
+          sender.cancel(effect.robot);
+          break;
+        case 'takeover':
+          views.operatorUi.offer(effect.robot, effect.holder, null);
+          break;
+        case 'estop':
+          driver.stop(performance.now(), true);
+          sender.estop(effect.robot);
+          break;
+        case 'estop_reset':
+          sender.estopReset();
+          break;
+        case 'mission':
+          views.inspectionUi.command(effect, menu);
+          break;
+      }
+    }
+  }
+
+  /** The selected robot's camera feeds the POV screen; its teleop limits apply. */
+  syncSelection() {
+    const { fleet, menu } = this.host;
+    const { feed, hemisphere } = this.views;
+    menu.setGoalActive(Boolean(fleet.robot(menu.selected)?.status?.goal));
+    this.syncHolder();
+    this.views.inspectionUi.update(menu);
+    const camera = fleet.camera(menu.selected);
+    const identifier = camera?.identifier ?? '';
+    if (identifier !== feed.accept) {
+      feed.setAccepted(identifier);
+      hemisphere.clear(camera ? 'no image yet: Snapshot or Live' : 'this robot has no camera');
+      hemisphere.calibration = camera ? { width: camera.width, height: camera.height } : null;
+      if (camera) hemisphere.setSize(camera.width, camera.height);
+      if (camera) hemisphere.setLens(camera.lens, camera.width, camera.height);
+    }
+    const robot = fleet.robot(menu.selected);
+    this.host.driver.setRobot(
+      robot?.description.name ?? null,
+      robot?.description.limits ?? { linear: 0, angular: 0 },
+      performance.now(),
+    );
+  }
+
+  /** Who holds the selected robot, when not this operator: the menu turns Teleop off for it and offers Take over. */
+  syncHolder() {
+    const { fleet, menu } = this.host;
+    const controller = fleet.robot(menu.selected)?.status?.controller;
+    menu.setHolder(
+      controller && controller !== fleet.clientId ? displayName(controller, fleet.names, fleet.clientId) : null,
+    );
+  }
+}

@@ -1,0 +1,171 @@
+// @ts-check
+/**
+ * The station's views on the stage, each built with a narrow host (the few objects and actions it needs, never the
+ * App): goals and comfort, inspection, the VR HUD and menu panel, the hemisphere screen and its camera feed, voice and
+ * sound, and the input of both displays (the headset's interaction, the desktop's controls). They also give the
+ * station its one way to tell the operator something (notify). dispose() releases them all.
+ */
+import { operatorToken } from '../connection.js';
+import { InspectionUi } from '../view/inspection_ui.js';
+import { GoalView } from '../view/goal_view.js';
+import { TeleportView, Vignette } from '../view/comfort_view.js';
+import { HemisphereScreen } from '../view/hemisphere_screen.js';
+import { CameraFeed } from '../view/camera_feed.js';
+import { MenuPanel } from '../view/panels.js';
+import { XRInput } from '../view/xr_input.js';
+import { XRInteraction } from '../view/xr_interaction.js';
+import { XRInspection } from '../view/xr_inspection.js';
+import { FindingCard } from '../view/finding_card.js';
+import { VRHud } from '../view/vr_hud.js';
+import { OperatorUi } from '../view/operator_ui.js';
+import { DesktopControls } from '../view/desktop_controls.js';
+import { Overlay } from '../view/overlay.js';
+import { VoiceControl } from '../view/voice_control.js';
+import { SoundControl } from '../view/sound_control.js';
+
+/**
+ * What the views read and call besides the stage.
+ * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
+ *   goals: import('../goal_pointer.js').GoalTracker, goalPointer: import('../goal_pointer.js').GoalPointer,
+ *   sender: import('../command_sender.js').CommandSender, inspection: import('../inspection_model.js').InspectionModel,
+ *   actions: import('../app.js').OperatorActions,
+ *   goalFor: (robot: string, goal: import('../command_sender.js').Goal) => void, link: () => string,
+ *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData, povText: () => string}}
+ *   ViewsHost
+ */
+
+export class StationViews {
+  /** @param {import('./stage.js').Stage} stage @param {ViewsHost} host */
+  constructor(stage, host) {
+    const { scene, camera, rig, world, renderer, picking } = stage;
+    const { fleet, menu, goalPointer, actions, sender } = host;
+    const presenting = () => stage.presenting;
+    /** Whether the headset shows the station (else the desktop page does). */
+    this.presenting = presenting;
+    this.goalView = new GoalView();
+    world.add(this.goalView.group);
+    this.teleportView = new TeleportView();
+    world.add(this.teleportView.group);
+    const token = operatorToken(window.location, window.sessionStorage);
+    this.inspectionUi = new InspectionUi({
+      world,
+      model: host.inspection,
+      sender,
+      panel: document.getElementById('findings'),
+      token,
+      transform: () => fleet.scene.mapToScene,
+    });
+    this.vignette = new Vignette();
+    camera.add(this.vignette.mesh);
+    this.menuPanel = new MenuPanel();
+    scene.add(this.menuPanel.mesh, this.menuPanel.tab);
+    this.hud = new VRHud(camera, scene);
+    this.operatorUi = new OperatorUi({
+      sender,
+      storage: window.localStorage,
+      params: new URLSearchParams(location.search),
+      presenting,
+      sendGoal: host.goalFor,
+    });
+    this.hemisphere = new HemisphereScreen(640, 640);
+    scene.add(this.hemisphere.group);
+    // JPEG pictures and H.264 video onto the hemisphere; a fallback from video to JPEG is said once.
+    this.feed = new CameraFeed({
+      hemisphere: this.hemisphere,
+      sender,
+      say: (text) => this.notify(text, 'warning'),
+      params: new URLSearchParams(location.search),
+    });
+    const inspection = host.inspection; // voice: its targets are places, its missions can be paused
+    this.voice = new VoiceControl({
+      actions,
+      menu,
+      fleet,
+      targets: () => [...inspection.targets.values()],
+      activeMission: (r) => Boolean(inspection.active(r)),
+      presenting,
+      toast: (text) => this.notify(text, 'info'),
+    });
+    this.sound = new SoundControl({
+      fleet,
+      menu,
+      goals: host.goals,
+      camera,
+      robotViews: stage.robotViews,
+      inputSources: () => renderer.xr.getSession()?.inputSources ?? [],
+    });
+    this.xrInput = new XRInput(renderer, rig, scene);
+    this.findingCard = new FindingCard(token);
+    scene.add(this.findingCard.mesh);
+    const inspect = new XRInspection({
+      ui: this.inspectionUi,
+      card: this.findingCard,
+      picking,
+      menu,
+      camera,
+      screen: this.hemisphere,
+      notify: (text) => this.notify(text, 'info'),
+      operator: () => menu.canCommand,
+    });
+    this.xrInspection = inspect;
+    this.interaction = new XRInteraction({
+      xrInput: this.xrInput,
+      camera,
+      rig,
+      menu,
+      menuPanel: this.menuPanel,
+      goalPointer,
+      goalView: this.goalView,
+      teleportView: this.teleportView,
+      vignette: this.vignette,
+      fleet,
+      picking,
+      actions,
+      inspect,
+      estop: this.hud.estop,
+      miniature: this.hud.miniature,
+      locomotion: stage.xrSession,
+      link: host.link,
+    });
+    this.overlay = new Overlay({ menu, actions, sensorPanelData: host.sensorPanelData, povText: host.povText });
+    const desktopHost = {
+      camera,
+      canvas: renderer.domElement,
+      menu,
+      goalPointer,
+      picking,
+      robotViews: stage.robotViews,
+      actions,
+      presenting,
+      fleet,
+      markPov: (/** @type {number} */ x, /** @type {number} */ y) => inspect.clickPov(x, y),
+    };
+    this.desktop = new DesktopControls(desktopHost, stage.container, this.overlay.povPanel);
+  }
+
+  /**
+   * The overlay's message line, and in VR a toast under the view (goal errors show at the marker instead).
+   * @param {string} text @param {'info' | 'error' | 'warning'} kind @param {boolean} [toast]
+   */
+  notify(text, kind, toast = true) {
+    this.overlay.say(text, kind);
+    if (toast) this.hud.toast.say(text, kind, this.presenting(), performance.now());
+  }
+
+  dispose() {
+    this.feed.dispose();
+    this.sound.dispose();
+    this.desktop.dispose();
+    this.overlay.dispose();
+    this.interaction.dispose();
+    this.xrInput.dispose();
+    this.goalView.dispose();
+    this.teleportView.dispose();
+    this.vignette.dispose();
+    this.menuPanel.dispose();
+    this.hud.dispose();
+    this.hemisphere.dispose();
+    this.inspectionUi.dispose();
+    this.findingCard.dispose();
+  }
+}
