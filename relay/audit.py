@@ -41,8 +41,9 @@ from typing import TYPE_CHECKING, Any
 import orjson
 
 from .errors import AuditLogUnavailable, ProtocolError
-from .protocol import Command, Ping, RequestId, command_identifier
+from .protocol import Command, RequestId, command_identifier
 from .ratelimit import TokenBucket
+from .wire.commands import Ping
 
 if TYPE_CHECKING:
     from .clients import Client

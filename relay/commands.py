@@ -31,26 +31,17 @@ from .messages import encode, pong_message
 from .occupancy import OccupancyGrid
 from .outbox import Outbox
 from .protocol import (
-    Cancel,
-    CmdVel,
     Command,
     ErrorCode,
-    EStop,
-    GoalPose,
     InspectionCommands,
-    Lease,
-    Name,
-    Ping,
-    Playback,
     RequestId,
-    Snapshot,
-    Stream,
     command_identifier,
     parse_command,
     robot_identifier,
 )
 from .safety import check_goal, check_goal_clear, clamp_velocity
 from .streams import CameraStreams
+from .wire.commands import Cancel, CmdVel, EStop, GoalPose, Lease, Name, Ping, Playback, Snapshot, Stream
 
 logger = logging.getLogger(__name__)
 

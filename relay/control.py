@@ -25,8 +25,9 @@ from .fleet_peer import FleetPeer
 from .leases import LeaseTable
 from .messages import LeaseReason
 from .outbox import Outbox
-from .protocol import ErrorCode, Lease, RequestId, robot_identifier
+from .protocol import ErrorCode, RequestId, robot_identifier
 from .safety import Deadman
+from .wire.commands import Lease
 
 logger = logging.getLogger(__name__)
 

@@ -19,9 +19,10 @@ from .errors import CommandRejected
 from .events import FrameEvent
 from .hub import Channel, Hub
 from .messages import FrameHeader, encode, encode_frame, error_message
-from .protocol import ErrorCode, RequestId, Stream, camera_identifier, robot_identifier, split_camera_identifier
+from .protocol import ErrorCode, RequestId, camera_identifier, robot_identifier, split_camera_identifier
 from .video import Packet
 from .video_streams import VideoStreams
+from .wire.commands import Stream
 
 
 class CameraStreams:

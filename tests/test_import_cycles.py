@@ -87,7 +87,7 @@ def test_relay_has_no_import_cycle() -> None:
     paths = sorted(PACKAGE.rglob("*.py"))
     modules = {module_name(path) for path in paths}
     graph = {module_name(path): load_time_imports(path, modules) for path in paths}
-    assert len(graph) > 100 and graph["relay.protocol"] >= {"relay.fields", "relay.inspection.wire"}
+    assert len(graph) > 100 and graph["relay.protocol"] >= {"relay.wire.table", "relay.inspection.wire"}
     assert cycles(graph) == [], "import cycles in relay/: " + "; ".join(" -> ".join(c) for c in cycles(graph))
 
 
@@ -100,3 +100,16 @@ def test_relay_has_no_import_cycle_through_its_functions_either() -> None:
     graph = {module_name(path): load_time_imports(path, modules, everywhere=True) for path in paths}
     assert graph["relay.cli"] >= {"relay.record"}  # `xr-relay record` is imported when it is asked for
     assert cycles(graph) == [], "import cycles in relay/: " + "; ".join(" -> ".join(c) for c in cycles(graph))
+
+
+def test_the_wire_layer_imports_nothing_above_it() -> None:
+    """relay/wire/ (fields, declared commands, messages, identifiers, binary frames) is the bottom of the relay:
+    features register their commands and messages with it, never the other way round (relay/protocol.py
+    imported the inspection commands at its bottom, and they imported protocol's helpers back)."""
+    paths = sorted(PACKAGE.rglob("*.py"))
+    modules = {module_name(path) for path in paths}
+    wire = sorted(path for path in paths if module_name(path).startswith("relay.wire"))
+    assert len(wire) >= 8
+    for path in wire:
+        above = {m for m in load_time_imports(path, modules, everywhere=True) if not m.startswith("relay.wire")}
+        assert above <= {"relay.errors"}, f"{module_name(path)} imports {sorted(above)}"

@@ -31,19 +31,8 @@ from relay.messages import (
     sensor_message,
     status_message,
 )
-from relay.protocol import (
-    MAX_TEXT_BYTES,
-    Cancel,
-    CmdVel,
-    EStop,
-    GoalPose,
-    Name,
-    Ping,
-    Playback,
-    Snapshot,
-    Stream,
-    parse_command,
-)
+from relay.protocol import MAX_TEXT_BYTES, parse_command
+from relay.wire.commands import Cancel, CmdVel, EStop, GoalPose, Name, Ping, Playback, Snapshot, Stream
 
 ROBOTS = ("robot1", "robot2")
 

@@ -185,8 +185,12 @@ def test_waffle_pi_is_valid_small_deterministic_and_complete(waffle_pi: tuple[by
     assert model.doc["scenes"][0]["nodes"] == [0]
     assert root["name"] == ROOT_NODE and "translation" not in root and "rotation" not in root
     assert [model.doc["nodes"][i]["name"] for i in root["children"]] == ["base_footprint"]
-    # Every mesh-file triangle is kept (121 k): the model needs no simplification to fit.
-    assert model.triangle_count("base_link") == 63_200
+    # The Waffle Pi's mesh files hold 121 k triangles; the model keeps at most MODEL_TRIANGLE_BUDGET (50 k) of them,
+    # most in the body, and draws the same from 40 cm (relay/twin/urdf/__init__.py says why).
+    meshes = [n["name"] for n in model.doc["nodes"] if "mesh" in n]
+    total = sum(model.triangle_count(name) for name in meshes)
+    assert 0.8 * urdf_module.MODEL_TRIANGLE_BUDGET < total <= urdf_module.MODEL_TRIANGLE_BUDGET + 2_000, total
+    assert model.triangle_count("base_link") > total / 3
     assert model.materials_of("base_link") == [BODY_MATERIAL]
     assert model.materials_of("wheel_left_link") == [TYRE_MATERIAL]
     assert model.materials_of("wheel_right_link") == [TYRE_MATERIAL]

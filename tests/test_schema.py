@@ -1,10 +1,10 @@
 """The schema once: every message typed in Python, and the browser's types generated from those types.
 
-The command TypedDicts (the wire form a client sends) must say what ``parse_command`` accepts: a frame with
-every field accepted, one missing a required field refused. Every server message builder must return exactly
-the keys of its TypedDict, so the browser's generated typedefs never drift from what the relay sends. Every
-example message of docs/protocol.md has exactly its TypedDict's keys, and the committed browser module is what
-the generator writes today.
+Each command's wire form (what a client sends, from the command's one declaration) must say what ``parse_command``
+accepts: a frame with every field accepted, one missing a required field refused. Every server message builder
+must return exactly the keys of its TypedDict, so the browser's generated typedefs never drift from what the relay
+sends. Every example message of docs/protocol.md has exactly its TypedDict's keys, and the committed browser module
+is what the generator writes today.
 """
 
 from __future__ import annotations
@@ -15,12 +15,13 @@ import re
 import sys
 import typing
 from pathlib import Path
-from typing import Any, Literal, NotRequired, get_args, get_origin, get_type_hints, is_typeddict
+from typing import Any, get_type_hints, is_typeddict
 
 import pytest
 
-from relay import client_wire, messages, protocol
+from relay import messages, protocol
 from relay.errors import ProtocolError
+from relay.wire.declare import WireForm, wire_forms
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOTS = ("robot1",)
@@ -35,43 +36,36 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "facing": 0.5, "codec": "h264"}  # fmt: skip
 
 
-def _identifier(cls: type) -> str:
-    hint = get_type_hints(cls)["identifier"]
-    if get_origin(hint) is Literal:
-        return str(get_args(hint)[-1])
-    kind = cls.__name__.removesuffix("Command")
-    snake = "".join("_" + c.lower() if c.isupper() else c for c in kind).lstrip("_")
-    return f"robot1/{snake}"
+def _forms() -> list[tuple[str, WireForm]]:
+    """Each wire form of each declared command, with each identifier it arrives as (robot1's for robot-scoped ones)."""
+    found = []
+    for cls in protocol.COMMANDS.commands:
+        for form in wire_forms(cls, f"{cls.__name__}Command"):
+            kind = cls.IDENTIFIERS[0].partition("/")[2]
+            found += [(identifier or f"robot1/{kind}", form) for identifier in form.identifiers]
+    return found
 
 
-def _fields(cls: type) -> tuple[list[str], list[str]]:
-    hints = get_type_hints(cls, include_extras=True)
-    required = [k for k, h in hints.items() if k != "identifier" and get_origin(h) is not NotRequired]
-    optional = [k for k, h in hints.items() if get_origin(h) is NotRequired]
-    return required, optional
+FORMS = _forms()
 
 
-COMMANDS = typing.get_args(client_wire.ClientMessage)
-
-
-@pytest.mark.parametrize("cls", COMMANDS, ids=lambda c: c.__name__)
-def test_each_command_typeddict_is_what_the_parser_accepts(cls: type) -> None:
-    identifier = _identifier(cls)
-    required, optional = _fields(cls)
-    samples = {**SAMPLES, "action": "reset"} if cls is client_wire.EstopCommand else SAMPLES
+@pytest.mark.parametrize(("identifier", "form"), FORMS, ids=lambda v: getattr(v, "name", ""))
+def test_each_commands_wire_form_is_what_the_parser_accepts(identifier: str, form: WireForm) -> None:
+    required = [key for key, _, needed in form.fields if needed]
+    optional = [key for key, _, needed in form.fields if not needed]
+    samples = {**SAMPLES, "action": "reset"} if identifier == "estop" else SAMPLES
     full = {"identifier": identifier, **{k: samples[k] for k in required + optional}}
     protocol.parse_command(protocol_bytes(full), ROBOTS)
     protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: samples[k] for k in required}}), ROBOTS)
     for missing in required:
         frame = {k: v for k, v in full.items() if k != missing}
-        with pytest.raises(ProtocolError, match=missing if missing != "id" else "id"):
+        with pytest.raises(ProtocolError, match=missing):
             protocol.parse_command(protocol_bytes(frame), ROBOTS)
 
 
-def test_every_client_kind_has_a_command_typeddict() -> None:
-    kinds = {_identifier(c).removeprefix("robot1/") for c in COMMANDS}
-    assert set(protocol.CLIENT_ROBOT_KINDS) <= kinds
-    assert {"estop", "ping"} <= kinds
+def test_every_client_kind_has_a_wire_form() -> None:
+    kinds = {identifier.removeprefix("robot1/") for identifier, _ in FORMS}
+    assert kinds == set(protocol.CLIENT_ROBOT_KINDS) | set(protocol.CLIENT_GLOBAL_KINDS)
 
 
 BUILT: list[tuple[type, Any]] = [
@@ -108,7 +102,7 @@ def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> Non
     assert union == {name for name, value in vars(messages).items() if name.endswith("Message") and is_typeddict(value)}
     assert len(union) == 22
     generated = _generator().render()
-    for name in union | {t.__name__ for t in COMMANDS}:
+    for name in union | {form.name for _, form in FORMS}:
         assert f"}} {name} */" in generated, name
     assert "@typedef {" + " | ".join(t.__name__ for t in typing.get_args(messages.ServerMessage)) in generated
 

@@ -50,7 +50,7 @@ from xml.etree.ElementTree import Element
 import defusedxml.ElementTree as SafeET
 from defusedxml import DefusedXmlException
 
-from .records import Target
+from .records import TARGET_ID, Target
 
 #: A KMZ's entries may inflate to this many bytes in all; a plain KML may be this large. Google Earth's own
 #: site files are well under 1 MB; 10,000 placemarks with ExtendedData are ~5 MB.
@@ -60,9 +60,6 @@ MAX_PLACEMARKS = 10_000
 #: Metres from the georeference origin beyond which a placemark is refused: there the projection is off by
 #: 2.3 m at 45 degrees latitude (6 m at 70), more than a robot's standoff distance (module docstring).
 MAX_DISTANCE = 5_000.0
-#: What a target id may be (the same rule as relay.inspection.targets.TARGET_ID, kept here so this module
-#: stays free of the configuration code).
-TARGET_ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 # WGS84 ellipsoid.
 _A = 6_378_137.0  # semi-major axis (m)

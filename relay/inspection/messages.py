@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Literal, TypedDict
 
-from ..protocol import RequestId
+from ..wire.fields import RequestId
 from .records import FindingRecord, FindingStatus, MissionRecord, MissionState, StepKind, Target
 
 #: Findings a newly connected client is sent (the newest); the rest are in the report and the database.

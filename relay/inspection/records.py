@@ -5,10 +5,14 @@ Plain frozen dataclasses; positions in the map frame (REP 103: metres, radians);
 
 from __future__ import annotations
 
+import re
 import secrets
 import time
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Final, Literal
+
+#: What a target id may be: it names targets in mission files, KML placemarks and commands.
+TARGET_ID: Final = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 FindingStatus = Literal["ok", "anomaly", "needs_review"]
 FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review")

@@ -13,7 +13,6 @@ Pure; tested in tests/test_missions.py.
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import yaml
@@ -23,6 +22,7 @@ from ..config.reader import _Reader
 from ..errors import ConfigError
 from ..occupancy import OccupancyGrid
 from ..twin.facility import Facility
+from .records import TARGET_ID as TARGET_ID
 from .records import Target
 
 #: Metres between a robot's centre and the target it inspects; the alternatives are tried when that is blocked.
@@ -30,7 +30,6 @@ STANDOFF = 1.0
 STANDOFF_ALTERNATIVES = (1.0, 1.3, 0.8, 1.6)
 #: A robot's clearance to walls at its standoff pose (m): its radius and a margin.
 CLEARANCE = 0.35
-TARGET_ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 #: What the facility's hazard kinds are, as targets of an inspection.
 HAZARD_TARGETS = {"gas": ("spill", "Spill"), "temperature": ("panels", "Panels"), "humidity": ("leak", "Leak")}

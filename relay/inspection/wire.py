@@ -9,271 +9,143 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Final, Literal, NotRequired, TypedDict
+from typing import Any, ClassVar, Final, Literal
 
 from ..errors import ProtocolError
-from ..fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId
-from ..fields import number as _number
-from ..fields import request_id as _request_id
-from ..fields import show as _show
-from ..fields import string as _string
-from .records import FINDING_STATUSES, FindingStatus
+from ..wire.declare import Forms, Frame, WireCommand, command, custom, from_identifier, real, request, text
+from ..wire.fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId, show
+from .records import FINDING_STATUSES, TARGET_ID, FindingStatus
 
 MISSION_ACTIONS: Final = ("pause", "resume", "skip", "abort")
-INSPECTION_KINDS: Final = (
-    "mission/start",
-    *(f"mission/{a}" for a in MISSION_ACTIONS),
-    "finding/mark",
-    "finding/update",
-    "region",
-    "target/add",
-)
 #: Longest note a finding keeps; points of a region outline.
 MAX_NOTE = 1000
 MAX_OUTLINE = 256
 MAX_PIXEL = 16384
 
 
+@command("mission/start")
 @dataclass(frozen=True, slots=True)
-class MissionStart:
-    id: RequestId
-    file: str | None  # a mission file of the relay's missions directory, by name ("demo")
-    robot: str | None  # with steps
-    steps: Any  # checked by relay.inspection.missions.steps_from_wire
-    targets: tuple[str, ...] | None  # for the fleet
-    name: str | None
+class MissionStart(WireCommand):
+    """A mission from a file of the relay's missions directory (by name, "demo"), from steps for one robot, or
+    from targets for the fleet."""
+
+    FORMS: ClassVar[Forms] = {
+        "MissionFileCommand": (("mission/start",), ("file",), ()),
+        "MissionStepsCommand": (("mission/start",), ("robot", "steps"), ("name",)),
+        "MissionTargetsCommand": (("mission/start",), ("targets",), ("name",)),
+    }
+    id: RequestId = request()
+    file: str | None = text(required=False)
+    robot: str | None = text(required=False)
+    steps: Any = custom(lambda value, _, __: value, "Object<string, unknown>[]")  # checked by missions.steps_from_wire
+    targets: tuple[str, ...] | None = custom(lambda value, field, ident: _strings(value, field, ident), "string[]")
+    name: str | None = text(required=False)
+
+    def check(self, frame: Frame) -> None:
+        if sum(given is not None for given in (self.file, self.steps, self.targets)) != 1:
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{frame.identifier}: give exactly one of file, steps, targets")
+        if (self.steps is None) != (self.robot is None):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST, f"{frame.identifier}: steps need a robot, and a robot needs steps"
+            )
 
 
+@command(*(f"mission/{action}" for action in MISSION_ACTIONS))
 @dataclass(frozen=True, slots=True)
-class MissionControl:
-    id: RequestId
-    action: Literal["pause", "resume", "skip", "abort"]
-    mission: str
+class MissionControl(WireCommand):
+    id: RequestId = request()
+    action: Literal["pause", "resume", "skip", "abort"] = from_identifier()
+    mission: str = text()
 
 
+@command("finding/mark", "finding/update")
 @dataclass(frozen=True, slots=True)
-class FindingMark:
+class FindingMark(WireCommand):
     """``finding/mark`` (a new finding about ``capture``) or ``finding/update`` (of ``finding``)."""
 
-    id: RequestId
-    action: Literal["mark", "update"]
-    capture: str | None
-    finding: str | None
-    status: FindingStatus | None
-    note: str | None
-    region: tuple[tuple[int, int], ...] | None
+    FORMS: ClassVar[Forms] = {
+        "FindingMarkCommand": (("finding/mark",), ("capture", "status"), ("note", "region")),
+        "FindingUpdateCommand": (("finding/update",), ("finding",), ("status", "note", "region")),
+    }
+    id: RequestId = request()
+    action: Literal["mark", "update"] = from_identifier()
+    capture: str | None = text(required=False)
+    finding: str | None = text(required=False)
+    status: FindingStatus | None = custom(lambda value, field, ident: _status(value, field, ident), "FindingStatus")
+    note: str | None = custom(lambda value, _, ident: _note(value, ident), "string")
+    region: tuple[tuple[int, int], ...] | None = custom(
+        lambda value, _, ident: _outline(value, ident), "number[][] | null"
+    )
+
+    def check(self, frame: Frame) -> None:
+        needed = ("capture", "status") if self.action == "mark" else ("finding",)
+        for field in needed:
+            if getattr(self, field) is None:
+                raise ProtocolError(ErrorCode.BAD_REQUEST, f"{frame.identifier}: missing field '{field}'")
 
 
+@command("region")
 @dataclass(frozen=True, slots=True)
-class RegionRequest:
+class RegionRequest(WireCommand):
     """Segment the region of ``capture``'s image around pixel (u, v) (GrabCut); the outline comes back."""
 
-    id: RequestId
-    capture: str
-    u: int
-    v: int
+    id: RequestId = request()
+    capture: str = text()
+    u: int = real(low=0, high=MAX_PIXEL, integer=True)
+    v: int = real(low=0, high=MAX_PIXEL, integer=True)
 
 
+@command("target/add")
 @dataclass(frozen=True, slots=True)
-class TargetAdd:
+class TargetAdd(WireCommand):
     """A target at (x, y), or where pixel (u, v) of ``capture``'s image looks (relay.inspection.pixel), or where pixel
     (u, v) of ``robot``'s live camera looks (a capture taken now, and a finding about it to review)."""
 
-    id: RequestId
-    target: str
-    x: float | None
-    y: float | None
-    name: str | None
-    kind: str | None
-    facing: float | None
-    capture: str | None = None
-    u: float | None = None
-    v: float | None = None
-    robot: str | None = None
+    FORMS: ClassVar[Forms] = {
+        "TargetAddCommand": (("target/add",), ("target", "x", "y"), ("name", "kind", "facing")),
+        "TargetFromPixelCommand": (("target/add",), ("target", "capture", "u", "v"), ("name", "kind")),
+        "TargetFromLiveCommand": (("target/add",), ("target", "robot", "u", "v"), ("name", "kind")),
+    }
+    id: RequestId = request()
+    target: str = text(pattern=TARGET_ID, says="1-64 letters, digits, _ or -")
+    x: float | None = real(required=False, low=-MAX_COORDINATE, high=MAX_COORDINATE)
+    y: float | None = real(required=False, low=-MAX_COORDINATE, high=MAX_COORDINATE)
+    name: str | None = text(required=False)
+    kind: str | None = text(required=False)
+    facing: float | None = real(required=False, low=-MAX_YAW, high=MAX_YAW)
+    capture: str | None = text(required=False)
+    u: float | None = real(required=False, low=0, high=MAX_PIXEL)
+    v: float | None = real(required=False, low=0, high=MAX_PIXEL)
+    robot: str | None = text(required=False)
+
+    def check(self, frame: Frame) -> None:
+        source = self.capture or self.robot
+        if source is not None and (self.u is None or self.v is None):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST, f"{frame.identifier}: missing field '{'u' if self.u is None else 'v'}'"
+            )
+        if source is None and (self.x is None or self.y is None):
+            raise ProtocolError(
+                ErrorCode.BAD_REQUEST,
+                f"{frame.identifier}: give x and y, a capture with u and v, or a robot with u and v",
+            )
 
 
+#: The inspection commands, for the station's table (relay/protocol.py).
+INSPECTION_COMMANDS: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
 InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
 
 
-class MissionFileCommand(TypedDict):
-    identifier: Literal["mission/start"]
-    id: RequestId
-    file: str
-
-
-class MissionStepsCommand(TypedDict):
-    identifier: Literal["mission/start"]
-    id: RequestId
-    robot: str
-    steps: list[dict[str, Any]]
-    name: NotRequired[str]
-
-
-class MissionTargetsCommand(TypedDict):
-    identifier: Literal["mission/start"]
-    id: RequestId
-    targets: list[str]
-    name: NotRequired[str]
-
-
-class MissionControlCommand(TypedDict):
-    identifier: Literal["mission/pause", "mission/resume", "mission/skip", "mission/abort"]
-    id: RequestId
-    mission: str
-
-
-class FindingMarkCommand(TypedDict):
-    identifier: Literal["finding/mark"]
-    id: RequestId
-    capture: str
-    status: FindingStatus
-    note: NotRequired[str]
-    region: NotRequired[list[list[int]]]
-
-
-class FindingUpdateCommand(TypedDict):
-    identifier: Literal["finding/update"]
-    id: RequestId
-    finding: str
-    status: NotRequired[FindingStatus]
-    note: NotRequired[str]
-    region: NotRequired[list[list[int]] | None]
-
-
-class RegionCommand(TypedDict):
-    identifier: Literal["region"]
-    id: RequestId
-    capture: str
-    u: float
-    v: float
-
-
-class TargetAddCommand(TypedDict):
-    identifier: Literal["target/add"]
-    id: RequestId
-    target: str
-    x: float
-    y: float
-    name: NotRequired[str]
-    kind: NotRequired[str]
-    facing: NotRequired[float]
-
-
-class TargetFromPixelCommand(TypedDict):
-    identifier: Literal["target/add"]
-    id: RequestId
-    target: str
-    capture: str
-    u: float
-    v: float
-    name: NotRequired[str]
-    kind: NotRequired[str]
-
-
-class TargetFromLiveCommand(TypedDict):
-    identifier: Literal["target/add"]
-    id: RequestId
-    target: str
-    robot: str
-    u: float
-    v: float
-    name: NotRequired[str]
-    kind: NotRequired[str]
-
-
-def inspection_identifier(command: InspectionCommand) -> str:
-    if isinstance(command, MissionStart):
-        return "mission/start"
-    if isinstance(command, MissionControl):
-        return f"mission/{command.action}"
-    if isinstance(command, FindingMark):
-        return f"finding/{command.action}"
-    return "region" if isinstance(command, RegionRequest) else "target/add"
-
-
-def parse_inspection(obj: dict[str, Any], identifier: str) -> InspectionCommand:
-    rid = _request_id(obj, required=True)
-    assert rid is not None
-    try:
-        return _parse(obj, identifier, rid)
-    except ProtocolError as exc:
-        exc.request_id = rid
-        raise
-
-
-def _parse(obj: dict[str, Any], identifier: str, rid: RequestId) -> InspectionCommand:
-    if identifier == "mission/start":
-        file = _string(obj, "file", identifier, required=False)
-        robot = _string(obj, "robot", identifier, required=False)
-        steps = obj.get("steps")
-        targets = _strings(obj, "targets", identifier)
-        given = [k for k in ("file", "steps", "targets") if obj.get(k) is not None]
-        if len(given) != 1:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: give exactly one of file, steps, targets")
-        if (steps is None) != (robot is None):
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: steps need a robot, and a robot needs steps")
-        return MissionStart(rid, file, robot, steps, targets, _string(obj, "name", identifier, required=False))
-    if identifier.startswith("mission/"):
-        mission = _string(obj, "mission", identifier, required=True)
-        assert mission is not None
-        return MissionControl(rid, identifier.partition("/")[2], mission)  # type: ignore[arg-type]
-    if identifier in ("finding/mark", "finding/update"):
-        action = identifier.partition("/")[2]
-        status = obj.get("status")
-        if status is not None and status not in FINDING_STATUSES:
-            raise ProtocolError(
-                ErrorCode.BAD_REQUEST,
-                f"{identifier}: field 'status' must be one of {', '.join(FINDING_STATUSES)}, got {_show(status)}",
-            )
-        if action == "mark" and status is None:
-            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field 'status'")
-        note = _note(obj.get("note"), identifier)
-        return FindingMark(
-            rid,
-            action,  # type: ignore[arg-type]
-            _string(obj, "capture", identifier, required=action == "mark"),
-            _string(obj, "finding", identifier, required=action == "update"),
-            status,
-            note,
-            _outline(obj.get("region"), identifier),
-        )
-    if identifier == "region":
-        capture = _string(obj, "capture", identifier, required=True)
-        u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
-        v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
-        assert capture is not None and u is not None and v is not None
-        return RegionRequest(rid, capture, int(u), int(v))
-    # target/add
-    target = _string(obj, "target", identifier, required=True)
-    assert target is not None
-    from .targets import TARGET_ID
-
-    if not TARGET_ID.match(target):
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: field 'target' must be 1-64 letters, digits, _ or -")
-    name = _string(obj, "name", identifier, required=False)
-    kind = _string(obj, "kind", identifier, required=False)
-    if obj.get("capture") is not None:
-        capture = _string(obj, "capture", identifier, required=True)
-        u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
-        v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
-        return TargetAdd(rid, target, None, None, name, kind, None, capture, u, v)
-    if obj.get("robot") is not None:
-        robot = _string(obj, "robot", identifier, required=True)
-        u = _number(obj, "u", identifier, low=0, high=MAX_PIXEL)
-        v = _number(obj, "v", identifier, low=0, high=MAX_PIXEL)
-        return TargetAdd(rid, target, None, None, name, kind, None, None, u, v, robot)
-    if obj.get("x") is None or obj.get("y") is None:
+def _status(value: Any, field: str, identifier: str) -> FindingStatus | None:
+    if value is not None and value not in FINDING_STATUSES:
         raise ProtocolError(
-            ErrorCode.BAD_REQUEST, f"{identifier}: give x and y, a capture with u and v, or a robot with u and v"
+            ErrorCode.BAD_REQUEST,
+            f"{identifier}: field '{field}' must be one of {', '.join(FINDING_STATUSES)}, got {show(value)}",
         )
-    x = _number(obj, "x", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
-    y = _number(obj, "y", identifier, low=-MAX_COORDINATE, high=MAX_COORDINATE)
-    facing = _number(obj, "facing", identifier, required=False, low=-MAX_YAW, high=MAX_YAW)
-    return TargetAdd(rid, target, x, y, name, kind, facing)
+    return value  # type: ignore[no-any-return]
 
 
-def _strings(obj: dict[str, Any], field: str, identifier: str) -> tuple[str, ...] | None:
-    value = obj.get(field)
+def _strings(value: Any, field: str, identifier: str) -> tuple[str, ...] | None:
     if value is None:
         return None
     if not isinstance(value, list) or not 1 <= len(value) <= 200 or not all(isinstance(v, str) for v in value):
@@ -313,6 +185,11 @@ def _note(value: Any, identifier: str) -> str | None:
         raise ProtocolError(
             ErrorCode.BAD_REQUEST,
             f"{identifier}: field 'note' must be a string of at most {MAX_NOTE} characters (\"\" clears it), "
-            f"got {_show(value)}",
+            f"got {show(value)}",
         )
     return value
+
+
+def inspection_identifier(command: InspectionCommand) -> str:
+    """The identifier an inspection command arrived with."""
+    return command.identifier
