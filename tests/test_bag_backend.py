@@ -608,7 +608,8 @@ async def test_a_recorded_raw_camera_streams_as_h264_with_no_jpeg_encoded(scout:
             image = picture.to_ndarray(format="bgr24")
             assert image.shape == (180, 320, 3)
             assert float(np.mean(cv2.absdiff(image, scout.photo))) < 12.0, "the recorded photo"
-        frames = running.relay.backend._cameras[("scout", "front")]  # type: ignore[attr-defined]
+        frames = running.relay.backend._cameras.encoder("scout", "front")  # type: ignore[attr-defined]
+        assert frames is not None
         assert frames.last is None, "no JPEG made for a video-only stream (a frame with one would be kept as last)"
         reply = await client.request({"identifier": "scout/snapshot", "camera": "front"}, timeout=15)
         assert reply["identifier"] == "ack", reply

@@ -1,61 +1,26 @@
-"""The bag backend on the event loop: playback of the bound recordings, cameras, playback commands."""
+"""The bag backend on the event loop: the bound recordings opened and played, cameras, playback commands."""
 
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import logging
 import math
 from collections.abc import Callable, Sequence
 
 from ...config import FleetConfig
 from ...errors import BackendUnavailable, CommandRejected
-from ...events import (
-    CameraError,
-    EventSink,
-    FrameEvent,
-    PlaybackEvent,
-    PoseEvent,
-    RobotModelEvent,
-    ScanEvent,
-)
-from ...frame_encoder import LatestFrameEncoder
+from ...events import EventSink, FrameEvent, RobotModelEvent
 from ...options import BagOptions
-from ...protocol import MAX_PLAYBACK_RATE, MAX_SCAN_RATE, MIN_PLAYBACK_RATE, ErrorCode
-from ...rosmsg import (
-    image_to_frame,
-)
-from ...scan import RateCap
+from ...protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
 from ..base import Backend
 from .binding import BagContents, BagPlan, BagSpec, _lookup, bind_bags, parse_bag_specs
+from .cameras import BagCameras
 from .clock import PlaybackClock
-from .decoding import Payload, _first_string, _Image
+from .decoding import _first_string
+from .player import Player
 from .reader import _BagReader
 
 logger = logging.getLogger(__name__)
-
-#: How often the playback position is reported when nothing changes (s).
-PLAYBACK_REPORT_PERIOD = 1.0
-#: A snapshot waits this long for a camera's first image (s).
-SNAPSHOT_TIMEOUT = 2.0
-#: The loop task delivering a bag's events yields to other tasks after delivering for this long (s): a replay
-#: catching up at rate 20 must not hold the loop (clients' frames, estop) for more than a few milliseconds.
-DELIVERY_SLICE = 0.01
-
-
-async def _wait(event: asyncio.Event, delay: float | None) -> None:
-    """Until ``event`` is set or ``delay`` seconds passed (a timer, not a task: this runs per event)."""
-    if delay is None:
-        await event.wait()
-        return
-    if delay <= 0:
-        await asyncio.sleep(0)  # still a suspension point: callers loop on this
-        return
-    handle = asyncio.get_running_loop().call_later(delay, event.set)
-    try:
-        await event.wait()
-    finally:
-        handle.cancel()
 
 
 class BagBackend(Backend):
@@ -77,15 +42,8 @@ class BagBackend(Backend):
         self._readers: list[_BagReader] = []
         self._plans: list[BagPlan] = []
         self._bound: dict[str, BagSpec] = {}
-        self._clock: PlaybackClock | None = None
-        self._tasks: list[asyncio.Task[None]] = []
-        self._ticker_wake = asyncio.Event()
-        self._last_pose: dict[str, PoseEvent] = {}
-        self._scan_cap = RateCap(MAX_SCAN_RATE)
-        self._cameras: dict[tuple[str, str], LatestFrameEncoder[_Image]] = {}
-        #: Streamed cameras whose viewers all take H.264: their raw images are not JPEG-encoded (set_jpeg).
-        self._no_jpeg: set[tuple[str, str]] = set()
-        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=2, thread_name_prefix="bag-jpeg")
+        self._player: Player | None = None
+        self._cameras = BagCameras(sink)
 
     # -- lifecycle --------------------------------------------------------------------------------
 
@@ -130,13 +88,13 @@ class BagBackend(Backend):
                 self.options.start,
                 duration,
             )
-        self._clock = PlaybackClock(loop.time, duration, self.options.rate, start)
+        clock = PlaybackClock(loop.time, duration, self.options.rate, start)
+        player = self._player = Player(clock, readers, self.sink, self._cameras, loop_at_end=self.options.loop)
         for spec, plan in zip(self._specs, plans, strict=True):
             for topics in plan.robots:
                 self._bound[topics.robot.name] = spec
                 for camera, _ in topics.cameras:
-                    key = (topics.robot.name, camera.name)
-                    self._cameras[key] = self._frame_encoder(*key)
+                    self._cameras.add(topics.robot.name, camera.name)
                 logger.info("%s plays %s: %s", topics.robot.name, spec.shown, topics.describe())
             if plan.map_topic is not None:
                 logger.info("the map comes from %s of %s", plan.map_topic, spec.shown)
@@ -146,9 +104,7 @@ class BagBackend(Backend):
         await self._send_models(plans, contents)
         for reader, plan in zip(readers, plans, strict=True):
             reader.play(plan, start)
-            self._tasks.append(loop.create_task(self._play(reader), name=f"bag-play-{reader.spec.path.name}"))
-        self._tasks.append(loop.create_task(self._tick(), name="bag-playback"))
-        self._emit_playback()  # before any client connects: the first hello already says where playback is
+        player.start()
         logger.info(
             "replaying %d bag(s): %.1f s from %.1f s at rate %g%s",
             len(readers),
@@ -159,13 +115,11 @@ class BagBackend(Backend):
         )
 
     async def stop(self) -> None:
-        tasks, self._tasks = self._tasks, []
-        for task in tasks:
-            task.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
+        if self._player is not None:
+            await self._player.stop()
         readers, self._readers = self._readers, []
         await self._close(readers)
-        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._cameras.close()
 
     @staticmethod
     async def _close(readers: Sequence[_BagReader]) -> None:
@@ -199,55 +153,16 @@ class BagBackend(Backend):
 
     # -- playback ---------------------------------------------------------------------------------
 
-    def _require_clock(self) -> PlaybackClock:
-        if self._clock is None:
-            raise CommandRejected(ErrorCode.INTERNAL, "the recordings are not open yet")
-        return self._clock
-
     async def playback(self, action: str, value: float | None) -> None:
         """Pause, resume, seek (``value`` s from the start, clamped) or set the rate (``value``)."""
-        clock = self._require_clock()
-        if action == "pause":
-            clock.pause()
-        elif action == "resume":
-            if clock.position() >= clock.duration:
-                self._restart(0.0)  # play again from the start, as players do
-            clock.resume()
-        elif action == "seek" and value is not None:
-            self._restart(min(max(0.0, value), clock.duration))
-        elif action == "rate" and value is not None:
-            clock.set_rate(value)
-        else:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, f"playback/{action}: not a playback command")
-        logger.info("playback %s%s", action, f" {value:g}" if value is not None else "")
-        self._changed()
-
-    def _restart(self, position: float) -> None:
-        clock = self._require_clock()
-        clock.seek(position)
-        self._scan_cap.clear()
-        self._last_pose.clear()  # the paused re-report must not resend a pose from before the seek
-        for frames in self._cameras.values():
-            frames.forget_latest()  # an image from another time must not answer a snapshot
-        for reader in self._readers:
-            reader.restart(position)
-
-    def _changed(self) -> None:
-        """The clock changed: re-plan every delivery, and report the new state now."""
-        for reader in self._readers:
-            reader.ready.set()
-        self._emit_playback()
-        self._ticker_wake.set()
-
-    def _emit_playback(self) -> None:
-        clock = self._clock
-        if clock is not None:
-            self.sink(PlaybackEvent(clock.position(), clock.duration, clock.rate, clock.paused, self.options.loop))
+        if self._player is None:
+            raise CommandRejected(ErrorCode.INTERNAL, "the recordings are not open yet")
+        self._player.command(action, value)
 
     def health(self) -> dict[str, object]:
-        clock = self._clock
-        if clock is None:
+        if self._player is None:
             return {}
+        clock = self._player.clock
         return {
             "playback": {
                 "position": round(clock.position(), 3),
@@ -263,116 +178,16 @@ class BagBackend(Backend):
             ],
         }
 
-    async def _play(self, reader: _BagReader) -> None:
-        """Deliver one bag's events when the clock reaches them (one task per bag)."""
-        clock = self._require_clock()
-        loop = asyncio.get_running_loop()
-        slice_end = loop.time() + DELIVERY_SLICE
-        while True:
-            reader.ready.clear()
-            item = reader.peek()
-            if item is None or item.payload is None:  # nothing read yet, or the end of this bag
-                await reader.ready.wait()
-                slice_end = loop.time() + DELIVERY_SLICE
-                continue
-            delay = clock.wall_delay(item.position)
-            if delay is None or delay > 0:
-                await _wait(reader.ready, delay)
-                slice_end = loop.time() + DELIVERY_SLICE
-                continue
-            # No await between peek and here: a seek (also on the loop) cannot slip in between.
-            reader.pop()
-            self._deliver(item.payload)
-            if loop.time() >= slice_end:
-                await asyncio.sleep(0)
-                slice_end = loop.time() + DELIVERY_SLICE
-
-    def _deliver(self, payload: Payload) -> None:
-        if isinstance(payload, _Image):
-            self._on_image(payload)
-            return
-        if isinstance(payload, PoseEvent):
-            self._last_pose[payload.robot] = payload
-        elif isinstance(payload, ScanEvent) and not self._scan_cap.allow(
-            payload.robot, asyncio.get_running_loop().time()
-        ):
-            return  # at most MAX_SCAN_RATE scans a second of wall time, whatever the replay rate
-        self.sink(payload)
-
-    async def _tick(self) -> None:
-        """Report the position once a second; at the end, loop or stay paused; keep paused robots online."""
-        loop = asyncio.get_running_loop()
-        clock = self._require_clock()
-        next_report = loop.time()
-        while True:
-            self._ticker_wake.clear()
-            if not clock.paused and clock.position() >= clock.duration:
-                if self.options.loop and clock.duration > 1e-3:
-                    logger.info("end of the recordings: starting over")
-                    self._restart(0.0)
-                else:
-                    logger.info("end of the recordings: paused at %.1f s", clock.duration)
-                    clock.pause()
-                self._changed()
-                continue
-            now = loop.time()
-            if now >= next_report:
-                next_report = now + PLAYBACK_REPORT_PERIOD
-                self._emit_playback()
-                if clock.paused:
-                    # A paused recording still shows its robots where they are, so they stay online.
-                    for pose in self._last_pose.values():
-                        self.sink(pose)
-            timeout = next_report - now
-            if not clock.paused:
-                timeout = min(timeout, (clock.duration - clock.position()) / clock.rate)
-            await _wait(self._ticker_wake, timeout)
-
-    # -- cameras ----------------------------------------------------------------------------------
-
-    def _on_image(self, image: _Image) -> None:
-        frames = self._cameras.get((image.robot, image.camera))
-        if frames is not None:
-            frames.offer(image)
-
-    def _frame_encoder(self, robot: str, camera: str) -> LatestFrameEncoder[_Image]:
-        def convert(image: _Image) -> FrameEvent:
-            # Worker thread: a snapshot waiting for this frame needs its JPEG whatever the stream's viewers take.
-            frames = self._cameras[(robot, camera)]
-            jpeg = (robot, camera) not in self._no_jpeg or frames.waiting
-            return image_to_frame(image.robot, image.camera, image.stamp, image.message, image.compressed, jpeg=jpeg)
-
-        def fail(message: str) -> None:
-            self.sink(CameraError(robot, camera, message))
-
-        loop = asyncio.get_running_loop()
-        return LatestFrameEncoder(
-            f"{robot} camera {camera}",
-            convert,
-            self._pool,
-            loop.call_soon_threadsafe,
-            self.sink,
-            keep_latest=True,
-            fail=fail,
-        )
+    # -- cameras (relay.backends.bag.cameras) -----------------------------------------------------
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
-        frames = self._cameras.get((robot, camera))
-        if frames is not None:
-            frames.fps = fps
+        self._cameras.set_stream(robot, camera, fps)
 
     def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:
-        if wanted:
-            self._no_jpeg.discard((robot, camera))
-        else:
-            self._no_jpeg.add((robot, camera))
+        self._cameras.set_jpeg(robot, camera, wanted)
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         """The JPEG of the camera's image at the playback position (also while paused), or None."""
-        frames = self._cameras.get((robot, camera))
-        clock = self._clock
-        if frames is None or clock is None:
+        if self._player is None:
             return None
-        if frames.latest is None and clock.paused:
-            return None  # no image at this position, and none is coming
-        return await frames.snapshot(SNAPSHOT_TIMEOUT, max_age=None, on_wait=frames.encode_latest)
+        return await self._cameras.snapshot(robot, camera, paused=self._player.clock.paused)
