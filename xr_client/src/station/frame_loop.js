@@ -10,12 +10,12 @@ import { FrameTimer } from '../frame_timer.js';
 const TIMING_SAMPLES = 1200;
 
 /**
+ * What a frame reads besides the stage and the views.
  * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
  *   router: import('../message_router.js').MessageRouter, history: import('../sensor_history.js').SensorHistory,
  *   goals: import('../goal_pointer.js').GoalTracker, goalPointer: import('../goal_pointer.js').GoalPointer,
  *   driver: import('../teleop_driver.js').TeleopDriver, linkOk: () => boolean, povYaw: () => number,
  *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData}} FrameHost
- *   what a frame reads besides the stage and the views
  */
 
 export class FrameLoop {
@@ -68,7 +68,7 @@ export class FrameLoop {
       const overview = {
         twin: stage.twin,
         views: stage.robotViews,
-        cursor: views.interaction.wimCursor,
+        cursor: views.interaction.goals.wimCursor,
         transform: fleet.scene.mapToScene,
         show: menu.overview && menu.mode === 'free_roam',
       };

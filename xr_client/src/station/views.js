@@ -30,8 +30,8 @@ import { SoundControl } from '../view/sound_control.js';
  *   sender: import('../command_sender.js').CommandSender, inspection: import('../inspection_model.js').InspectionModel,
  *   actions: import('../app.js').OperatorActions,
  *   goalFor: (robot: string, goal: import('../command_sender.js').Goal) => void, link: () => string,
- *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData, povText: () => string}}
- *   ViewsHost
+ *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData,
+ *   povText: () => string}} ViewsHost
  */
 
 export class StationViews {

@@ -55,8 +55,8 @@ export function snapshotState(app) {
       hover: app.presenting ? interaction.hovered() : {},
       vignette: app.views.vignette.strength,
       teleport:
-        interaction.teleport.aiming || interaction.pinchTeleport
-          ? (interaction.teleportHit?.toArray() ?? 'no floor')
+        interaction.motion.teleport.aiming || interaction.motion.pinchTeleport
+          ? (interaction.motion.teleportHit?.toArray() ?? 'no floor')
           : null,
     },
     estop: {
@@ -79,7 +79,7 @@ export function snapshotState(app) {
     panel: panelState(app),
     overview: {
       visible: app.views.hud.miniature.group.visible,
-      cursor: app.views.interaction.wimCursor,
+      cursor: app.views.interaction.goals.wimCursor,
       arrows: app.views.hud.miniature.robots.size,
       scale: app.views.hud.miniature.scale,
       position: app.views.hud.miniature.group.position.toArray(),
@@ -177,7 +177,7 @@ export function snapshotState(app) {
     notice: app.views.overlay.message.textContent,
     sound: app.views.sound.state(),
     hands: app.views.interaction.handInput.state(),
-    gaze: { ...app.views.interaction.gaze },
+    gaze: { ...app.views.interaction.gazeDwell.gaze },
     timing: {
       renders: app.loop.renders,
       frames: app.loop.frameCount,

@@ -8,7 +8,7 @@
  * may meet (`pickables`, `floorAt`), names a hit (`idOf`), and hands selects over (`select`); what is decided
  * is the inspection review's (pure), carried out by InspectionUi.
  *
- * In Robot POV the Inspect tool is the head-gaze dwell on the live image (xr_interaction.js's reticle): where the
+ * In Robot POV the Inspect tool is the head-gaze dwell on the live image (xr_gaze.js's reticle): where the
  * dwell rests, a target where that pixel looks, a finding about a capture taken then, and the region around the point
  * proposed on its card, which opens in front of the operator when the relay has answered.
  *
