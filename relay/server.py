@@ -485,9 +485,11 @@ async def serve(config: FleetConfig, options: Options) -> None:
         url = f"{scheme}://{shown}:{bound[1]}/"
         logger.info("serving on %s", url)
         fragment = f"#token={options.token}" if options.token else ""
-        print(f"xr-relay {__version__}: open {url}{fragment}  (backend: {backend}; Ctrl-C to stop)", flush=True)  # noqa: T201
+        opened = f"xr-relay {__version__}: open {url}{fragment}  (backend: {backend}; Ctrl-C to stop)"
+        print(opened, flush=True)  # noqa: T201
         if ssl_context and options.tls_cert:
-            print(f"TLS certificate SHA-256 fingerprint: {fingerprint(Path(options.tls_cert))}", flush=True)  # noqa: T201
+            sha256 = fingerprint(Path(options.tls_cert))
+            print(f"TLS certificate SHA-256 fingerprint: {sha256}", flush=True)  # noqa: T201
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
