@@ -15,8 +15,8 @@ from typing import Any
 
 from .config import Robot, Scene
 from .events import MapEvent, RobotModelEvent
-from .hub import Hub
-from .messages import Transform2D, encode, model_message, scene_message, state_key
+from .messages import Transform2D, model_message, scene_message
+from .outbox import Outbox
 from .twin.map_twin import grid_to_glb
 from .twin.urdf import robot_description_glb
 
@@ -37,10 +37,10 @@ def map_digest(event: MapEvent) -> str:
 
 
 class GeneratedAssets:
-    def __init__(self, scene: Scene, robots: Mapping[str, Robot], hub: Hub) -> None:
+    def __init__(self, scene: Scene, robots: Mapping[str, Robot], outbox: Outbox) -> None:
         self._scene = scene
         self._robots = robots
-        self._hub = hub
+        self._outbox = outbox
         #: File name -> GLB bytes, served by relay.server.
         self.files: dict[str, bytes] = {}
         #: The twin clients load: robots.yaml's, or one built from a live map.
@@ -103,7 +103,7 @@ class GeneratedAssets:
                 self.scene_url,
             )
             scene = scene_message(self.scene_url, self.map_to_scene())
-            self._hub.publish_state(state_key(scene), encode(scene))
+            self._outbox.broadcast(scene)
 
     async def _build_model(self, event: RobotModelEvent) -> None:
         """A robot's URDF becomes its glTF model (once per distinct description)."""
@@ -119,4 +119,4 @@ class GeneratedAssets:
         url = self._replace(f"robot-{event.robot}-", name, glb)
         self.model_urls[event.robot] = url
         logger.info("model of %s from its robot_description: %s (%d kB)", event.robot, url, len(glb) // 1024)
-        self._hub.broadcast_priority(encode(model_message(event.robot, url)))
+        self._outbox.broadcast(model_message(event.robot, url))

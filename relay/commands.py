@@ -12,14 +12,14 @@ sockets and without sleeping (tests/test_commands.py).
 
 from __future__ import annotations
 
+import inspect
 import logging
 import time
 from collections.abc import Awaitable, Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from .audit import CommandAudit
 from .backends.base import Backend
-from .budget import SnapshotBudget
 from .clients import Client
 from .config import Robot
 from .control import Control
@@ -27,7 +27,7 @@ from .errors import CommandRejected, ProtocolError
 from .fleet import FleetState
 from .inspection.service import Inspection
 from .inspection.wire import MissionStart, TargetAdd
-from .messages import encode, pong_message
+from .messages import pong_message
 from .occupancy import OccupancyGrid
 from .outbox import Outbox
 from .protocol import (
@@ -40,6 +40,7 @@ from .protocol import (
     robot_identifier,
 )
 from .safety import check_goal, check_goal_clear, clamp_velocity
+from .snapshots import Snapshots
 from .streams import CameraStreams
 from .wire.commands import Cancel, CmdVel, EStop, GoalPose, Lease, Name, Ping, Playback, Snapshot, Stream
 
@@ -48,7 +49,7 @@ logger = logging.getLogger(__name__)
 
 @dataclass
 class CommandHandler:
-    """Carries out client commands; its parts are the relay's (``relay.core`` wires them)."""
+    """Carries out client commands; its parts are the relay's (``relay.core`` builds them and this with them)."""
 
     robots: Mapping[str, Robot]
     backend: Backend
@@ -58,11 +59,11 @@ class CommandHandler:
     outbox: Outbox
     audit: CommandAudit
     map_grid: Callable[[], OccupancyGrid | None]
-    wall_clock: Callable[[], float] = time.time
-    snapshots: SnapshotBudget = field(default_factory=SnapshotBudget)
-    inspection: Inspection | None = None  # relay.core sets it
+    inspection: Inspection
     #: Every connected client by id (relay.core's own dict): the names of the ``operators`` roster.
-    clients: Mapping[str, Client] = field(default_factory=dict)
+    clients: Mapping[str, Client]
+    snapshots: Snapshots
+    wall_clock: Callable[[], float] = time.time
 
     def handle_binary(self, client: Client) -> None:
         self.outbox.error(client, None, ErrorCode.UNSUPPORTED, "binary frames from clients are not defined in v1")
@@ -91,31 +92,8 @@ class CommandHandler:
             # Dropped before it can reach a robot; an estop is never held back.
             self._rate_limited(client, request_id, command_identifier(command), command, now)
             return
-        if isinstance(command, Snapshot):
-            # Rendering or waiting for the next camera frame takes a while: do not hold up this
-            # client's later frames (an estop among them) behind it; and spend no more than the budget.
-            refusal = self.snapshots.take(client.client_id, client.role, now)
-            if refusal is not None:
-                error = ProtocolError(ErrorCode.BUSY, f"{command_identifier(command)}: refused: {refusal}", command.id)
-                self.outbox.error(client, command.id, error.code, error.message)
-                self.audit.command(client, command, error)
-                return
-            client.spawn(self._run_apart(client, command, self._snapshot(client, command)))
-            return
-        if isinstance(command, InspectionCommands):
-            # Starting a mission plans every step; a region is segmented: both take a while, so they run apart.
-            work = self._inspection(client, command, now)
-            if isinstance(command, TargetAdd) and command.robot is not None:
-                # A target from the live image takes a snapshot first: within the snapshots' budget.
-                refusal = self.snapshots.take(client.client_id, client.role, now)
-                if refusal is not None:
-                    work.close()
-                    error = ProtocolError(ErrorCode.BUSY, f"target/add: refused: {refusal}", command.id)
-                    self.outbox.error(client, command.id, error.code, error.message)
-                    self.audit.command(client, command, error)
-                    return
-                work = self._budgeted(client, work)
-            client.spawn(self._run_apart(client, command, work))
+        if isinstance(command, (Snapshot, *InspectionCommands)):
+            self._run_apart_admitted(client, command, now)
             return
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
@@ -147,18 +125,35 @@ class CommandHandler:
         else:
             self.audit.frame(client, identifier, request_id, None, error)
 
+    def _run_apart_admitted(self, client: Client, command: Command, now: float) -> None:
+        """Snapshots and the inspection commands take a while (rendering, waiting for a camera's next frame,
+        planning every step of a mission, segmenting a region): they run beside the client's later frames (an
+        estop among them), and what takes a picture spends the snapshots' budget."""
+        work: Awaitable[None]
+        if isinstance(command, Snapshot):
+            work = self.snapshots.take(client, command)
+        else:
+            work = self._inspection(client, command, now)
+        if isinstance(command, Snapshot) or (isinstance(command, TargetAdd) and command.robot is not None):
+            try:
+                self.snapshots.admit(client, command.identifier, command.id, now)
+            except ProtocolError as exc:
+                if inspect.iscoroutine(work):
+                    work.close()
+                self._refused(client, command, exc)
+                return
+            work = self.snapshots.within(client, work)
+        client.spawn(self._run_apart(client, command, work))
+
+    def _refused(self, client: Client, command: Command, error: ProtocolError) -> None:
+        self.outbox.error(client, error.request_id, error.code, error.message)
+        self.audit.command(client, command, error)
+
     async def _inspection(self, client: Client, command: Command, now: float) -> None:
-        assert self.inspection is not None
         if isinstance(command, MissionStart):
-            self._require_record("mission/start", command.id)
+            self.control.gate.require_record("mission/start", command.id)
         await self.inspection.handle(client, command, now)
         self.outbox.ack(client, getattr(command, "id"))  # noqa: B009 - every inspection command has an id
-
-    async def _budgeted(self, client: Client, work: Awaitable[None]) -> None:
-        try:
-            await work
-        finally:
-            self.snapshots.done(client.client_id, client.role)
 
     async def _run_apart(self, client: Client, command: Command, work: Awaitable[None]) -> None:
         """A command that runs beside the client's later frames: its reply and audit record come when it ends."""
@@ -177,20 +172,20 @@ class CommandHandler:
 
     async def _dispatch(self, client: Client, command: Command, now: float, received: float, arrived: float) -> None:
         if isinstance(command, Ping):
-            client.channel.put_priority(encode(pong_message(command.t, self.wall_clock())))
+            self.outbox.to(client, pong_message(command.t, self.wall_clock()))
         elif isinstance(command, EStop):
             await self._estop(client, command, now)
         elif isinstance(command, CmdVel):
             await self._cmd_vel(client, command, now, received, arrived)
         elif isinstance(command, Cancel):
-            self.control.require_commandable(
+            self.control.gate.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
             )
             self.control.supersede(command.robot)
             await self.backend.cancel(command.robot)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Playback):
-            self.control.require_operator(client, f"playback/{command.action}", command.id)
+            self.control.gate.require_operator(client, f"playback/{command.action}", command.id)
             await self.backend.playback(command.action, command.value)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Stream):
@@ -208,14 +203,8 @@ class CommandHandler:
         """Client id -> name, of the connected clients that gave one."""
         return {cid: c.name for cid, c in self.clients.items() if c.name is not None}
 
-    def _require_record(self, identifier: str, request_id: RequestId | None) -> None:
-        """A relay that cannot keep its record moves no robot (stops, estop included, still go through)."""
-        failure = self.audit.failure
-        if failure is not None:
-            raise CommandRejected(ErrorCode.AUDIT_UNAVAILABLE, f"{identifier}: refused: {failure}", request_id)
-
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
-        self.control.require_operator(client, "estop", command.id)
+        self.control.gate.require_operator(client, "estop", command.id)
         if command.action == "reset":
             self.control.reset_estop(command.robot, client.client_id, now)
             self.outbox.ack(client, command.id)
@@ -231,18 +220,6 @@ class CommandHandler:
             )
         self.outbox.ack(client, command.id)
 
-    def _require_fresh(self, identifier: str, request_id: RequestId | None, age: float) -> None:
-        """A motion command that waited longer than the deadman's timeout (a frozen or starved relay, a stalled
-        network) is dropped: replaying it would move a robot the deadman has already stopped."""
-        timeout = self.control.deadman.timeout
-        if age > timeout:
-            raise CommandRejected(
-                ErrorCode.STALE,
-                f"{identifier}: dropped: {age:.2f} s old when the relay got to it, more than the deadman's "
-                f"{timeout:g} s; nothing reached the robot",
-                request_id,
-            )
-
     async def _cmd_vel(self, client: Client, command: CmdVel, now: float, received: float, arrived: float) -> None:
         robot = self.robots[command.robot]
         identifier = robot_identifier(robot.name, "cmd_vel")
@@ -254,10 +231,7 @@ class CommandHandler:
             # clock estimate an impossible delay, and every later command would look stale.
             age += client.sender_clock.age(command.sent, received)
         age = max(age, now - arrived)  # both are lower bounds of how long it waited
-        self.control.require_operator(client, identifier, command.id)  # a viewer hears "forbidden", nothing else
-        self._require_fresh(identifier, command.id, age)
-        self._require_record(identifier, command.id)
-        self.control.require_commandable(client, robot.name, identifier, command.id, now, moves=True)
+        self.control.gate.admit(client, robot.name, identifier, command.id, now, age)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
         previous = self.control.deadman.feed(robot.name, client.client_id, now)
         if previous is not None:
@@ -276,10 +250,7 @@ class CommandHandler:
 
     async def _goal(self, client: Client, command: GoalPose, now: float, arrived: float) -> None:
         identifier = robot_identifier(command.robot, "goal_pose")
-        self.control.require_operator(client, identifier, command.id)
-        self._require_fresh(identifier, command.id, now - arrived)
-        self._require_record(identifier, command.id)
-        self.control.require_commandable(client, command.robot, identifier, command.id, now, moves=True)
+        self.control.gate.admit(client, command.robot, identifier, command.id, now, now - arrived)
         check_goal(command.robot, command.x, command.y, self.map_grid())
         check_goal_clear(command.robot, command.x, command.y, self.fleet.positions(now))
         if self.control.deadman.controller(command.robot) is not None:
@@ -306,27 +277,4 @@ class CommandHandler:
                 command.id,
             )
         self.outbox.status(command.robot, now)
-        self.outbox.ack(client, command.id)
-
-    async def _snapshot(self, client: Client, command: Snapshot) -> None:
-        try:
-            await self._take_snapshot(client, command)
-        finally:
-            self.snapshots.done(client.client_id, client.role)
-
-    async def _take_snapshot(self, client: Client, command: Snapshot) -> None:
-        robot = self.robots[command.robot]
-        camera = robot.camera(command.camera)
-        identifier = robot_identifier(robot.name, "snapshot")
-        if camera is None:
-            what = f"no camera named {command.camera!r}" if command.camera else "no camera"
-            raise CommandRejected(ErrorCode.NO_CAMERA, f"{identifier}: {robot.name} has {what}", command.id)
-        frame = await self.backend.snapshot(robot.name, camera.name)
-        if frame is None:
-            raise CommandRejected(
-                ErrorCode.NO_CAMERA,
-                f"{identifier}: camera {camera.name!r} has produced no image yet; try again shortly",
-                command.id,
-            )
-        client.channel.put_priority(self.streams.encode(frame, command.id), binary=True)
         self.outbox.ack(client, command.id)

@@ -2,8 +2,9 @@
 
 ``Control`` owns the lease table and the deadman and carries out their decisions on the backend: a robot is
 stopped when its operator falls silent or disconnects, before a lease changes hands, and on an emergency stop.
-Commands that move a robot ask :meth:`Control.require_commandable` first. An emergency stop latches: the
-robots it stopped refuse every motion command (``estopped``) until an operator resets it.
+Every command that moves a robot passes the motion gate (``Control.gate``, relay/motion_gate.py) once, before
+anything reaches the robot. An emergency stop latches: the robots it stopped refuse every motion command
+(``estopped``) until an operator resets it.
 
 When the backend reaches other relays serving the same robots (``Backend.fleet_peer``, relay/fleet_peer.py), an
 estop made here is sent to them and theirs latch here, and a robot whose lease is held through another relay
@@ -19,14 +20,16 @@ from collections.abc import Callable, Sequence
 
 from .backends.base import Backend
 from .clients import Client
-from .errors import CommandRejected, ProtocolError
+from .errors import CommandRejected
 from .fleet import FleetState
 from .fleet_peer import FleetPeer
 from .leases import LeaseTable
 from .messages import LeaseReason
+from .motion_gate import MotionGate, Record
 from .outbox import Outbox
-from .protocol import ErrorCode, RequestId, robot_identifier
+from .protocol import ErrorCode, robot_identifier
 from .safety import Deadman
+from .stop_notices import StopNotices
 from .wire.commands import Lease
 
 logger = logging.getLogger(__name__)
@@ -42,6 +45,8 @@ class Control:
         backend: Backend,
         fleet: FleetState,
         outbox: Outbox,
+        record: Record,
+        stops: StopNotices,
         *,
         deadman_timeout: float,
         lease_timeout: float,
@@ -58,15 +63,14 @@ class Control:
         #: Per robot, a number that every stop and every new goal bumps: work that finishes for an older
         #: number (a goal still being planned when the estop came) is dropped.
         self._generation: dict[str, int] = {}
-        #: Robots whose lease must not expire although idle (on a mission: dwelling, capturing).
-        self.keep: Callable[[], set[str]] = set
-        #: Told of every stop of a robot by these rules (reason, whether an estop): missions pause or abort. It
-        #: must return at once: it runs on the estop's path (relay.inspection.write_behind stores after).
-        self.on_stopped: Callable[..., None] | None = None
+        #: Told of every stop of a robot by these rules: missions pause or abort, and keep their robots' leases.
+        self.stops = stops
         self.clock = clock
         #: Other relays of the same fleet (None: this relay is alone, or its backend cannot reach them).
         self.peer: FleetPeer | None = backend.fleet_peer()
         self._remote_stops: set[asyncio.Task[dict[str, BaseException]]] = set()
+        #: The one way in for every command that moves a robot (relay/motion_gate.py).
+        self.gate = MotionGate(backend, self.peer, record, self.latched, self.deadman, self.leases, self.lease_changed)
         if self.peer is not None:
             self.peer.attach(self._remote_estop, self._remote_lease)
 
@@ -77,65 +81,6 @@ class Control:
         """Whatever the robot was asked to do before is void; returns the new generation."""
         self._generation[robot] = self.generation(robot) + 1
         return self._generation[robot]
-
-    # -- permissions ------------------------------------------------------------------------------
-
-    @staticmethod
-    def require_operator(client: Client, identifier: str, request_id: RequestId | None) -> None:
-        if client.role != "operator":
-            raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
-
-    def require_commandable(
-        self,
-        client: Client,
-        robot: str,
-        identifier: str,
-        request_id: RequestId | None,
-        now: float,
-        *,
-        moves: bool = False,
-    ) -> None:
-        """Operator role, a robot that is not a recording, no latched estop when the command ``moves`` the robot,
-        and the robot's lease (taken when free)."""
-        self.require_movable(client, robot, identifier, request_id, moves=moves)
-        self._refuse_if_held_elsewhere(robot, identifier, request_id)
-        allowed, before = self.leases.use(robot, client.client_id, now)
-        if not allowed:
-            raise CommandRejected(
-                ErrorCode.LEASED,
-                f"{identifier}: {robot} is controlled by {before}; send {robot}/lease with force: true to take over",
-                request_id,
-            )
-        if before is None:
-            self.lease_changed(robot, client.client_id, None, "acquired", now)
-
-    def require_movable(
-        self, client: Client, robot: str, identifier: str, request_id: RequestId | None, *, moves: bool = True
-    ) -> None:
-        """Every rule of :meth:`require_commandable` but the lease: for what acts through a lease it does not hold
-        (an operator resuming a mission that holds the robot)."""
-        self.require_operator(client, identifier, request_id)
-        refusal = self.backend.command_refusal(robot)
-        if refusal is not None:
-            raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)
-        if moves and robot in self.latched:
-            by = self.latched[robot]
-            raise CommandRejected(
-                ErrorCode.ESTOPPED,
-                f"{identifier}: {robot} is emergency-stopped{f' by {by}' if by else ''}; "
-                "an operator must reset it first (estop with action: reset)",
-                request_id,
-            )
-
-    def _refuse_if_held_elsewhere(self, robot: str, identifier: str, request_id: RequestId | None) -> None:
-        lease = self.peer.held_elsewhere(robot) if self.peer is not None else None
-        if lease is not None:
-            raise CommandRejected(
-                ErrorCode.LEASED,
-                f"{identifier}: {robot} is controlled by {lease.holder} {lease.lapse()}; "
-                "it must be released there (or that relay stop)",
-                request_id,
-            )
 
     # -- stops ------------------------------------------------------------------------------------
 
@@ -156,7 +101,7 @@ class Control:
         self.fleet.set_teleop(robot, False)
         # Its mission learns first why the robot stops, so that the goal's cancellation the stop causes reads as
         # this stop, not as a goal that failed.
-        self._tell_stopped(robot, reason, estop=False)
+        self.stops.stopped(robot, reason, estop=False)
         await self.backend.stop_robot(robot)
 
     async def estop(
@@ -176,7 +121,7 @@ class Control:
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)
-            self._tell_stopped(name, f"emergency stop by {by}", estop=True)  # returns at once (see halt)
+            self.stops.stopped(name, f"emergency stop by {by}", estop=True)  # returns at once (see halt)
         if self.peer is not None and not remote:
             try:
                 self.peer.estop(robot, by)
@@ -193,15 +138,6 @@ class Control:
         for name in robots:
             self.outbox.status(name, now)
         return failed
-
-    def _tell_stopped(self, robot: str, reason: str, *, estop: bool) -> None:
-        """Whoever follows the robot's stops learns of this one; their failure is theirs, not the stop's."""
-        if self.on_stopped is None:
-            return
-        try:
-            self.on_stopped(robot, reason, estop=estop)
-        except Exception:
-            logger.exception("after stopping %s (%s), telling its mission failed", robot, reason)
 
     def _remote_estop(self, robot: str | None, by: str | None) -> None:
         """An estop made on another relay (on the loop): latched and carried out here like our own."""
@@ -285,7 +221,7 @@ class Control:
     async def lease(self, client: Client, command: Lease, now: float) -> None:
         """``<robot>/lease``: acquire, release, or take over with ``force``; raises when refused."""
         identifier = robot_identifier(command.robot, "lease")
-        self.require_operator(client, identifier, command.id)
+        self.gate.require_operator(client, identifier, command.id)
         robot, holder = command.robot, self.leases.holder(command.robot)
         if command.action == "release":
             if holder != client.client_id:
@@ -296,7 +232,7 @@ class Control:
             self.leases.release(robot, client.client_id)
             self.lease_changed(robot, None, client.client_id, "released", now)
         elif holder is None or holder == client.client_id:
-            self._refuse_if_held_elsewhere(robot, identifier, command.id)
+            self.gate.refuse_if_held_elsewhere(robot, identifier, command.id)
             self.leases.take(robot, client.client_id, now)
             if holder is None:
                 self.lease_changed(robot, client.client_id, None, "acquired", now)
@@ -307,7 +243,7 @@ class Control:
                 command.id,
             )
         else:
-            self._refuse_if_held_elsewhere(robot, identifier, command.id)
+            self.gate.refuse_if_held_elsewhere(robot, identifier, command.id)
             await self.halt(robot, f"{client.client_id} takes over from {holder}")
             self.leases.take(robot, client.client_id, now)
             self.lease_changed(robot, client.client_id, holder, "taken_over", now)
@@ -320,7 +256,7 @@ class Control:
             except Exception:
                 # The ticker must outlive one failed stop, or no deadman would ever fire again.
                 logger.exception("deadman could not stop %s", robot)
-        busy = self.fleet.busy() | self.keep()
+        busy = self.fleet.busy() | self.stops.held()
         for robot in busy:
             self.leases.keep_alive(robot, now)
         for robot in self.leases.expired(now, busy):

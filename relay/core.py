@@ -17,13 +17,11 @@ Backend events arrive on the loop thread through :meth:`Relay.on_event` and go o
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import logging
 import sys
 import time
 from collections.abc import Callable
 
-from . import SERVER_NAME, __version__
 from .assets import GeneratedAssets
 from .audit import AuditLog, CommandAudit
 from .backends import create_backend
@@ -32,49 +30,29 @@ from .clients import Client, new_client_id
 from .commands import CommandHandler
 from .config import FleetConfig
 from .control import Control
-from .description import describe_robot
+from .event_routing import EventRouter
 from .events import (
-    CameraError,
-    CancelAnswerEvent,
     Event,
     EventSink,
-    FrameEvent,
-    GateStateEvent,
-    Goal,
-    MapEvent,
-    NavEvent,
-    NavFeedbackEvent,
-    PathEvent,
-    PlaybackEvent,
-    PoseEvent,
-    RobotModelEvent,
-    ScanEvent,
-    SensorEvent,
 )
 from .fleet import FleetState
+from .hello import hello_message
 from .hub import Hub, Transport
 from .inspection.service import Inspection
 from .loop_lag import LoopLag
 from .messages import (
-    GoalDescription,
     HelloMessage,
-    NavFeedback,
-    PlaybackMessage,
     RoomDescription,
-    backend_message,
-    encode,
-    nav_message,
     operators_message,
-    path_message,
-    playback_message,
     room_descriptions,
-    scan_message,
 )
 from .occupancy import OccupancyGrid, from_map_yaml
 from .options import Options
 from .outbox import Outbox
-from .protocol import PROTOCOL_VERSION, Role, camera_identifier
+from .protocol import Role
 from .ratelimit import TokenBucket
+from .snapshots import Snapshots
+from .stop_notices import StopNotices
 from .streams import CameraStreams
 from .supervision import Supervisor
 from .twin.facility import load_facility
@@ -106,18 +84,26 @@ class Relay:
         # Looked up here, not bound as a default: a default would keep the function of import time.
         self.backend: Backend = (backend_factory or create_backend)(config, self.on_event, options)
         self.outbox = Outbox(self.hub, self.fleet)
+        self.audit = CommandAudit(AuditLog(options.audit_log) if options.audit_log else None, clock=self.clock)
+        stops = StopNotices()
         self.control = Control(
             config.names,
             self.backend,
             self.fleet,
             self.outbox,
+            self.audit,
+            stops,
             deadman_timeout=config.safety.deadman_timeout,
             lease_timeout=options.lease_timeout,
             clock=clock,
         )
         self.streams = CameraStreams(self.robots, self.hub, self.backend)
-        self.assets = GeneratedAssets(config.scene, self.robots, self.hub)
-        self.audit = CommandAudit(AuditLog(options.audit_log) if options.audit_log else None, clock=self.clock)
+        self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)
+        self.inspection = Inspection(
+            config, options, backend=self.backend, control=self.control, stops=stops, fleet=self.fleet,
+            hub=self.hub, map_grid=self.map_grid, clock=clock,
+        )  # fmt: skip
+        self._clients: dict[str, Client] = {}
         self.commands = CommandHandler(
             self.robots,
             self.backend,
@@ -127,21 +113,18 @@ class Relay:
             self.outbox,
             self.audit,
             self.map_grid,
+            self.inspection,
+            self._clients,
+            Snapshots(self.robots, self.backend, self.streams, self.outbox),
         )
-        self.inspection = Inspection(
-            config, options, backend=self.backend, control=self.control, fleet=self.fleet, hub=self.hub,
-            map_grid=self.map_grid, clock=clock,
-        )  # fmt: skip
-        self.commands.inspection = self.inspection
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
         #: The loop's stalls: /healthz's figures, and the dates of client frames read after one (relay.loop_lag).
         self.loop_lag = LoopLag(clock)
         self.started_at = clock()
-        self._clients: dict[str, Client] = {}
-        self.commands.clients = self._clients
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
-        self._live_map: OccupancyGrid | None = None  # from the backend's /map
-        self._playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
+        self.router = EventRouter(
+            self.robots, self.fleet, self.outbox, self.assets, self.streams, self.control, self.inspection, clock
+        )
         #: The rooms of robots.yaml's scene file (``sim.world``), named in every hello.
         self.rooms: list[RoomDescription] = []
 
@@ -202,7 +185,7 @@ class Relay:
 
     def map_grid(self) -> OccupancyGrid | None:
         """The map goals are checked against: the backend's own, the live /map, or robots.yaml's."""
-        return self.backend.map_grid() or self._live_map or self._map
+        return self.backend.map_grid() or self.router.live_map or self._map
 
     # -- connections ------------------------------------------------------------------------------
 
@@ -215,8 +198,8 @@ class Relay:
         allowance = TokenBucket.full(self.options.max_message_rate, self.clock())
         client = Client(client_id, role, channel, allowance, address)
         self._clients[client_id] = client
-        channel.put_priority(encode(self.hello(client)))
-        channel.put_priority(encode(operators_message(self.commands.roster())))
+        self.outbox.to(client, self.hello(client))
+        self.outbox.to(client, operators_message(self.commands.roster()))
         self.inspection.on_connect(client)
         logger.info("client %s connected as %s", client_id, role)
         return client
@@ -244,21 +227,11 @@ class Relay:
         grid = self.map_grid()
         now = self.clock()
         seen = vantage(grid, self.fleet.positions(now)) if grid is not None else None
-        return {
-            "identifier": "hello",
-            "protocol": PROTOCOL_VERSION,
-            "server": {"name": SERVER_NAME, "version": __version__},
-            "client_id": client.client_id,
-            "role": client.role,
-            "scene": {"url": self.assets.scene_url, "map_to_scene": self.assets.map_to_scene()},
-            "bounds": list(grid.bounds) if grid is not None else None,
-            "vantage": None if seen is None else {"x": seen.x, "y": seen.y, "yaw": seen.yaw},
-            "rooms": self.rooms,
-            "robots": [describe_robot(r, self.assets.model_urls.get(r.name)) for r in self.config.robots],
-            "state": self.fleet.snapshot(now),
-            "playback": self._playback,
-            "backend": backend_message(self.backend.name, self.backend.failure),
-        }
+        return hello_message(
+            client.client_id, client.role, grid=grid, vantage=seen, assets=self.assets, rooms=self.rooms,
+            robots=self.config.robots, state=self.fleet.snapshot(now), playback=self.router.playback,
+            backend=self.backend,
+        )  # fmt: skip
 
     # -- client frames ----------------------------------------------------------------------------
 
@@ -278,79 +251,4 @@ class Relay:
     # -- backend events (always on the loop thread) -----------------------------------------------
 
     def on_event(self, event: Event) -> None:
-        if isinstance(event, PlaybackEvent):
-            fields = dataclasses.asdict(event)
-            del fields["robot"]  # fleet-wide
-            self._playback = playback_message(**fields)
-            self.outbox.state(self._playback)
-        elif isinstance(event, MapEvent):
-            self._live_map = event.grid
-            logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)
-            self.assets.on_map(event)
-        elif event.robot not in self.robots:
-            logger.warning("backend reported unknown robot %r; ignored", event.robot)
-        elif isinstance(event, RobotModelEvent):
-            self.assets.on_model(event)
-        else:
-            self._on_robot_event(event, self.clock())
-
-    def _on_robot_event(self, event: Event, now: float) -> None:
-        if isinstance(event, PoseEvent):
-            message = self.fleet.on_pose(event, now)
-            self.outbox.state(message)
-            if self.outbox.online_changed(event.robot, now):
-                self.outbox.status(event.robot, now)
-        elif isinstance(event, SensorEvent):
-            sensor = self.fleet.on_sensor(event)
-            if sensor is not None:
-                self.outbox.state(sensor)
-        elif isinstance(event, NavEvent):
-            self.fleet.on_nav(event)
-            self.outbox.status(event.robot, now)
-            self.outbox.state(
-                nav_message(
-                    event.robot, outcome=event.outcome, goal=_goal(event.goal), message=event.message,
-                    error_code=event.error_code,
-                )
-            )  # fmt: skip
-            self.inspection.on_nav(event)
-        elif isinstance(event, NavFeedbackEvent):
-            goal = _goal(event.goal)
-            if goal == self.fleet.goal(event.robot):  # the goal it follows now, not one being given up
-                feedback = NavFeedback(
-                    distance_remaining=event.distance_remaining, eta=event.eta, recoveries=event.recoveries,
-                    navigation_time=event.navigation_time,
-                )  # fmt: skip
-                self.outbox.state(nav_message(event.robot, outcome="started", goal=goal, message="", feedback=feedback))
-        elif isinstance(event, CancelAnswerEvent):
-            self.outbox.state(
-                nav_message(
-                    event.robot, outcome="cancelled", goal=_goal(event.goal), message=event.message,
-                    confirmed=event.confirmed,
-                )
-            )  # fmt: skip
-        elif isinstance(event, GateStateEvent):
-            if event.word == "estop":
-                self.control.watchdog_estop(event.robot, now)
-        elif isinstance(event, PathEvent):
-            self.outbox.state(path_message(event.robot, event.points))
-        elif isinstance(event, ScanEvent):
-            # Not dataclasses.asdict: it deep-copies the ranges (a third of the relay's time at 1000 scans/s).
-            scan = scan_message(
-                event.robot,
-                stamp=event.stamp,
-                frame=event.frame,
-                angle_min=event.angle_min,
-                angle_increment=event.angle_increment,
-                range_max=event.range_max,
-                ranges=event.ranges,
-            )
-            self.outbox.state(scan)
-        elif isinstance(event, FrameEvent):
-            self.streams.on_frame(event, now)
-        elif isinstance(event, CameraError):
-            self.streams.camera_failed(camera_identifier(event.robot, event.camera), event.message)
-
-
-def _goal(goal: Goal | None) -> GoalDescription | None:
-    return None if goal is None else GoalDescription(x=goal[0], y=goal[1], yaw=goal[2])
+        self.router.on_event(event)

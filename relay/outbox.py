@@ -1,21 +1,25 @@
-"""What the relay tells its clients: replies, statuses, lease changes and stops, each encoded once.
+"""What the relay tells its clients, each message encoded once: the one way a message leaves the relay.
 
-Everything the command rules, the supervisor and the event routing announce goes through here, so that the
-lane each message takes is decided in one place: replies and anything an operator must learn before the rest of
-their queue (``estop``, ``<robot>/lease``, ``<robot>/model``, ``backend``) go through the priority lane; statuses
-are latest-value state.
+Every part sends through here (:meth:`Outbox.to` one client, :meth:`Outbox.broadcast` every client), and the lane
+a message takes is decided here, by its kind: the state kinds (poses, sensors, statuses, scans, navigation,
+paths, the scene, playback) are latest-value state, coalesced for a slow client; every other message (replies,
+and what an operator must learn before the rest of their queue: ``estop``, ``<robot>/lease``, ``<robot>/model``,
+``backend``, missions and findings) takes the priority lane. Camera frames are media: relay.streams sends them
+on their own lanes, except a snapshot's picture, which is a reply (:meth:`Outbox.frame`).
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
+from typing import Any, Final, cast
 
 from .clients import Client
 from .fleet import FleetState
 from .hub import Hub
 from .messages import (
     LeaseReason,
+    ServerMessage,
     StateMessage,
     ack_message,
     backend_message,
@@ -30,6 +34,15 @@ from .protocol import RequestId
 
 logger = logging.getLogger(__name__)
 
+#: The kinds a client keeps only the newest of (relay/hub.py's state lane, per ``state_key``).
+STATE_KINDS: Final = frozenset({"pose", "sensor", "status", "scan", "nav", "path", "scene", "playback"})
+
+
+def is_state(message: ServerMessage | Mapping[str, Any]) -> bool:
+    """Whether a message is latest-value state (its identifier's kind, ``robot1/pose`` or ``scene``)."""
+    identifier = str(message["identifier"])
+    return identifier.rpartition("/")[2] in STATE_KINDS
+
 
 class Outbox:
     def __init__(self, hub: Hub, fleet: FleetState) -> None:
@@ -38,20 +51,40 @@ class Outbox:
         #: Whether each robot was online in the last status sent, so that a change is announced at once.
         self._was_online: dict[str, bool] = {}
 
+    # -- the two ways out --------------------------------------------------------------------------
+
+    def to(self, client: Client, message: ServerMessage) -> None:
+        """One message to one client, in the lane of its kind."""
+        if is_state(message):
+            client.channel.put_state(state_key(cast(StateMessage, message)), encode(message))
+        else:
+            client.channel.put_priority(encode(message))
+
+    def broadcast(self, message: ServerMessage) -> None:
+        """One message to every client, encoded once, in the lane of its kind."""
+        if is_state(message):
+            self.hub.publish_state(state_key(cast(StateMessage, message)), encode(message))
+        else:
+            self.hub.broadcast_priority(encode(message))
+
+    def frame(self, client: Client, data: bytes) -> None:
+        """A snapshot's picture (a binary frame, relay.streams encodes it): a reply, ahead of the client's queue."""
+        client.channel.put_priority(data, binary=True)
+
     # -- to one client ----------------------------------------------------------------------------
 
     def ack(self, client: Client, request_id: RequestId) -> None:
-        client.channel.put_priority(encode(ack_message(request_id)))
+        self.to(client, ack_message(request_id))
 
     def error(self, client: Client, request_id: RequestId | None, code: str, message: str) -> None:
         logger.debug("error to %s: %s %s", client.client_id, code, message)
-        client.channel.put_priority(encode(error_message(request_id, code, message)))
+        self.to(client, error_message(request_id, code, message))
 
     # -- to every client --------------------------------------------------------------------------
 
     def state(self, message: StateMessage) -> None:
         """Latest-value state to every client, coalesced under the message's own key."""
-        self.hub.publish_state(state_key(message), encode(message))
+        self.broadcast(message)
 
     def status(self, robot: str, now: float) -> None:
         status = self.fleet.status(robot, now)
@@ -64,13 +97,13 @@ class Outbox:
 
     def lease(self, robot: str, holder: str | None, previous: str | None, reason: LeaseReason) -> None:
         # Priority: the operator who lost a robot must learn it before anything else they have queued.
-        self.hub.broadcast_priority(encode(lease_message(robot, holder=holder, previous=previous, reason=reason)))
+        self.broadcast(lease_message(robot, holder=holder, previous=previous, reason=reason))
 
     def estop(self, robots: list[str], by: str | None, *, latched: bool = True) -> None:
-        self.hub.broadcast_priority(encode(estop_message(robots, by, latched=latched)))
+        self.broadcast(estop_message(robots, by, latched=latched))
 
     def operators(self, names: Mapping[str, str]) -> None:
-        self.hub.broadcast_priority(encode(operators_message(names)))
+        self.broadcast(operators_message(names))
 
     def backend(self, name: str, failure: str | None) -> None:
-        self.hub.broadcast_priority(encode(backend_message(name, failure)))
+        self.broadcast(backend_message(name, failure))

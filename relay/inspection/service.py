@@ -49,6 +49,7 @@ if TYPE_CHECKING:
     from ..hub import Hub
     from ..occupancy import OccupancyGrid
     from ..options import Options
+    from ..stop_notices import StopNotices
     from ..twin.facility import Facility
     from .report import Scope
     from .store import Store
@@ -65,6 +66,7 @@ class Inspection:
         *,
         backend: Backend,
         control: Control,
+        stops: StopNotices,
         fleet: FleetState,
         hub: Hub,
         map_grid: Callable[[], OccupancyGrid | None],
@@ -93,8 +95,7 @@ class Inspection:
             go=self._go, stop=self._stop, capture=self.captures.for_mission, publish=self._publish,
             release=self._release, wall_clock=wall_clock,
         )  # fmt: skip
-        control.keep = self.mission_robots
-        control.on_stopped = self.runner.robot_stopped
+        stops.follow(self.runner.robot_stopped, self.mission_robots)
 
     # -- lifecycle --------------------------------------------------------------------------------
 
@@ -179,7 +180,7 @@ class Inspection:
 
     async def handle(self, client: Client, command: Any, now: float) -> None:
         """Carry out one inspection command; raises CommandRejected (or ProtocolError) when refused."""
-        self.control.require_operator(client, inspection_identifier(command), command.id)
+        self.control.gate.require_operator(client, inspection_identifier(command), command.id)
         if isinstance(command, MissionStart):
             await self._start(client, command, now)
         elif isinstance(command, MissionControl):
@@ -240,7 +241,7 @@ class Inspection:
         for robot in robots:
             if robot not in self.robots:
                 raise CommandRejected(ErrorCode.UNKNOWN_ROBOT, f"mission/start: unknown robot {robot!r}", command.id)
-            self.control.require_commandable(client, robot, f"mission/start {robot}", command.id, now, moves=True)
+            self.control.gate.require_commandable(client, robot, f"mission/start {robot}", command.id, now, moves=True)
             if self.runner.active(robot) is not None:
                 raise CommandRejected(
                     ErrorCode.BAD_REQUEST, f"mission/start: {robot} is on a mission already", command.id
@@ -359,9 +360,9 @@ class Inspection:
         revive = None
         if command.action == "resume":
             if lease == holder(run.record.id):  # held by the mission itself (an estop held it): the other rules
-                self.control.require_movable(client, robot, "mission/resume", command.id)
+                self.control.gate.require_movable(client, robot, "mission/resume", command.id)
             else:
-                self.control.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
+                self.control.gate.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
             if self.runner.needs_task(run):  # restored: the rest is planned again from where the robot stands
                 revive = await self._plan_steps(run.record.robot, run.record.steps, command.id)
             if lease != holder(run.record.id):  # an operator who took over hands the robot back to the mission
