@@ -17,10 +17,13 @@
  *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
  */
 import { MAX_STREAM_FPS } from './protocol.js';
+import { menuButtons } from './menu_buttons.js';
+import { MenuOptions } from './menu_options.js';
 
 /** @typedef {'free_roam' | 'pov'} Mode */
 /** @typedef {'none' | 'teleop' | 'goal' | 'inspect'} Tool */
 /** @typedef {{name: string, hasCamera: boolean}} MenuRobot */
+/** @typedef {'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort'} MissionAction */
 /**
  * @typedef {{id: string, label: string, group: string, active: boolean, enabled: boolean, danger?: boolean}} MenuButton
  */
@@ -36,11 +39,8 @@ import { MAX_STREAM_FPS } from './protocol.js';
  *   | {type: 'cancel', robot: string}
  *   | {type: 'takeover', robot: string, holder: string}
  *   | {type: 'tool', tool: Tool}
- *   | {type: 'mission', action: 'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort', robot: string | null}} MenuEffect
+ *   | {type: 'mission', action: MissionAction, robot: string | null}} MenuEffect
  */
-
-/** The menu's volume buttons step in fifths of full volume. */
-const VOLUME_STEPS = 5;
 
 export class MenuState {
   constructor() {
@@ -52,20 +52,8 @@ export class MenuState {
     /** @type {Tool} */
     this.tool = 'none';
     this.live = false;
-    this.seated = false;
-    this.smooth = false;
-    /** VR's overview table (a miniature of the twin) in front of the operator. */
-    this.overview = true;
-    /** Laser scans drawn around the robots that have one (an RViz user expects them). */
-    this.scans = true;
-    /** Accessibility: resting the head's gaze on a menu button presses it (off: a dwell only marks image points). */
-    this.dwellPress = false;
-    /** The station's sounds off (view/sound_control.js follows it; its header button and M set it too). */
-    this.muted = false;
-    /** The sound's volume (0..1), shared with the header's slider (view/sound_control.js). */
-    this.volume = 0.6;
-    /** The selected robot's hazard ticks (the Geiger-like sonification), shared with the G key. */
-    this.ticks = false;
+    /** The operator's options: seated, smooth move, overview, scans, gaze press, and the sound's (menu_options.js). */
+    this.options = new MenuOptions();
     /** @type {MenuRobot[]} */
     this.robots = [];
     this.operator = true;
@@ -152,7 +140,10 @@ export class MenuState {
     }
   }
 
-  /** Who holds the selected robot, if not this operator (its status and the operators' names). @param {string | null} holder */
+  /**
+   * Who holds the selected robot, if not this operator (its status and the operators' names).
+   * @param {string | null} holder
+   */
   setHolder(holder) {
     if (holder === this.holder) return;
     this.holder = holder;
@@ -189,171 +180,9 @@ export class MenuState {
     return effects;
   }
 
-  /** @returns {MenuButton[]} */
+  /** What the menu shows now (menu_buttons.js). @returns {MenuButton[]} */
   buttons() {
-    const selected = this.robot(this.selected);
-    const pov = this.mode === 'pov';
-    const latched = selected !== null && this.latched.includes(selected.name);
-    const command = this.canCommand && selected !== null && !latched;
-    const why = !this.operator ? ' (viewer)' : !this.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '';
-    const held = this.holder !== null && !latched;
-    /** @type {MenuButton[]} */
-    const list = [
-      { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
-      {
-        id: 'mode:pov',
-        label:
-          selected === null ? 'Robot POV (select a robot)' : selected.hasCamera ? 'Robot POV' : 'Robot POV (no camera)',
-        group: 'mode',
-        active: pov,
-        enabled: pov || (selected?.hasCamera ?? false),
-      },
-    ];
-    for (const robot of this.robots) {
-      list.push({
-        id: `robot:${robot.name}`,
-        label: robot.name,
-        group: 'robots',
-        active: robot.name === this.selected,
-        enabled: true,
-      });
-    }
-    list.push(
-      {
-        id: 'tool:teleop',
-        label: held ? `Teleop (held by ${this.holder})` : `Teleop${why}`,
-        group: 'tools',
-        active: this.tool === 'teleop',
-        enabled: command && !held,
-      },
-      {
-        id: 'tool:goal',
-        label: pov ? 'Goal (free roam only)' : `Goal${why}`,
-        group: 'tools',
-        active: this.tool === 'goal',
-        enabled: command && !pov,
-      },
-      // In Robot POV, Inspect marks a target on the live image: a gaze dwell in VR, a click on the desktop.
-      {
-        id: 'tool:inspect',
-        label: pov ? 'Inspect (on the image)' : 'Inspect',
-        group: 'tools',
-        active: this.tool === 'inspect',
-        enabled: true,
-      },
-      {
-        id: 'goal:cancel',
-        label: 'Cancel goal',
-        group: 'tools',
-        active: false,
-        enabled: command && this.goalActive && !held,
-      },
-      ...(held && selected
-        ? [
-            {
-              id: 'lease:take',
-              label: `Take over from ${this.holder}`,
-              group: 'tools',
-              active: false,
-              enabled: command,
-            },
-          ]
-        : []),
-      {
-        id: 'camera:snapshot',
-        label: pov ? 'Snapshot' : 'Snapshot (POV only)',
-        group: 'camera',
-        active: false,
-        enabled: pov && this.connected,
-      },
-      {
-        id: 'camera:live',
-        label: this.live ? 'Live: on' : 'Live',
-        group: 'camera',
-        active: this.live,
-        enabled: pov && this.connected,
-      },
-      {
-        id: 'mission:demo',
-        label: 'Run demo mission',
-        group: 'mission',
-        active: false,
-        enabled: this.operator && this.connected,
-      },
-      {
-        id: 'mission:all',
-        label: this.selected ? `All targets: ${this.selected}` : 'All targets: fleet',
-        group: 'mission',
-        active: false,
-        enabled: this.operator && this.connected,
-      },
-      ...(this.picked
-        ? [
-            {
-              id: 'mission:picked',
-              label: `Inspect picked (${this.picked}): ${this.selected ?? 'fleet'}`,
-              group: 'mission',
-              active: false,
-              enabled: this.operator && this.connected,
-            },
-          ]
-        : []),
-      ...(this.mission
-        ? [
-            {
-              id: 'mission:toggle',
-              label: this.mission === 'paused' ? 'Resume mission' : 'Pause mission',
-              group: 'mission',
-              active: this.mission === 'paused',
-              enabled: this.operator && this.connected,
-            },
-            {
-              id: 'mission:abort',
-              label: 'Abort mission',
-              group: 'mission',
-              active: false,
-              enabled: this.operator && this.connected,
-            },
-          ]
-        : []),
-      { id: 'opt:seated', label: 'Seated', group: 'options', active: this.seated, enabled: true },
-      { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: this.smooth, enabled: true },
-      { id: 'opt:overview', label: 'Overview', group: 'options', active: this.overview, enabled: true },
-      { id: 'opt:scans', label: 'Scans', group: 'options', active: this.scans, enabled: true },
-      { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: this.dwellPress, enabled: true },
-      { id: 'opt:mute', label: 'Mute', group: 'sound', active: this.muted, enabled: true },
-      {
-        id: 'opt:volume-',
-        label: `Volume − (${Math.round(this.volume * 100)} %)`,
-        group: 'sound',
-        active: false,
-        enabled: this.volume > 0,
-      },
-      { id: 'opt:volume+', label: 'Volume +', group: 'sound', active: false, enabled: this.volume < 1 },
-      { id: 'opt:ticks', label: 'Hazard ticks', group: 'sound', active: this.ticks, enabled: true },
-      { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
-      { id: 'estop', label: 'E-STOP', group: 'estop', active: this.estopped, enabled: this.operator, danger: true },
-    );
-    if (selected) {
-      list.push({
-        id: 'estop:robot',
-        label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`,
-        group: 'estop',
-        active: latched,
-        enabled: this.operator && !latched,
-        danger: true,
-      });
-    }
-    if (this.estopped) {
-      list.push({
-        id: 'estop:reset',
-        label: 'Reset E-STOP',
-        group: 'estop',
-        active: false,
-        enabled: this.operator && this.connected,
-      });
-    }
-    return list;
+    return menuButtons(this);
   }
 
   /**
@@ -377,28 +206,13 @@ export class MenuState {
     else if (id === 'camera:live' && this.selected) {
       this.live = !this.live;
       effects = [{ type: 'stream', robot: this.selected, fps: this.live ? MAX_STREAM_FPS : 0 }];
-    } else if (id === 'opt:seated') this.seated = !this.seated;
-    else if (id === 'opt:smooth') this.smooth = !this.smooth;
-    else if (id === 'opt:overview') this.overview = !this.overview;
-    else if (id === 'opt:scans') this.scans = !this.scans;
-    else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
-    else if (id === 'opt:mute') this.muted = !this.muted;
-    else if (id === 'opt:ticks') this.ticks = !this.ticks;
-    else if (id === 'opt:volume-' || id === 'opt:volume+') {
-      // Steps of a fifth, landing on them whatever the slider left (0.63 - a step is 0.4, not 0.43).
-      const steps = Math.round(this.volume * VOLUME_STEPS) + (id === 'opt:volume+' ? 1 : -1);
-      this.volume = Math.max(0, Math.min(VOLUME_STEPS, steps)) / VOLUME_STEPS;
-    } else if (id === 'menu:close') effects = this.setOpen(false);
+    } else if (kind === 'opt') this.options.press(id);
+    else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected)
       effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
-    else if (id === 'mission:demo') effects = [{ type: 'mission', action: 'start', robot: null }];
-    else if (id === 'mission:all') effects = [{ type: 'mission', action: 'all', robot: this.selected }];
-    else if (id === 'mission:picked') effects = [{ type: 'mission', action: 'picked', robot: this.selected }];
-    else if (id === 'mission:toggle')
-      effects = [{ type: 'mission', action: this.mission === 'paused' ? 'resume' : 'pause', robot: this.selected }];
-    else if (id === 'mission:abort') effects = [{ type: 'mission', action: 'abort', robot: this.selected }];
+    else if (kind === 'mission') effects = missionEffects(arg, this);
     this.#changed();
     return effects;
   }
@@ -475,6 +289,21 @@ export class MenuState {
   #changed() {
     this.version++;
   }
+}
+
+/**
+ * What a mission button asks for: the demo mission, all targets or the picked ones (for the selected robot, or the
+ * fleet), pause or resume the selected robot's mission, abort it.
+ * @param {string} button the id after `mission:` @param {MenuState} menu @returns {MenuEffect[]}
+ */
+function missionEffects(button, menu) {
+  const robot = menu.selected;
+  if (button === 'demo') return [{ type: 'mission', action: 'start', robot: null }];
+  if (button === 'all') return [{ type: 'mission', action: 'all', robot }];
+  if (button === 'picked') return [{ type: 'mission', action: 'picked', robot }];
+  if (button === 'toggle') return [{ type: 'mission', action: menu.mission === 'paused' ? 'resume' : 'pause', robot }];
+  if (button === 'abort') return [{ type: 'mission', action: 'abort', robot }];
+  return [];
 }
 
 /** One press = one toggle: reports the rising edge of a button, never repeats while it is held. */

@@ -175,7 +175,7 @@ test('a viewer cannot command: tools and E-STOP are disabled, and the version mo
   assert.equal(button(m, 'estop')?.enabled, false);
   const v = m.version;
   m.press('opt:seated');
-  assert.equal(m.seated, true);
+  assert.equal(m.options.seated, true);
   assert.ok(m.version > v);
 });
 
@@ -205,20 +205,20 @@ test('the volume steps in fifths from wherever the slider left it, and its butto
   assert.equal(button(m, 'opt:volume-')?.label, 'Volume − (60 %)');
   m.press('opt:volume+');
   m.press('opt:volume+');
-  assert.equal(m.volume, 1);
+  assert.equal(m.options.volume, 1);
   assert.equal(button(m, 'opt:volume+')?.enabled, false, 'full: + is off');
   m.press('opt:volume+');
-  assert.equal(m.volume, 1);
-  m.volume = 0.63; // the header's slider
+  assert.equal(m.options.volume, 1);
+  m.options.volume = 0.63; // the header's slider
   m.press('opt:volume-');
-  assert.equal(m.volume, 0.4);
+  assert.equal(m.options.volume, 0.4);
   m.press('opt:volume-');
   m.press('opt:volume-');
-  assert.equal(m.volume, 0);
+  assert.equal(m.options.volume, 0);
   assert.equal(button(m, 'opt:volume-')?.enabled, false, 'silent: − is off');
   assert.equal(button(m, 'opt:volume-')?.label, 'Volume − (0 %)');
   assert.equal(button(m, 'opt:ticks')?.active, false);
   m.press('opt:ticks');
-  assert.equal(m.ticks, true, 'the hazard ticks switch on from the menu, in VR too');
+  assert.equal(m.options.ticks, true, 'the hazard ticks switch on from the menu, in VR too');
   assert.equal(button(m, 'opt:ticks')?.group, 'sound');
 });

@@ -58,7 +58,7 @@ export class FrameLoop {
       eye,
       freshness: router.freshness,
       link,
-      scans: menu.scans,
+      scans: menu.options.scans,
     });
     views.goalView.update(fleet, this.host.goals, start, router.paths);
     if (stage.presenting) {
@@ -70,7 +70,7 @@ export class FrameLoop {
         views: stage.robotViews,
         cursor: views.interaction.goals.wimCursor,
         transform: fleet.scene.mapToScene,
-        show: menu.overview && menu.mode === 'free_roam',
+        show: menu.options.overview && menu.mode === 'free_roam',
       };
       views.hud.update(start, views.xrInput.wrist('left'), this.host.sensorPanelData(start), overview);
       if (menu.mode === 'pov') {

@@ -66,7 +66,7 @@ export class SoundControl {
   /** @param {boolean} muted */
   setMuted(muted) {
     this.muted = muted;
-    this.host.menu.muted = muted; // the menu's Mute shows it, in VR too
+    this.host.menu.options.muted = muted; // the menu's Mute shows it, in VR too
     this.scape?.setMuted(muted);
     this.#paint();
   }
@@ -74,7 +74,7 @@ export class SoundControl {
   /** @param {number} volume 0..1 */
   setVolume(volume) {
     this.volume = volume;
-    this.host.menu.volume = volume; // the menu's Volume buttons step from it, in VR too
+    this.host.menu.options.volume = volume; // the menu's Volume buttons step from it, in VR too
     this.scape?.setVolume(volume);
     this.#paint();
   }
@@ -82,7 +82,7 @@ export class SoundControl {
   /** @param {boolean} on */
   setGeiger(on) {
     this.geiger = on;
-    this.host.menu.ticks = on; // the menu's Hazard ticks shows it, in VR too
+    this.host.menu.options.ticks = on; // the menu's Hazard ticks shows it, in VR too
     if (!on) this.rules.stopTicks();
     this.#paint();
   }
@@ -101,9 +101,10 @@ export class SoundControl {
   /** One look at the fleet: cues to play and pulse, and the hazard tick. @param {number} now ms */
   poll(now) {
     const { fleet, menu, goals } = this.host;
-    if (menu.muted !== this.muted) this.setMuted(menu.muted); // the menu's Mute (VR, the desktop menu)
-    if (menu.volume !== this.volume) this.setVolume(menu.volume); // its Volume − and +
-    if (menu.ticks !== this.geiger) this.setGeiger(menu.ticks); // its Hazard ticks
+    const options = menu.options;
+    if (options.muted !== this.muted) this.setMuted(options.muted); // the menu's Mute (VR, the desktop menu)
+    if (options.volume !== this.volume) this.setVolume(options.volume); // its Volume − and +
+    if (options.ticks !== this.geiger) this.setGeiger(options.ticks); // its Hazard ticks
     /** @type {import('../cue_rules.js').RobotView[]} */
     const robots = [];
     for (const [name, entry] of fleet.robots) {

@@ -47,7 +47,7 @@ export class GazeDwell {
     /** @type {[number, number] | null} */
     let live = null;
     if (first?.object === host.menuPanel.mesh && first.uv)
-      id = host.menu.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
+      id = host.menu.options.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
     else if (first) {
       const name = host.inspect.idOf(first);
       id = name === 'insp:image' ? name : null;

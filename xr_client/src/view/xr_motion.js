@@ -72,7 +72,7 @@ export class XRMotion {
     else this.#turn(this.snapRight.update(rx));
     let teleportPoints = null;
     if (!menu.open && left) {
-      if (menu.smooth && free) {
+      if (menu.options.smooth && free) {
         const [vx, vz] = smoothVelocity(lx, ly, this.head.yaw);
         rig.position.x += vx * dt;
         rig.position.z += vz * dt;

@@ -77,7 +77,7 @@ export class XRSessionController {
     const [minX, minY, maxX] = this.fleet.bounds ?? [-2, -2, 2];
     const start = this.plan.start() ?? this.fleet.vantage ?? { x: (minX + maxX) / 2, y: minY + 0.3, yaw: Math.PI / 2 };
     const [x, , z] = mapToScene(t, start.x, start.y);
-    this.appliedSeat = this.menu.seated ? SEATED_HEIGHT_OFFSET : 0;
+    this.appliedSeat = this.menu.options.seated ? SEATED_HEIGHT_OFFSET : 0;
     this.rig.position.set(x, this.appliedSeat + this.floorOffset, z);
     // The camera looks down its -z; a map yaw turns into the scene's yaw about +y, less the quarter turn between.
     this.rig.rotation.y = mapYawToScene(t, start.yaw) - Math.PI / 2;
@@ -94,7 +94,7 @@ export class XRSessionController {
 
   /** Seated: the world is lowered under the operator (the rig raised) by a fixed amount. */
   updateSeat() {
-    const seat = this.menu.seated ? SEATED_HEIGHT_OFFSET : 0;
+    const seat = this.menu.options.seated ? SEATED_HEIGHT_OFFSET : 0;
     if (seat !== this.appliedSeat) {
       this.rig.position.y += seat - this.appliedSeat;
       this.appliedSeat = seat;

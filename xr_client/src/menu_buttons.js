@@ -1,0 +1,235 @@
+// @ts-check
+/**
+ * What the menu shows, from its state: every button with its label, group, and whether it is active and enabled
+ * (the VR panel and the desktop overlay both draw this list). Building it changes nothing; what a press does is
+ * menu_state.js's.
+ */
+
+/** @typedef {import('./menu_state.js').MenuState} MenuState */
+/** @typedef {import('./menu_state.js').MenuButton} MenuButton */
+
+/**
+ * Whether the selected robot can be commanded, and why not (a label's suffix).
+ * @typedef {{selected: import('./menu_state.js').MenuRobot | null, pov: boolean, latched: boolean, command: boolean,
+ *   why: string, held: boolean}} ButtonContext
+ */
+
+/** @param {MenuState} menu @returns {MenuButton[]} */
+export function menuButtons(menu) {
+  const selected = menu.robot(menu.selected);
+  const latched = selected !== null && menu.latched.includes(selected.name);
+  /** @type {ButtonContext} */
+  const context = {
+    selected,
+    pov: menu.mode === 'pov',
+    latched,
+    command: menu.canCommand && selected !== null && !latched,
+    why: !menu.operator ? ' (viewer)' : !menu.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '',
+    held: menu.holder !== null && !latched,
+  };
+  return [
+    ...modeButtons(menu, context),
+    ...menu.robots.map((robot) => ({
+      id: `robot:${robot.name}`,
+      label: robot.name,
+      group: 'robots',
+      active: robot.name === menu.selected,
+      enabled: true,
+    })),
+    ...toolButtons(menu, context),
+    ...cameraButtons(menu, context),
+    ...missionButtons(menu),
+    ...optionButtons(menu),
+    ...estopButtons(menu, context),
+  ];
+}
+
+/** Free Roam, and Robot POV for a selected robot with a camera. @param {MenuState} menu @param {ButtonContext} c */
+function modeButtons(menu, { selected, pov }) {
+  return [
+    { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
+    {
+      id: 'mode:pov',
+      label:
+        selected === null ? 'Robot POV (select a robot)' : selected.hasCamera ? 'Robot POV' : 'Robot POV (no camera)',
+      group: 'mode',
+      active: pov,
+      enabled: pov || (selected?.hasCamera ?? false),
+    },
+  ];
+}
+
+/**
+ * The exclusive tools, Cancel goal, and Take over while another operator holds the robot.
+ * @param {MenuState} menu @param {ButtonContext} c @returns {MenuButton[]}
+ */
+function toolButtons(menu, { selected, pov, command, why, held }) {
+  return [
+    {
+      id: 'tool:teleop',
+      label: held ? `Teleop (held by ${menu.holder})` : `Teleop${why}`,
+      group: 'tools',
+      active: menu.tool === 'teleop',
+      enabled: command && !held,
+    },
+    {
+      id: 'tool:goal',
+      label: pov ? 'Goal (free roam only)' : `Goal${why}`,
+      group: 'tools',
+      active: menu.tool === 'goal',
+      enabled: command && !pov,
+    },
+    // In Robot POV, Inspect marks a target on the live image: a gaze dwell in VR, a click on the desktop.
+    {
+      id: 'tool:inspect',
+      label: pov ? 'Inspect (on the image)' : 'Inspect',
+      group: 'tools',
+      active: menu.tool === 'inspect',
+      enabled: true,
+    },
+    {
+      id: 'goal:cancel',
+      label: 'Cancel goal',
+      group: 'tools',
+      active: false,
+      enabled: command && menu.goalActive && !held,
+    },
+    ...(held && selected
+      ? [
+          {
+            id: 'lease:take',
+            label: `Take over from ${menu.holder}`,
+            group: 'tools',
+            active: false,
+            enabled: command,
+          },
+        ]
+      : []),
+  ];
+}
+
+/** Snapshot and Live, in Robot POV. @param {MenuState} menu @param {ButtonContext} c @returns {MenuButton[]} */
+function cameraButtons(menu, { pov }) {
+  return [
+    {
+      id: 'camera:snapshot',
+      label: pov ? 'Snapshot' : 'Snapshot (POV only)',
+      group: 'camera',
+      active: false,
+      enabled: pov && menu.connected,
+    },
+    {
+      id: 'camera:live',
+      label: menu.live ? 'Live: on' : 'Live',
+      group: 'camera',
+      active: menu.live,
+      enabled: pov && menu.connected,
+    },
+  ];
+}
+
+/**
+ * Inspection missions: the demo, all targets, the picked ones; Pause/Resume and Abort while one runs.
+ * @param {MenuState} menu @returns {MenuButton[]}
+ */
+function missionButtons(menu) {
+  return [
+    {
+      id: 'mission:demo',
+      label: 'Run demo mission',
+      group: 'mission',
+      active: false,
+      enabled: menu.operator && menu.connected,
+    },
+    {
+      id: 'mission:all',
+      label: menu.selected ? `All targets: ${menu.selected}` : 'All targets: fleet',
+      group: 'mission',
+      active: false,
+      enabled: menu.operator && menu.connected,
+    },
+    ...(menu.picked
+      ? [
+          {
+            id: 'mission:picked',
+            label: `Inspect picked (${menu.picked}): ${menu.selected ?? 'fleet'}`,
+            group: 'mission',
+            active: false,
+            enabled: menu.operator && menu.connected,
+          },
+        ]
+      : []),
+    ...(menu.mission
+      ? [
+          {
+            id: 'mission:toggle',
+            label: menu.mission === 'paused' ? 'Resume mission' : 'Pause mission',
+            group: 'mission',
+            active: menu.mission === 'paused',
+            enabled: menu.operator && menu.connected,
+          },
+          {
+            id: 'mission:abort',
+            label: 'Abort mission',
+            group: 'mission',
+            active: false,
+            enabled: menu.operator && menu.connected,
+          },
+        ]
+      : []),
+  ];
+}
+
+/** The options (menu_options.js), the sound's, and Close. @param {MenuState} menu @returns {MenuButton[]} */
+function optionButtons(menu) {
+  const options = menu.options;
+  return [
+    { id: 'opt:seated', label: 'Seated', group: 'options', active: options.seated, enabled: true },
+    { id: 'opt:smooth', label: 'Smooth move', group: 'options', active: options.smooth, enabled: true },
+    { id: 'opt:overview', label: 'Overview', group: 'options', active: options.overview, enabled: true },
+    { id: 'opt:scans', label: 'Scans', group: 'options', active: options.scans, enabled: true },
+    { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: options.dwellPress, enabled: true },
+    { id: 'opt:mute', label: 'Mute', group: 'sound', active: options.muted, enabled: true },
+    {
+      id: 'opt:volume-',
+      label: `Volume − (${Math.round(options.volume * 100)} %)`,
+      group: 'sound',
+      active: false,
+      enabled: options.volume > 0,
+    },
+    { id: 'opt:volume+', label: 'Volume +', group: 'sound', active: false, enabled: options.volume < 1 },
+    { id: 'opt:ticks', label: 'Hazard ticks', group: 'sound', active: options.ticks, enabled: true },
+    { id: 'menu:close', label: 'Close', group: 'options', active: false, enabled: true },
+  ];
+}
+
+/**
+ * E-STOP (every robot), Stop for the selected one, and Reset E-STOP while one is latched.
+ * @param {MenuState} menu @param {ButtonContext} c @returns {MenuButton[]}
+ */
+function estopButtons(menu, { selected, latched }) {
+  /** @type {MenuButton[]} */
+  const list = [
+    { id: 'estop', label: 'E-STOP', group: 'estop', active: menu.estopped, enabled: menu.operator, danger: true },
+  ];
+  if (selected) {
+    list.push({
+      id: 'estop:robot',
+      label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`,
+      group: 'estop',
+      active: latched,
+      enabled: menu.operator && !latched,
+      danger: true,
+    });
+  }
+  if (menu.estopped) {
+    list.push({
+      id: 'estop:reset',
+      label: 'Reset E-STOP',
+      group: 'estop',
+      active: false,
+      enabled: menu.operator && menu.connected,
+    });
+  }
+  return list;
+}
