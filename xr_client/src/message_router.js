@@ -1,23 +1,26 @@
 // @ts-check
 /**
  * Every message from the relay, routed to the models it updates, returning the effects the app and its views
- * carry out (the way MenuState returns its effects). No DOM, no WebGL: test/message_router.test.js drives it
- * with the relay's message shapes.
+ * carry out (the way MenuState returns its effects). What the operator is told about who controls a robot and how
+ * its goals end (`lease`, `nav`, a refused command) is control_news.js's. No DOM, no WebGL:
+ * test/message_router.test.js drives it with the relay's message shapes.
  */
-import { ERROR_CODES, parseIdentifier } from './protocol.js';
+import { parseIdentifier } from './protocol.js';
 import { PoseSmoother } from './pose_smoother.js';
 import { InspectionModel } from './inspection_model.js';
 import { Freshness, LINK_STALE_MS } from './freshness.js';
-import { displayName } from './operator_names.js';
+import { ControlNews } from './control_news.js';
 
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
- * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage | import('./protocol.js').AckMessage
- *   | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage | import('./protocol.js').PlaybackMessage
- *   | import('./protocol.js').BackendMessage | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
- *   | import('./protocol.js').TargetsChangedMessage
- *   | import('./protocol.js').MissionMessage | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage | import('./protocol.js').OperatorsMessage} GlobalMessage the messages whose
- *   identifier is a literal, so that a switch on it narrows the type
+ * @typedef {import('./protocol.js').HelloMessage | import('./protocol.js').SceneMessage
+ *   | import('./protocol.js').AckMessage | import('./protocol.js').ErrorMessage | import('./protocol.js').EstopMessage
+ *   | import('./protocol.js').PlaybackMessage | import('./protocol.js').BackendMessage
+ *   | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
+ *   | import('./protocol.js').TargetsChangedMessage | import('./protocol.js').MissionMessage
+ *   | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage
+ *   | import('./protocol.js').OperatorsMessage} GlobalMessage the messages whose identifier is a literal, so that a
+ *   switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
  *   | {type: 'scene'}
@@ -39,7 +42,9 @@ import { displayName } from './operator_names.js';
  */
 
 export class MessageRouter {
-  /** The replayed recording (`playback`, bag backend), if any. @type {import('./protocol.js').PlaybackMessage | null} */
+  /**
+   * The replayed recording (`playback`, bag backend), if any. @type {import('./protocol.js').PlaybackMessage | null}
+   */
   playback = null;
   /** Pose smoothing per robot, fed here and sampled by the frame loop. @type {Map<string, PoseSmoother>} */
   smoothers = new Map();
@@ -50,7 +55,9 @@ export class MessageRouter {
   hellos = 0;
   /** Each robot's planned path (map frame), while it has one. @type {Map<string, number[][]>} */
   paths = new Map();
-  /** Who latched each robot's estop, from the `estop` messages (a reset forgets it). @type {Map<string, string | null>} */
+  /**
+   * Who latched each robot's estop, from the `estop` messages (a reset forgets it). @type {Map<string, string | null>}
+   */
   estopBy = new Map();
   /** The fleet description of the last `hello`, to rebuild robot views only when it changed. */
   #robotsKey = '';
@@ -62,8 +69,8 @@ export class MessageRouter {
     this.history = models.history;
     this.commands = models.commands;
     this.inspection = models.inspection ?? new InspectionModel();
-    /** Robots this operator lost to a take-over whose cancelled goal has not been reported yet. @type {Set<string>} */
-    this.takenOver = new Set();
+    /** Who controls a robot, and how its goals end, told to the operator (control_news.js). */
+    this.control = new ControlNews(this.fleet, this.goals, this.paths);
   }
 
   /**
@@ -77,7 +84,7 @@ export class MessageRouter {
     if (robot === null) return this.#global(/** @type {GlobalMessage} */ (message), now);
     switch (kind) {
       case 'lease':
-        return this.#lease(robot, /** @type {import('./protocol.js').LeaseMessage} */ (message));
+        return this.control.lease(robot, /** @type {import('./protocol.js').LeaseMessage} */ (message));
       case 'model':
         return this.#model(robot, /** @type {import('./protocol.js').ModelMessage} */ (message));
       case 'scan':
@@ -92,7 +99,7 @@ export class MessageRouter {
         return [];
       }
       case 'nav':
-        return this.#nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message), now);
+        return this.control.nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message), now);
     }
     if (!this.fleet.apply(message)) return [];
     if (kind === 'pose') {
@@ -118,7 +125,8 @@ export class MessageRouter {
             : sensor?.warn_below != null
               ? `under ${sensor.warn_below}`
               : 'past its limit';
-        const text = `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${reading.value.toFixed(1)} ${reading.unit} then)`;
+        const then = `${reading.value.toFixed(1)} ${reading.unit} then`;
+        const text = `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${then})`;
         return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
       }
     }
@@ -227,16 +235,7 @@ export class MessageRouter {
   /** @param {import('./protocol.js').ErrorMessage} error @param {number} now @returns {RouterEffect[]} */
   #error(error, now) {
     /** @type {RouterEffect[]} */
-    const effects = [];
-    if (error.code === ERROR_CODES.LEASED && error.id !== null) {
-      // The message names the refused command first (`robot1/goal_pose: robot1 is controlled by ...`).
-      const { robot } = parseIdentifier(error.message.split(':')[0]);
-      // A refused goal is offered again with the take-over: accepting sends it once the robot is taken.
-      const refused = robot === null ? null : this.goals.goals.get(robot);
-      const goal = refused?.id === String(error.id) ? refused.goal : null;
-      if (robot !== null && this.fleet.robots.has(robot))
-        effects.push({ type: 'offer_takeover', robot, text: error.message, goal });
-    }
+    const effects = this.control.refused(error);
     this.commands.failed(error);
     if (error.id !== null && this.inspection.settle(String(error.id), false)) effects.push({ type: 'inspection' });
     const shownAtMarker = this.goals.failed(
@@ -250,53 +249,9 @@ export class MessageRouter {
   }
 
   /**
-   * Who controls a robot changed. The operator who lost one is told at once (and its teleop stops sending).
-   * @param {string} robot @param {import('./protocol.js').LeaseMessage} lease @returns {RouterEffect[]}
+   * The relay built this robot's model from its robot_description. @param {string} robot
+   * @param {import('./protocol.js').ModelMessage} model
    */
-  #lease(robot, lease) {
-    const me = this.fleet.clientId;
-    if (lease.previous === me && lease.holder && lease.holder !== me) {
-      this.takenOver.add(robot);
-      return [
-        { type: 'stop_teleop' },
-        notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error'),
-      ];
-    }
-    if (lease.previous === me && lease.reason === 'expired')
-      return [notice(`${robot} is free again: you had not commanded it for a while`, 'info')];
-    return [];
-  }
-
-  /**
-   * How a goal went: reached, aborted with the reason, cancelled (nothing for `started`: the path says it). The app
-   * tells the operator about the selected robot and the robots it sent. Nav2's feedback and its answer to a cancel
-   * go on the robot's label (nav_line.js); a cancel Nav2 did not confirm is also told, as an error: the robot may
-   * still be navigating.
-   * @param {string} robot @param {import('./protocol.js').NavMessage} nav @param {number} now @returns {RouterEffect[]}
-   */
-  #nav(robot, nav, now) {
-    if (!this.fleet.robots.has(robot)) return [];
-    this.fleet.setNav(robot, nav, now);
-    const mine = this.fleet.robot(robot)?.status?.controller === this.fleet.clientId;
-    if (nav.outcome === 'started' && nav.feedback) return [];
-    if (nav.confirmed === true) return [];
-    if (nav.confirmed === false) return [{ type: 'nav', robot, text: `${robot}: ${nav.message}`, kind: 'error', mine }];
-    // The goal this operator lost with the robot: "taken over by Ben" already said it (a second notice, arriving
-    // a moment later, would replace the one that says who and why). The next goal to start ends that.
-    const lost = this.takenOver.delete(robot);
-    if (nav.outcome === 'started') return [];
-    this.paths.delete(robot);
-    if (nav.outcome === 'cancelled' && lost) return [];
-    const at = nav.goal ? ` (${nav.goal.x.toFixed(1)}, ${nav.goal.y.toFixed(1)})` : '';
-    const why = nav.message && nav.message !== nav.outcome ? `: ${nav.message}` : '';
-    if (nav.outcome === 'reached')
-      return [{ type: 'nav', robot, text: `${robot} reached its goal${at}`, kind: 'info', mine }];
-    if (nav.outcome === 'failed')
-      return [{ type: 'nav', robot, text: `${robot} aborted its goal${at}${why}`, kind: 'error', mine }];
-    return [{ type: 'nav', robot, text: `${robot}'s goal${at} cancelled${why}`, kind: 'warning', mine }];
-  }
-
-  /** The relay built this robot's model from its robot_description. @param {string} robot @param {import('./protocol.js').ModelMessage} model */
   #model(robot, model) {
     const entry = this.fleet.robots.get(robot);
     if (!entry || entry.description.model === model.url) return [];
