@@ -97,11 +97,11 @@ class Relay:
             lease_timeout=options.lease_timeout,
             clock=clock,
         )
-        self.streams = CameraStreams(self.robots, self.hub, self.backend)
+        self.streams = CameraStreams(self.robots, self.hub, self.outbox, self.backend)
         self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)
         self.inspection = Inspection(
             config, options, backend=self.backend, control=self.control, stops=stops, fleet=self.fleet,
-            hub=self.hub, map_grid=self.map_grid, clock=clock,
+            outbox=self.outbox, map_grid=self.map_grid, clock=clock,
         )  # fmt: skip
         self._clients: dict[str, Client] = {}
         self.commands = CommandHandler(

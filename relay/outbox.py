@@ -11,12 +11,12 @@ on their own lanes, except a snapshot's picture, which is a reply (:meth:`Outbox
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any, Final, cast
 
 from .clients import Client
 from .fleet import FleetState
-from .hub import Hub
+from .hub import Channel, Hub
 from .messages import (
     LeaseReason,
     ServerMessage,
@@ -66,6 +66,15 @@ class Outbox:
             self.hub.publish_state(state_key(cast(StateMessage, message)), encode(message))
         else:
             self.hub.broadcast_priority(encode(message))
+
+    def to_channels(self, channels: Iterable[Channel], message: ServerMessage) -> None:
+        """One message, encoded once, to the clients of these channels (a camera's viewers)."""
+        data = encode(message)
+        for channel in channels:
+            if is_state(message):
+                channel.put_state(state_key(cast(StateMessage, message)), data)
+            else:
+                channel.put_priority(data)
 
     def frame(self, client: Client, data: bytes) -> None:
         """A snapshot's picture (a binary frame, relay.streams encodes it): a reply, ahead of the client's queue."""

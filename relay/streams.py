@@ -18,7 +18,8 @@ from .description import lens_description
 from .errors import CommandRejected
 from .events import FrameEvent
 from .hub import Channel, Hub
-from .messages import FrameHeader, encode, encode_frame, error_message
+from .messages import FrameHeader, encode_frame, error_message
+from .outbox import Outbox
 from .protocol import ErrorCode, RequestId, camera_identifier, robot_identifier, split_camera_identifier
 from .video import Packet
 from .video_streams import VideoStreams
@@ -27,10 +28,16 @@ from .wire.commands import Stream
 
 class CameraStreams:
     def __init__(
-        self, robots: Mapping[str, Robot], hub: Hub, backend: Backend, clock: Callable[[], float] = time.monotonic
+        self,
+        robots: Mapping[str, Robot],
+        hub: Hub,
+        outbox: Outbox,
+        backend: Backend,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._robots = robots
         self._hub = hub
+        self._outbox = outbox
         self._backend = backend
         self._seq: dict[str, int] = {}
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -116,21 +123,19 @@ class CameraStreams:
 
     def _video_failed(self, identifier: str, message: str) -> None:
         """The camera's images cannot be video: its video viewers are told, and their streams end."""
-        data = encode(error_message(None, ErrorCode.UNSUPPORTED, message + "; stream it as jpeg"))
-        for channel in self._hub:
-            if channel.codecs.get(identifier) == "h264":
-                self._hub.set_stream(channel, identifier, 0)
-                channel.put_priority(data)
+        viewers = [channel for channel in self._hub if channel.codecs.get(identifier) == "h264"]
+        for channel in viewers:
+            self._hub.set_stream(channel, identifier, 0)
+        self._outbox.to_channels(viewers, error_message(None, ErrorCode.UNSUPPORTED, message + "; stream it as jpeg"))
         self.update_demand(identifier)
 
     def camera_failed(self, identifier: str, message: str) -> None:
         """A streamed camera's images cannot be read: every viewer of it (JPEG or video) is told why, by name, and
         its stream ends (the backend stops reading the camera when nobody streams it). Other cameras go on."""
-        data = encode(error_message(None, ErrorCode.UNSUPPORTED, f"{identifier}: {message}"))
-        for channel in self._hub:
-            if identifier in channel.streams:
-                self._hub.set_stream(channel, identifier, 0)
-                channel.put_priority(data)
+        viewers = [channel for channel in self._hub if identifier in channel.streams]
+        for channel in viewers:
+            self._hub.set_stream(channel, identifier, 0)
+        self._outbox.to_channels(viewers, error_message(None, ErrorCode.UNSUPPORTED, f"{identifier}: {message}"))
         self.update_demand(identifier)
 
     def _hop(self, call: Callable[[], None]) -> None:

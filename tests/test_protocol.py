@@ -209,7 +209,9 @@ def test_h264_frame_header_bytes() -> None:
     """The header the relay puts on a video packet (relay/streams.py), pinned: what the browser's decoder reads."""
     from relay.config import parse_config
     from relay.events import FrameEvent
+    from relay.fleet import FleetState
     from relay.hub import Hub
+    from relay.outbox import Outbox
     from relay.streams import CameraStreams
     from relay.video import Packet
 
@@ -226,7 +228,8 @@ def test_h264_frame_header_bytes() -> None:
         return 1, 0
 
     hub.publish_video = publish_video  # type: ignore[method-assign]
-    streams = CameraStreams({r.name: r for r in config.robots}, hub, backend=None)  # type: ignore[arg-type]
+    robots = {r.name: r for r in config.robots}
+    streams = CameraStreams(robots, hub, Outbox(hub, FleetState(config, 1.0)), backend=None)  # type: ignore[arg-type]
     frame = FrameEvent("robot1", "front", 1.5, 640, 480, b"")
     streams._publish_video("robot1/camera/front", frame, Packet(b"\x00\x00\x00\x01\x65", True, "avc1.42C01E", 640, 480))
     head = (

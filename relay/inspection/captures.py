@@ -28,8 +28,8 @@ if TYPE_CHECKING:
     from ..clients import Client
     from ..config import Robot
     from ..fleet import FleetState
-    from ..hub import Hub
     from ..occupancy import OccupancyGrid
+    from ..outbox import Outbox
     from .store import Store
 
 logger = logging.getLogger(__name__)
@@ -49,7 +49,7 @@ class Captures:
         *,
         backend: Backend,
         fleet: FleetState,
-        hub: Hub,
+        outbox: Outbox,
         book: TargetBook,
         store: StoreRunner,
         map_grid: Callable[[], OccupancyGrid | None],
@@ -57,7 +57,7 @@ class Captures:
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self.robots = robots
-        self._backend, self._fleet, self._hub, self._book, self._store = backend, fleet, hub, book, store
+        self._backend, self._fleet, self._outbox, self._book, self._store = backend, fleet, outbox, book, store
         self._map_grid, self._clock, self._wall = map_grid, clock, wall_clock
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
         self.recent: list[Any] = []  # the newest finding messages, for clients that connect later
@@ -124,12 +124,10 @@ class Captures:
         return capture, frame.jpeg if frame else None, sensors
 
     async def _announce(self, finding: FindingRecord, capture: CaptureRecord) -> None:
-        from ..messages import encode
-
         message = finding_message(finding, capture.image, capture.readings)
         kept = [m for m in self.recent if m["id"] != finding.id][-FINDINGS_ON_CONNECT:]
         self.recent = [*kept, message]
-        self._hub.broadcast_priority(encode(message))
+        self._outbox.broadcast(message)
 
     # -- findings, regions, targets ---------------------------------------------------------------
 
@@ -163,7 +161,6 @@ class Captures:
         return capture
 
     async def region(self, client: Client, command: RegionRequest) -> None:
-        from ..messages import encode
         from .segment import SegmentError, region_from_point
 
         capture = await self._capture_record(command.capture, command.id)
@@ -177,7 +174,7 @@ class Captures:
             raise CommandRejected(ErrorCode.BAD_REQUEST, f"region: {exc}", command.id) from None
         except Busy as exc:
             raise CommandRejected(ErrorCode.BUSY, f"region: {exc}; try again shortly", command.id) from None
-        client.channel.put_priority(encode(region_message(command.id, capture.id, outline)))
+        self._outbox.to(client, region_message(command.id, capture.id, outline))
 
     async def add_target(self, client: Client, command: TargetAdd) -> None:
         if command.robot is not None:
@@ -207,7 +204,6 @@ class Captures:
         the operator to review, and the region around that pixel proposed to the requester (GrabCut) before the
         ``ack``. Nothing is stored or added when the pixel looks at nothing; a region that cannot be segmented
         leaves the target and the finding, and the ``ack`` comes without an outline."""
-        from ..messages import encode
         from .segment import SegmentError, region_from_point
 
         assert command.robot is not None and command.u is not None and command.v is not None
@@ -249,4 +245,4 @@ class Captures:
         except (SegmentError, Busy) as exc:
             logger.info("target/add %s: no region proposed: %s", command.target, exc)
             return
-        client.channel.put_priority(encode(region_message(command.id, stored.id, outline)))
+        self._outbox.to(client, region_message(command.id, stored.id, outline))

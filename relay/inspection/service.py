@@ -46,9 +46,9 @@ if TYPE_CHECKING:
     from ..config import FleetConfig
     from ..control import Control
     from ..fleet import FleetState
-    from ..hub import Hub
     from ..occupancy import OccupancyGrid
     from ..options import Options
+    from ..outbox import Outbox
     from ..stop_notices import StopNotices
     from ..twin.facility import Facility
     from .report import Scope
@@ -68,17 +68,17 @@ class Inspection:
         control: Control,
         stops: StopNotices,
         fleet: FleetState,
-        hub: Hub,
+        outbox: Outbox,
         map_grid: Callable[[], OccupancyGrid | None],
         clock: Callable[[], float],
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self.config, self.options = config, options
         self.robots = {r.name: r for r in config.robots}
-        self.backend, self.control, self.fleet, self.hub = backend, control, fleet, hub
+        self.backend, self.control, self.fleet, self.outbox = backend, control, fleet, outbox
         self.map_grid, self.clock, self.wall = map_grid, clock, wall_clock
         self.store: Store | None = None
-        self.book = TargetBook(config.inspection.max_targets, hub, self._store_call)
+        self.book = TargetBook(config.inspection.max_targets, outbox, self._store_call)
         self.targets = self.book.targets  # read-only here: changed through the book
         self._store_pool = WorkPool("store", workers=1, queue=256)
         #: Reading mission files and planning missions: their own thread, never asyncio's shared pool (six 200-step
@@ -88,7 +88,7 @@ class Inspection:
         #: Mission records are stored after their change is announced: a stop never waits for the database.
         self._records = WriteBehind(self._save)
         self.captures = Captures(
-            self.robots, backend=backend, fleet=fleet, hub=hub, book=self.book, store=self._store,
+            self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._store,
             map_grid=map_grid, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self.runner = MissionRunner(
@@ -165,13 +165,11 @@ class Inspection:
 
     def on_connect(self, client: Client) -> None:
         """A new client learns the targets, the missions and the newest findings after its ``hello``."""
-        from ..messages import encode
-
-        client.channel.put_priority(self.book.message())
+        self.outbox.to(client, self.book.message())
         for record in self.runner.records():
-            client.channel.put_priority(encode(mission_message(record)))
+            self.outbox.to(client, mission_message(record))
         for message in self.captures.recent[-FINDINGS_ON_CONNECT:]:
-            client.channel.put_priority(encode(message))
+            self.outbox.to(client, message)
 
     def on_nav(self, event: NavEvent) -> None:
         self.runner.on_nav(event)
@@ -388,9 +386,7 @@ class Inspection:
         await self.backend.stop_robot(robot)
 
     def _publish(self, record: MissionRecord) -> None:
-        from ..messages import encode
-
-        self.hub.broadcast_priority(encode(mission_message(record)))
+        self.outbox.broadcast(mission_message(record))
         self._records.put(record)
 
     @property

@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING
 
 from ..errors import CommandRejected
 from ..protocol import ErrorCode, RequestId
-from .messages import targets_changed_message, targets_message
+from .messages import TargetsMessage, targets_changed_message, targets_message
 from .records import Target
 
 if TYPE_CHECKING:
-    from ..hub import Hub
+    from ..outbox import Outbox
     from .store import Store
 
 #: Runs a call on the store's thread; raises CommandRejected naming the database when it fails.
@@ -26,9 +26,9 @@ StoreCall = Callable[[Callable[["Store"], None], RequestId | None], Awaitable[No
 
 
 class TargetBook:
-    def __init__(self, cap: int, hub: Hub, store: StoreCall) -> None:
+    def __init__(self, cap: int, outbox: Outbox, store: StoreCall) -> None:
         self.cap = cap
-        self._hub, self._store = hub, store
+        self._outbox, self._store = outbox, store
         #: By id. Read by missions (read-only); changed only through this class.
         self.targets: dict[str, Target] = {}
         #: New ids being stored now: counted against the cap, so that additions checked at once cannot pass it.
@@ -66,8 +66,6 @@ class TargetBook:
     async def add(self, targets: list[Target], source: str, request_id: RequestId | None) -> list[Target]:
         """Add or replace ``targets``, all or none: stored first (a database that fails adds nothing), then every
         client is told what changed."""
-        from ..messages import encode
-
         self.check(targets, source, request_id)
         coming = {t.id for t in targets} - self.targets.keys() - self._coming
         self._coming |= coming  # held against the cap while the database works
@@ -76,11 +74,9 @@ class TargetBook:
         finally:
             self._coming -= coming
         self.targets.update((t.id, t) for t in targets)
-        self._hub.broadcast_priority(encode(targets_changed_message(targets)))
+        self._outbox.broadcast(targets_changed_message(targets))
         return targets
 
-    def message(self) -> bytes:
+    def message(self) -> TargetsMessage:
         """The whole book, for a client that just connected."""
-        from ..messages import encode
-
-        return encode(targets_message(list(self.targets.values())))
+        return targets_message(list(self.targets.values()))
