@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 from relay.backends.zenoh_keys import GID_SIZE, Attachment, topic_key, topic_selector  # noqa: E402
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
 from relay.errors import ConfigError  # noqa: E402
-from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
+from relay.geometry import quaternion_to_yaw  # noqa: E402
 from relay.ros_env import typestore  # noqa: E402
 from relay.rosmsg import POSE_TYPES, image_type  # noqa: E402
 from relay.sim import navigator as nav  # noqa: E402
@@ -47,21 +47,12 @@ from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from fake_nav2 import add_nav2_arguments, nav2_ready  # noqa: E402
 from fake_nav2_zenoh import ZenohNav2, ZenohWatchdogs  # noqa: E402
+from fake_zenoh_messages import SimMessages  # noqa: E402
 
 logger = logging.getLogger("fake_fleet_zenoh")
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 SCAN_RATE = 10.0
-#: Sensor values as their messages carry them (ratios where ROS uses them: relay.rosmsg reports percent).
-_SENSOR_FIELDS = {
-    "Float32": ("data", 1.0),
-    "Float64": ("data", 1.0),
-    "Temperature": ("temperature", 1.0),
-    "RelativeHumidity": ("relative_humidity", 0.01),
-    "FluidPressure": ("fluid_pressure", 1.0),
-    "Illuminance": ("illuminance", 1.0),
-    "BatteryState": ("percentage", 0.01),
-}
 
 
 class FakeZenohFleet:
@@ -71,7 +62,7 @@ class FakeZenohFleet:
     ) -> None:  # fmt: skip
         self.zenoh, self.session, self.config, self.domain = zenoh, session, config, domain
         self.store = typestore()
-        self.t = self.store.types
+        self.messages = SimMessages(self.store)
         self.lock = threading.Lock()  # the world is stepped here and commanded from Zenoh's threads
         self.world = SimWorld(config, self._on_nav)
         self.scanner = LaserScanner(self.world.grid)
@@ -111,9 +102,7 @@ class FakeZenohFleet:
         publisher.put(bytes(self.store.serialize_cdr(message, type_name)), attachment=attachment)
 
     def header(self, frame: str) -> Any:
-        now = time.time()
-        stamp = self.t["builtin_interfaces/msg/Time"](sec=int(now), nanosec=int((now - int(now)) * 1e9))
-        return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+        return self.messages.header(frame)
 
     def _declare(self, robot: Robot) -> None:
         name = robot.name
@@ -199,39 +188,11 @@ class FakeZenohFleet:
             time.sleep(dt)
 
     def _publish_poses(self) -> None:
-        t = self.t
         for robot in self.config.robots:
             publisher = self.publishers.get(f"{robot.name}/pose")
-            if publisher is None:
-                continue
-            state = self.world.robots[robot.name].state
-            qx, qy, qz, qw = yaw_to_quaternion(float(state.yaw))
-            pose = t["geometry_msgs/msg/Pose"](
-                position=t["geometry_msgs/msg/Point"](x=float(state.x), y=float(state.y), z=0.0),
-                orientation=t["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw),
-            )
-            source = robot.pose.source
-            covariance = np.zeros(36)
-            if source == "odom":
-                vector = t["geometry_msgs/msg/Vector3"]
-                twist = t["geometry_msgs/msg/Twist"](
-                    linear=vector(x=float(state.linear), y=0.0, z=0.0),
-                    angular=vector(x=0.0, y=0.0, z=float(state.angular)),
-                )
-                message = t["nav_msgs/msg/Odometry"](
-                    header=self.header(robot.pose.odom_frame),
-                    child_frame_id=robot.pose.base_frame,
-                    pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
-                    twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=covariance),
-                )
-            elif source == "amcl_pose":
-                message = t["geometry_msgs/msg/PoseWithCovarianceStamped"](
-                    header=self.header(robot.pose.map_frame),
-                    pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=covariance),
-                )
-            else:
-                message = t["geometry_msgs/msg/PoseStamped"](header=self.header(robot.pose.map_frame), pose=pose)
-            self.put(publisher, message, POSE_TYPES[source])
+            if publisher is not None:
+                message, type_name = self.messages.pose(robot, self.world.robots[robot.name].state)
+                self.put(publisher, message, type_name)
 
     def _publish_sensors(self) -> None:
         for robot in self.config.robots:
@@ -239,35 +200,8 @@ class FakeZenohFleet:
                 readings = self.world.readings(robot.name)
             for sensor_name, value in readings:
                 sensor = next(s for s in robot.sensors if s.name == sensor_name)
-                cls = sensor.type.rsplit("/", 1)[-1]
-                fields: dict[str, Any]
-                if cls == "Int32":
-                    fields = {"data": round(value)}
-                else:
-                    field, scale = _SENSOR_FIELDS[cls]
-                    fields = {field: float(value) * scale}
-                    if cls not in ("Float32", "Float64"):
-                        fields = self._full(sensor.type, {"header": self.header(f"{robot.name}/base_link"), **fields})
-                message = self.t[sensor.type](**fields)
+                message = self.messages.sensor(sensor.type, value, f"{robot.name}/base_link")
                 self.put(self.publishers[f"{robot.name}/{sensor_name}"], message, sensor.type)
-
-    def _full(self, type_name: str, given: dict[str, Any]) -> dict[str, Any]:
-        """Every field of a message type, zero/empty where not ``given`` (BatteryState has many)."""
-        out: dict[str, Any] = {}
-        for name, field in self.t[type_name].__dataclass_fields__.items():
-            if name == "__msgtype__":
-                continue
-            if name in given:
-                out[name] = given[name]
-            elif field.type in ("float", "int"):
-                out[name] = 0 if field.type == "int" else 0.0
-            elif field.type == "bool":
-                out[name] = False
-            elif field.type == "str":
-                out[name] = ""
-            else:
-                out[name] = np.zeros(0, np.float32) if "ndarray" in str(field.type) else []
-        return out
 
     def _publish_scans(self) -> None:
         for robot in self.config.robots:
@@ -276,29 +210,11 @@ class FakeZenohFleet:
                 continue
             state = self.world.robots[robot.name].state
             ranges = self.scanner.scan(state.x, state.y, state.yaw).astype(np.float32)
-            s = self.scanner
-            message = self.t["sensor_msgs/msg/LaserScan"](
-                header=self.header(f"{robot.name}/base_scan"), angle_min=s.angle_min,
-                angle_max=s.angle_min + s.angle_increment * (len(ranges) - 1), angle_increment=s.angle_increment,
-                time_increment=0.0, scan_time=1.0 / SCAN_RATE, range_min=s.range_min, range_max=s.range_max,
-                ranges=ranges, intensities=np.zeros(0, np.float32),
-            )  # fmt: skip
+            message = self.messages.scan(self.scanner, ranges, f"{robot.name}/base_scan", SCAN_RATE)
             self.put(publisher, message, "sensor_msgs/msg/LaserScan")
 
     def _publish_map(self) -> None:
-        grid, t = self.world.grid, self.t
-        origin = t["geometry_msgs/msg/Pose"](
-            position=t["geometry_msgs/msg/Point"](x=grid.origin_x, y=grid.origin_y, z=0.0),
-            orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
-        )
-        zero = t["builtin_interfaces/msg/Time"](sec=0, nanosec=0)
-        info = t["nav_msgs/msg/MapMetaData"](
-            map_load_time=zero, resolution=grid.resolution, width=grid.width, height=grid.height, origin=origin
-        )
-        data = (grid.occupied.astype(np.int8) * 100).ravel()
-        message = t["nav_msgs/msg/OccupancyGrid"](
-            header=self.header(self.config.robots[0].pose.map_frame), info=info, data=data
-        )
+        message = self.messages.map(self.world.grid, self.config.robots[0].pose.map_frame)
         attachment = Attachment(next(self._sequence), time.time_ns(), self._gid).encode()
         self.map_pub.put(bytes(self.store.serialize_cdr(message, "nav_msgs/msg/OccupancyGrid")), attachment=attachment)
 
@@ -324,23 +240,12 @@ class FakeZenohFleet:
             threading.Thread(target=self._camera_loop, args=args, daemon=True).start()
 
     def _camera_loop(self, robot: str, spec: Any, publisher: Any, lens: Any, period: float) -> None:
-        from relay.sim.camera import rgb_to_jpeg
-
         while self.running:
             started = time.monotonic()
             if publisher.matching_status.matching:
                 state = self.world.robots[robot].state
                 rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
-                header = self.header(f"{robot}/camera_{spec.name}")
-                if spec.compressed:
-                    message = self.t["sensor_msgs/msg/CompressedImage"](
-                        header=header, format="jpeg", data=np.frombuffer(rgb_to_jpeg(rgb), np.uint8)
-                    )
-                else:
-                    message = self.t["sensor_msgs/msg/Image"](
-                        header=header, height=rgb.shape[0], width=rgb.shape[1], encoding="rgb8", is_bigendian=0,
-                        step=rgb.shape[1] * 3, data=np.ascontiguousarray(rgb).reshape(-1),
-                    )  # fmt: skip
+                message = self.messages.image(rgb, spec.compressed, f"{robot}/camera_{spec.name}")
                 self.put(publisher, message, image_type(spec.compressed))
             time.sleep(max(0.05, period - (time.monotonic() - started)))
 
@@ -389,7 +294,8 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
-    print(f"fake_fleet_zenoh: {len(config.robots)} robots, a Zenoh router on {', '.join(listen)}", flush=True)  # noqa: T201
+    where = ", ".join(listen)
+    print(f"fake_fleet_zenoh: {len(config.robots)} robots, a Zenoh router on {where}", flush=True)  # noqa: T201
     try:
         fleet.run()
     finally:
