@@ -284,7 +284,7 @@ async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path:
             scan = await until(lambda: client.latest.get("robot1/scan"), 10, "robot1's laser scan")
             assert scan["frame"] == "robot1/base_scan" and len(scan["ranges"]) >= 90
             assert any(r is not None and r < scan["range_max"] for r in scan["ranges"]), "the walls are seen"
-            grid = await until(lambda: running.relay._live_map, 10, "the map (from /map, not robots.yaml)")
+            grid = await until(lambda: running.relay.router.live_map, 10, "the map (from /map, not robots.yaml)")
             assert (grid.width, grid.height) == (360, 200)
             start = client.pose("robot1")
             assert start is not None
