@@ -26,7 +26,7 @@ from .declare import (
     request,
     text,
 )
-from .fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId, number, show
+from .fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId, number, show, string
 
 #: Highest camera stream rate a client may ask for.
 MAX_STREAM_FPS: Final = 60.0
@@ -109,24 +109,13 @@ class Lease(WireCommand):
     force: bool = flag()
 
 
-def _robot_or_fleet(value: Any, field: str, identifier: str) -> str | None:
-    if value is None:
-        return None
-    if not isinstance(value, str) or not 0 < len(value) <= 64:
-        raise ProtocolError(
-            ErrorCode.BAD_REQUEST,
-            f"{identifier}: field '{field}' must be a string of 1 to 64 characters, got {show(value)}",
-        )
-    return value
-
-
 @command("estop")
 @dataclass(frozen=True, slots=True)
 class EStop(WireCommand):
     """Stop (and latch) every robot or one; ``reset`` lifts the latch (the robots stay stopped)."""
 
     id: RequestId = request()
-    robot: str | None = custom(_robot_or_fleet, "string")
+    robot: str | None = text(required=False)
     action: Literal["stop", "reset"] = choice(("stop", "reset"), default="stop")
 
     def check(self, frame: Frame) -> None:
@@ -141,9 +130,7 @@ class Ping(WireCommand):
 
 
 def _operator_name(value: Any, field: str, identifier: str) -> str:
-    raw = _robot_or_fleet(value, field, identifier)
-    if raw is None:
-        raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: missing field '{field}'")
+    raw = string({field: value}, field, identifier, required=True) or ""
     name = " ".join(raw.split())
     if not name or len(name) > MAX_NAME_LENGTH or not NAME_PATTERN.match(name):
         raise ProtocolError(
