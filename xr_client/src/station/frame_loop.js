@@ -95,7 +95,7 @@ export class FrameLoop {
       this.lastRender = start;
       stage.renderer.render(stage.scene, camera);
       if (!stage.presenting && menu.mode === 'pov')
-        hemisphere.renderInto(stage.renderer, stage.scene, views.overlay.povRect(), views.desktop.povLook);
+        hemisphere.renderInto(stage.renderer, stage.scene, views.overlay.povRect(), views.desktop.pov.look);
       // JS time of drawn frames only (update + render calls): what the frame budget is about.
       this.frameTimer.record(performance.now() - start);
       this.renders++;

@@ -32,7 +32,7 @@ export class ViewModes {
       // relative to the rig); the XR camera's own matrixWorld would lose the rig.
       const forward = camera.getWorldDirection(new THREE.Vector3());
       this.povYaw = Math.atan2(-forward.x, -forward.z);
-      this.views.desktop.povLook = { yaw: 0, pitch: 0, fov: 100 };
+      this.views.desktop.pov.reset();
     } else if (this.savedRig) {
       // Free Roam returns the operator where they were.
       rig.position.copy(this.savedRig.position);

@@ -4,17 +4,17 @@
  * the cursor), views by key (H frame the fleet, T top-down, F follow the selected robot: view/desktop_views.js),
  * fly with WASD/QE or the arrow keys when Teleop is off; click a robot to select it; with Goal on, press on
  * the floor for the position, drag for the heading, release to send; with Teleop on, WASD/arrows or a
- * gamepad's left stick drive the selected robot through the same 20 Hz loop, dead-zone and release rules.
- * In Robot POV, dragging inside the POV panel looks around the hemisphere. Listeners are added in the
- * constructor and removed in dispose().
+ * gamepad's left stick drive the selected robot through the same 20 Hz loop, dead-zone and release rules (the keys:
+ * view/desktop_keys.js). In Robot POV, dragging inside the POV panel looks around the hemisphere (view/pov_look.js).
+ * Listeners are added in the constructor and removed in dispose().
  */
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { keysToStick } from '../teleop.js';
-import { verdictText } from '../goal_verdict.js';
 import { DesktopViews } from './desktop_views.js';
+import { DesktopKeys } from './desktop_keys.js';
+import { PovLook } from './pov_look.js';
+import { CursorTip } from './cursor_tip.js';
 
-const FLY_SPEED = 4; // m/s
 const PICK_RADIUS = 24; // px: a click this close to a robot selects it
 
 export class DesktopControls {
@@ -26,13 +26,15 @@ export class DesktopControls {
    *   markPov: (x: number, y: number) => boolean}} host what the desktop controls read
    *   and drive, and nothing more
    * @param {HTMLElement} element the canvas' container (listens in the capture phase, before OrbitControls)
-   * @param {HTMLElement} povPanel
+   * @param {HTMLElement} povPanel the Robot POV panel (view/pov_look.js)
    */
   constructor(host, element, povPanel) {
     this.host = host;
     this.element = element;
-    this.povPanel = povPanel;
-    /** The desktop view while VR is presenting. @type {{position: THREE.Vector3, quaternion: THREE.Quaternion, target: THREE.Vector3} | null} */
+    /**
+     * The desktop view while VR is presenting.
+     * @type {{position: THREE.Vector3, quaternion: THREE.Quaternion, target: THREE.Vector3} | null}
+     */
     this.saved = null;
     this.orbit = new OrbitControls(host.camera, host.canvas);
     this.orbit.enableDamping = true;
@@ -48,11 +50,8 @@ export class DesktopControls {
       robotViews: host.robotViews,
       menu: host.menu,
     });
-    /** @type {Set<string>} */
-    this.keys = new Set();
-    /** Keys pressed while Teleop was on: they drove the robot, and never fly the camera (an E-STOP that turns
-     * Teleop off under a held W must not send the view away). Released, they are forgotten. @type {Set<string>} */
-    this.driving = new Set();
+    this.keys = new DesktopKeys(host, this.orbit, this.views);
+    this.pov = new PovLook(povPanel, host.markPov);
     this.raycaster = new THREE.Raycaster();
     this.pointer = new THREE.Vector2();
     /** @type {number | null} the pointer whose press is placing a goal */
@@ -62,10 +61,7 @@ export class DesktopControls {
     /** The robot a press in Goal mode landed on: the click selects it. @type {string | null} */
     this.selectOnUp = null;
     /** What a click would do, beside the cursor in Goal mode. */
-    this.tip = document.getElementById('cursor-tip');
-    this.povLook = { yaw: 0, pitch: 0, fov: 100 };
-    /** @type {{x: number, y: number, yaw: number, pitch: number} | null} */
-    this.povDrag = null;
+    this.tip = new CursorTip();
     /** @type {(() => void)[]} */
     this.unlisten = [];
     const on = (
@@ -80,36 +76,6 @@ export class DesktopControls {
     on(element, 'pointerdown', (e) => this.#pointerDown(e), { capture: true });
     on(window, 'pointermove', (e) => this.#pointerMove(e));
     on(window, 'pointerup', (e) => this.#pointerUp(e));
-    on(window, 'keydown', (e) => this.#key(e, true));
-    on(window, 'keyup', (e) => this.#key(e, false));
-    on(window, 'blur', () => (this.keys.clear(), this.driving.clear()));
-    on(povPanel, 'pointerdown', (e) => {
-      this.povDrag = { x: e.clientX, y: e.clientY, yaw: this.povLook.yaw, pitch: this.povLook.pitch };
-      povPanel.setPointerCapture(e.pointerId);
-    });
-    on(povPanel, 'pointermove', (e) => {
-      if (!this.povDrag) return;
-      const k = (this.povLook.fov / povPanel.clientHeight) * (Math.PI / 180);
-      this.povLook.yaw = this.povDrag.yaw + (e.clientX - this.povDrag.x) * k;
-      this.povLook.pitch = Math.max(-1.4, Math.min(1.4, this.povDrag.pitch + (e.clientY - this.povDrag.y) * k));
-    });
-    on(povPanel, 'pointerup', (e) => {
-      // A click that did not drag the view: with the Inspect tool, a target where that point of the image looks.
-      const drag = this.povDrag;
-      this.povDrag = null;
-      if (!drag || Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 4) return;
-      const rect = povPanel.getBoundingClientRect();
-      this.host.markPov(((e.clientX - rect.left) / rect.width) * 2 - 1, 1 - ((e.clientY - rect.top) / rect.height) * 2);
-    });
-    on(
-      povPanel,
-      'wheel',
-      (e) => {
-        e.preventDefault();
-        this.povLook.fov = Math.max(40, Math.min(140, this.povLook.fov + e.deltaY * 0.05));
-      },
-      { passive: false },
-    );
   }
 
   /** Entering VR: the headset drives the camera; the desktop view is kept to come back to. */
@@ -170,20 +136,7 @@ export class DesktopControls {
     const outcome = robot ? /** @type {const} */ ({ kind: 'select', robot }) : verdict;
     this.host.goalPointer.aim(point, outcome);
     // The same words beside the cursor: the marker's label is small seen from above the whole site.
-    const tip = this.tip;
-    if (tip) {
-      const text =
-        outcome.kind === 'goal'
-          ? `goal for ${this.host.menu.selected}`
-          : outcome.kind === 'none'
-            ? outcome.reason
-            : verdictText(outcome);
-      tip.textContent = text;
-      tip.dataset.kind = outcome.kind;
-      tip.style.left = `${e.clientX + 16}px`;
-      tip.style.top = `${e.clientY + 16}px`;
-      tip.hidden = !text;
-    }
+    this.tip.show(outcome, this.host.menu.selected, e);
     return outcome;
   }
 
@@ -283,72 +236,16 @@ export class DesktopControls {
     return best;
   }
 
-  /** @param {KeyboardEvent} e @param {boolean} down */
-  #key(e, down) {
-    const target = /** @type {HTMLElement} */ (e.target);
-    const typing = Boolean(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA'));
-    const code = e.code;
-    // Space and Esc are E-STOP from anywhere on the page, a dialog open or not (a dialog that kept them would hold
-    // the stop back while it waits for an answer). Space types a space only in a field whose text may have one (the
-    // operator's name: data-space="text"); elsewhere it never reaches a focused button as a click. Esc keeps its
-    // default too: it also cancels the dialog it was pressed in.
-    if (code === 'Escape' || (code === 'Space' && !(typing && target.dataset.space === 'text'))) {
-      if (code === 'Space') e.preventDefault();
-      if (down && !e.repeat && !this.host.presenting()) this.host.actions.pressMenu('estop');
-      return;
-    }
-    if (typing) return;
-    const view = { KeyH: 'frame', Home: 'frame', KeyT: 'top', KeyF: 'follow' }[code];
-    if (view && !e.ctrlKey && !e.metaKey && !e.altKey) {
-      if (down && !e.repeat && !this.host.presenting()) this.views.choose(view);
-      return;
-    }
-    if (
-      !['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'].includes(
-        code,
-      )
-    )
-      return;
-    e.preventDefault();
-    if (down) this.keys.add(code);
-    else this.keys.delete(code);
-    if (down && this.host.menu.tool === 'teleop') this.driving.add(code);
-    if (!down) this.driving.delete(code);
-    if (this.host.menu.tool === 'teleop') this.pollTeleop();
-  }
-
   /** Keyboard and gamepad into the teleop loop: called on key changes and by the 20 Hz timer. */
+  /** Keyboard and gamepad into the teleop loop: called by the station's 100 Hz timer (view/desktop_keys.js). */
   pollTeleop() {
-    if (this.host.menu.tool !== 'teleop' || this.host.presenting()) return;
-    const [kx, ky] = keysToStick(this.keys);
-    this.host.actions.driveStick('keyboard', kx, ky);
-    const pad = [...(navigator.getGamepads?.() ?? [])].find((g) => g && g.mapping === 'standard' && g.connected);
-    if (pad) this.host.actions.driveStick('gamepad', pad.axes[0] ?? 0, pad.axes[1] ?? 0);
+    this.keys.pollTeleop();
   }
 
   /** @param {number} dt s */
   update(dt) {
-    if (this.tip && !this.tip.hidden && (this.host.menu.tool !== 'goal' || this.host.menu.mode !== 'free_roam'))
-      this.tip.hidden = true;
-    const flying = new Set([...this.keys].filter((k) => !this.driving.has(k)));
-    if (this.host.menu.tool !== 'teleop' && flying.size > 0) {
-      // Fly: move the camera and its orbit target together, along the ground.
-      const [x, y] = keysToStick(flying);
-      const up = (flying.has('KeyE') ? 1 : 0) - (flying.has('KeyQ') ? 1 : 0);
-      const forward = new THREE.Vector3();
-      this.host.camera.getWorldDirection(forward);
-      forward.y = 0;
-      forward.normalize();
-      const right = new THREE.Vector3(-forward.z, 0, forward.x);
-      const step = new THREE.Vector3()
-        .addScaledVector(forward, -y)
-        .addScaledVector(right, x)
-        .addScaledVector(new THREE.Vector3(0, 1, 0), up)
-        .multiplyScalar(FLY_SPEED * dt);
-      this.host.camera.position.add(step);
-      this.orbit.target.add(step);
-      this.views.auto = null;
-    }
+    this.tip.update(this.host.menu.tool === 'goal' && this.host.menu.mode === 'free_roam');
+    this.keys.fly(dt);
     this.views.update(performance.now());
     this.orbit.update();
   }
@@ -356,6 +253,8 @@ export class DesktopControls {
   dispose() {
     for (const off of this.unlisten) off();
     this.unlisten = [];
+    this.keys.dispose();
+    this.pov.dispose();
     this.views.dispose();
     this.orbit.dispose();
   }

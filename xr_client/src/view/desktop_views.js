@@ -11,11 +11,12 @@
  *   robot, whatever the operator's angle and zoom; panning or flying away ends it. In Robot POV the viewed robot
  *   is followed the same way, so the POV panel never hides it.
  * - The compass points to the map's north (REP 103: +y) as the view shows it; the scale bar is a round length at
- *   the orbit centre's distance.
+ *   the orbit centre's distance (view/map_hud.js).
  */
 import * as THREE from 'three';
 import { mapToScene } from '../frames.js';
-import { freeRect, scaleBar } from '../layout.js';
+import { freeRect } from '../layout.js';
+import { MapHud } from './map_hud.js';
 
 /** How often the panels' rectangles are read (ms): reading them forces a layout, never per frame. */
 const LAYOUT_EVERY = 250;
@@ -42,7 +43,6 @@ export class DesktopViews {
     this.offsetKey = '';
     /** Where the followed robot was last frame (scene), or null. @type {THREE.Vector3 | null} */
     this.followed = null;
-    this.compass = 0;
     /** The last framing ('frame' or 'top') until the operator moves the view: while set, a change of the panels
      * (one opens, the window is resized) frames again. @type {'frame' | 'top' | null} */
     this.auto = null;
@@ -52,11 +52,8 @@ export class DesktopViews {
     this.width = undefined;
     /** @type {number | undefined} */
     this.height = undefined;
-    this.scale = { metres: 1, px: 0, text: '' };
-    this.hud = document.getElementById('map-hud');
-    this.needle = /** @type {HTMLElement | null} */ (this.hud?.querySelector('.needle') ?? null);
-    this.bar = /** @type {HTMLElement | null} */ (this.hud?.querySelector('.bar') ?? null);
-    this.barText = /** @type {HTMLElement | null} */ (this.hud?.querySelector('.bar-text') ?? null);
+    /** The compass and the scale bar. */
+    this.mapHud = new MapHud(host);
     this.toolbar = document.getElementById('views');
     /** @type {(() => void)[]} */
     this.unlisten = [];
@@ -148,10 +145,13 @@ export class DesktopViews {
     }
     const pov = this.host.menu.mode === 'pov';
     if (this.mode === 'follow' || pov) this.#track(pov);
-    this.#drawHud();
+    this.mapHud.update(this.free, this.width ?? 1, this.height ?? 1);
   }
 
-  /** Read the panels and centre the projection on the free part of the window; true when that part changed. @param {number} now */
+  /**
+   * Read the panels and centre the projection on the free part of the window; true when that part changed.
+   * @param {number} now
+   */
   layout(now) {
     this.lastLayout = now;
     const { canvas, camera } = this.host;
@@ -253,40 +253,6 @@ export class DesktopViews {
     camera.position.copy(centre).addScaledVector(direction, far);
     orbit.target.copy(centre);
     orbit.update();
-  }
-
-  /** The compass and the scale bar, written only when they change. */
-  #drawHud() {
-    const { camera, orbit, fleet } = this.host;
-    const t = fleet.scene.mapToScene;
-    const a = new THREE.Vector3(...mapToScene(t, 0, 0)).sub(new THREE.Vector3(...mapToScene(t, 0, -1)));
-    const centre = orbit.target.clone();
-    const p0 = centre.clone().project(camera);
-    const p1 = centre.clone().add(a).project(camera);
-    const w = this.width ?? 1;
-    const h = this.height ?? 1;
-    // Screen angle of north, clockwise from up (CSS rotate).
-    const sx = ((p1.x - p0.x) / 2) * w;
-    const sy = ((p1.y - p0.y) / 2) * h;
-    const compass = Math.round((Math.atan2(sx, sy) * 180) / Math.PI);
-    // Pixels per metre across the screen at the orbit centre.
-    const right = new THREE.Vector3(1, 0, 0).applyQuaternion(camera.quaternion);
-    const p2 = centre.clone().add(right).project(camera);
-    const scale = scaleBar(Math.hypot(((p2.x - p0.x) / 2) * w, ((p2.y - p0.y) / 2) * h));
-    if (compass !== this.compass && this.needle) this.needle.style.transform = `rotate(${compass}deg)`;
-    this.compass = compass;
-    if (scale.text !== this.scale.text || Math.abs(scale.px - this.scale.px) > 0.5) {
-      if (this.bar) this.bar.style.width = `${scale.px.toFixed(1)}px`;
-      if (this.barText) this.barText.textContent = scale.text;
-    }
-    this.scale = scale;
-    if (this.hud) {
-      // In the free part's top-left corner: over the view, never under a panel.
-      const left = `${this.free.left + 4}px`;
-      const top = `${this.free.top + 4}px`;
-      if (this.hud.style.left !== left) this.hud.style.left = left;
-      if (this.hud.style.top !== top) this.hud.style.top = top;
-    }
   }
 
   dispose() {

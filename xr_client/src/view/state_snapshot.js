@@ -272,8 +272,8 @@ function viewState(app) {
     target: views.host.orbit.target.toArray(),
     distance: app.stage.camera.position.distanceTo(views.host.orbit.target),
     polar: views.host.orbit.getPolarAngle(),
-    compass: views.compass,
-    scale: { text: views.scale.text, px: views.scale.px },
+    compass: views.mapHud.compass,
+    scale: { text: views.mapHud.scale.text, px: views.mapHud.scale.px },
     panels: { ...app.views.overlay.panels.open },
     compact: document.body.classList.contains('compact'),
   };
