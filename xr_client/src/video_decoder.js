@@ -16,14 +16,18 @@
  * holds a decoder's pool of frames (a hardware decoder stalls when its few output buffers are not returned).
  */
 
-/** Packets waiting in the decoder beyond which it is behind (1 s at 30 fps): it starts over at the next keyframe.
- * A software decoder on this 2-core machine keeps 0-2 queued at 480x480 15 fps; a stuck one would grow without end. */
+/**
+ * Packets waiting in the decoder beyond which it is behind (1 s at 30 fps): it starts over at the next keyframe. A
+ * software decoder on this 2-core machine keeps 0-2 queued at 480x480 15 fps; a stuck one would grow without end.
+ */
 export const MAX_DECODE_QUEUE = 30;
 /** Packets kept while the browser says whether it decodes the codec (a promise: a few ms; 1 s at 30 fps at most). */
 export const MAX_PENDING = 30;
-/** Decoder errors in a row, with no picture between them, after which the stream is not decodable here: each one
+/**
+ * Decoder errors in a row, with no picture between them, after which the stream is not decodable here: each one
  * costs a keyframe from the relay (about a second of nothing on screen), so a decoder that fails every keyframe it
- * is given falls back to JPEG instead of asking forever. */
+ * is given falls back to JPEG instead of asking forever.
+ */
 export const MAX_FAILURES = 3;
 
 /**
@@ -52,9 +56,10 @@ export function streamCodec(camera, here) {
 export class H264Decoder {
   /**
    * @param {DecoderPlatform} platform
-   * @param {{restart: (why: string) => void, unsupported: (codec: string) => void, decoded?: (header: FrameHeader) => void}} host
-   *   `restart`: ask the relay for the stream again (a keyframe comes first); `unsupported`: this browser cannot
-   *   decode the stream's codec; `decoded`: a picture came out of the decoder (its packet's header)
+   * @param {{restart: (why: string) => void, unsupported: (codec: string) => void,
+   *   decoded?: (header: FrameHeader) => void}} host `restart`: ask the relay for the stream again (a keyframe
+   *   comes first); `unsupported`: this browser cannot decode the stream's codec; `decoded`: a picture came out of
+   *   the decoder (its packet's header)
    */
   constructor(platform, host) {
     this.platform = platform;
@@ -71,8 +76,8 @@ export class H264Decoder {
     this.generation = 0;
     /** @type {{header: FrameHeader, payload: Uint8Array}[]} packets that came while the support check ran */
     this.pending = [];
-    /** @type {Map<string, boolean>} the browser's answer per codec string (isConfigSupported, asked once) */
-    this.support = new Map();
+    /** Whether the browser decodes a codec string: asked once. */
+    this.support = new CodecSupport(platform);
     /** @type {Map<number, FrameHeader>} header of each packet in the decoder, by its chunk timestamp (seq) */
     this.headers = new Map();
     /** @type {{frame: FrameLike, header: FrameHeader} | null} the newest decoded frame, until taken */
@@ -158,27 +163,23 @@ export class H264Decoder {
     return held;
   }
 
-  /** Is the browser able to decode `codec`? Asked once per codec string; packets wait meanwhile. @param {string} codec @param {{header: FrameHeader, payload: Uint8Array}} first */
+  /**
+   * Is the browser able to decode `codec`? Asked once per codec string; packets wait meanwhile.
+   * @param {string} codec @param {{header: FrameHeader, payload: Uint8Array}} first
+   */
   #check(codec, first) {
     this.#closeDecoder();
     this.pending = [first];
-    const known = this.support.get(codec);
+    const known = this.support.known(codec);
     if (known !== undefined) {
       this.#checked(codec, known);
       return;
     }
     this.phase = 'checking';
     const generation = this.generation;
-    const answer = codec ? this.platform.supported({ codec, optimizeForLatency: true }) : Promise.resolve(false);
-    answer
-      .then(
-        (ok) => ok,
-        () => false, // a malformed codec string rejects (TypeError): not decodable either
-      )
-      .then((ok) => {
-        this.support.set(codec, ok);
-        if (generation === this.generation && this.phase === 'checking') this.#checked(codec, ok);
-      });
+    this.support.ask(codec).then((ok) => {
+      if (generation === this.generation && this.phase === 'checking') this.#checked(codec, ok);
+    });
   }
 
   /** @param {string} codec @param {boolean} ok */
@@ -300,5 +301,34 @@ export class H264Decoder {
 
   dispose() {
     this.stop();
+  }
+}
+
+/** The browser's answer per codec string (isConfigSupported), asked once and remembered. */
+class CodecSupport {
+  /** @param {DecoderPlatform} platform */
+  constructor(platform) {
+    this.platform = platform;
+    /** @type {Map<string, boolean>} */
+    this.answers = new Map();
+  }
+
+  /** The answer, if the browser was asked already. @param {string} codec */
+  known(codec) {
+    return this.answers.get(codec);
+  }
+
+  /** Ask the browser (no codec string: not decodable). @param {string} codec @returns {Promise<boolean>} */
+  ask(codec) {
+    const answer = codec ? this.platform.supported({ codec, optimizeForLatency: true }) : Promise.resolve(false);
+    return answer
+      .then(
+        (ok) => ok,
+        () => false, // a malformed codec string rejects (TypeError): not decodable either
+      )
+      .then((ok) => {
+        this.answers.set(codec, ok);
+        return ok;
+      });
   }
 }

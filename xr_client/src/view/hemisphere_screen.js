@@ -43,7 +43,8 @@ export class HemisphereScreen {
     this.material.onBeforeCompile = (shader) => {
       shader.fragmentShader = shader.fragmentShader.replace(
         '#include <map_fragment>',
-        '#include <map_fragment>\nif (vMapUv.x < 0.0 || vMapUv.x > 1.0 || vMapUv.y < 0.0 || vMapUv.y > 1.0) diffuseColor.rgb = vec3(0.0);',
+        '#include <map_fragment>\n' +
+          'if (vMapUv.x < 0.0 || vMapUv.x > 1.0 || vMapUv.y < 0.0 || vMapUv.y > 1.0) diffuseColor.rgb = vec3(0.0);',
       );
     };
     this.geometry = new THREE.BufferGeometry();
@@ -59,7 +60,10 @@ export class HemisphereScreen {
     floor.layers.set(POV_LAYER);
     this.group.add(floor);
     this.lensKey = '';
-    /** The lens the cap was built for, and the image size its intrinsics are in. @type {{lens: import('../lens.js').Lens, width: number, height: number} | null} */
+    /**
+     * The lens the cap was built for, and the image size its intrinsics are in.
+     * @type {{lens: import('../lens.js').Lens, width: number, height: number} | null}
+     */
     this.lens = null;
     /** @type {ImageBitmap | VideoFrame | null} the picture on the texture (closed when replaced) */
     this.source = null;
@@ -92,7 +96,7 @@ export class HemisphereScreen {
     this.height = height;
     this.placeholder.width = width;
     this.placeholder.height = height;
-    this.#drawPlaceholder(this.placeholder, 'no image yet: Snapshot or Live');
+    drawPlaceholder(this.placeholder, 'no image yet: Snapshot or Live');
     /** @type {THREE.Texture<HTMLCanvasElement | ImageBitmap | VideoFrame>} */
     const texture = new THREE.Texture(/** @type {HTMLCanvasElement | ImageBitmap | VideoFrame} */ (this.placeholder));
     texture.colorSpace = THREE.SRGBColorSpace;
@@ -215,34 +219,10 @@ export class HemisphereScreen {
   clear(text) {
     this.source?.close();
     this.source = null;
-    this.#drawPlaceholder(this.placeholder, text);
+    drawPlaceholder(this.placeholder, text);
     this.texture.image = this.placeholder;
     this.texture.needsUpdate = true;
     this.lastIdentifier = '';
-  }
-
-  /** @param {HTMLCanvasElement} canvas @param {string} text */
-  #drawPlaceholder(canvas, text) {
-    const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
-    ctx.fillStyle = '#10141c';
-    ctx.fillRect(0, 0, canvas.width, canvas.height);
-    ctx.strokeStyle = '#2c3444';
-    ctx.lineWidth = canvas.width / 200;
-    ctx.beginPath();
-    ctx.arc(
-      canvas.width / 2,
-      canvas.height / 2,
-      Math.min(canvas.width, canvas.height) / 2 - ctx.lineWidth,
-      0,
-      2 * Math.PI,
-    );
-    ctx.stroke();
-    ctx.fillStyle = '#9aa5b8';
-    ctx.font = font(canvas.width / 26);
-    ctx.textAlign = 'center';
-    ctx.textBaseline = 'middle';
-    // A canvas is flipped on upload (texture.flipY), like the frames that are decoded flipped: upright.
-    ctx.fillText(text, canvas.width / 2, canvas.height / 2);
   }
 
   /**
@@ -282,4 +262,31 @@ export class HemisphereScreen {
     this.floorMaterial.dispose();
     this.group.removeFromParent();
   }
+}
+
+/**
+ * The picture shown while there is none: a dark disc and the reason, upright once uploaded.
+ * @param {HTMLCanvasElement} canvas @param {string} text
+ */
+function drawPlaceholder(canvas, text) {
+  const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+  ctx.fillStyle = '#10141c';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  ctx.strokeStyle = '#2c3444';
+  ctx.lineWidth = canvas.width / 200;
+  ctx.beginPath();
+  ctx.arc(
+    canvas.width / 2,
+    canvas.height / 2,
+    Math.min(canvas.width, canvas.height) / 2 - ctx.lineWidth,
+    0,
+    2 * Math.PI,
+  );
+  ctx.stroke();
+  ctx.fillStyle = '#9aa5b8';
+  ctx.font = font(canvas.width / 26);
+  ctx.textAlign = 'center';
+  ctx.textBaseline = 'middle';
+  // A canvas is flipped on upload (texture.flipY), like the frames that are decoded flipped: upright.
+  ctx.fillText(text, canvas.width / 2, canvas.height / 2);
 }
