@@ -8,8 +8,8 @@ import { FRAME_PREFIX_BYTES } from './protocol.js';
 
 /**
  * @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number,
- *   lens: import('./lens.js').Lens, request_id: string | number | null, keyframe?: boolean, codec?: string}} FrameHeader
- *   (`keyframe` and `codec`: H.264 frames only)
+ *   lens: import('./lens.js').Lens, request_id: string | number | null, keyframe?: boolean, codec?: string}}
+ *   FrameHeader (`keyframe` and `codec`: H.264 frames only)
  */
 
 /**

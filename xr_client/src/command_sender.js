@@ -45,9 +45,15 @@ export class CommandSender {
   snapshots = { requested: 0, acked: 0, failed: 0, lastError: '' };
   /** Ids of snapshot requests awaiting their ack or error. @type {Set<string>} */
   pendingSnapshots = new Set();
-  /** Ids of H.264 stream requests awaiting their ack or error (a relay may refuse video for a camera). @type {Set<string>} */
+  /**
+   * Ids of H.264 stream requests awaiting their ack or error (a relay may refuse video for a camera).
+   * @type {Set<string>}
+   */
   pendingVideo = new Set();
-  /** Called with the relay's `error` when it refuses a stream asked for as H.264 (view/camera_feed.js falls back). @type {(error: import('./protocol.js').ErrorMessage) => void} */
+  /**
+   * Called with the relay's `error` when it refuses a stream asked for as H.264 (view/camera_feed.js falls back).
+   * @type {(error: import('./protocol.js').ErrorMessage) => void}
+   */
   onVideoRefused = () => {};
 
   /**
@@ -179,7 +185,8 @@ export class CommandSender {
 
   /**
    * Change a finding's status, note or region.
-   * @param {string} finding @param {{status?: 'ok' | 'anomaly' | 'needs_review', note?: string, region?: number[][] | null}} fields
+   * @param {string} finding
+   * @param {{status?: 'ok' | 'anomaly' | 'needs_review', note?: string, region?: number[][] | null}} fields
    */
   findingUpdate(finding, fields) {
     return this.#send({ identifier: 'finding/update', finding, ...fields });
@@ -190,7 +197,10 @@ export class CommandSender {
     return this.#send({ identifier: 'target/add', target, x: round(x), y: round(y) });
   }
 
-  /** A target where a pixel of a capture's image looks (the relay casts the lens ray into the map). @param {string} target @param {string} capture @param {number} u @param {number} v */
+  /**
+   * A target where a pixel of a capture's image looks (the relay casts the lens ray into the map).
+   * @param {string} target @param {string} capture @param {number} u @param {number} v
+   */
   targetFromPixel(target, capture, u, v) {
     return this.#send({ identifier: 'target/add', target, capture, u: Math.round(u), v: Math.round(v) });
   }
@@ -204,7 +214,10 @@ export class CommandSender {
     return this.#send({ identifier: 'target/add', target, robot, u: Math.round(u), v: Math.round(v) });
   }
 
-  /** Ask the relay to segment the region around a pixel of a capture's image. @param {string} capture @param {number} u @param {number} v */
+  /**
+   * Ask the relay to segment the region around a pixel of a capture's image. @param {string} capture @param {number} u
+   * @param {number} v
+   */
   region(capture, u, v) {
     return this.#send({ identifier: 'region', capture, u: Math.round(u), v: Math.round(v) });
   }

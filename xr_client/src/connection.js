@@ -65,7 +65,8 @@ export async function accessRefusal(location, token, fetcher = fetch) {
 export class RelayConnection extends EventTarget {
   /**
    * @param {string} url
-   * @param {{now?: () => number, refusal?: () => Promise<string | null>, link?: import('./worker_link.js').WorkerLink | null}} [options]
+   * @param {{now?: () => number, refusal?: () => Promise<string | null>,
+   *   link?: import('./worker_link.js').WorkerLink | null}} [options]
    *   `refusal` asks why a handshake failed (accessRefusal); a reason stops the retries. `link`: the socket worker
    *   (null: sockets on this thread).
    */

@@ -99,7 +99,8 @@ export class CueRules {
 
 /**
  * The controller pulse for a cue (null: none): warnings only near the selected robot, the rest always.
- * @param {Cue} cue @param {{selected: {x: number, y: number, name: string} | null, at: {x: number, y: number} | null}} where
+ * @param {Cue} cue
+ * @param {{selected: {x: number, y: number, name: string} | null, at: {x: number, y: number} | null}} where
  * @returns {{intensity: number, ms: number, pulses: number} | null}
  */
 export function hapticFor(cue, where) {

@@ -14,7 +14,10 @@ const IMAGE_BOX = { x: MARGIN, y: HEADER, w: 600, h: CARD_PX[1] - HEADER - MARGI
 const COLUMN_X = IMAGE_BOX.x + IMAGE_BOX.w + MARGIN;
 const COLUMN_W = CARD_PX[0] - COLUMN_X - MARGIN;
 
-/** @typedef {{id: string, label: string, x: number, y: number, w: number, h: number, active: boolean, enabled: boolean}} CardButton */
+/**
+ * @typedef {{id: string, label: string, x: number, y: number, w: number, h: number, active: boolean,
+ *   enabled: boolean}} CardButton
+ */
 /** @typedef {{x: number, y: number, w: number, h: number}} Rect */
 
 /**
@@ -89,7 +92,8 @@ export function cardHit(layout, imageSize, px, py) {
 
 /**
  * The canvas point of a capture's pixel (the outline is drawn there; tests aim at it).
- * @param {Rect} image the image's rectangle on the card @param {[number, number]} imageSize @param {number} u @param {number} v
+ * @param {Rect} image the image's rectangle on the card @param {[number, number]} imageSize @param {number} u
+ * @param {number} v
  * @returns {[number, number]}
  */
 export function pixelToCard(image, imageSize, u, v) {

@@ -15,8 +15,10 @@ import { parseIdentifier } from './protocol.js';
  * @typedef {import('./protocol.js').SensorMessage} Reading
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
  * @typedef {{x: number, y: number, yaw: number, stamp: number}} Pose the part of a PoseMessage the client keeps
- * @typedef {{message: import('./protocol.js').NavMessage, at: number}} NavNews the latest `<robot>/nav`, and when it came (page ms)
- * @typedef {{description: RobotDescription, pose: Pose | null, status: Status | null, sensors: Map<string, Reading>, nav: NavNews | null}} RobotEntry
+ * @typedef {{message: import('./protocol.js').NavMessage, at: number}} NavNews the latest `<robot>/nav`, and when it
+ *   came (page ms)
+ * @typedef {{description: RobotDescription, pose: Pose | null, status: Status | null,
+ *   sensors: Map<string, Reading>, nav: NavNews | null}} RobotEntry
  * @typedef {{url: string | null, mapToScene: import('./frames.js').MapToScene}} Scene
  */
 
@@ -29,7 +31,10 @@ export class FleetModel {
     /** Where an operator sees the most robots from (the relay's hello.vantage; map frame), if known.
      * @type {import('./protocol.js').VantageDescription | null} */
     this.vantage = null;
-    /** The scene file's named areas (hello.rooms), written on the twin's floor. @type {import('./protocol.js').RoomDescription[]} */
+    /**
+     * The scene file's named areas (hello.rooms), written on the twin's floor.
+     * @type {import('./protocol.js').RoomDescription[]}
+     */
     this.rooms = [];
     this.clientId = '';
     /** Connected clients by id -> the name each gave (the relay's `operators`). @type {Map<string, string>} */

@@ -11,7 +11,10 @@
  * Rz(yaw)·p + (x, y, z) in the scene's ROS frame, then converted to glTF as above.
  */
 
-/** @typedef {import('./protocol.js').Transform2D} MapToScene where the map frame sits in the twin (hello.scene.map_to_scene) */
+/**
+ * @typedef {import('./protocol.js').Transform2D} MapToScene where the map frame sits in the twin
+ * (hello.scene.map_to_scene)
+ */
 
 /**
  * @param {number} x @param {number} y @param {number} z

@@ -53,7 +53,10 @@ export class Freshness {
     return Math.max(MIN_STALE_MS, STALE_INTERVALS * (this.usual(key) ?? 0));
   }
 
-  /** Whether `key` has been silent past its limit (never seen is not stale: it is unknown). @param {string} key @param {number} now */
+  /**
+   * Whether `key` has been silent past its limit (never seen is not stale: it is unknown). @param {string} key
+   * @param {number} now
+   */
   stale(key, now) {
     const age = this.age(key, now);
     return age !== null && age > this.limit(key);
@@ -65,7 +68,10 @@ export class Freshness {
   }
 }
 
-/** A duration for an operator, in whole units (labels redraw only when it changes): "1 s", "12 s", "3 min". @param {number} ms */
+/**
+ * A duration for an operator, in whole units (labels redraw only when it changes): "1 s", "12 s", "3 min".
+ * @param {number} ms
+ */
 export function formatSilence(ms) {
   const s = Math.floor(ms / 1000);
   if (s < 120) return `${Math.max(1, s)} s`;

@@ -48,7 +48,9 @@ export function position(m) {
   return [m[12], m[13], m[14]];
 }
 
-/** The palm's normal in the matrix's frame: the wrist joint's -Y axis. @param {ArrayLike<number>} wrist @returns {Vec3} */
+/**
+ * The palm's normal in the matrix's frame: the wrist joint's -Y axis. @param {ArrayLike<number>} wrist @returns {Vec3}
+ */
 export function palmNormal(wrist) {
   return [-wrist[4], -wrist[5], -wrist[6]];
 }

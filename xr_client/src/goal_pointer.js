@@ -92,7 +92,10 @@ export class GoalTracker {
     this.goals = new Map();
   }
 
-  /** A goal went out with this command id. @param {string} robot @param {Goal} goal @param {string} id @param {number} now */
+  /**
+   * A goal went out with this command id. @param {string} robot @param {Goal} goal @param {string} id
+   * @param {number} now
+   */
   sent(robot, goal, id, now) {
     this.goals.set(robot, { goal, state: 'pending', id, error: null, since: now });
   }

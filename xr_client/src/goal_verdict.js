@@ -12,9 +12,9 @@ import { GOAL_CLEARANCE } from './protocol.js';
 export const SELECT_RADIUS = 0.4;
 
 /**
- * @typedef {{kind: 'goal'} | {kind: 'select', robot: string} | {kind: 'refused', reason: string} | {kind: 'none', reason: string}
- *   | {kind: 'takeover', holder: string}} GoalVerdict `takeover`: a good goal for a robot another operator (or a
- *   mission) holds: the click offers to take it over and send it there
+ * @typedef {{kind: 'goal'} | {kind: 'select', robot: string} | {kind: 'refused', reason: string}
+ *   | {kind: 'none', reason: string} | {kind: 'takeover', holder: string}} GoalVerdict `takeover`: a good goal
+ *   for a robot another operator (or a mission) holds: the click offers to take it over and send it there
  * @typedef {{point: {x: number, y: number}, floor: boolean} | null} PointerHit where the pointer meets the twin
  *   (map frame) and whether it is floor, or null when it meets nothing
  * @typedef {{name: string, x: number, y: number}} RobotSpot
@@ -52,7 +52,9 @@ export function goalVerdict(hit, context) {
   return context.holder ? { kind: 'takeover', holder: context.holder } : { kind: 'goal' };
 }
 
-/** The robots with a pose, where they stand. @param {import('./fleet_model.js').FleetModel} fleet @returns {RobotSpot[]} */
+/**
+ * The robots with a pose, where they stand. @param {import('./fleet_model.js').FleetModel} fleet @returns {RobotSpot[]}
+ */
 export function robotSpots(fleet) {
   return [...fleet.robots.values()]
     .filter((r) => r.pose)
@@ -71,7 +73,10 @@ export function verdictText(verdict) {
   return verdict.kind === 'refused' ? `can't go there: ${verdict.reason}` : null;
 }
 
-/** The pointer's colour for a verdict: blue a goal, white a selection, red a refusal, grey nothing. @param {GoalVerdict | null} verdict */
+/**
+ * The pointer's colour for a verdict: blue a goal, white a selection, red a refusal, grey nothing.
+ * @param {GoalVerdict | null} verdict
+ */
 export function verdictColour(verdict) {
   switch (verdict?.kind) {
     case 'goal':

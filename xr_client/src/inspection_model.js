@@ -36,7 +36,8 @@ export class InspectionModel {
 
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
-   * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding | Region} message
+   * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding
+   *   | Region} message
    * @returns {InspectionNotice[]}
    */
   apply(message) {
@@ -96,7 +97,8 @@ export class InspectionModel {
     const step = mission.steps[mission.current];
     const what = step ? `${step.kind}${step.target ? ` ${step.target}` : ''}` : 'finishing';
     const state = mission.state === 'paused' ? ` · paused${mission.reason ? `: ${mission.reason}` : ''}` : '';
-    return `mission: step ${Math.min(mission.current + 1, mission.steps.length)} of ${mission.steps.length} (${what})${state}`;
+    const number = Math.min(mission.current + 1, mission.steps.length);
+    return `mission: step ${number} of ${mission.steps.length} (${what})${state}`;
   }
 
   /**

@@ -19,7 +19,10 @@
 
 export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);
 
-/** A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64. @param {string} text */
+/**
+ * A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64.
+ * @param {string} text
+ */
 export function targetName(text) {
   return text
     .trim()
@@ -39,7 +42,10 @@ export class InspectionReview {
   imageAction = 'region';
   /** Targets picked for a new mission, in order. @type {string[]} */
   picked = [];
-  /** A target marked on the live image, awaiting its finding and region. @type {{request: string, target: string} | null} */
+  /**
+   * A target marked on the live image, awaiting its finding and region.
+   * @type {{request: string, target: string} | null}
+   */
   live = null;
   /** What went wrong with the last region asked, said under the image until the next act. */
   note = '';
@@ -103,7 +109,10 @@ export class InspectionReview {
     return [{ type: 'target_live', target: nextName(model, 'spot'), robot, u, v }];
   }
 
-  /** The target from the live image was asked (its request id, for the answer). @param {string} request @param {string} target */
+  /**
+   * The target from the live image was asked (its request id, for the answer). @param {string} request
+   * @param {string} target
+   */
   liveAsked(request, target) {
     this.#change(() => (this.live = { request, target }));
   }
@@ -118,7 +127,10 @@ export class InspectionReview {
     );
   }
 
-  /** The picked targets as a mission, for one robot or for the fleet (null). @param {string | null} robot @returns {ReviewCommand[]} */
+  /**
+   * The picked targets as a mission, for one robot or for the fleet (null). @param {string | null} robot
+   * @returns {ReviewCommand[]}
+   */
   startPicked(robot) {
     if (this.picked.length === 0) return [];
     return [{ type: 'mission_targets', targets: [...this.picked], robot }];
@@ -183,7 +195,10 @@ export class InspectionReview {
     if (this.proposal || this.pending) this.#change(() => ((this.proposal = null), (this.pending = null)));
   }
 
-  /** The outline to draw over the open finding's image: the proposal, else the region it has. @param {import('./inspection_model.js').InspectionModel} model */
+  /**
+   * The outline to draw over the open finding's image: the proposal, else the region it has.
+   * @param {import('./inspection_model.js').InspectionModel} model
+   */
   outline(model) {
     const finding = this.selected ? model.findings.get(this.selected) : null;
     return this.proposal ?? finding?.region ?? null;

@@ -31,7 +31,8 @@ export function navLine(nav, mode, now) {
     // Feedback is news only while the robot still follows that goal (the status says whether it does).
     if (!f || mode !== 'navigating') return '';
     const recoveries = f.recoveries > 0 ? ` · ${f.recoveries} recover${f.recoveries === 1 ? 'y' : 'ies'}` : '';
-    return `${f.distance_remaining >= 0 ? `${f.distance_remaining.toFixed(1)} m` : '? m'} · ${formatEta(f.eta)} left${recoveries}`;
+    const remaining = f.distance_remaining >= 0 ? `${f.distance_remaining.toFixed(1)} m` : '? m';
+    return `${remaining} · ${formatEta(f.eta)} left${recoveries}`;
   }
   if (now - at > OUTCOME_MS) return '';
   if (message.outcome === 'reached') return 'goal reached';

@@ -21,7 +21,10 @@ export function displayName(holder, names, me) {
   return names.get(holder) ?? holder;
 }
 
-/** A name as the relay will take it (trimmed, inner spaces collapsed), or null when it cannot be one. @param {string} text */
+/**
+ * A name as the relay will take it (trimmed, inner spaces collapsed), or null when it cannot be one.
+ * @param {string} text
+ */
 export function cleanName(text) {
   const name = text.trim().replace(/\s+/g, ' ');
   if (!name || name.length > MAX_NAME_LENGTH) return null;

@@ -22,7 +22,10 @@ export class PoseSmoother {
     this.lastArrival = null;
   }
 
-  /** A new pose (map frame) arrived at local time now (ms). @param {number} x @param {number} y @param {number} yaw @param {number} now */
+  /**
+   * A new pose (map frame) arrived at local time now (ms). @param {number} x @param {number} y @param {number} yaw
+   * @param {number} now
+   */
   push(x, y, yaw, now) {
     if (this.lastArrival !== null) {
       const gap = Math.min(500, Math.max(8, now - this.lastArrival));

@@ -18,7 +18,9 @@ export function vrAvailability(page) {
     const port = page.port || '8080';
     return {
       available: false,
-      reason: `VR needs a secure context, and http://${page.hostname}${page.port ? `:${page.port}` : ''} is not one (only https or localhost are).`,
+      reason:
+        `VR needs a secure context, and http://${page.hostname}${page.port ? `:${page.port}` : ''} is not one ` +
+        '(only https or localhost are).',
       fix:
         `Either start the relay with \`--host 0.0.0.0 --tls auto\` and open the https://…:8443 address it prints, ` +
         `or connect the headset by USB and run \`adb reverse tcp:${port} tcp:${port}\`, then open ` +
@@ -29,7 +31,9 @@ export function vrAvailability(page) {
     return {
       available: false,
       reason: 'This browser has no WebXR (navigator.xr is missing).',
-      fix: 'Open this page in a headset browser (Meta Quest Browser, Safari on Apple Vision Pro) or a WebXR-capable desktop browser; the desktop view below works everywhere.',
+      fix:
+        'Open this page in a headset browser (Meta Quest Browser, Safari on Apple Vision Pro) or a WebXR-capable ' +
+        'desktop browser; the desktop view below works everywhere.',
     };
   }
   if (page.vrSupported === false) {

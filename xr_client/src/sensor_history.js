@@ -90,7 +90,10 @@ export class SensorHistory {
     return { points, min, max, breaks: gaps(t), lines };
   }
 
-  /** The indices of a sensor's readings that come after a gap (gaps(): no line is drawn across them). @param {string} robot @param {string} sensor */
+  /**
+   * The indices of a sensor's readings that come after a gap (gaps(): no line is drawn across them).
+   * @param {string} robot @param {string} sensor
+   */
   breaks(robot, sensor) {
     return gaps(this.values(robot, sensor).t);
   }

@@ -1,8 +1,8 @@
 // @ts-check
 /**
  * What the sensor panels (on the wrist in VR, in the corner on the desktop) show for the selected robot: its
- * status line (with its mission's progress), its readings with their warnings, and the link to the relay. Plain data: the drawing is
- * view/sensor_drawing.js's.
+ * status line (with its mission's progress), its readings with their warnings, and the link to the relay. Plain data:
+ * the drawing is view/sensor_drawing.js's.
  */
 
 import { formatSilence } from './freshness.js';
@@ -22,11 +22,13 @@ import { formatSilence } from './freshness.js';
 export function sensorPanel(fleet, selected, history, link, now, mission = '', age = null) {
   const entry = fleet.robot(selected);
   const status = entry?.status;
+  const goal = status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : '';
   return {
     robot: entry?.description.name ?? null,
     colour: entry?.description.colour ?? '#888',
     status: entry
-      ? `${status?.estopped ? 'E-STOPPED · ' : ''}${status?.online === false ? 'offline' : (status?.mode ?? '')}${status?.goal ? ` → (${status.goal.x.toFixed(1)}, ${status.goal.y.toFixed(1)})` : ''}${mission ? ` · ${mission}` : ''}`
+      ? `${status?.estopped ? 'E-STOPPED · ' : ''}${status?.online === false ? 'offline' : (status?.mode ?? '')}` +
+        `${goal}${mission ? ` · ${mission}` : ''}`
       : '',
     link: link.text,
     linkOk: link.ok,

@@ -26,7 +26,9 @@ const scope = /** @type {WorkerScope} */ (/** @type {unknown} */ (globalThis));
 const sockets = new Map();
 /** The socket teleop commands go on: the one the page opened last. */
 let current = -1;
-/** The page's performance.timeOrigin: cmd_vel.t is on the page's clock (the relay's freshness estimate is per sender). */
+/**
+ * The page's performance.timeOrigin: cmd_vel.t is on the page's clock (the relay's freshness estimate is per sender).
+ */
 let pageOrigin = performance.timeOrigin;
 const hold = new TeleopHold();
 /** @type {ReturnType<typeof setTimeout> | undefined} */

@@ -48,8 +48,8 @@ export const MAX_CELLS = 1_500_000;
 
 /** @typedef {[number, number, number, number]} Segment a wall's trace on the floor plan: x1, y1, x2, y2 (map frame) */
 /**
- * @typedef {{x0: number, y0: number, resolution: number, width: number, height: number, distance: Float32Array}} RoomGrid
- *   `distance`: metres from each cell's centre to the nearest wall (0 on a wall; the map's edge counts as one)
+ * @typedef {{x0: number, y0: number, resolution: number, width: number, height: number, distance: Float32Array}}
+ *   RoomGrid `distance`: metres from each cell's centre to the nearest wall (0 on a wall; the map's edge counts as one)
  * @typedef {{name: string, x: number, y: number}} RobotSpot
  * @typedef {{name?: string, bounds: number[]}} Room a room's bounds: min x, min y, max x, max y
  * @typedef {{x: number, y: number, yaw: number, inView: string[], inSight: string[], room: number, ahead: number,
@@ -145,7 +145,10 @@ export function roomGrid(segments, bounds) {
   return { x0: minX, y0: minY, resolution, width, height, distance };
 }
 
-/** Room around a point: metres to the nearest wall (0 outside the grid). @param {RoomGrid} grid @param {number} x @param {number} y */
+/**
+ * Room around a point: metres to the nearest wall (0 outside the grid). @param {RoomGrid} grid @param {number} x
+ * @param {number} y
+ */
 export function roomAt(grid, x, y) {
   const i = Math.floor((x - grid.x0) / grid.resolution);
   const j = Math.floor((y - grid.y0) / grid.resolution);
@@ -169,7 +172,10 @@ export function sightFree(grid, ax, ay, bx, by) {
   return true;
 }
 
-/** Open floor straight ahead of a point, up to `max` (m). @param {RoomGrid} grid @param {number} x @param {number} y @param {number} yaw @param {number} max */
+/**
+ * Open floor straight ahead of a point, up to `max` (m). @param {RoomGrid} grid @param {number} x @param {number} y
+ * @param {number} yaw @param {number} max
+ */
 export function openAhead(grid, x, y, yaw, max) {
   const step = grid.resolution / 2;
   const [c, s] = [Math.cos(yaw), Math.sin(yaw)];

@@ -74,7 +74,10 @@ export class TeleopDriver {
     this.#send(silent ? [] : zeros, now);
   }
 
-  /** The page's timer and every frame: the loop's cadence when the page sends, and the worker's confirmation. @param {number} now */
+  /**
+   * The page's timer and every frame: the loop's cadence when the page sends, and the worker's confirmation.
+   * @param {number} now
+   */
   tick(now) {
     const due = this.loop.tick(now);
     // While the worker repeats the command the page's cadence only keeps the loop's state; else the page sends.

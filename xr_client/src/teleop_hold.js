@@ -30,8 +30,14 @@ import { TELEOP_PERIOD_MS, nextDue } from './teleop.js';
  */
 export const HOLD_MS = 1500;
 
-/** @typedef {{identifier: string, linear: number, angular: number}} HeldCommand a cmd_vel as CommandSender builds it, without its stamp `t` */
-/** @typedef {{identifier: string, silent: number, epoch: number}} Expiry the robot's cmd_vel identifier, how long the page was silent (ms), the new epoch */
+/**
+ * @typedef {{identifier: string, linear: number, angular: number}} HeldCommand a cmd_vel as CommandSender builds it,
+ * without its stamp `t`
+ */
+/**
+ * @typedef {{identifier: string, silent: number, epoch: number}} Expiry the robot's cmd_vel identifier, how long the
+ * page was silent (ms), the new epoch
+ */
 
 export class TeleopHold {
   /** @param {{period?: number, bound?: number}} [options] */

@@ -30,7 +30,10 @@ export class WorkerSocket extends EventTarget {
     this.readyState = WorkerSocket.CONNECTING;
   }
 
-  /** Like WebSocket.send; nothing goes out unless open (the worker checks its socket again). @param {string | ArrayBuffer} data */
+  /**
+   * Like WebSocket.send; nothing goes out unless open (the worker checks its socket again).
+   * @param {string | ArrayBuffer} data
+   */
   send(data) {
     if (this.readyState === WorkerSocket.OPEN) this.link.post({ type: 'send', id: this.id, data });
   }

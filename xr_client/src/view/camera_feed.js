@@ -28,8 +28,9 @@ function webCodecs() {
 
 export class CameraFeed {
   /**
-   * @param {{hemisphere: import('./hemisphere_screen.js').HemisphereScreen, sender: import('../command_sender.js').CommandSender,
-   *   say: (text: string) => void, params: URLSearchParams}} host `say`: a line for the operator (the fallback, once)
+   * @param {{hemisphere: import('./hemisphere_screen.js').HemisphereScreen,
+   *   sender: import('../command_sender.js').CommandSender, say: (text: string) => void,
+   *   params: URLSearchParams}} host `say`: a line for the operator (the fallback, once)
    */
   constructor(host) {
     this.host = host;
@@ -46,11 +47,16 @@ export class CameraFeed {
     this.hasDecoder = typeof VideoDecoder !== 'undefined' && typeof EncodedVideoChunk !== 'undefined';
     /** `?video=jpeg`: never ask for video (a browser whose decoder misbehaves, a comparison). */
     this.forced = host.params.get('video');
-    /** Cameras whose video turned out undecodable here, or that the relay would not stream as video. @type {Set<string>} */
+    /**
+     * Cameras whose video turned out undecodable here, or that the relay would not stream as video. @type {Set<string>}
+     */
     this.refused = new Set();
     /** Why the page shows JPEG where it could have shown video, once said ('' when it has not had to). */
     this.fallback = '';
-    /** @type {{robot: string, camera: CameraDescription, fps: number, codec: 'jpeg' | 'h264', id: string | null} | null} the live stream asked for */
+    /**
+     * @type {{robot: string, camera: CameraDescription, fps: number, codec: 'jpeg' | 'h264', id: string | null} | null}
+     * the live stream asked for
+     */
     this.request = null;
     this.video = new H264Decoder(this.hasDecoder ? webCodecs() : unavailable(), {
       restart: () => this.#again(),
@@ -76,7 +82,9 @@ export class CameraFeed {
     return this.jpeg.accept;
   }
 
-  /** Show only this camera's frames (the selected robot's); another camera's decoding stops. @param {string} identifier */
+  /**
+   * Show only this camera's frames (the selected robot's); another camera's decoding stops. @param {string} identifier
+   */
   setAccepted(identifier) {
     this.jpeg.setAccepted(identifier);
     if (this.video.identifier && this.video.identifier !== identifier) this.video.stop();
@@ -151,7 +159,10 @@ export class CameraFeed {
   }
 }
 
-/** A browser without WebCodecs: never asked for video (streamCodec), so never called. @returns {import('../video_decoder.js').DecoderPlatform} */
+/**
+ * A browser without WebCodecs: never asked for video (streamCodec), so never called.
+ * @returns {import('../video_decoder.js').DecoderPlatform}
+ */
 function unavailable() {
   const none = () => {
     throw new Error('no VideoDecoder in this browser');

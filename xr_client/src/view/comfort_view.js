@@ -47,7 +47,8 @@ export class Vignette {
       depthWrite: false,
       uniforms: { strength: { value: 0 } },
       vertexShader:
-        'varying vec2 vUv; void main() { vUv = uv; gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0); }',
+        'varying vec2 vUv; ' +
+        'void main() { vUv = uv; gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0); }',
       fragmentShader:
         'uniform float strength; varying vec2 vUv;' +
         'void main() { float r = length(vUv - 0.5) * 2.0;' +

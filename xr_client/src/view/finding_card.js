@@ -47,7 +47,8 @@ export class FindingCard {
     this.mesh.visible = Boolean(finding) && context.presenting;
     if (!finding || !context.presenting) return;
     this.#load(finding.image ? `${finding.image}${this.token ? `?token=${encodeURIComponent(this.token)}` : ''}` : '');
-    const key = `${finding.id}|${finding.updated}|${review.version}|${context.hover}|${context.operator}|${this.imageState}`;
+    const version = `${finding.id}|${finding.updated}|${review.version}`;
+    const key = `${version}|${context.hover}|${context.operator}|${this.imageState}`;
     if (key === this.key) return;
     this.key = key;
     this.layout = cardLayout({

@@ -62,7 +62,10 @@ export class FindingsPanel {
     const items = findings
       .map(
         (f) =>
-          `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}"><span class="dot" data-status="${esc(f.status)}"></span>${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}<br><small>${esc(f.note)}</small></li>`,
+          `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}">` +
+          `<span class="dot" data-status="${esc(f.status)}"></span>` +
+          `${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}` +
+          `<br><small>${esc(f.note)}</small></li>`,
       )
       .join('');
     // The report and work orders of the mission the selected (else the newest) finding came from, and a range.
@@ -70,7 +73,10 @@ export class FindingsPanel {
     const links = reportLinks(about?.mission, this.token)
       .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
       .join('');
-    this.root.innerHTML = `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b><span class="links">${links}</span><select aria-label="filter">${options}</select></div><ol>${items}</ol>${this.#detail()}`;
+    this.root.innerHTML =
+      `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
+      `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
+      `<ol>${items}</ol>${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);
@@ -84,7 +90,10 @@ export class FindingsPanel {
     const rows = [...this.model.targets.values()]
       .map((t) => {
         const n = picked.indexOf(t.id);
-        return `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}"><span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`;
+        return (
+          `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}">` +
+          `<span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`
+        );
       })
       .join('');
     const who = this.robot ? `with ${esc(this.robot)}` : 'with the fleet';
@@ -104,19 +113,25 @@ export class FindingsPanel {
       ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${review.proposal ? 'proposal' : ''}"/>`
       : '';
     const picture = src
-      ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
+      ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" ` +
+        `data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
       : '<p>no image</p>';
     const readings = Object.entries(f.readings)
       .map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`)
       .join(' · ');
-    const buttons = FINDING_STATUSES.map(
-      (s) =>
-        `<button type="button" data-status="${s}"${s === f.status ? ' class="active"' : ''}>${s.replace('_', ' ')}</button>`,
-    ).join('');
+    const buttons = FINDING_STATUSES.map((s) => {
+      const active = s === f.status ? ' class="active"' : '';
+      return `<button type="button" data-status="${s}"${active}>${s.replace('_', ' ')}</button>`;
+    }).join('');
+    const mark = 'click the image to mark a region; shift-click: a new target there';
     const regionButtons = review.proposal
-      ? '<button type="button" data-region="accept">Accept region</button><button type="button" data-region="redo">Redo</button>'
-      : `<small>${review.pending ? review.hint() : 'click the image to mark a region; shift-click: a new target there'}</small>`;
-    return `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p><p>${buttons}</p><p>${regionButtons}</p></section>`;
+      ? '<button type="button" data-region="accept">Accept region</button>' +
+        '<button type="button" data-region="redo">Redo</button>'
+      : `<small>${review.pending ? review.hint() : mark}</small>`;
+    return (
+      `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p>` +
+      `<p>${buttons}</p><p>${regionButtons}</p></section>`
+    );
   }
 
   /** @param {HTMLElement} target @param {MouseEvent} event */

@@ -99,7 +99,10 @@ export class FleetInstances {
     this.tint(i, colour, false);
   }
 
-  /** A robot's colour, greyed while it is offline or its data is old. @param {number} i @param {THREE.Color} colour @param {boolean} grey */
+  /**
+   * A robot's colour, greyed while it is offline or its data is old. @param {number} i @param {THREE.Color} colour
+   * @param {boolean} grey
+   */
   tint(i, colour, grey) {
     if (i < 0 || i >= this.count) return;
     this.colour.copy(colour);

@@ -27,7 +27,10 @@ import { navLine } from '../nav_line.js';
 const STATUS_PER_FRAME = 12;
 
 export class FleetView {
-  /** By robot name; the same Map for the life of the page (picking and the desktop controls hold it). @type {Map<string, RobotView>} */
+  /**
+   * By robot name; the same Map for the life of the page (picking and the desktop controls hold it).
+   * @type {Map<string, RobotView>}
+   */
   views = new Map();
 
   /**
@@ -70,7 +73,10 @@ export class FleetView {
     for (const entry of fleet.robots.values()) this.add(entry.description, this.order.length);
   }
 
-  /** One robot's model changed (the relay built it from its robot_description). @param {import('../fleet_model.js').FleetModel} fleet @param {string} name */
+  /**
+   * One robot's model changed (the relay built it from its robot_description).
+   * @param {import('../fleet_model.js').FleetModel} fleet @param {string} name
+   */
   rebuildOne(fleet, name) {
     const entry = fleet.robots.get(name);
     const view = this.views.get(name);
@@ -92,10 +98,12 @@ export class FleetView {
   /**
    * Place and label every robot for this frame.
    * @param {number} now
-   * @param {{fleet: import('../fleet_model.js').FleetModel, smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
+   * @param {{fleet: import('../fleet_model.js').FleetModel,
+   *   smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
-   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean}} state `link`: the
-   *   relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans switch
+   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean}} state
+   *   `link`: the relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans
+   *   switch
    */
   update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans }) {
     this.annotations.update(fleet);
@@ -139,7 +147,8 @@ export class FleetView {
 
   /**
    * A robot's label and tint from its status and the link.
-   * @param {RobotView} view @param {import('../fleet_model.js').RobotEntry} entry @param {import('../fleet_model.js').FleetModel} fleet
+   * @param {RobotView} view @param {import('../fleet_model.js').RobotEntry} entry
+   * @param {import('../fleet_model.js').FleetModel} fleet
    * @param {import('../sensor_history.js').SensorHistory} history @param {string | null} selected
    * @param {import('../freshness.js').Freshness} freshness @param {'live' | 'quiet' | 'lost'} link @param {number} now
    */

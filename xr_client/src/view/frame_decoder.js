@@ -26,7 +26,9 @@ export class FrameDecoder {
     this.queue = new LatestOnly((item) => this.#decode(item));
   }
 
-  /** Only frames of this camera identifier are shown; a change discards decodes in flight. @param {string} identifier */
+  /**
+   * Only frames of this camera identifier are shown; a change discards decodes in flight. @param {string} identifier
+   */
   setAccepted(identifier) {
     if (identifier !== this.accept) {
       this.accept = identifier;

@@ -91,7 +91,10 @@ export class GoalView {
     this.arc.raycast = () => {};
     this.arc.visible = false;
     this.group.add(this.arc);
-    /** Each robot's planned path, in its colour; redrawn only when the relay sends a new one. @type {Map<string, {line: THREE.Line, positions: Float32Array, source: number[][] | null}>} */
+    /**
+     * Each robot's planned path, in its colour; redrawn only when the relay sends a new one.
+     * @type {Map<string, {line: THREE.Line, positions: Float32Array, source: number[][] | null}>}
+     */
     this.paths = new Map();
   }
 

@@ -103,7 +103,10 @@ export class HandInput {
     this.buttonHand = null;
     /** What the state snapshot shows. */
     this.stats = { pinches: 0, drives: 0, releases: 0, menuPresses: 0, estopPresses: 0, fistStops: 0 };
-    /** Each tracked hand's index fingertip this frame (world), by handedness: where a press comes from. @type {Record<string, number[]>} */
+    /**
+     * Each tracked hand's index fingertip this frame (world), by handedness: where a press comes from.
+     * @type {Record<string, number[]>}
+     */
     this.tips = {};
     /** Each tracked hand's fist: how far through the hold (0..1), by handedness. @type {Record<string, number>} */
     this.fists = {};
@@ -247,7 +250,10 @@ export class HandInput {
     state.pressed = touched;
   }
 
-  /** The fist's ring around the fist held, filling until it stops the fleet. @param {{fill: number, at: THREE.Vector3} | null} fist */
+  /**
+   * The fist's ring around the fist held, filling until it stops the fleet.
+   * @param {{fill: number, at: THREE.Vector3} | null} fist
+   */
   #ring(fist) {
     this.ring.visible = fist !== null;
     if (!fist) return;

@@ -36,7 +36,10 @@ export class InspectionUi {
       : null;
   }
 
-  /** Send what the review decided (nothing queues while disconnected: a refused send changes nothing). @param {import('../inspection_review.js').ReviewCommand[]} commands */
+  /**
+   * Send what the review decided (nothing queues while disconnected: a refused send changes nothing).
+   * @param {import('../inspection_review.js').ReviewCommand[]} commands
+   */
   run(commands) {
     const sender = this.sender;
     for (const c of commands) {
@@ -61,7 +64,10 @@ export class InspectionUi {
     }
   }
 
-  /** Redraw what changed, and tell the menu whether the selected robot is on a mission. @param {import('../menu_state.js').MenuState} menu */
+  /**
+   * Redraw what changed, and tell the menu whether the selected robot is on a mission.
+   * @param {import('../menu_state.js').MenuState} menu
+   */
   update(menu) {
     this.review.sync(this.model);
     this.view.update(this.model, this.review, this.transform());
@@ -98,7 +104,10 @@ export class InspectionUi {
     if (mission) this.sender.mission(effect.action, mission.id);
   }
 
-  /** A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog. @param {{x: number, y: number}} point */
+  /**
+   * A new target at a map point the operator chose (shift-click on the twin's floor), named in a dialog.
+   * @param {{x: number, y: number}} point
+   */
   async addTarget(point) {
     const name = await this.names.ask(
       `Name of the new target at (${point.x.toFixed(1)}, ${point.y.toFixed(1)})`,

@@ -53,7 +53,8 @@ export class LabelSprite {
 /**
  * A label's card: a rounded dark box, the accent bar, the lines (the first bold), in a rectangle of a canvas.
  * Sizes are those of a 150 px high label, scaled to the rectangle's height.
- * @param {CanvasRenderingContext2D} ctx @param {number} x @param {number} y @param {number} width @param {number} height
+ * @param {CanvasRenderingContext2D} ctx @param {number} x @param {number} y @param {number} width
+ * @param {number} height
  * @param {string[]} lines @param {LabelStyle} style
  */
 export function drawLabel(ctx, x, y, width, height, lines, style) {
@@ -128,7 +129,9 @@ export class Toast {
     this.until = 0;
   }
 
-  /** @param {string} text @param {'info' | 'error' | 'warning'} kind @param {boolean} presenting @param {number} now ms */
+  /**
+   * @param {string} text @param {'info' | 'error' | 'warning'} kind @param {boolean} presenting @param {number} now ms
+   */
   say(text, kind, presenting, now) {
     this.label.set([text], { accent: kind === 'info' ? '#3d8bff' : kind === 'warning' ? '#ffb020' : '#e02424' });
     this.sprite.visible = presenting;

@@ -94,7 +94,10 @@ export class MapAnnotations {
     this.disposers.push(() => (geometry.dispose(), material.dispose()));
   }
 
-  /** A north arrow on the ground, outside the building's north-east corner. @param {import('../frames.js').MapToScene} t @param {number[]} bounds */
+  /**
+   * A north arrow on the ground, outside the building's north-east corner. @param {import('../frames.js').MapToScene} t
+   * @param {number[]} bounds
+   */
   #north(t, bounds) {
     const canvas = document.createElement('canvas');
     canvas.width = canvas.height = 256;

@@ -57,7 +57,9 @@ export function mergedCopy(content) {
   return copy;
 }
 
-/** Free what mergedCopy allocated (its geometries; the materials are the model's). @param {THREE.Object3D | null} copy */
+/**
+ * Free what mergedCopy allocated (its geometries; the materials are the model's). @param {THREE.Object3D | null} copy
+ */
 export function disposeCopy(copy) {
   copy?.removeFromParent();
   copy?.traverse((o) => /** @type {THREE.Mesh} */ (o).geometry?.dispose());

@@ -17,14 +17,18 @@ export class OperatorUi {
     this.host = host;
     this.nameDialog = /** @type {HTMLDialogElement | null} */ (document.getElementById('name-dialog'));
     this.takeoverDialog = /** @type {HTMLDialogElement | null} */ (document.getElementById('takeover-dialog'));
-    /** What accepting the open take-over dialog does. @type {{robot: string, goal: import('../command_sender.js').Goal | null} | null} */
+    /**
+     * What accepting the open take-over dialog does.
+     * @type {{robot: string, goal: import('../command_sender.js').Goal | null} | null}
+     */
     this.offered = null;
     const fromUrl = cleanName(host.params.get('name') ?? '');
     if (fromUrl) host.storage?.setItem(NAME_KEY, fromUrl);
     /** @type {string | null} */
     this.name = cleanName(host.storage?.getItem(NAME_KEY) ?? '');
     this.nameDialog?.addEventListener('submit', (event) => {
-      if (/** @type {SubmitEvent} */ (event).submitter?.getAttribute('value') === 'later') return; // asked again next visit
+      // Later: asked again next visit.
+      if (/** @type {SubmitEvent} */ (event).submitter?.getAttribute('value') === 'later') return;
       const input = /** @type {HTMLInputElement | null} */ (this.nameDialog?.querySelector('input'));
       const name = cleanName(input?.value ?? '');
       if (!name) {
@@ -54,7 +58,9 @@ export class OperatorUi {
     this.host.sender.name(name);
   }
 
-  /** A hello: an operator without a name is asked once; a known name goes to the (new) relay. @param {boolean} operator */
+  /**
+   * A hello: an operator without a name is asked once; a known name goes to the (new) relay. @param {boolean} operator
+   */
   hello(operator) {
     if (this.name) this.host.sender.name(this.name);
     // Not modal: the station stays usable (and its E-STOP reachable) while the operator has not answered.
@@ -73,8 +79,8 @@ export class OperatorUi {
     }
     this.offered = { robot, goal };
     const text = this.takeoverDialog.querySelector('p');
-    if (text)
-      text.textContent = `${robot} is controlled by ${holder}. Take it over? It stops first, and ${holder === 'a mission' ? 'the mission pauses' : `${holder} is told`}.`;
+    const then = holder === 'a mission' ? 'the mission pauses' : `${holder} is told`;
+    if (text) text.textContent = `${robot} is controlled by ${holder}. Take it over? It stops first, and ${then}.`;
     const accept = /** @type {HTMLButtonElement | null} */ (this.takeoverDialog.querySelector('button[value="take"]'));
     if (accept) accept.textContent = goal ? `Take over and send ${robot} there` : `Take over ${robot}`;
     // Not modal: a modal dialog's backdrop would take the clicks meant for the menu's E-STOP while it waits.

@@ -1,7 +1,7 @@
 // @ts-check
 /**
- * The desktop overlay (HTML): the connection status, E-STOP and the latched-estop banner, the Enter VR button or why VR is unavailable,
- * the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
+ * The desktop overlay (HTML): the connection status, E-STOP and the latched-estop banner, the Enter VR button or why VR
+ * is unavailable, the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
  * Robot POV panel and a message line. Reads what its host gives it; clicks go back through the host's actions.
  */
 import { drawSensorPanel } from './sensor_drawing.js';
@@ -53,7 +53,10 @@ export class Overlay {
     this.estopBanner = el('estop-banner');
     /** Which panels are open (menu, sensors, help), compact in small windows. */
     this.panels = new PagePanels(window.localStorage, { width: window.innerWidth, height: window.innerHeight });
-    /** The latched-estop banner shown now (estop_banner.js), or null. @type {import('../estop_banner.js').EstopBanner | null} */
+    /**
+     * The latched-estop banner shown now (estop_banner.js), or null.
+     * @type {import('../estop_banner.js').EstopBanner | null}
+     */
     this.banner = null;
     this.bannerKey = '';
     this.menuKey = '';

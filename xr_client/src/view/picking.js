@@ -59,7 +59,8 @@ export class Picking {
    * The pointer arc from a hand to the floor (the twin's `floor` node, or the drawn floor); the arc ends at
    * whatever it meets first, and has no hit when that is not floor.
    * @param {THREE.Vector3} origin @param {THREE.Vector3} direction
-   * @returns {{points: [number, number, number][], hit: THREE.Vector3 | null, surface: {point: THREE.Vector3, floor: boolean} | null}}
+   * @returns {{points: [number, number, number][], hit: THREE.Vector3 | null,
+   *   surface: {point: THREE.Vector3, floor: boolean} | null}}
    *   `hit` the floor it lands on, `surface` whatever it meets first (a wall too: the pointer says why not)
    */
   arcToFloor(origin, direction) {
@@ -73,7 +74,8 @@ export class Picking {
 
   /**
    * A straight ray to what it meets first (a gaze-and-pinch pointer: the goal is where the eyes are, not where an
-   * arc thrown from them would land). Same shape as arcToFloor. @param {THREE.Vector3} origin @param {THREE.Vector3} direction
+   * arc thrown from them would land). Same shape as arcToFloor. @param {THREE.Vector3} origin
+   * @param {THREE.Vector3} direction
    */
   rayToFloor(origin, direction) {
     const end = origin.clone().addScaledVector(direction.clone().normalize(), 30);

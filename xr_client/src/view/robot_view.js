@@ -92,7 +92,9 @@ export class RobotView {
     this.ring.raycast = () => {};
     this.group.add(this.ring);
 
-    /** The latest laser scan, in the robot frame (x, y pairs); the fleet's scans are drawn together (fleet_scans.js). */
+    /**
+     * The latest laser scan, in the robot frame (x, y pairs); the fleet's scans are drawn together (fleet_scans.js).
+     */
     this.scanXY = new Float32Array(MAX_SCAN_POINTS * 2);
     this.scanCount = 0;
     this.scanVisible = true;

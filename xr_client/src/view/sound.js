@@ -65,7 +65,10 @@ export class Soundscape {
     this.master.gain.value = this.muted ? 0 : this.volume;
   }
 
-  /** Where the operator's head is and where it looks (scene axes). @param {Point} at @param {Point} forward @param {Point} up */
+  /**
+   * Where the operator's head is and where it looks (scene axes). @param {Point} at @param {Point} forward
+   * @param {Point} up
+   */
   listen(at, forward, up) {
     const l = this.ctx.listener;
     if (l.positionX) {

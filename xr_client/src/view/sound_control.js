@@ -16,7 +16,8 @@ const POLL_MS = 100;
 /**
  * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
  *   goals: import('../goal_pointer.js').GoalTracker, camera: THREE.Camera,
- *   robotViews: Map<string, import('./robot_view.js').RobotView>, inputSources: () => Iterable<XRInputSource>}} SoundHost
+ *   robotViews: Map<string, import('./robot_view.js').RobotView>, inputSources: () => Iterable<XRInputSource>}}
+ *   SoundHost
  */
 
 export class SoundControl {

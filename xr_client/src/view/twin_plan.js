@@ -18,7 +18,9 @@ export class TwinPlan {
     this.twin = twin;
     this.picking = picking;
     this.fleet = fleet;
-    /** The twin content and bounds the grid was built from. @type {{content: THREE.Object3D | null, key: string} | null} */
+    /**
+     * The twin content and bounds the grid was built from. @type {{content: THREE.Object3D | null, key: string} | null}
+     */
     this.built = null;
     /** @type {import('../start_pose.js').RoomGrid | null} */
     this.grid = null;

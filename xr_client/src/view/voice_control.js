@@ -11,7 +11,8 @@ import { CONFIRM_MS, VoiceConfirm, describe, parse } from '../voice_grammar.js';
 
 /**
  * @typedef {{start(): void, stop(): void, abort(): void, lang: string, continuous: boolean, interimResults: boolean,
- *   onresult: ((event: any) => void) | null, onerror: ((event: any) => void) | null, onend: (() => void) | null}} Recognition
+ *   onresult: ((event: any) => void) | null, onerror: ((event: any) => void) | null, onend: (() => void) | null}}
+ *   Recognition
  * @typedef {{actions: import('../app.js').OperatorActions, menu: import('../menu_state.js').MenuState,
  *   fleet: import('../fleet_model.js').FleetModel, targets: () => {name: string, x: number, y: number}[],
  *   activeMission: (robot: string) => boolean, presenting: () => boolean, toast: (text: string) => void}} VoiceHost
@@ -36,7 +37,10 @@ export class VoiceControl {
     /** The last phrase heard and what became of it (the caption). */
     this.heard = '';
     this.result = '';
-    /** Commands carried out, by kind (tests and the curious read them in the state snapshot). @type {Record<string, number>} */
+    /**
+     * Commands carried out, by kind (tests and the curious read them in the state snapshot).
+     * @type {Record<string, number>}
+     */
     this.done = {};
     this.button = /** @type {HTMLButtonElement | null} */ (document.getElementById('voice-talk'));
     this.caption = document.getElementById('voice-caption');
@@ -72,7 +76,9 @@ export class VoiceControl {
     });
   }
 
-  /** Push-to-talk pressed (true) or released (false): the phrase said in between is recognised. @param {boolean} down */
+  /**
+   * Push-to-talk pressed (true) or released (false): the phrase said in between is recognised. @param {boolean} down
+   */
   talk(down) {
     if (!down) {
       if (this.listening) this.recognition?.stop(); // the recogniser delivers the phrase, then ends
@@ -156,7 +162,10 @@ export class VoiceControl {
     if (lapsed) this.#show(heard, `not confirmed within ${CONFIRM_MS / 1000} s: ${describe(lapsed)} dropped`);
   }
 
-  /** Carry a command out through the host's actions; returns what it did. @param {import('../voice_grammar.js').VoiceCommand} c */
+  /**
+   * Carry a command out through the host's actions; returns what it did.
+   * @param {import('../voice_grammar.js').VoiceCommand} c
+   */
   #run(c) {
     const { actions, menu } = this.host;
     this.done[c.kind] = (this.done[c.kind] ?? 0) + 1;

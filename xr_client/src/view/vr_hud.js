@@ -11,7 +11,10 @@ import { EstopView } from './estop_view.js';
 import { MiniatureView } from './miniature_view.js';
 
 export class VRHud {
-  /** @param {import('three').Camera} camera what the toast and the banner hang from @param {import('three').Object3D} scene */
+  /**
+   * @param {import('three').Camera} camera what the toast and the banner hang from
+   * @param {import('three').Object3D} scene
+   */
   constructor(camera, scene) {
     this.camera = camera;
     this.toast = new Toast(camera);
@@ -25,8 +28,8 @@ export class VRHud {
   }
 
   /**
-   * One VR frame: the wrist panel rides on the left controller's grip or the left hand's wrist, and redraws when due; the
-   * overview table follows the twin and the robots, shown in Free Roam when the menu's Overview is on.
+   * One VR frame: the wrist panel rides on the left controller's grip or the left hand's wrist, and redraws when due;
+   * the overview table follows the twin and the robots, shown in Free Roam when the menu's Overview is on.
    * @param {number} now ms @param {{carrier: import('three').Object3D, hand: boolean} | null} wrist what carries the
    *   panel: the left controller's grip or the left hand's wrist (xr_input.js)
    * @param {import('./sensor_drawing.js').SensorPanelData} data
@@ -54,7 +57,10 @@ export class VRHud {
     table.update(overview.views, overview.cursor?.point ?? null, overview.cursor?.verdict ?? null, overview.transform);
   }
 
-  /** The session started: the banner shows if a stop is latched. @param {import('../estop_banner.js').EstopBanner | null} banner */
+  /**
+   * The session started: the banner shows if a stop is latched.
+   * @param {import('../estop_banner.js').EstopBanner | null} banner
+   */
   started(banner) {
     this.estop.show(banner, true);
     this.placeTable = true;

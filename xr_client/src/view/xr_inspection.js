@@ -29,7 +29,10 @@ export class XRInspection {
     this.host = host;
     /** The card button a ray hovers, for its highlight. @type {string | null} */
     this.hover = null;
-    /** The finding the card was last placed for (a newly opened one is placed in front of the operator). @type {string | null} */
+    /**
+     * The finding the card was last placed for (a newly opened one is placed in front of the operator).
+     * @type {string | null}
+     */
     this.placedFor = null;
   }
 
@@ -101,7 +104,9 @@ export class XRInspection {
     return pixel !== null;
   }
 
-  /** A dwell on the live image at a pixel (from liveAt): a target there, and its region. @param {[number, number]} pixel */
+  /**
+   * A dwell on the live image at a pixel (from liveAt): a target there, and its region. @param {[number, number]} pixel
+   */
   markLive(pixel) {
     const { ui, menu } = this.host;
     if (!menu.selected) return;
@@ -120,7 +125,8 @@ export class XRInspection {
 
   /**
    * A select on one of ours.
-   * @param {string} id from idOf or floorAt @param {{point: import('three').Vector3, uv?: import('three').Vector2 | null} | null} hit
+   * @param {string} id from idOf or floorAt
+   * @param {{point: import('three').Vector3, uv?: import('three').Vector2 | null} | null} hit
    */
   select(id, hit) {
     const { ui, card } = this.host;
