@@ -5,7 +5,9 @@
   (relay.inspection.missions); while it runs, the mission holds the robot's lease (relay.inspection.runner).
 - **Captures** and what is made of them (findings, regions, targets from a pixel): relay.inspection.captures.
 - **Targets**: relay.inspection.target_book (bounded, stored, announced as deltas).
-- **Storage** runs on one thread of its own (``WorkPool("store")``); a database that is locked or full pauses the
+- **Missions**: relay.inspection.mission_commands (the commands and their rules), relay.inspection.planning (files
+  read and steps checked on the planning pool).
+- **Storage** runs on one thread of its own (relay.inspection.storage); a database that is locked or full pauses the
   mission with the store's message, and the command that needed it gets an ``error`` naming the database.
 """
 
@@ -13,30 +15,24 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
-from ..errors import CommandRejected, ConfigError
+from ..errors import ConfigError
 from ..events import NavEvent
-from ..protocol import ErrorCode, RequestId
-from ..work import Busy, WorkPool
+from ..work import WorkPool
 from .captures import Captures
 from .kml import KmlError, targets_from_kml
-from .messages import (
-    FINDINGS_ON_CONNECT,
-    MISSIONS_ON_CONNECT,
-    finding_message,
-    mission_message,
-)
-from .missions import MissionError, MissionPlan, Waypoint, assign, load_mission, resolve, steps_from_wire
-from .records import MissionRecord, Step, Target, new_id
-from .runner import MissionRunner, holder
+from .messages import FINDINGS_ON_CONNECT, MISSIONS_ON_CONNECT, finding_message, mission_message
+from .mission_commands import MissionCommands
+from .planning import MissionPlanning
+from .records import MissionRecord, Target
+from .storage import Storage
 from .target_book import TargetBook
-from .targets import TARGET_ID, facility_targets, load_targets
+from .targets import facility_targets, load_targets
 from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd, inspection_identifier
 from .write_behind import WriteBehind
 
@@ -55,10 +51,11 @@ if TYPE_CHECKING:
     from .store import Store
 
 logger = logging.getLogger(__name__)
-T = TypeVar("T")
 
 
 class Inspection:
+    """The inspection commands and what clients learn of targets, missions and findings, over one database."""
+
     def __init__(
         self,
         config: FleetConfig,
@@ -75,43 +72,42 @@ class Inspection:
     ) -> None:
         self.config, self.options = config, options
         self.robots = {r.name: r for r in config.robots}
-        self.backend, self.control, self.fleet, self.outbox = backend, control, fleet, outbox
-        self.map_grid, self.clock, self.wall = map_grid, clock, wall_clock
-        self.store: Store | None = None
-        self.book = TargetBook(config.inspection.max_targets, outbox, self._store_call)
+        self.control, self.outbox = control, outbox
+        self.map_grid, self.wall = map_grid, wall_clock
+        self._storage = Storage(options)
+        self.book = TargetBook(config.inspection.max_targets, outbox, self._storage.call)
         self.targets = self.book.targets  # read-only here: changed through the book
-        self._store_pool = WorkPool("store", workers=1, queue=256)
         #: Reading mission files and planning missions: their own thread, never asyncio's shared pool (six 200-step
         #: missions checked there once held an estop 0.4 s), and a bounded queue (``busy`` beyond it).
         self._planning = WorkPool("planning", workers=1, queue=4)
-        self._temporary: tempfile.TemporaryDirectory[str] | None = None
+        planning = MissionPlanning(
+            config, options.missions_dir, self._planning, targets=self.targets, map_grid=map_grid
+        )
         #: Mission records are stored after their change is announced: a stop never waits for the database.
         self._records = WriteBehind(self._save)
         self.captures = Captures(
-            self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._store,
+            self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._storage.call,
             map_grid=map_grid, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
-        self.runner = MissionRunner(
-            go=self._go, stop=self._stop, capture=self.captures.for_mission, publish=self._publish,
-            release=self._release, wall_clock=wall_clock,
+        self.missions = MissionCommands(
+            self.robots, backend=backend, control=control, fleet=fleet, outbox=outbox, book=self.book,
+            planning=planning, storage=self._storage, records=self._records, capture=self.captures.for_mission,
+            clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
+        self.runner = self.missions.runner
         stops.follow(self.runner.robot_stopped, self.mission_robots)
+
+    @property
+    def store(self) -> Store | None:
+        """The database, once :meth:`start` opened it."""
+        return self._storage.store
 
     # -- lifecycle --------------------------------------------------------------------------------
 
     async def start(self, facility: Facility | None = None) -> None:
         """``facility``: the scene file (robots.yaml's ``sim.world``), whose hazards become targets."""
-        from .store import Store, default_images
-
-        database, images = self.options.database, self.options.images
-        if database is None:  # library use and tests: a database of this run only
-            self._temporary = tempfile.TemporaryDirectory(prefix="xr-relay-inspection-")
-            database = str(Path(self._temporary.name) / "inspection.sqlite")
-        if images is None:
-            images = str(default_images(database))
-        self.store = await self._store_pool.run(lambda: Store.open(database, Path(images)))
+        store = await self._storage.open()
         self._records.start()
-        store = self.store
         try:
             if facility is not None:
                 self.book.load(facility_targets(facility), "the scene's hazards")
@@ -119,7 +115,7 @@ class Inspection:
                 loaded = await asyncio.to_thread(self._load_targets, Path(self.options.targets))
                 self.book.load(loaded, f"--targets {self.options.targets}")
             # What operators and mission files added, as they left it (a stored one replaces the scene's).
-            self.book.load(await self._store_pool.run(store.targets), f"the database {store.name}")
+            self.book.load(await self._storage.run(store.targets), f"the database {store.name}")
         except ValueError as exc:
             raise ConfigError(self.config.source, None, "inspection.max_targets", str(exc)) from None
         await self._load_history(store)
@@ -129,9 +125,9 @@ class Inspection:
     async def _load_history(self, store: Store) -> None:
         """What clients saw before the restart: the newest findings and missions. A mission that was running or
         pending is paused ("the relay restarted"): an operator resumes it from its step, or aborts it."""
-        found = await self._store_pool.run(lambda: store.recent_findings(FINDINGS_ON_CONNECT))
+        found = await self._storage.run(lambda: store.recent_findings(FINDINGS_ON_CONNECT))
         self.captures.recent = [finding_message(f, c.image, c.readings) for f, c in reversed(found)]
-        for record in reversed(await self._store_pool.run(lambda: store.missions(MISSIONS_ON_CONNECT))):
+        for record in reversed(await self._storage.run(lambda: store.missions(MISSIONS_ON_CONNECT))):
             if record.state in ("running", "pending"):
                 record = replace(record, state="paused", reason="the relay restarted", updated=self.wall())
                 self._records.put(record)
@@ -151,14 +147,9 @@ class Inspection:
         for run in self.runner.runs.values():
             self._records.put(run.record)
         await self._records.close()
-        if self.store is not None:
-            store = self.store
-            await self._store_pool.run(store.close)
-        self._store_pool.shutdown()
+        await self._storage.close()
         self.captures.close()
         self._planning.shutdown()
-        if self._temporary is not None:
-            self._temporary.cleanup()
 
     def mission_robots(self) -> set[str]:
         return {run.record.robot for run in self.runner.runs.values() if run.record.state in ("running", "paused")}
@@ -180,9 +171,9 @@ class Inspection:
         """Carry out one inspection command; raises CommandRejected (or ProtocolError) when refused."""
         self.control.gate.require_operator(client, inspection_identifier(command), command.id)
         if isinstance(command, MissionStart):
-            await self._start(client, command, now)
+            await self.missions.start(client, command, now)
         elif isinstance(command, MissionControl):
-            await self._control(client, command, now)
+            await self.missions.control(client, command, now)
         elif isinstance(command, FindingMark):
             await self.captures.finding(client, command)
         elif isinstance(command, RegionRequest):
@@ -190,204 +181,7 @@ class Inspection:
         elif isinstance(command, TargetAdd):
             await self.captures.add_target(client, command)
 
-    async def _store(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> T:
-        from .store import StoreError, UnknownRecord
-
-        store = self.store
-        if store is None:
-            raise CommandRejected(ErrorCode.INTERNAL, "the inspection database is not open", request_id)
-        try:
-            return await self._store_pool.run(lambda: work(store))
-        except UnknownRecord as exc:  # the client named something that is not there: its mistake, not the relay's
-            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), request_id) from None
-        except Busy as exc:  # a bounded queue that is full: nothing was done, the client may send it again
-            raise CommandRejected(ErrorCode.BUSY, f"inspection database: {exc}", request_id) from None
-        except StoreError as exc:
-            raise CommandRejected(ErrorCode.INTERNAL, f"inspection database: {exc}", request_id) from None
-
-    async def _store_call(self, work: Callable[[Store], None], request_id: RequestId | None) -> None:
-        await self._store(work, request_id)
-
-    async def _start(self, client: Client, command: MissionStart, now: float) -> None:
-        plan, placemarks = await self._plan(command)
-        if placemarks:
-            await self.book.add(placemarks, f"mission/start: {command.file}", command.id)
-        robots: dict[str, tuple[Step, ...]]
-        if plan.targets:
-            unknown = [t for t in plan.targets if t not in self.targets]
-            if unknown:
-                # Named, a few of them: the site's targets are in the `targets` list every client holds.
-                more = f" and {len(unknown) - 5} more" if len(unknown) > 5 else ""
-                raise CommandRejected(
-                    ErrorCode.BAD_REQUEST,
-                    f"mission/start: unknown target(s) {', '.join(t[:64] for t in unknown[:5])}{more}; "
-                    f"the site has {len(self.targets)} targets (the `targets` list)",
-                    command.id,
-                )
-            free = {r: self._position(r) for r in self.robots if self._free(client, r, now)}
-            where = dict(self.targets)
-            positions = {r: p for r, p in free.items() if p is not None}
-            try:
-                assigned = await self._planning.run(lambda: assign(plan.targets, positions, where))
-            except MissionError as exc:
-                raise CommandRejected(ErrorCode.BAD_REQUEST, f"mission/start: {exc}", command.id) from None
-            except Busy as exc:
-                raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
-            robots = {r: tuple(Step("inspect", target=t) for t in ts) for r, ts in assigned.items()}
-        else:
-            robots = dict(plan.robots)
-        for robot in robots:
-            if robot not in self.robots:
-                raise CommandRejected(ErrorCode.UNKNOWN_ROBOT, f"mission/start: unknown robot {robot!r}", command.id)
-            self.control.gate.require_commandable(client, robot, f"mission/start {robot}", command.id, now, moves=True)
-            if self.runner.active(robot) is not None:
-                raise CommandRejected(
-                    ErrorCode.BAD_REQUEST, f"mission/start: {robot} is on a mission already", command.id
-                )
-        # Every step of every robot is checked before any robot moves.
-        waypoints = await self._plan_all(robots, "mission/start", command.id)
-        group = new_id("m")
-        wall = self.wall()
-        records = [
-            MissionRecord(f"{group}.{robot}", plan.name, robot, steps, "pending", 0, "", wall, wall, client.client_id)
-            for robot, steps in robots.items()
-        ]
-        for record in records:  # all stored before any robot moves: a full or locked database starts none
-            await self._store(_saver(record), command.id)
-        for record in records:
-            robot = record.robot
-            previous = self.control.leases.holder(robot)
-            self.control.leases.take(robot, holder(record.id), now)
-            self.control.lease_changed(robot, holder(record.id), previous, "acquired", now)
-            self.runner.start(record, waypoints[robot])
-            logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(record.steps))
-
-    async def _plan_all(
-        self, robots: dict[str, tuple[Step, ...]], identifier: str, request_id: RequestId
-    ) -> dict[str, list[Waypoint | None]]:
-        """Every step of every robot checked, from where each stands, on the planning pool."""
-        grid = self.map_grid()
-        where = dict(self.targets)
-        starts = {
-            r: self._position(r) or (self.robots[r].initial_pose.x, self.robots[r].initial_pose.y) for r in robots
-        }
-
-        def check() -> dict[str, list[Waypoint | None]]:
-            planner = _planner(grid)
-            return {r: resolve(r, steps, where, starts[r], grid, planner) for r, steps in robots.items()}
-
-        try:
-            return await self._planning.run(check)
-        except MissionError as exc:
-            raise CommandRejected(ErrorCode.NO_PATH, f"{identifier}: {exc}", request_id) from None
-        except Busy as exc:
-            raise CommandRejected(ErrorCode.BUSY, f"{identifier}: {exc}; try again shortly", request_id) from None
-
-    async def _plan_steps(self, robot: str, steps: tuple[Step, ...], request_id: RequestId) -> list[Waypoint | None]:
-        return (await self._plan_all({robot: steps}, "mission/resume", request_id))[robot]
-
-    async def _plan(self, command: MissionStart) -> tuple[MissionPlan, list[Target]]:
-        """The mission asked for, and the targets its file brings (KML/KMZ placemarks): a file is read and parsed
-        on the planning pool (a 6000-placemark KMZ once held the loop, and an estop, for 9.8 s)."""
-        try:
-            if command.file is not None:
-                file = command.file
-                return await self._planning.run(lambda: self._mission_file(file))
-            name = command.name or "mission"
-            if command.targets is not None:
-                return MissionPlan(name, targets=command.targets), []
-            assert command.robot is not None
-            return MissionPlan(name, robots=((command.robot, steps_from_wire(command.steps, "mission/start")),)), []
-        except (MissionError, KmlError) as exc:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, str(exc), command.id) from None
-        except Busy as exc:
-            raise CommandRejected(ErrorCode.BUSY, f"mission/start: {exc}; try again shortly", command.id) from None
-
-    def _mission_file(self, name: str) -> tuple[MissionPlan, list[Target]]:
-        """``missions/<name>.yaml``, or ``<name>.kmz``/``.kml``: its placemarks are targets, visited by the fleet.
-        Runs on the planning pool: reads files and the config only."""
-        if not TARGET_ID.match(name):
-            raise MissionError(f"mission/start: no mission file named {name[:64]!r}")
-        folder = self.options.missions_dir
-        for suffix in (".yaml", ".kmz", ".kml"):
-            path = folder / f"{name}{suffix}"
-            if not path.is_file():
-                continue
-            if suffix == ".yaml":
-                return load_mission(path), []
-            targets = targets_from_kml(path.read_bytes(), path.name, self.config.georeference)
-            if not targets:
-                raise MissionError(f"{path.name}: no placemark with a point: nothing to inspect")
-            return MissionPlan(name, targets=tuple(t.id for t in targets)), targets
-        available = sorted({p.stem for p in folder.glob("*") if p.suffix in (".yaml", ".kmz", ".kml")})
-        raise MissionError(f"mission/start: no mission file {name!r}; there are {', '.join(available) or 'none'}")
-
-    def _free(self, client: Client, robot: str, now: float) -> bool:
-        holder_now = self.control.leases.holder(robot)
-        return (
-            self.fleet.online(robot, now)
-            and robot not in self.control.latched
-            and self.runner.active(robot) is None
-            and holder_now in (None, client.client_id)
-            and self.backend.command_refusal(robot) is None
-        )
-
-    def _position(self, robot: str) -> tuple[float, float] | None:
-        pose = self.fleet.snapshot(self.clock())[robot]["pose"]
-        return None if pose is None else (pose["x"], pose["y"])
-
-    async def _control(self, client: Client, command: MissionControl, now: float) -> None:
-        run = self.runner.runs.get(command.mission)
-        if run is None:
-            raise CommandRejected(
-                ErrorCode.BAD_REQUEST, f"mission/{command.action}: no mission {command.mission[:80]!r}", command.id
-            )
-        if run.record.state in ("done", "aborted"):
-            raise CommandRejected(
-                ErrorCode.BAD_REQUEST,
-                f"mission/{command.action}: mission {run.record.id} has ended ({run.record.state})",
-                command.id,
-            )
-        robot = run.record.robot
-        lease = self.control.leases.holder(robot)
-        # A mission restored after a restart holds no lease (leases live in memory): free is as good as its own.
-        if lease not in (None, holder(run.record.id), client.client_id):
-            raise CommandRejected(
-                ErrorCode.LEASED, f"mission/{command.action}: {robot} is controlled by {lease}", command.id
-            )
-        revive = None
-        if command.action == "resume":
-            if lease == holder(run.record.id):  # held by the mission itself (an estop held it): the other rules
-                self.control.gate.require_movable(client, robot, "mission/resume", command.id)
-            else:
-                self.control.gate.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
-            if self.runner.needs_task(run):  # restored: the rest is planned again from where the robot stands
-                revive = await self._plan_steps(run.record.robot, run.record.steps, command.id)
-            if lease != holder(run.record.id):  # an operator who took over hands the robot back to the mission
-                self.control.leases.take(robot, holder(run.record.id), now)
-                self.control.lease_changed(robot, holder(run.record.id), lease, "acquired", now)
-        if revive is not None:
-            self.runner.revive(run, revive)
-            return
-        try:
-            await self.runner.act(run, command.action, client.client_id)
-        except ValueError as exc:
-            raise CommandRejected(ErrorCode.BAD_REQUEST, f"mission/{command.action}: {exc}", command.id) from None
-
-    # -- what the runner asks of the relay --------------------------------------------------------
-
-    async def _go(self, robot: str, x: float, y: float, yaw: float | None) -> None:
-        generation = self.control.supersede(robot)
-        self.fleet.set_teleop(robot, False)
-        await self.backend.send_goal(robot, x, y, yaw, current=lambda: self.control.generation(robot) == generation)
-
-    async def _stop(self, robot: str) -> None:
-        self.control.supersede(robot)
-        await self.backend.stop_robot(robot)
-
-    def _publish(self, record: MissionRecord) -> None:
-        self.outbox.broadcast(mission_message(record))
-        self._records.put(record)
+    # -- mission records --------------------------------------------------------------------------
 
     @property
     def store_failure(self) -> str | None:
@@ -397,19 +191,13 @@ class Inspection:
     async def _save(self, record: MissionRecord) -> None:
         store = self.store
         if store is not None:
-            await self._store_pool.run(lambda: store.save_mission(record))
-
-    def _release(self, record: MissionRecord) -> None:
-        robot, now = record.robot, self.clock()
-        if self.control.leases.holder(robot) == holder(record.id):
-            self.control.leases.release(robot, holder(record.id))
-            self.control.lease_changed(robot, None, holder(record.id), "released", now)
+            await self._storage.run(lambda: store.save_mission(record))
 
     # -- reading ----------------------------------------------------------------------------------
 
     async def image(self, sha: str) -> bytes | None:
         store = self.store
-        return None if store is None else await self._store_pool.run(lambda: store.image(sha))
+        return None if store is None else await self._storage.run(lambda: store.image(sha))
 
     async def report(self, scope: Scope, kind: str, origin: str) -> str:
         """The report of a mission, a fleet mission's group or a time range as ``kind`` (``report.KINDS``), image
@@ -426,16 +214,4 @@ class Inspection:
             found = report.collect(store, scope, report.site_of(config, store), now=now)
             return report.render(found, kind, store, grid, report.relay_images(origin))
 
-        return await self._store_pool.run(build)
-
-
-def _planner(grid: OccupancyGrid | None) -> Any:
-    if grid is None:
-        return None
-    from ..sim.planner import Planner
-
-    return Planner(grid, 0.25)
-
-
-def _saver(record: MissionRecord) -> Callable[[Store], None]:
-    return lambda store: store.save_mission(record)
+        return await self._storage.run(build)
