@@ -25,7 +25,7 @@ $(STAMPS)/python: pyproject.toml | $(BIN)/python
 
 # Nav2's nav2_msgs (NavigateToPose), which the ROS wheels lack, built with ROS 2's own generators: with it the ros
 # backend reads Nav2's feedback and error codes over DDS, as with a sourced ROS 2 (tools/build_nav2_msgs.py).
-$(STAMPS)/nav2_msgs: tools/build_nav2_msgs.py relay/nav2_types.py $(STAMPS)/python
+$(STAMPS)/nav2_msgs: tools/build_nav2_msgs.py relay/ros/nav2_types.py $(STAMPS)/python
 	$(BIN)/python tools/build_nav2_msgs.py > $(VENV)/nav2_msgs-build.log 2>&1 || { cat $(VENV)/nav2_msgs-build.log; exit 1; }
 	@mkdir -p $(STAMPS) && touch $@
 

@@ -43,7 +43,7 @@ def over_zenoh(topic: str, endpoint: str) -> None:
     import zenoh
 
     from relay.backends.zenoh_keys import topic_selector
-    from relay.ros_env import typestore
+    from relay.ros.ros_env import typestore
 
     store = typestore()
     config = zenoh.Config()

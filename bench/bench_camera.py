@@ -28,7 +28,7 @@ import cv2
 
 from relay.backends import dds_profile
 from relay.config.model import Ros
-from relay.imaging import JPEG_QUALITY, encode_jpeg, raw_to_bgr
+from relay.media.imaging import JPEG_QUALITY, encode_jpeg, raw_to_bgr
 
 from .common import (
     BURSTS,

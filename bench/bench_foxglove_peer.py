@@ -2,7 +2,7 @@
 server behind a Python API) fanning out the same poses to the same clients as benchmark 1.
 
 Same producer (bench/relay_proc.py ``--server foxglove``: the synthetic robots' thread logs each pose,
-encoded by relay.protocol exactly as xr-relay encodes it, on one JSON channel per robot), same client code
+encoded by relay.session.protocol exactly as xr-relay encodes it, on one JSON channel per robot), same client code
 (bench/wsload.py: the Foxglove subprotocol, a subscription to every advertised channel, then the same
 stamp reading from each message). xr-relay is measured again in the same run, cell by cell, for the ratio.
 Foxglove keeps up to 1024 messages per client and drops the oldest; it does not coalesce.

@@ -8,8 +8,8 @@ loopback, and the client's own read. The relay's CPU is its process's CPU time o
 
 Baseline, same run, same producer, same clients: the naive relay (relay_proc ``--server naive``), the way
 the thesis prototype worked, and xr-relay itself with one frame per message (``xr-single``: clients that do not
-ask for batches, as protocol v1 clients). ``xr`` is xr-relay with batching (``/ws?batch=1``, relay.hub): what the
-web client uses. Target (issue #15): 100 robots x 20 clients with p99 <= 5 ms and relay CPU <= 50 % of one core.
+ask for batches, as protocol v1 clients). ``xr`` is xr-relay with batching (``/ws?batch=1``, relay.station.hub): what
+the web client uses. Target (issue #15): 100 robots x 20 clients with p99 <= 5 ms and relay CPU <= 50 % of one core.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run as a script from anywhere in a checkout
 
-from relay.lens import LensModel  # noqa: E402
+from relay.media.lens import LensModel  # noqa: E402
 from relay.sim.camera import SimCamera, embree_available, rgb_to_jpeg  # noqa: E402
 
 logger = logging.getLogger("bench_sim_camera")

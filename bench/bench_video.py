@@ -1,5 +1,5 @@
-"""Benchmark 7: live video (#16). H.264 from the relay's encoder (relay/video.py) beside the JPEG path, on the real
-fisheye photo of shared/data panned across 6 pixels a frame (bench/ros_pub.py ``"pan": true``), so the encoder has
+"""Benchmark 7: live video (#16). H.264 from the relay's encoder (relay/media/video.py) beside the JPEG path, on the
+real fisheye photo of shared/data panned across 6 pixels a frame (bench/ros_pub.py ``"pan": true``), so the encoder has
 motion to code.
 
 Two parts:
@@ -31,8 +31,8 @@ import cv2
 import numpy as np
 
 from relay.backends import dds_profile
-from relay.imaging import JPEG_QUALITY, encode_jpeg
-from relay.video import H264Encoder, default_bitrate
+from relay.media.imaging import JPEG_QUALITY, encode_jpeg
+from relay.media.video import H264Encoder, default_bitrate
 
 from .common import (
     BURSTS,

@@ -1,5 +1,5 @@
-"""The hand-written Odometry decode the bare raw subscribers use: the relay's own (relay/cdr.py)."""
+"""The hand-written Odometry decode the bare raw subscribers use: the relay's own (relay/ros/cdr.py)."""
 
-from relay.cdr import odometry_pose, odometry_stamp, verify
+from relay.ros.cdr import odometry_pose, odometry_stamp, verify
 
 __all__ = ["odometry_pose", "odometry_stamp", "verify"]

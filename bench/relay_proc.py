@@ -7,7 +7,7 @@ Prints ``{"port": N, "pid": P}`` once it listens, then answers ``stats`` on stdi
 
 Servers:
 
-- ``xr``: the real relay (``relay.server.create_app``) with one of the backends below.
+- ``xr``: the real relay (``relay.net.server.create_app``) with one of the backends below.
 - ``naive``: the relay as the thesis prototype worked, written here for the baseline: every message is put
   in every client's unbounded queue and JSON-encoded per client (stdlib ``json``), nothing is coalesced.
 - ``foxglove``: the Foxglove SDK's WebSocket server (Rust), one JSON channel per robot.
@@ -47,11 +47,11 @@ from typing import Any
 from aiohttp import web
 
 from relay.backends.base import Backend
+from relay.cli.options import Options
 from relay.config import FleetConfig, load_config, parse_config
-from relay.events import Event, EventSink, FrameEvent, PoseEvent
-from relay.geometry import yaw_to_quaternion
-from relay.messages import encode, pose_message
-from relay.options import Options
+from relay.fleet.events import Event, EventSink, FrameEvent, PoseEvent
+from relay.fleet.geometry import yaw_to_quaternion
+from relay.station.messages import encode, pose_message
 
 logger = logging.getLogger("bench.relay_proc")
 
@@ -266,7 +266,7 @@ def relay_options(backend: str, token: str | None, zenoh_connect: str | None = N
     if token and "token" in names:
         kwargs["token"] = token
     if zenoh_connect:
-        from relay.options import ZenohOptions
+        from relay.cli.options import ZenohOptions
 
         kwargs["zenoh"] = ZenohOptions(connect=(zenoh_connect,))
     return Options(**kwargs)
@@ -274,7 +274,7 @@ def relay_options(backend: str, token: str | None, zenoh_connect: str | None = N
 
 async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | None) -> None:
     from relay.backends import create_backend
-    from relay.server import RELAY_KEY, create_app, open_runner
+    from relay.net.server import RELAY_KEY, create_app, open_runner
 
     synthetic: SyntheticBackend | None = None
     counter: Counter | None = None
@@ -283,8 +283,8 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
         """The backend, built around a counting sink: parts of a backend keep the sink they were built with (the
         ros backend's camera encoders), so it is wrapped before, never swapped after. The benchmark's own synthetic
         backend is built here too (the relay does not build it by name). Until 2026-11-23 it was swapped in as
-        relay.core.create_backend, which Relay's default argument had already bound: the xr cells measured the sim
-        backend, and frames of the ros backend's cameras went past the swapped-in counter."""
+        relay.station.core.create_backend, which Relay's default argument had already bound: the xr cells measured the
+        sim backend, and frames of the ros backend's cameras went past the swapped-in counter."""
         nonlocal synthetic, counter
         counter = Counter(sink)
         if args.backend == "synthetic":
@@ -335,7 +335,7 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
 def count_images(backend: Backend) -> list[int]:
     """Count the images DDS hands the ros backend (before its own rate limit and encoder), so the camera
     benchmark can tell frames lost in DDS from frames the backend skipped. The backend's cameras
-    (relay.backends.ros_cameras) subscribe on demand through the function they were given: wrapping it here, before
+    (relay.backends.cameras) subscribe on demand through the function they were given: wrapping it here, before
     any stream starts, counts every image each subscription's callback gets. Another backend reports 0."""
     seen = [0]
     cameras = getattr(backend, "_cameras", None)

@@ -266,7 +266,7 @@ def fanout_section(page: Page, r: JsonDict) -> None:
 
 
 FOXGLOVE_DOC = """The Foxglove SDK's WebSocket server (a Rust server behind a Python API) with the same producer and
-the same clients as above: each pose, encoded by relay.protocol as xr-relay encodes it, is logged on one JSON
+the same clients as above: each pose, encoded by relay.session.protocol as xr-relay encodes it, is logged on one JSON
 channel per robot; the clients speak the Foxglove subprotocol, subscribe to every channel and read the
 same stamp. Foxglove keeps up to 1024 messages per client and drops the oldest; it does not coalesce.
 xr-relay is measured again, cell by cell, in the same run.
@@ -290,7 +290,7 @@ def foxglove_section(page: Page, r: JsonDict) -> None:
 INGEST_DOC = """nav_msgs/Odometry (about 700 bytes, covariances filled) from a publisher in another process
 (bench/ros_pub.py, reliable, depth 10) at 100 Hz, 1 kHz and flat out, over Fast DDS on this machine. The relay
 (bench/relay_proc.py, the real ros backend, one robot) counts the messages it takes from DDS and decodes (its
-inbox, relay/backends/ros_ingest.py); one WebSocket client measures freshness: its receive time minus the
+inbox, relay/backends/ingest.py); one WebSocket client measures freshness: its receive time minus the
 publisher's header stamp (`time.monotonic()`), so DDS, the executor thread, the thread hop, the hub and the
 socket are all in it. The limit, same setup and run, is a bare rclpy subscriber (bench/ros_sub.py) with the
 backend's QoS (best effort, depth 10), spun in a thread like the backend's executor; its latency is to its
@@ -498,7 +498,7 @@ def ingest_plot(page: Page, r: JsonDict) -> None:
 # -- 3: camera ----------------------------------------------------------------------------------------
 
 CAMERA_DOC = """sensor_msgs/Image rgb8 at 640x480 and 1280x720, 30 Hz, through the ros backend (converted and
-JPEG-encoded in its worker pool at `relay.imaging.JPEG_QUALITY`), a CompressedImage JPEG passed through
+JPEG-encoded in its worker pool at `relay.media.imaging.JPEG_QUALITY`), a CompressedImage JPEG passed through
 untouched, and three 1280x720 cameras at once; one WebSocket client streams each camera at 30 fps. The
 images are the fisheye photos of `shared/data/fisheye/surroundvision_jeyp4` resized (real content; JPEG size
 and encode time depend on it). Latency is the client's receive time minus the publisher's header stamp
@@ -733,10 +733,10 @@ def client_section(page: Page, r: JsonDict) -> None:
         page.image(fig, "client_frame", "the app's JS time per frame per configuration")
 
 
-VIDEO_DOC = """H.264 from the relay's encoder (relay/video.py: libx264 through PyAV, constrained baseline, zerolatency,
-preset veryfast, one thread, the camera's default bitrate) beside the JPEG path, on the real fisheye photo panned 6
-pixels a frame at 1280x720 and 30 fps. Encoder part (one process, no network): bytes per second, SSIM of the luma
-against the source frames (H.264 decoded by FFmpeg's own decoder through PyAV), encoder CPU per frame. Relay part:
+VIDEO_DOC = """H.264 from the relay's encoder (relay/media/video.py: libx264 through PyAV, constrained baseline,
+zerolatency, preset veryfast, one thread, the camera's default bitrate) beside the JPEG path, on the real fisheye photo
+panned 6 pixels a frame at 1280x720 and 30 fps. Encoder part (one process, no network): bytes per second, SSIM of the
+luma against the source frames (H.264 decoded by FFmpeg's own decoder through PyAV), encoder CPU per frame. Relay part:
 the ros backend with a panning publisher in another process over DDS (bench/ros_pub.py `pan`), one camera streamed
 as H.264 to 1 and then 10 WebSocket clients (relay CPU of each, same run), then three cameras to one client; the
 same again with the publisher using the relay's Fast DDS profile for large images (relay/backends/

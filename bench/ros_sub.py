@@ -6,7 +6,7 @@ the executor and decoding options it could use.
 A variant is ``<decode>-<executor>``:
 
 - decode ``plain``: rclpy deserialises the message (what the ros backend does); the callback reads the
-  stamp and the pose, as ``RosBackend._on_pose`` does;
+  stamp and the pose, as ``relay.backends.ingest.pose_reader`` does;
 - ``raw``: ``raw=True``, the callback gets the CDR bytes and reads only the stamp (the least any
   subscriber does: the ceiling);
 - ``rawcdr``: ``raw=True`` and bench/cdr.py's hand-written decode of the stamp, frame and pose; the first
@@ -68,7 +68,7 @@ def callback(decode: str, tally: Tally) -> Any:
             stamp = message.header.stamp
             pose = message.pose.pose
             p, q = pose.position, pose.orientation
-            # The same reads as RosBackend._on_pose: the pose fields become a PoseEvent there.
+            # The same reads as relay.backends.ingest.pose_reader: the pose fields become a PoseEvent there.
             _ = (message.header.frame_id, p.x, p.y, p.z, q.x, q.y, q.z, q.w)
             tally.count += 1
             if tally.active:

@@ -25,7 +25,7 @@ import numpy as np
 import zenoh
 
 from relay.backends.zenoh_keys import Attachment, topic_key
-from relay.ros_env import typestore
+from relay.ros.ros_env import typestore
 
 from .ros_pub import emit, set_raw_stamp, watch_stdin
 

@@ -28,12 +28,12 @@ import pytest
 from aiohttp import web
 
 import relay.backends.sim  # noqa: F401 - imported once here, as the relay does at start-up: trimesh and
+from relay.cli.options import Options
 
 # Embree take a second to import, which would otherwise count as the first test's loop blocking.
 from relay.config import FleetConfig, load_config
-from relay.core import Relay
-from relay.options import Options
-from relay.server import RELAY_KEY, create_app, open_runner
+from relay.net.server import RELAY_KEY, create_app, open_runner
+from relay.station.core import Relay
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The shared recordings, maps, photos and robot description (../shared/data beside the repository; a clone of the

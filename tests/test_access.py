@@ -18,10 +18,10 @@ import aiohttp
 import pytest
 from websockets.exceptions import InvalidStatus
 
-from relay.access import FIRST_DELAY, FREE_FAILURES
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.options import Options
-from relay.tls import ensure_certificate, fingerprint
+from relay.net.access import FIRST_DELAY, FREE_FAILURES
+from relay.net.tls import ensure_certificate, fingerprint
 from tests.conftest import ROOT, RunningRelay, relay_process, start_relay
 from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient
@@ -106,7 +106,7 @@ async def test_viewers_see_everything_and_command_nothing(fleet_config: FleetCon
 
 
 def test_wrong_tokens_are_slowed_and_the_right_token_always_gets_in() -> None:
-    from relay.access import FIRST_DELAY, FREE_FAILURES, MAX_DELAY, Access, Refused
+    from relay.net.access import FIRST_DELAY, FREE_FAILURES, MAX_DELAY, Access, Refused
 
     access = Access(TOKEN)
     delays = []
@@ -133,7 +133,7 @@ def test_wrong_tokens_are_slowed_and_the_right_token_always_gets_in() -> None:
 def test_guesses_at_once_are_answered_one_after_another_and_ipv6_counts_by_its_64() -> None:
     """Each answer waiting on its own let 40 parallel guesses through within 0.02 s (issue 28, finding 5); the
     answers to one address's wrong tokens now come one after another, MAX_DELAY apart at the most."""
-    from relay.access import MAX_DELAY, Access, Refused
+    from relay.net.access import MAX_DELAY, Access, Refused
 
     access = Access(TOKEN)
     answers = []
@@ -304,7 +304,7 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
     token = "tok-SECRET-" + secrets.token_urlsafe(32)
     script = (
         "import asyncio, sys\n"
-        "from relay.cli import main\n"
+        "from relay.cli.main import main\n"
         f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '']))\n"
     )
     process = subprocess.Popen(
@@ -404,8 +404,8 @@ async def test_guessing_at_report_is_slowed_as_at_the_handshake_and_learns_nothi
 def test_a_weak_token_is_refused_with_a_clear_message(caplog: pytest.LogCaptureFixture, monkeypatch: Any) -> None:
     """A 4-digit token was found through /report in 3.5 s and then opened /ws as operator (issue 28, finding 5):
     --token and $XR_RELAY_TOKEN refuse a token under 128 bits (estimated from its length and alphabet)."""
-    from relay.access import weak_token
-    from relay.cli import main
+    from relay.cli.main import main
+    from relay.net.access import weak_token
 
     monkeypatch.delenv("XR_RELAY_TOKEN", raising=False)
     assert main(["--token", "4821", "--audit-log", ""]) == 2

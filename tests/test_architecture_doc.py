@@ -69,8 +69,8 @@ def problems(text: str) -> list[str]:
 
 def test_the_checker_finds_a_missing_file_and_a_symbol_in_the_wrong_module() -> None:
     text = (
-        "| x | `relay/fleet.py` `FleetState.on_pose` |\n"
-        "| y | `relay/protocol.py` `pose_message` |\n"
+        "| x | `relay/fleet/state.py` `FleetState.on_pose` |\n"
+        "| y | `relay/session/protocol.py` `pose_message` |\n"
         "| z | `relay/nowhere.py` |"
     )
     assert problems(text) == [

@@ -13,8 +13,8 @@ from typing import Any
 
 import aiohttp
 
-from relay.audit import AuditLog, CommandAudit
 from relay.errors import CommandRejected
+from relay.station.audit import AuditLog, CommandAudit
 from tests.conftest import ROOT
 from tests.helpers.cli import start_process
 from tests.wsclient import TestClient

@@ -27,9 +27,9 @@ import numpy as np
 import pytest
 
 from relay.backends.bag import BagContents, BagSpec, bind_bags
+from relay.cli.options import BagOptions, Options
 from relay.config import FleetConfig, parse_config
 from relay.errors import BackendUnavailable
-from relay.options import BagOptions, Options
 from tests.conftest import LOAD_SLACK, ROOT, SHARED_DATA, RunningRelay, start_relay
 from tests.gltf_validate import validate_glb
 from tests.wsclient import TestClient

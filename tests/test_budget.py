@@ -1,5 +1,5 @@
-"""relay.budget and relay.work: snapshots per role, per client and in total (operators always keep a slot), and
-work pools of their own with bounded queues."""
+"""relay.session.budget and relay.station.work: snapshots per role, per client and in total (operators always keep a
+slot), and work pools of their own with bounded queues."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import time
 import pytest
 
 from relay.backends.sim import SimBackend
-from relay.budget import IN_FLIGHT, INTERVAL, OPERATOR_RESERVE, TOTAL, SnapshotBudget
 from relay.config import FleetConfig
 from relay.errors import CommandRejected
-from relay.work import Busy, WorkPool
+from relay.session.budget import IN_FLIGHT, INTERVAL, OPERATOR_RESERVE, TOTAL, SnapshotBudget
+from relay.station.work import Busy, WorkPool
 from tests.conftest import LOAD_SLACK
 
 

@@ -16,15 +16,15 @@ from typing import Any
 import orjson
 import pytest
 
-from relay.audit import QUIET_RATE
 from relay.backends.base import Backend
-from relay.budget import OPERATOR_RESERVE, TOTAL
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.core import Relay
-from relay.events import EventSink, FrameEvent, PoseEvent
-from relay.freshness import CREEP
-from relay.options import Options
-from relay.ratelimit import TokenBucket
+from relay.fleet.events import EventSink, FrameEvent, PoseEvent
+from relay.session.budget import OPERATOR_RESERVE, TOTAL
+from relay.session.freshness import CREEP
+from relay.session.ratelimit import TokenBucket
+from relay.station.audit import QUIET_RATE
+from relay.station.core import Relay
 from tests.helpers.station import Clock, FakeBackend, Station
 
 
@@ -123,7 +123,7 @@ async def test_stamped_commands_buffered_while_the_relay_was_frozen_are_dropped(
         await drive(frozen_at + 0.05 * (i + 1), station.clock.now, 100 + i)
     codes = [seen.replies(100 + i)[0].get("code", "ack") for i in range(60)]
     # Those sent more than the deadman's timeout (0.5 s) before the relay resumed are dropped, the last ~0.5 s go;
-    # the estimate may read ages young by its creep over the silence (relay.freshness: 0.02 s/s x 3 s).
+    # the estimate may read ages young by its creep over the silence (relay.session.freshness: 0.02 s/s x 3 s).
     timeout = station.relay.config.safety.deadman_timeout
     ages = [3.0 - 0.05 * (i + 1) for i in range(60)]
     assert all(code == "stale" for code, age in zip(codes, ages, strict=True) if age > timeout + CREEP * 3.0), codes
@@ -382,7 +382,7 @@ async def test_a_flood_of_bad_frames_is_rate_limited_and_cannot_wipe_the_audit_l
     await station.settle()
     records = audit_records(tmp_path)
     rate = station.relay.options.max_message_rate
-    # Refusals are recorded within the client's audit budget (relay.audit): its burst and what it earns back in
+    # Refusals are recorded within the client's audit budget (relay.station.audit): its burst and what it earns back in
     # 0.3 s, not 300 lines; the rest are counted.
     assert len(records) <= 2 * QUIET_RATE + 0.3 * QUIET_RATE + 1, len(records)
     assert max(len(json.dumps(r)) for r in records) < 600, "no record echoes the 1000-character name"

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from relay.backends import dds_profile
-from relay.cli import main
+from relay.cli.main import main
 from relay.config import load_config, parse_config
 from relay.errors import ConfigError
 

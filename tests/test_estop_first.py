@@ -23,8 +23,8 @@ import orjson
 import pytest
 import websockets.asyncio.client
 
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.options import Options
 from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, relay_process, start_relay
 from tests.helpers.postgres import running_postgres
 from tests.helpers.waiting import wait_until

@@ -17,8 +17,8 @@ from typing import Any
 
 import pytest
 
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.options import Options
 from tests.conftest import LOAD_SLACK, relay_process, shared_data, start_relay
 from tests.wsclient import TestClient
 

@@ -101,7 +101,7 @@ async def test_the_database_password_never_reaches_a_log_line_and_images_stay_ou
 
 
 def test_redaction_covers_urls_parameters_and_tracebacks() -> None:
-    from relay.redaction import redact
+    from relay.logs.redaction import redact
 
     assert (
         redact("db postgresql://relay:p@ss:w%2Frd@db.example:5432/x ok")
@@ -120,7 +120,7 @@ async def test_every_response_carries_the_security_headers(relay_server: Running
     """Measured before: no Content-Security-Policy, X-Content-Type-Options, Referrer-Policy or frame-ancestors on
     any page. Now every response has them, errors and refusals included; the page's import map is allowed by its
     hash and nothing else inline is (tests/e2e/test_security_headers.py loads the pages in Chromium)."""
-    from relay.headers import inline_script_hashes
+    from relay.net.headers import inline_script_hashes
 
     import_map = inline_script_hashes((ROOT / "xr_client" / "index.html").read_text())
     assert len(import_map) == 1

@@ -1,5 +1,5 @@
-"""Control with another relay of the fleet behind a FleetPeer (relay/fleet_peer.py), without sockets: a fake peer
-records what this relay tells the others and plays what they would tell it. tests/test_zenoh_fleet.py runs the same
+"""Control with another relay of the fleet behind a FleetPeer (relay/control/fleet_peer.py), without sockets: a fake
+peer records what this relay tells the others and plays what they would tell it. tests/test_zenoh_fleet.py runs the same
 over a real Zenoh router with two real relays.
 """
 
@@ -14,11 +14,11 @@ import pytest
 from hypothesis import given
 
 from relay.backends.base import Backend
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.core import Relay
-from relay.events import EventSink
-from relay.fleet_peer import FleetPeer, OnEstop, OnLease, PeerLeases, RemoteLease
-from relay.options import Options
+from relay.control.fleet_peer import FleetPeer, OnEstop, OnLease, PeerLeases, RemoteLease
+from relay.fleet.events import EventSink
+from relay.station.core import Relay
 from tests.helpers.station import Clock, FakeBackend, Station
 
 
@@ -141,7 +141,8 @@ async def test_who_holds_a_robot_through_another_relay_is_every_clients_status(p
     assert station.relay.fleet.status("robot3", station.clock.now)["controller"] is None
 
 
-# -- the rule of leases held through other relays (relay/fleet_peer.py's PeerLeases), the time passed in ----------
+# -- the rule of leases held through other relays (relay/control/fleet_peer.py's PeerLeases), the time passed in
+# ----------
 
 
 def test_a_token_without_its_relays_heartbeat_holds_nothing() -> None:

@@ -14,9 +14,9 @@ from typing import Any
 
 import pytest
 
-from relay.events import FrameEvent
-from relay.frame_encoder import LatestFrameEncoder
-from relay.imaging import ImageError
+from relay.fleet.events import FrameEvent
+from relay.media.frame_encoder import LatestFrameEncoder
+from relay.media.imaging import ImageError
 
 
 class Clock:

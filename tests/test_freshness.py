@@ -1,10 +1,10 @@
-"""relay.freshness: ages of stamped messages when the sender's clock and the receiver's do not agree."""
+"""relay.session.freshness: ages of stamped messages when the sender's clock and the receiver's do not agree."""
 
 from __future__ import annotations
 
 import pytest
 
-from relay.freshness import CREEP, SenderClock
+from relay.session.freshness import CREEP, SenderClock
 
 
 def test_ages_are_relative_to_the_quickest_message_whatever_the_clock_offset() -> None:

@@ -16,10 +16,10 @@ import hypothesis.strategies as st
 import pytest
 from hypothesis import HealthCheck, given, settings
 
+from relay.cli.options import Options
 from relay.config import FleetConfig
 from relay.errors import ProtocolError
-from relay.options import Options
-from relay.protocol import CLIENT_ROBOT_KINDS, Command, parse_command
+from relay.session.protocol import CLIENT_ROBOT_KINDS, Command, parse_command
 from tests.conftest import RunningRelay, start_relay
 from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient

@@ -1,4 +1,4 @@
-"""Connections before they are admitted (relay.guard), and the Host check against DNS rebinding.
+"""Connections before they are admitted (relay.net.guard), and the Host check against DNS rebinding.
 
 Slowloris connections are closed at their header deadline, a flood of half-open connections evicts itself
 (never the admitted operator), a relay short of descriptors still lets the operator in and logs accept failures
@@ -16,9 +16,9 @@ from pathlib import Path
 import aiohttp
 import pytest
 
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.guard import ACCEPT_FAILURE, ConnectionGuard
-from relay.options import Options
+from relay.net.guard import ACCEPT_FAILURE, ConnectionGuard
 from tests.conftest import LOAD_SLACK, RunningRelay, relay_process, start_relay
 from tests.wsclient import TestClient
 
@@ -116,12 +116,12 @@ async def test_accept_failures_are_logged_once_per_interval(caplog: pytest.LogCa
 
     guard.attach(Server())
     loop = asyncio.get_running_loop()
-    with caplog.at_level(logging.ERROR, logger="relay.guard"):
+    with caplog.at_level(logging.ERROR, logger="relay.net.guard"):
         for _ in range(1000):
             loop.call_exception_handler({"message": ACCEPT_FAILURE, "exception": OSError(24, "Too many open files")})
     guard.stop()
     loop.set_exception_handler(None)
-    lines = [r for r in caplog.records if r.name == "relay.guard"]
+    lines = [r for r in caplog.records if r.name == "relay.net.guard"]
     assert len(lines) == 1 and "1 failures so far" in lines[0].getMessage()
     assert guard.counts["accept_failures"] == 1000
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
-from relay.hub import CLOSE_NOT_READING, Hub
+from relay.station.hub import CLOSE_NOT_READING, Hub
 from tests.helpers.hub import RecordingTransport, settle
 
 DOC_PROTOCOL = (Path(__file__).parent.parent / "docs/protocol.md").read_text()
@@ -111,7 +111,7 @@ async def test_remove_stops_the_writer() -> None:
 
 
 async def test_a_batching_client_gets_what_waits_in_one_json_array_and_a_lone_message_as_itself() -> None:
-    from relay import messages
+    from relay.station import messages
 
     def pose(robot: str, x: float) -> bytes:
         q = 0.707107
@@ -155,7 +155,7 @@ async def test_a_batching_client_gets_what_waits_in_one_json_array_and_a_lone_me
 
 
 async def test_batches_are_bounded_and_priority_and_frames_are_never_batched() -> None:
-    from relay.hub import MAX_BATCH_MESSAGES
+    from relay.station.hub import MAX_BATCH_MESSAGES
 
     hub = Hub()
     transport = RecordingTransport(paused=True)

@@ -8,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from relay.geometry import quaternion_to_yaw, yaw_to_quaternion
-from relay.imaging import ImageError, compressed_to_jpeg, encode_jpeg, jpeg_size, raw_to_bgr
+from relay.fleet.geometry import quaternion_to_yaw, yaw_to_quaternion
+from relay.media.imaging import ImageError, compressed_to_jpeg, encode_jpeg, jpeg_size, raw_to_bgr
+from relay.ros.tf import TfPose, Transform, compose
 from relay.sim.floorplan import demo_facility, rasterise
 from relay.sim.laser import LaserScanner
-from relay.tf import TfPose, Transform, compose
 
 
 def planar(x: float, y: float, yaw: float) -> Transform:
@@ -98,7 +98,7 @@ def test_simulated_laser_sees_the_walls() -> None:
 
 
 def test_odometry_cdr_decode_matches_rclpy() -> None:
-    """relay/cdr.py reads the pose of raw Odometry bytes exactly as rclpy deserialises it, for every
+    """relay/ros/cdr.py reads the pose of raw Odometry bytes exactly as rclpy deserialises it, for every
     alignment of the two frame-id strings."""
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'`")
     import random
@@ -106,7 +106,7 @@ def test_odometry_cdr_decode_matches_rclpy() -> None:
     from nav_msgs.msg import Odometry
     from rclpy.serialization import serialize_message
 
-    from relay.cdr import odometry_pose
+    from relay.ros.cdr import odometry_pose
 
     rng = random.Random(3)
     for i in range(40):

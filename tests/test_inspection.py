@@ -275,7 +275,7 @@ async def test_a_pixel_of_the_live_camera_becomes_a_target_a_finding_to_review_a
         ):
             refused = await client.request({"identifier": "target/add", "target": "spot-2", **fields}, timeout=30)
             assert (refused.get("code"), text in refused.get("message", "")) == (code, True), (fields, refused)
-        # Each takes a snapshot: an operator may have two at once (relay/budget.py); a third is refused at once.
+        # Each takes a snapshot: an operator may have two at once (relay/session/budget.py); a third is refused at once.
         asked = [
             {"identifier": "target/add", "target": f"burst-{k}", "robot": "robot1", "u": 240, "v": 360}
             for k in range(3)

@@ -12,7 +12,7 @@ import yaml
 from numpy.typing import NDArray
 
 from relay.config import Lens
-from relay.lens import LensModel, pixel_grid, project, unproject
+from relay.media.lens import LensModel, pixel_grid, project, unproject
 from tests.conftest import SHARED_DATA
 
 CAMERAS_PARAM = SHARED_DATA / "fisheye" / "surroundvision_jeyp4" / "camerasParam.yaml"
@@ -29,7 +29,7 @@ def direction(theta_deg: float, phi_deg: float = 0.0) -> NDArray[np.float64]:
 
 
 def closed_form_radius(model: str, theta: float, fov_deg: float, size: int) -> float:
-    """Pixel radius of ``theta`` on a ``size`` x ``size`` image, written out independently of relay.lens."""
+    """Pixel radius of ``theta`` on a ``size`` x ``size`` image, written out independently of relay.media.lens."""
     half = math.radians(fov_deg) / 2.0
     rim = size / 2.0
     if model == "equidistant":

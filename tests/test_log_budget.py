@@ -1,4 +1,4 @@
-"""Log lines about what others send (relay/log_budget.py): the rule with the time passed in, and the logger behind
+"""Log lines about what others send (relay/logs/budget.py): the rule with the time passed in, and the logger behind
 it, without sockets."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from relay.log_budget import BudgetedLog, LogBudget
+from relay.logs.budget import BudgetedLog, LogBudget
 
 
 def test_a_period_allows_its_lines_and_counts_the_rest_for_one_summary() -> None:

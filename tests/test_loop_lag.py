@@ -1,4 +1,4 @@
-"""The loop's stalls measured, and client frames dated by the read that brought them (relay.loop_lag).
+"""The loop's stalls measured, and client frames dated by the read that brought them (relay.net.loop_lag).
 
 Pure rules first (times passed in), then a real relay process frozen by SIGSTOP while a client that does not stamp
 its commands keeps driving: none of the commands that waited reaches the robot.
@@ -15,7 +15,7 @@ import time
 
 import pytest
 
-from relay.loop_lag import ArrivalDates, LagStats, LoopLag, unread_bytes
+from relay.net.loop_lag import ArrivalDates, LagStats, LoopLag, unread_bytes
 from tests.conftest import ROOT, relay_process
 from tests.wsclient import TestClient
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from relay.errors import ConfigError
-from relay.events import NavEvent
+from relay.fleet.events import NavEvent
 from relay.inspection.missions import MissionError, assign, load_mission, resolve, steps_from_wire
 from relay.inspection.records import MissionRecord, Step, Target
 from relay.inspection.runner import MissionRunner

@@ -9,8 +9,8 @@ import asyncio
 from relay.backends.nav2_goals import ACCEPT_TIMEOUT, Aborted, Nav2Goals
 from relay.backends.navigation import CANCEL_TIMEOUT, Navigation
 from relay.config import parse_config
-from relay.events import CancelAnswerEvent, Event, GateStateEvent, GateWord, NavEvent, NavFeedbackEvent
-from relay.nav2_types import (
+from relay.fleet.events import CancelAnswerEvent, Event, GateStateEvent, GateWord, NavEvent, NavFeedbackEvent
+from relay.ros.nav2_types import (
     STATUS_ABORTED,
     STATUS_ACCEPTED,
     STATUS_CANCELED,

@@ -18,8 +18,8 @@ from typing import Any
 
 import pytest
 
+from relay.cli.options import Options
 from relay.config import parse_config
-from relay.options import Options
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.wsclient import TestClient
 

@@ -1,4 +1,4 @@
-"""Nav2's action types in rosbags' type store (relay/nav2_types.py): the relay reads what Nav2 writes.
+"""Nav2's action types in rosbags' type store (relay/ros/nav2_types.py): the relay reads what Nav2 writes.
 
 The reference here is independent of the module: Nav2 Jazzy's own NavigateToPose.action, split by hand as rosidl
 splits an action, registered in a type store of its own; CDR bytes written from it must read back as the feedback,
@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from relay import nav2_types
 from relay.backends.ingest import RawDecoder
-from relay.nav2_types import (
+from relay.ros import nav2_types
+from relay.ros.nav2_types import (
     CANCEL_RESPONSE,
     FEEDBACK_MESSAGE,
     GET_RESULT_RESPONSE,

@@ -22,8 +22,8 @@ import pytest
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 ext = pytest.importorskip("zenoh.ext")
 
+from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import parse_config  # noqa: E402
-from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
 from tests.helpers.nav2 import nav2_store  # noqa: E402
 from tests.helpers.zenoh import Router, until  # noqa: E402

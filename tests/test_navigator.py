@@ -8,7 +8,7 @@ import math
 import textwrap
 
 from relay.config import parse_config
-from relay.occupancy import OccupancyGrid
+from relay.fleet.occupancy import OccupancyGrid
 from relay.sim import navigator as nav
 from relay.sim.navigator import Navigator, world_planner
 from relay.sim.planner import Planner

@@ -7,7 +7,8 @@ import math
 import pytest
 
 from relay.errors import ProtocolError
-from relay.messages import (
+from relay.session.protocol import MAX_TEXT_BYTES, parse_command
+from relay.station.messages import (
     MAX_PATH_POINTS,
     FrameHeader,
     NavFeedback,
@@ -31,7 +32,6 @@ from relay.messages import (
     sensor_message,
     status_message,
 )
-from relay.protocol import MAX_TEXT_BYTES, parse_command
 from relay.wire.commands import Cancel, CmdVel, EStop, GoalPose, Name, Ping, Playback, Snapshot, Stream
 
 ROBOTS = ("robot1", "robot2")
@@ -206,14 +206,15 @@ def test_binary_frame_layout() -> None:
 
 
 def test_h264_frame_header_bytes() -> None:
-    """The header the relay puts on a video packet (relay/streams.py), pinned: what the browser's decoder reads."""
+    """The header the relay puts on a video packet (relay/media/streams.py), pinned: what the browser's decoder
+    reads."""
     from relay.config import parse_config
-    from relay.events import FrameEvent
-    from relay.fleet import FleetState
-    from relay.hub import Hub
-    from relay.outbox import Outbox
-    from relay.streams import CameraStreams
-    from relay.video import Packet
+    from relay.fleet.events import FrameEvent
+    from relay.fleet.state import FleetState
+    from relay.media.streams import CameraStreams
+    from relay.media.video import Packet
+    from relay.station.hub import Hub
+    from relay.station.outbox import Outbox
 
     config = parse_config(
         "robots:\n  - name: robot1\n    limits: {linear: 0.5, angular: 1.0}\n"

@@ -18,8 +18,8 @@ from typing import Any
 
 import pytest
 
+from relay.cli.options import BagOptions, Options
 from relay.config import load_config
-from relay.options import BagOptions, Options
 from tests.conftest import ROOT, start_relay
 from tests.wsclient import TestClient
 
@@ -112,7 +112,7 @@ async def test_a_recording_of_a_live_graph_replays_with_the_values_published(ros
         while len(started) < 3:
             line = (await asyncio.wait_for(interrupted.stderr.readline(), 20.0)).decode()
             assert line, "the recorder ended before recording every topic"
-            if "INFO relay.record: recording /robot1/" in line:
+            if "INFO relay.cli.record: recording /robot1/" in line:
                 started.append(line)
         await asyncio.sleep(1.0)
         interrupted.send_signal(signal.SIGINT)
@@ -169,7 +169,7 @@ async def test_a_recording_of_a_live_graph_replays_with_the_values_published(ros
 def test_without_rclpy_the_recorder_exits_2_saying_how_to_get_it(tmp_path: Path) -> None:
     # A None entry in sys.modules makes `import rclpy` fail, as on a machine without ROS.
     script = (
-        "import sys; sys.modules['rclpy'] = None; from relay.record import main; "
+        "import sys; sys.modules['rclpy'] = None; from relay.cli.record import main; "
         f"sys.exit(main(['--out', {str(tmp_path / 'bag')!r}, '--config', {str(ROOT / 'robots.yaml')!r}]))"
     )
     result = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=60)

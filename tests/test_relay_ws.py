@@ -309,7 +309,7 @@ async def test_health_metrics_and_static_files(relay_server: RunningRelay) -> No
             assert response.content_type == "text/html" and "xr-relay" in await response.text()
         async with http.get(f"{relay_server.url}/src/main.js") as response:
             assert response.status == 200 and response.content_type == "text/javascript"
-        for path in ("/../pyproject.toml", "/src/../../robots.yaml", "/nope.js", "/scenes/../relay/core.py"):
+        for path in ("/../pyproject.toml", "/src/../../robots.yaml", "/nope.js", "/scenes/../relay/station/core.py"):
             async with http.get(f"{relay_server.url}{path}") as response:
                 assert response.status == 404, path
     await client.close()

@@ -28,6 +28,7 @@ from zoneinfo import ZoneInfo
 import aiohttp
 import pytest
 
+from relay.cli.options import Options
 from relay.config import FleetConfig, Site
 from relay.inspection import report
 from relay.inspection.records import CaptureRecord, FindingRecord, FindingStatus, MissionRecord, Step
@@ -46,7 +47,6 @@ from relay.inspection.report_rows import (
     work_orders,
 )
 from relay.inspection.store import Store
-from relay.options import Options
 from relay.twin.facility import Facility, load_facility
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.inspection import TOKEN, missions, operator, relay_with_database

@@ -372,7 +372,7 @@ async def test_a_live_map_becomes_the_twin(ros_relay: RunningRelay, tmp_path: Pa
 async def test_a_raw_camera_streams_as_h264_with_no_jpeg_encoded_and_snapshots_still_get_one(
     ros_relay: RunningRelay, tmp_path: Path
 ) -> None:
-    """Only H.264 viewers: the backend skips the JPEG encode (relay.rosmsg.image_to_frame jpeg=False), the video is
+    """Only H.264 viewers: the backend skips the JPEG encode (relay.ros.rosmsg.image_to_frame jpeg=False), the video is
     decodable frame by frame by FFmpeg's decoder, and a snapshot taken meanwhile is still a JPEG picture."""
     import av
 

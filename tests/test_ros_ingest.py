@@ -1,4 +1,4 @@
-"""The ros backend's intake (relay/backends/ingest.py, relay/cdr.py, relay/backends/ros_spinner.py): the inbox that
+"""The ros backend's intake (relay/backends/ingest.py, relay/ros/cdr.py, relay/backends/ros_spinner.py): the inbox that
 hands events to the loop in batches, the raw decoders, and the executor that spins from a thread and stops when
 asked, whatever happened while it spun. Real threads, a real asyncio loop, real rclpy where the test needs it
 (skipped without it)."""
@@ -18,8 +18,8 @@ import pytest
 from relay.backends.ingest import BATCH_INTERVAL, INBOX_LIMIT, Inbox, RawDecoder, pose_reader
 from relay.backends.ros_spinner import Spinner
 from relay.config import parse_config
-from relay.events import Event, PoseEvent, ScanEvent, SensorEvent
-from relay.tf import TfPose
+from relay.fleet.events import Event, PoseEvent, ScanEvent, SensorEvent
+from relay.ros.tf import TfPose
 from tests.conftest import LOAD_SLACK
 
 
@@ -127,7 +127,7 @@ def test_an_inbox_whose_loop_has_closed_takes_events_without_raising() -> None:
 
 def test_pose_messages_decode_by_hand_exactly_as_rclpy_serialises_them() -> None:
     pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'`")
-    from relay.cdr import verify
+    from relay.ros.cdr import verify
 
     assert verify(40) == 120  # Odometry, PoseStamped, PoseWithCovarianceStamped; every alignment of the frame ids
 
@@ -181,7 +181,7 @@ async def test_raw_tf_composes_the_robots_pose_and_corrupt_tf_or_scans_change_no
 ) -> None:
     """TF and LaserScan arrive raw and are decoded by rosbags (no tf2_msgs needed to read them)."""
     from relay.backends.ros import RosBackend
-    from relay.ros_env import typestore
+    from relay.ros.ros_env import typestore
 
     config = parse_config(
         "robots:\n  - name: t1\n    pose: {source: tf}\n    limits: {linear: 0.5, angular: 1.0}\n", "fleet.yaml"
@@ -207,7 +207,7 @@ async def test_raw_tf_composes_the_robots_pose_and_corrupt_tf_or_scans_change_no
 
 async def test_a_raw_laser_scan_becomes_a_scan_event() -> None:
     from relay.backends.ros import RosBackend
-    from relay.ros_env import typestore
+    from relay.ros.ros_env import typestore
 
     config = parse_config("robots:\n  - name: s1\n    limits: {linear: 0.5, angular: 1.0}\n", "fleet.yaml")
     events: list[Event] = []
@@ -276,7 +276,7 @@ def test_the_executor_spins_from_a_thread_takes_late_subscriptions_and_stops(kin
 
 
 def test_the_scan_cap_passes_a_jittery_stream_at_its_rate_and_caps_a_faster_one() -> None:
-    from relay.scan import RateCap
+    from relay.fleet.scan import RateCap
 
     rng = __import__("random").Random(5)
     cap = RateCap(10.0)

@@ -1,4 +1,4 @@
-"""relay.rosmsg: the one place that reads ROS messages, for both rclpy objects and rosbags-deserialised ones.
+"""relay.ros.rosmsg: the one place that reads ROS messages, for both rclpy objects and rosbags-deserialised ones.
 
 Messages here are plain namespaces with the ROS attribute names: that is all the extractors may rely on.
 """
@@ -13,9 +13,9 @@ import cv2
 import numpy as np
 import pytest
 
-from relay import rosmsg
-from relay.events import PoseEvent
-from relay.imaging import ImageError
+from relay.fleet.events import PoseEvent
+from relay.media.imaging import ImageError
+from relay.ros import rosmsg
 
 
 def _header(sec: int, nanosec: int, frame: str = "map") -> NS:
@@ -92,6 +92,6 @@ def test_compressed_image_and_unreadable_image() -> None:
 
 def test_importing_message_knowledge_does_not_import_rclpy() -> None:
     # The ros backend imports rclpy lazily: config and the bag backend must load on machines without ROS.
-    code = "import sys, relay.rosmsg, relay.config, relay.backends.bag; print('rclpy' in sys.modules)"
+    code = "import sys, relay.ros.rosmsg, relay.config, relay.backends.bag; print('rclpy' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "False"

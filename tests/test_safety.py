@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from relay.config import Limits
+from relay.control.safety import GOAL_CLEARANCE, Deadman, check_goal, check_goal_clear, clamp_velocity
 from relay.errors import CommandRejected
-from relay.occupancy import OccupancyGrid
-from relay.safety import GOAL_CLEARANCE, Deadman, check_goal, check_goal_clear, clamp_velocity
+from relay.fleet.occupancy import OccupancyGrid
 
 LIMITS = Limits(linear=0.5, angular=1.0)
 
@@ -74,8 +74,8 @@ def test_deadman_release_on_disconnect_and_handover() -> None:
 
 def test_a_live_goal_ends_when_reached_facing_its_yaw_or_given_up() -> None:
     from relay.backends.goal_watch import GOAL_TOLERANCE, GoalWatch
-    from relay.events import PoseEvent
-    from relay.geometry import yaw_to_quaternion
+    from relay.fleet.events import PoseEvent
+    from relay.fleet.geometry import yaw_to_quaternion
 
     def pose(x: float, y: float, yaw: float) -> PoseEvent:
         qx, qy, qz, qw = yaw_to_quaternion(yaw)

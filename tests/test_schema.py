@@ -19,8 +19,9 @@ from typing import Any, get_type_hints, is_typeddict
 
 import pytest
 
-from relay import messages, protocol
 from relay.errors import ProtocolError
+from relay.session import protocol
+from relay.station import messages
 from relay.wire.declare import WireForm, wire_forms
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -200,8 +201,8 @@ def _shape(value: Any) -> Any:
 
 async def test_the_clients_hello_fixture_has_the_shape_the_relay_sends(fleet_config: Any) -> None:
     """xr_client/test/fixtures/hello.json drives the router's node tests: it must stay what the relay sends."""
-    from relay.core import Relay
-    from relay.events import PoseEvent
+    from relay.fleet.events import PoseEvent
+    from relay.station.core import Relay
     from relay.twin.facility import load_facility
 
     class Quiet:

@@ -20,7 +20,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from relay.config import Lens
-from relay.lens import LensModel
+from relay.media.lens import LensModel
 from relay.sim.camera import (
     DEFAULT_SIZE,
     NO_HIT,

@@ -12,7 +12,7 @@ import pytest
 from numpy.typing import NDArray
 
 from relay.config import load_config
-from relay.occupancy import OccupancyGrid, from_map_yaml
+from relay.fleet.occupancy import OccupancyGrid, from_map_yaml
 from relay.sim.floorplan import FloorPlan, demo_facility, rasterise
 from relay.sim.follower import PathFollower
 from relay.sim.hazards import HazardSource, SensorField

@@ -18,8 +18,8 @@ import trimesh
 from numpy.typing import NDArray
 
 from relay.config import load_config
-from relay.geometry import yaw_to_quaternion
-from relay.occupancy import OccupancyGrid
+from relay.fleet.geometry import yaw_to_quaternion
+from relay.fleet.occupancy import OccupancyGrid
 from relay.sim.floorplan import FloorPlan, demo_facility, rasterise
 from relay.sim.planner import Planner
 from relay.twin.facility import Facility, decode_rows, encode_rows, load_facility

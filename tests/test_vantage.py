@@ -1,4 +1,5 @@
-"""relay/vantage.py: where the VR operator starts, on the demo facility and on grids made to test one rule each."""
+"""relay/fleet/vantage.py: where the VR operator starts, on the demo facility and on grids made to test one rule
+each."""
 
 from __future__ import annotations
 
@@ -6,9 +7,9 @@ import math
 
 import numpy as np
 
-from relay.occupancy import OccupancyGrid
+from relay.fleet.occupancy import OccupancyGrid
+from relay.fleet.vantage import HALF_FOV, MAX_CANDIDATES, MAX_ROBOTS, NEAR, SIGHT_BUDGET, vantage
 from relay.twin.facility import load_facility
-from relay.vantage import HALF_FOV, MAX_CANDIDATES, MAX_ROBOTS, NEAR, SIGHT_BUDGET, vantage
 from tests.conftest import ROOT
 
 FACILITY = load_facility(ROOT / "scenes" / "facility.yaml")

@@ -1,5 +1,5 @@
-"""Live H.264 video (#16, relay side): relay/video.py's encoder, the hub's video lane, and a sim camera streamed as
-video over a real WebSocket, every packet decoded by an independent decoder (FFmpeg's h264 through PyAV).
+"""Live H.264 video (#16, relay side): relay/media/video.py's encoder, the hub's video lane, and a sim camera streamed
+as video over a real WebSocket, every packet decoded by an independent decoder (FFmpeg's h264 through PyAV).
 
 The images are the real fisheye photo of shared/data panned across (so the encoder has motion to code)."""
 
@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from websockets.asyncio.client import connect
 
-from relay.hub import Hub
-from relay.messages import FrameHeader, encode_frame
-from relay.video import H264Encoder, VideoError, codec_string
+from relay.media.video import H264Encoder, VideoError, codec_string
+from relay.station.hub import Hub
+from relay.station.messages import FrameHeader, encode_frame
 from tests.conftest import RunningRelay, shared_data
 from tests.helpers.hub import RecordingTransport, settle
 from tests.wsclient import TestClient

@@ -23,9 +23,9 @@ zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pi
 
 from relay.backends import zenoh as zenoh_backend  # noqa: E402
 from relay.backends.zenoh import ZenohBackend  # noqa: E402
+from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import load_config, parse_config  # noqa: E402
 from relay.errors import BackendUnavailable  # noqa: E402
-from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import ROOT, start_relay  # noqa: E402
 from tests.helpers.zenoh import FLEET, ODOM, Router, decode, fleet, until, zenoh_relay  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402

@@ -22,8 +22,8 @@ import pytest
 
 pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
+from relay.cli.options import Options, ZenohOptions
 from relay.config import load_config, parse_config
-from relay.options import Options, ZenohOptions
 from tests.conftest import ROOT, relay_process, start_relay
 from tests.helpers.zenoh import FLEET, ODOM, Router, decode, until, zenoh_relay
 from tests.wsclient import TestClient

@@ -31,9 +31,9 @@ from relay.backends.zenoh_keys import (
     topic_selector,
 )
 from relay.backends.zenoh_session import DEFAULT_ROUTER, settings
+from relay.cli.options import ZenohOptions
 from relay.config import Zenoh, parse_config
 from relay.errors import ConfigError
-from relay.options import ZenohOptions
 
 
 def test_topic_keys_are_rmw_zenohs_and_the_bridges() -> None:
@@ -163,7 +163,7 @@ raw_samples = (
 
 
 def check_refusal(exc: ValueError) -> None:
-    """Named, and short whatever the sample held (relay/protocol.py's clipping)."""
+    """Named, and short whatever the sample held (relay/session/protocol.py's clipping)."""
     assert str(exc) and len(str(exc)) <= 400, str(exc)
 
 

@@ -21,8 +21,8 @@ import pytest
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
 from relay.backends import zenoh as zenoh_backend  # noqa: E402
+from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import parse_config  # noqa: E402
-from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
 from tests.helpers.zenoh import FLEET, ODOM, Router, until  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
@@ -157,7 +157,7 @@ async def test_3000_malformed_samples_write_a_bounded_log_and_are_counted(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     """Measured before (issue 28, finding 6): 3000 malformed fleet estops wrote 3000 log lines (and two of their
-    six shapes latched alpha). Now at most 10 lines a minute about other relays' samples (relay/log_budget.py),
+    six shapes latched alpha). Now at most 10 lines a minute about other relays' samples (relay/logs/budget.py),
     nothing latched, and /healthz counts every sample refused (500 malformed heartbeats too)."""
     caplog.set_level(logging.INFO)
     running, client = await relay_a(router)

@@ -14,7 +14,7 @@ import orjson
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.exceptions import ConnectionClosed
 
-from relay.messages import decode_frame
+from relay.station.messages import decode_frame
 
 
 class TestClient:

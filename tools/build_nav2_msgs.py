@@ -4,7 +4,7 @@ The PyPI ROS 2 wheels have no nav2_msgs, and without it rclpy cannot read Nav2's
 result (its error code): the relay then follows a goal by its status alone (relay/backends/ros_nav2.py). A site's
 sourced ROS 2 has nav2_msgs; this gives the same to a machine with only the wheels (CI, `make setup`), built the
 way colcon builds it: rosidl's generators (C, the C type supports, Python; from the wheels) on Nav2 Jazzy's own
-definition (relay/nav2_types.py), compiled with the system's C and C++ compilers against the wheels' headers and
+definition (relay/ros/nav2_types.py), compiled with the system's C and C++ compilers against the wheels' headers and
 libraries. The libraries go to ``<venv>/lib`` (the wheels' bootstrapper puts it on ``LD_LIBRARY_PATH``), the Python
 package to site-packages. Idempotent: a second run with the same definition does nothing.
 
@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--force", action="store_true", help="rebuild even if this definition was built already")
     args = parser.parse_args(argv)
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-    from relay.nav2_types import NAVIGATE_TO_POSE_ACTION
+    from relay.ros.nav2_types import NAVIGATE_TO_POSE_ACTION
 
     prefix = pathlib.Path(sys.prefix)
     site = pathlib.Path(sysconfig.get_paths()["purelib"])

@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
 from relay.errors import ConfigError  # noqa: E402
-from relay.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
+from relay.fleet.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 from relay.watchdog.node import Watchdogs  # noqa: E402

@@ -37,9 +37,9 @@ sys.path.insert(0, str(ROOT))
 from relay.backends.zenoh_keys import GID_SIZE, Attachment, topic_key, topic_selector  # noqa: E402
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
 from relay.errors import ConfigError  # noqa: E402
-from relay.geometry import quaternion_to_yaw  # noqa: E402
-from relay.ros_env import typestore  # noqa: E402
-from relay.rosmsg import POSE_TYPES, image_type  # noqa: E402
+from relay.fleet.geometry import quaternion_to_yaw  # noqa: E402
+from relay.ros.ros_env import typestore  # noqa: E402
+from relay.ros.rosmsg import POSE_TYPES, image_type  # noqa: E402
 from relay.sim import navigator as nav  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402

@@ -24,7 +24,7 @@ from typing import Any
 
 from relay.config import FleetConfig, Robot
 from relay.errors import ConfigError
-from relay.geometry import quaternion_to_yaw, yaw_to_quaternion
+from relay.fleet.geometry import quaternion_to_yaw, yaw_to_quaternion
 from relay.sim import navigator as nav
 from relay.sim.navigator import Navigator, world_planner
 from relay.sim.world import SimWorld

@@ -27,7 +27,7 @@ import numpy as np
 
 from relay.backends.zenoh_keys import GID_SIZE, Attachment, decode_attachment, topic_key
 from relay.config import Robot
-from relay.geometry import quaternion_to_yaw, yaw_to_quaternion
+from relay.fleet.geometry import quaternion_to_yaw, yaw_to_quaternion
 from relay.sim import navigator as nav
 from relay.sim.navigator import Navigator, world_planner
 from relay.sim.world import SimWorld

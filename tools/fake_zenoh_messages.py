@@ -9,13 +9,13 @@ from typing import Any
 import numpy as np
 
 from relay.config import Robot
-from relay.geometry import yaw_to_quaternion
-from relay.occupancy import OccupancyGrid
-from relay.rosmsg import POSE_TYPES
+from relay.fleet.geometry import yaw_to_quaternion
+from relay.fleet.occupancy import OccupancyGrid
+from relay.ros.rosmsg import POSE_TYPES
 from relay.sim.kinematics import DiffDriveState
 from relay.sim.laser import LaserScanner
 
-#: Sensor values as their messages carry them (ratios where ROS uses them: relay.rosmsg reports percent).
+#: Sensor values as their messages carry them (ratios where ROS uses them: relay.ros.rosmsg reports percent).
 _SENSOR_FIELDS = {
     "Float32": ("data", 1.0),
     "Float64": ("data", 1.0),

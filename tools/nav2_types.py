@@ -8,7 +8,7 @@ Event that service introspection publishes, and the service type made of the thr
 service's key), and the action type itself. tests/test_gate.py checks every hash against ROS's own generator
 (rosidl_generator_type_description) run on Nav2's .action text.
 
-Until relay/nav2_types.py (the relay's side of #27) exists, the fake fleet's Zenoh navigator uses this one.
+Until relay/ros/nav2_types.py (the relay's side of #27) exists, the fake fleet's Zenoh navigator uses this one.
 """
 
 from __future__ import annotations

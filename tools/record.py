@@ -2,7 +2,7 @@
 
     python tools/record.py --out DIR [--config robots.yaml] [--duration SECONDS]
 
-See relay/record.py for what is recorded and how.
+See relay/cli/record.py for what is recorded and how.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from relay.record import main  # noqa: E402
+from relay.cli.record import main  # noqa: E402
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -6,10 +6,10 @@
 
 from __future__ import annotations
 
+from ..cli.options import Options
 from ..config import FleetConfig
 from ..errors import BackendUnavailable
-from ..events import EventSink
-from ..options import Options
+from ..fleet.events import EventSink
 from .base import Backend
 
 BACKENDS = ("sim", "ros", "bag", "zenoh")

@@ -7,11 +7,11 @@ from collections.abc import Callable
 from typing import ClassVar
 
 from ..config import FleetConfig
+from ..control.fleet_peer import FleetPeer
 from ..errors import CommandRejected
-from ..events import EventSink, FrameEvent
-from ..fleet_peer import FleetPeer
-from ..occupancy import OccupancyGrid
-from ..protocol import ErrorCode
+from ..fleet.events import EventSink, FrameEvent
+from ..fleet.occupancy import OccupancyGrid
+from ..session.protocol import ErrorCode
 
 
 class Backend(abc.ABC):

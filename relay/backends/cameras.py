@@ -1,7 +1,7 @@
 """The live robots' cameras (``ros``, ``zenoh``): subscribed only while a client streams one or waits for a snapshot.
 
 An image topic costs network bandwidth and a JPEG encode per frame, so a camera nobody watches is not subscribed.
-Each camera's images go to its :class:`~relay.frame_encoder.LatestFrameEncoder` from the receiving thread (rclpy's
+Each camera's images go to its :class:`~relay.media.frame_encoder.LatestFrameEncoder` from the receiving thread (rclpy's
 executor, a Zenoh callback) as the raw CDR bytes and their stamp (read in place); a worker decodes the image it
 encodes (``decode``: rosbags, the pixels a view of the bytes) and the encoded frames reach the loop through the
 backend's thread crossing. Neither rclpy nor zenoh is imported here: the backend passes in how to subscribe.
@@ -15,11 +15,11 @@ from concurrent.futures import Executor
 from dataclasses import dataclass
 from typing import Any
 
-from ..cdr import cdr_stamp
 from ..config import Camera, FleetConfig
-from ..events import CameraError, EventSink, FrameEvent
-from ..frame_encoder import LatestFrameEncoder
-from ..rosmsg import image_to_frame, image_type
+from ..fleet.events import CameraError, EventSink, FrameEvent
+from ..media.frame_encoder import LatestFrameEncoder
+from ..ros.cdr import cdr_stamp
+from ..ros.rosmsg import image_to_frame, image_type
 
 #: A snapshot may be answered with the last frame when it is younger than this (seconds).
 SNAPSHOT_MAX_AGE = 1.0

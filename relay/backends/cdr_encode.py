@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..geometry import yaw_to_quaternion
+from ..fleet.geometry import yaw_to_quaternion
 
 TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"

@@ -3,15 +3,15 @@
 A plain ``goal_pose`` topic (no Nav2 action) says nothing back, so the ``ros`` backend decides from the
 robot's pose: a goal is reached within :data:`GOAL_TOLERANCE` metres (and, when a yaw was asked for,
 :data:`GOAL_YAW_TOLERANCE` radians); teleoperation or a cancel ends it. Each method returns the
-:class:`~relay.events.NavEvent` to report, or None.
+:class:`~relay.fleet.events.NavEvent` to report, or None.
 """
 
 from __future__ import annotations
 
 import math
 
-from ..events import NavEvent, PoseEvent
-from ..geometry import quaternion_to_yaw, wrap_angle
+from ..fleet.events import NavEvent, PoseEvent
+from ..fleet.geometry import quaternion_to_yaw, wrap_angle
 
 #: A goal counts as reached within this distance (m) and, when a yaw was given, this angle (rad).
 GOAL_TOLERANCE = 0.25

@@ -3,13 +3,13 @@ handed to the loop in batches. Neither rclpy nor zenoh is imported here, so this
 
 **Raw.** Every high-rate topic arrives as the serialized CDR bytes (rclpy's ``raw=True``: no rclpy message built;
 Zenoh's samples are bytes anyway). Poses (Odometry, PoseStamped, PoseWithCovarianceStamped) are read by hand
-(``relay/cdr.py``: 4.4 us an Odometry); TF, laser scans and images are decoded by ``rosbags`` (its typestore knows
-every standard type, tf2_msgs included, and its objects have rclpy's attribute names, so ``relay.rosmsg``/
-``relay.scan`` read them unchanged; an image's pixels stay a view of the received bytes). Per message, 2 cores,
+(``relay/ros/cdr.py``: 4.4 us an Odometry); TF, laser scans and images are decoded by ``rosbags`` (its typestore knows
+every standard type, tf2_msgs included, and its objects have rclpy's attribute names, so ``relay.ros.rosmsg``/
+``relay.fleet.scan`` read them unchanged; an image's pixels stay a view of the received bytes). Per message, 2 cores,
 2026-11-23:
 
-    nav_msgs/Odometry            rclpy 70 us    rosbags 24 us    relay/cdr.py 4.4 us
-    geometry_msgs/PoseStamped    rclpy 31 us    rosbags 10 us    relay/cdr.py ~4 us
+    nav_msgs/Odometry            rclpy 70 us    rosbags 24 us    relay/ros/cdr.py 4.4 us
+    geometry_msgs/PoseStamped    rclpy 31 us    rosbags 10 us    relay/ros/cdr.py ~4 us
     sensor_msgs/LaserScan (360)  rclpy 14 us    rosbags 7.6 us
     sensor_msgs/Image 640x480    rclpy 242 us   rosbags 79 us (the pixels not copied)
 
@@ -36,8 +36,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
-from ..cdr import stamped_pose
-from ..events import Event, PoseEvent
+from ..fleet.events import Event, PoseEvent
+from ..ros.cdr import stamped_pose
 
 logger = logging.getLogger(__name__)
 
@@ -132,10 +132,10 @@ def pose_reader(
 
 class RawDecoder:
     """rosbags' CDR decoder for the raw topics the relay reads whole (TF, LaserScan, Image, CompressedImage, and
-    Nav2's action: relay/nav2_types.py)."""
+    Nav2's action: relay/ros/nav2_types.py)."""
 
     def __init__(self) -> None:
-        from ..nav2_types import typestore
+        from ..ros.nav2_types import typestore
 
         self._store = typestore()
 

@@ -2,12 +2,12 @@
 the watchdogs' heartbeat. Each backend adds how it reaches the robots (an rclpy node, a Zenoh session).
 
 **The thread boundary.** Messages arrive on another thread (rclpy's executor, Zenoh's callbacks). A callback turns a
-message into an immutable event (``relay.events``) and crosses to the asyncio loop in exactly one place,
+message into an immutable event (``relay.fleet.events``) and crosses to the asyncio loop in exactly one place,
 :meth:`LiveBackend._post` (the :class:`~relay.backends.ingest.Inbox`: one loop wake-up per batch);
 :meth:`LiveBackend._hop` is the same crossing for a call (a camera's finished frame, Nav2's answers, another relay's
 estop or lease). Nothing else is shared between the threads, except each camera's
-``relay.frame_encoder.LatestFrameEncoder``, which guards its own state. Image conversion and JPEG encoding run in a
-small worker pool, never on the loop and never on the receiving thread (which must keep draining the network).
+``relay.media.frame_encoder.LatestFrameEncoder``, which guards its own state. Image conversion and JPEG encoding run in
+a small worker pool, never on the loop and never on the receiving thread (which must keep draining the network).
 """
 
 from __future__ import annotations
@@ -22,12 +22,12 @@ from collections.abc import Callable, Coroutine
 from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
-from ..events import Event, EventSink, FrameEvent, PoseEvent
-from ..maps import map_event
-from ..protocol import MAX_SCAN_RATE
-from ..rosmsg import header_stamp
-from ..scan import RateCap
-from ..tf import TfPose
+from ..fleet.events import Event, EventSink, FrameEvent, PoseEvent
+from ..fleet.scan import RateCap
+from ..ros.maps import map_event
+from ..ros.rosmsg import header_stamp
+from ..ros.tf import TfPose
+from ..session.protocol import MAX_SCAN_RATE
 from .base import Backend
 from .cameras import OnDemandCameras
 from .ingest import Inbox, RawDecoder, pose_reader

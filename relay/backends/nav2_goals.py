@@ -18,8 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..events import CancelAnswerEvent, Goal, NavEvent, NavFeedbackEvent
-from ..nav2_types import (
+from ..fleet.events import CancelAnswerEvent, Goal, NavEvent, NavFeedbackEvent
+from ..ros.nav2_types import (
     ACTIVE,
     CANCEL_ERROR_NONE,
     STATUS_ABORTED,

@@ -7,7 +7,7 @@ CancelGoal request, ask a GetResult) and hands it what arrived from the robots o
 
 **Stops never wait.** :meth:`Navigation.stop` publishes the gate's word, reports the goal given up and sends the
 cancel, and returns; the navigator's answer (or its silence for :data:`CANCEL_TIMEOUT`) arrives later as a
-:class:`~relay.events.CancelAnswerEvent`. Only a new goal waits for an outstanding cancel (at most that long):
+:class:`~relay.fleet.events.CancelAnswerEvent`. Only a new goal waits for an outstanding cancel (at most that long):
 ``cancel all goals`` reaching Nav2 after the new goal would cancel it too.
 
 **The gate** (robots with a watchdog; docs/reliability.md): ``drive`` just before a goal, ``hold`` on every stop,
@@ -25,8 +25,8 @@ from collections.abc import Callable
 from typing import Protocol
 
 from ..config import FleetConfig
-from ..events import EventSink, GateStateEvent, GateWord, Goal, PoseEvent
-from ..nav2_types import CancelAnswer, Feedback, GoalState, ResultAnswer
+from ..fleet.events import EventSink, GateStateEvent, GateWord, Goal, PoseEvent
+from ..ros.nav2_types import CancelAnswer, Feedback, GoalState, ResultAnswer
 from .goal_watch import GoalWatch
 from .nav2_goals import Aborted, Nav2Goals
 

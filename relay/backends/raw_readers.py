@@ -13,10 +13,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ..events import Event, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
-from ..rosmsg import POSE_TYPES, SCAN_TYPE, SENSOR_TYPES, header_stamp, message_stamp, transform_of
-from ..scan import RateCap, scan_event
-from ..tf import TfPose
+from ..fleet.events import Event, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..fleet.scan import RateCap, scan_event
+from ..ros.rosmsg import POSE_TYPES, SCAN_TYPE, SENSOR_TYPES, header_stamp, message_stamp, transform_of
+from ..ros.tf import TfPose
 
 logger = logging.getLogger(__name__)
 
@@ -24,7 +24,7 @@ logger = logging.getLogger(__name__)
 Decode = Callable[[bytes, str], Any]
 Put = Callable[[Event], None]
 #: Where a reader's warning about bytes that are not the message goes (``logger.warning``'s signature): the zenoh
-#: backend passes its rate-limited log (relay/log_budget.py), anyone on the network can send such bytes.
+#: backend passes its rate-limited log (relay/logs/budget.py), anyone on the network can send such bytes.
 Warn = Callable[..., None]
 
 PATH_TYPE = "nav_msgs/msg/Path"
@@ -32,7 +32,7 @@ STRING_TYPE = "std_msgs/msg/String"
 
 
 def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
-    """A tf2_msgs/TFMessage: the robot's pose once the chain map -> odom -> base is known (relay.tf)."""
+    """A tf2_msgs/TFMessage: the robot's pose once the chain map -> odom -> base is known (relay.ros.tf)."""
     try:
         message = decode(data, POSE_TYPES["tf"])
     except ValueError as exc:
@@ -66,7 +66,7 @@ def read_scan(robot: str, cap: RateCap, data: bytes, decode: Decode, put: Put, *
 def read_sensor(
     robot: str, sensor: str, type_name: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning
 ) -> None:
-    """A sensor reading of one of relay.rosmsg.SENSOR_TYPES."""
+    """A sensor reading of one of relay.ros.rosmsg.SENSOR_TYPES."""
     try:
         message = decode(data, type_name)
         value = SENSOR_TYPES[type_name].value(message)

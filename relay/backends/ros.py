@@ -24,10 +24,10 @@ from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..events import EventSink, PathEvent, RobotModelEvent, SensorEvent
-from ..geometry import yaw_to_quaternion
-from ..ros_env import load_rclpy
-from ..rosmsg import POSE_MESSAGES, SENSOR_TYPES, message_stamp
+from ..fleet.events import EventSink, PathEvent, RobotModelEvent, SensorEvent
+from ..fleet.geometry import yaw_to_quaternion
+from ..ros.ros_env import load_rclpy
+from ..ros.rosmsg import POSE_MESSAGES, SENSOR_TYPES, message_stamp
 from . import dds_profile
 from .ingest import RawDecoder
 from .live import LiveBackend

@@ -4,7 +4,7 @@ Per robot with ``navigation: nav2``: ``<action>/_action/status`` (action_msgs/Go
 local: rcl_action's own QoS) and a CancelGoal client on ``<action>/_action/cancel_goal``, which the PyPI wheels have
 (action_msgs); with nav2_msgs importable (a sourced ROS), also ``<action>/_action/feedback`` and a GetResult client on
 ``<action>/_action/get_result``. Per robot with a watchdog: the gate (std_msgs/String, reliable, transient local)
-out and the watchdog's gate_state in. Status and feedback are read raw (rosbags, relay/nav2_types.py), as the
+out and the watchdog's gate_state in. Status and feedback are read raw (rosbags, relay/ros/nav2_types.py), as the
 zenoh backend reads them.
 
 Callbacks run on the executor thread: they decode into immutable snapshots and cross to the loop through the
@@ -22,9 +22,9 @@ from collections.abc import Callable
 from typing import Any
 
 from ..config import FleetConfig, Robot
-from ..events import GateWord
-from ..nav2_types import ALL_GOALS, CancelAnswer, Decode, ResultAnswer, read_feedback, read_status
-from ..scan import RateCap
+from ..fleet.events import GateWord
+from ..fleet.scan import RateCap
+from ..ros.nav2_types import ALL_GOALS, CancelAnswer, Decode, ResultAnswer, read_feedback, read_status
 from .navigation import Arrive
 
 logger = logging.getLogger(__name__)

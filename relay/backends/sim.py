@@ -10,7 +10,7 @@ otherwise take ~4 % of the loop's time in slices that delay every frame sent mea
 Cameras: each camera of robots.yaml sees the scene's glTF through its lens, ray cast by
 :class:`relay.sim.camera.SimCamera` in a worker thread (about 65-115 ms for 480x480 with Embree on 2 cores).
 A stream renders at most one frame at a time per camera, at up to the rate asked for; renders (streams and
-snapshots) share one rendering thread with a bounded queue (relay.work).
+snapshots) share one rendering thread with a bounded queue (relay.station.work).
 """
 
 from __future__ import annotations
@@ -23,20 +23,20 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
-from ..budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
-from ..events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, ScanEvent, SensorEvent
-from ..geometry import yaw_to_quaternion
-from ..lens import LensModel
-from ..occupancy import OccupancyGrid
-from ..protocol import ErrorCode
-from ..scan import decimate_ranges
+from ..fleet.events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, ScanEvent, SensorEvent
+from ..fleet.geometry import yaw_to_quaternion
+from ..fleet.occupancy import OccupancyGrid
+from ..fleet.scan import decimate_ranges
+from ..media.lens import LensModel
+from ..session.budget import TOTAL as SNAPSHOTS_AT_ONCE
+from ..session.protocol import ErrorCode
 from ..sim.camera import SimCamera, rgb_to_jpeg
 from ..sim.laser import LaserScanner
 from ..sim.world import Goal, NoPathError, Outcome, SimWorld
+from ..station.work import Busy, WorkPool
 from ..twin.frames import map_to_scene_matrix
-from ..work import Busy, WorkPool
 from .base import Backend
 
 logger = logging.getLogger(__name__)
@@ -52,9 +52,9 @@ class SimBackend(Backend):
         self.camera: SimCamera | None = None
         self._lenses: dict[tuple[str, str], LensModel] = {}
         self._streams: dict[tuple[str, str], tuple[float, asyncio.Task[None]]] = {}
-        # Pools of their own (relay.work), not asyncio's default one that anything can fill. One render thread:
+        # Pools of their own (relay.station.work), not asyncio's default one that anything can fill. One render thread:
         # the other core stays for the event loop and planning. The rendering queue holds every camera's stream
-        # frame (one each) and the snapshot budget's total (relay.budget), so a snapshot within budget never
+        # frame (one each) and the snapshot budget's total (relay.session.budget), so a snapshot within budget never
         # finds it full.
         cameras = sum(len(robot.cameras) for robot in config.robots)
         self._planning = WorkPool("planning", workers=1, queue=4)

@@ -2,7 +2,7 @@
 
 Robots speak rmw_zenoh (keys ``<domain>/<topic>/<type>/<hash>``) or sit behind zenoh-bridge-ros2dds (keys
 ``<topic>``); relay/backends/zenoh_keys.py has the layout. Samples are CDR, read by the same code as the ``ros``
-backend's raw subscriptions: poses by hand (relay/cdr.py), TF, scans, images and the low-rate types by rosbags
+backend's raw subscriptions: poses by hand (relay/ros/cdr.py), TF, scans, images and the low-rate types by rosbags
 (relay/backends/raw_readers.py, ingest.RawDecoder); commands are CDR built by rosbags
 (relay/backends/cdr_encode.py) and carry rmw_zenoh's attachment (relay/backends/zenoh_topics.py).
 
@@ -29,13 +29,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from ..cli.options import ZenohOptions
 from ..config import Camera, FleetConfig, Robot
+from ..control.fleet_peer import FleetPeer
 from ..errors import BackendUnavailable
-from ..events import Event, EventSink, PoseEvent
-from ..fleet_peer import FleetPeer
-from ..log_budget import BudgetedLog
-from ..options import ZenohOptions
-from ..rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
+from ..fleet.events import Event, EventSink, PoseEvent
+from ..logs.budget import BudgetedLog
+from ..ros.rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
 from .cdr_encode import HEADER, POSE_STAMPED, TWIST, TWIST_STAMPED, CommandEncoder
 from .ingest import RawDecoder
 from .live import LiveBackend
@@ -105,7 +105,7 @@ class ZenohBackend(LiveBackend):
         """Worker thread: import zenoh and rosbags' types, open the session, declare everything."""
         self._zenoh = load_zenoh()
         if self._encode is None:
-            from ..nav2_types import typestore
+            from ..ros.nav2_types import typestore
 
             self._decode = RawDecoder()
             self._store = typestore()

@@ -1,4 +1,4 @@
-"""Several relays, one fleet, over Zenoh's own primitives (relay/fleet_peer.py is the interface Control uses).
+"""Several relays, one fleet, over Zenoh's own primitives (relay/control/fleet_peer.py is the interface Control uses).
 
 - **Estop**: a put on ``<fleet_key>/estop`` (reliable, blocking congestion control, express: never batched behind
   other traffic) carrying the sending relay's id, the robot (null: all) and the operator. Every relay subscribes;
@@ -6,14 +6,14 @@
 - **Leases**: a liveliness token ``<fleet_key>/lease/<robot>/<relay-id>/<client>`` per lease this relay's operators
   hold, and a heartbeat ``<fleet_key>/heartbeat/<relay-id>`` every second (and at each change) listing them. Every
   relay subscribes to both (to the tokens with history, so a relay that starts late sees those already held). A
-  lease counts while its token is there and its relay's heartbeats list it (relay/fleet_peer.py, ``PeerLeases``):
-  Zenoh withdraws a token when its session ends (at once for a closed TCP connection; within the transport lease,
-  10 s by default, for a cut link), and a relay whose heartbeats stop (frozen, or a rogue session that only
-  declared a token) loses its leases ``peer_lease_timeout`` after the last one. The robots themselves are stopped
+  lease counts while its token is there and its relay's heartbeats list it (relay/control/fleet_peer.py,
+  ``PeerLeases``): Zenoh withdraws a token when its session ends (at once for a closed TCP connection; within the
+  transport lease, 10 s by default, for a cut link), and a relay whose heartbeats stop (frozen, or a rogue session that
+  only declared a token) loses its leases ``peer_lease_timeout`` after the last one. The robots themselves are stopped
   by their watchdog when the relay's robot heartbeat stops.
 - **What others send** is checked field by field like a client's frame (relay/backends/zenoh_keys.py); a bad
   sample is refused whole and counted, and lines about other relays' samples are rate-limited
-  (relay/log_budget.py): 3000 malformed samples once wrote 3000 warnings.
+  (relay/logs/budget.py): 3000 malformed samples once wrote 3000 warnings.
 
 Zenoh callbacks run on Zenoh's threads; what they learn reaches the loop through ``hop`` (the backend's crossing).
 The table of remote leases is read on the loop and written on Zenoh's threads, under a lock.
@@ -30,10 +30,10 @@ import time
 from collections.abc import Callable, Collection
 from typing import Any
 
+from ..control.fleet_peer import OnEstop, OnLease, PeerLeases, RemoteLease
 from ..errors import BackendUnavailable
-from ..fields import show
-from ..fleet_peer import OnEstop, OnLease, PeerLeases, RemoteLease
-from ..log_budget import BudgetedLog
+from ..logs.budget import BudgetedLog
+from ..wire.fields import show
 from .zenoh_keys import (
     PEER_NAME,
     FleetEstop,

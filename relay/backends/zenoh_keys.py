@@ -28,8 +28,8 @@ from typing import Literal
 
 import orjson
 
-from ..fields import show
-from ..protocol import NAME_PATTERN, ROBOT_NAME_PATTERN
+from ..session.protocol import NAME_PATTERN, ROBOT_NAME_PATTERN
+from ..wire.fields import show
 
 KeyStyle = Literal["rmw_zenoh", "bridge"]
 
@@ -144,7 +144,7 @@ def heartbeat_selector(prefix: str) -> str:
     return f"{prefix}/heartbeat/*"
 
 
-# -- what another relay sends, checked as a client's frame is (relay/protocol.py) ------------------------------
+# -- what another relay sends, checked as a client's frame is (relay/session/protocol.py) ------------------------------
 # Another relay's sample is input like a client's frame: each field has a type and a bounded length, and a bad
 # one is refused whole, with a message that shows it clipped (fields.show). A rogue peer's estop of 200 kB
 # fields once reached every client as a 400 kB message and wrote 800 kB to the log (issue 28).
@@ -154,7 +154,7 @@ def heartbeat_selector(prefix: str) -> str:
 PEER_NAME = re.compile(r"^[\w.-]{1,64}$")
 _PEER_TEXT = "a name of 1 to 64 letters, digits, _ . or -"
 _ROBOT_TEXT = "a robot's name (a letter, then up to 63 letters, digits or _)"
-#: Who made an estop (a client id today; an operator's name would pass too), as relay/protocol.py's names.
+#: Who made an estop (a client id today; an operator's name would pass too), as relay/session/protocol.py's names.
 MAX_BY_LENGTH = 64
 #: A fleet estop is ~90 bytes; a heartbeat ~140 bytes per lease listed.
 MAX_ESTOP_BYTES = 1024
@@ -173,7 +173,8 @@ def show_key(key: str) -> str:
 
 
 def _show(value: object) -> str:
-    """A bad value, clipped (relay/protocol.py's rendering; a nested one by its size: it may be too deep to print)."""
+    """A bad value, clipped (relay/session/protocol.py's rendering; a nested one by its size: it may be too deep to
+    print)."""
     if isinstance(value, dict | list):
         return f"a JSON {'object' if isinstance(value, dict) else 'array'} of {len(value)} items"
     return show(value)
@@ -238,7 +239,7 @@ def decode_estop(data: bytes) -> FleetEstop:
 @dataclass(frozen=True, slots=True)
 class FleetHeartbeat:
     """``relay`` is alive and holds these leases (robot -> client): sent every second and at each change. A lease
-    token counts only while its relay's heartbeats list it (relay/fleet_peer.py, :class:`PeerLeases`)."""
+    token counts only while its relay's heartbeats list it (relay/control/fleet_peer.py, :class:`PeerLeases`)."""
 
     relay: str
     leases: dict[str, str]

@@ -1,5 +1,5 @@
 """Nav2's action and the watchdog's gate over Zenoh: the transport of relay/backends/navigation.py for the ``zenoh``
-backend, with CDR through rosbags (relay/nav2_types.py) and rmw_zenoh's keys (relay/backends/zenoh_keys.py).
+backend, with CDR through rosbags (relay/ros/nav2_types.py) and rmw_zenoh's keys (relay/backends/zenoh_keys.py).
 
 - **Topics** as every other: ``<action>/_action/status`` (transient local: the subscriber asks the publisher's cache,
   as for the map) and ``<action>/_action/feedback`` in, per robot with ``navigation: nav2``; the gate out (a
@@ -28,8 +28,9 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from ..config import FleetConfig
-from ..events import GateWord
-from ..nav2_types import (
+from ..fleet.events import GateWord
+from ..fleet.scan import RateCap
+from ..ros.nav2_types import (
     FEEDBACK_MESSAGE,
     STATUS_ARRAY,
     CancelAnswer,
@@ -42,7 +43,6 @@ from ..nav2_types import (
     read_result_response,
     read_status,
 )
-from ..scan import RateCap
 from .navigation import Arrive
 from .ros_nav2 import FEEDBACK_RATE, gate_word
 from .zenoh_keys import GID_SIZE, Attachment, topic_selector

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
+from ..cli.options import ZenohOptions
 from ..config import Zenoh
 from ..errors import BackendUnavailable
-from ..options import ZenohOptions
 from .zenoh_keys import KeyStyle
 
 INSTALL_HINT = "the zenoh backend needs the Zenoh Python API: `pip install '.[zenoh]'` (as `make setup` does)"

@@ -15,8 +15,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ..fields import show
-from ..log_budget import BudgetedLog
+from ..logs.budget import BudgetedLog
+from ..wire.fields import show
 from .cdr_encode import CommandEncoder
 from .zenoh_keys import GID_SIZE, Attachment, key_type, show_key, topic_key, topic_selector
 from .zenoh_session import ZenohSettings

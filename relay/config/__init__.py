@@ -21,7 +21,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 
 from ..errors import ConfigError
 from ..inspection.kml import Georeference
-from ..protocol import MAX_SCAN_RATE
+from ..session.protocol import MAX_SCAN_RATE
 from .model import (
     LENS_MODELS,
     POSE_SOURCES,

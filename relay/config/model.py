@@ -32,7 +32,7 @@ class Camera:
     width: int
     height: int
     rate: float  # highest rate the relay streams this camera at, frames per second
-    #: H.264 target bits per second (None: relay.video.default_bitrate, 2.5 Mbit/s at 720p30, scaled by pixels)
+    #: H.264 target bits per second (None: relay.media.video.default_bitrate, 2.5 Mbit/s at 720p30, scaled by pixels)
     bitrate: int | None = None
 
 
@@ -201,7 +201,7 @@ class Ros:
     #: its robots when it stops.
     heartbeat_topic: str = "/xr_relay/heartbeat"
     #: rclpy executor: "events" (the EventsExecutor, 3.5x the other's raw ingest) or "single" (the
-    #: SingleThreadedExecutor, for an rclpy without a working EventsExecutor). relay/backends/ros_ingest.py.
+    #: SingleThreadedExecutor, for an rclpy without a working EventsExecutor). relay/backends/ros_spinner.py.
     executor: str = "events"
     #: Fast DDS participant profile: "large_images" (relay/backends/fastdds_large_images.xml: raw 720p images
     #: through shared memory), "builtin" (Fast DDS's own transports) or a profile file's path. An environment that

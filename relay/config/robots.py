@@ -7,8 +7,8 @@ from typing import NamedTuple, cast
 
 from yaml.nodes import MappingNode, Node, ScalarNode
 
-from ..protocol import ROBOT_NAME_PATTERN
-from ..rosmsg import SENSOR_TYPES
+from ..ros.rosmsg import SENSOR_TYPES
+from ..session.protocol import ROBOT_NAME_PATTERN
 from .model import (
     LENS_MODELS,
     NAV_INTERFACES,

@@ -15,8 +15,8 @@ from collections.abc import Awaitable, Callable, Mapping
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..errors import CommandRejected
-from ..protocol import ErrorCode, RequestId
-from ..work import Busy, WorkPool
+from ..session.protocol import ErrorCode, RequestId
+from ..station.work import Busy, WorkPool
 from .messages import FINDINGS_ON_CONNECT, finding_message, region_message
 from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target, new_id
@@ -25,11 +25,11 @@ from .wire import FindingMark, RegionRequest, TargetAdd
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
-    from ..clients import Client
     from ..config import Robot
-    from ..fleet import FleetState
-    from ..occupancy import OccupancyGrid
-    from ..outbox import Outbox
+    from ..fleet.occupancy import OccupancyGrid
+    from ..fleet.state import FleetState
+    from ..session.clients import Client
+    from ..station.outbox import Outbox
     from .store import Store
 
 logger = logging.getLogger(__name__)

@@ -9,7 +9,7 @@ from collections.abc import Awaitable, Callable, Mapping
 from typing import TYPE_CHECKING
 
 from ..errors import CommandRejected
-from ..protocol import ErrorCode
+from ..session.protocol import ErrorCode
 from .messages import mission_message
 from .records import MissionRecord, Step, new_id
 from .runner import MissionRunner, holder
@@ -19,11 +19,11 @@ from .write_behind import WriteBehind
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
-    from ..clients import Client
     from ..config import Robot
-    from ..control import Control
-    from ..fleet import FleetState
-    from ..outbox import Outbox
+    from ..control.control import Control
+    from ..fleet.state import FleetState
+    from ..session.clients import Client
+    from ..station.outbox import Outbox
     from .planning import MissionPlanning, Position
     from .storage import Storage
     from .store import Store

@@ -37,7 +37,7 @@ from yaml.nodes import Node
 
 from ..config.reader import _Reader
 from ..errors import ConfigError
-from ..occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
 from ..sim.planner import NoPathError, Planner
 from .records import Step
 from .targets import TARGET_ID, standoff

@@ -2,8 +2,8 @@
 it hits first in the map grid (a wall, an obstacle) or on the floor.
 
 The camera sits ``CAMERA_HEIGHT`` above the robot's pose looking along its heading (the sim's mount,
-relay/sim/camera.py); the ray of pixel (u, v) comes from the camera's lens model (relay/lens.py) at the size of the
-image the operator clicked. It is marched in steps of half a grid cell up to ``MAX_RANGE``: the first occupied cell
+relay/sim/camera.py); the ray of pixel (u, v) comes from the camera's lens model (relay/media/lens.py) at the size of
+the image the operator clicked. It is marched in steps of half a grid cell up to ``MAX_RANGE``: the first occupied cell
 is the hit (the face of a panel on a wall), else the floor where the ray comes down to it. Pure; tested in
 tests/test_missions.py.
 """
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import Camera
-from ..lens import LensModel, unproject
-from ..occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
+from ..media.lens import LensModel, unproject
 from ..sim.camera import CAMERA_HEIGHT, camera_rotation
 
 MAX_RANGE = 30.0

@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import CommandRejected
-from ..protocol import ErrorCode, RequestId
-from ..work import Busy, WorkPool
+from ..session.protocol import ErrorCode, RequestId
+from ..station.work import Busy, WorkPool
 from .kml import KmlError, targets_from_kml
 from .missions import MissionError, MissionPlan, Waypoint, assign, load_mission, resolve, steps_from_wire
 from .records import Step, Target
@@ -18,7 +18,7 @@ from .wire import MissionStart
 
 if TYPE_CHECKING:
     from ..config import FleetConfig
-    from ..occupancy import OccupancyGrid
+    from ..fleet.occupancy import OccupancyGrid
 
 Position = tuple[float, float]
 

@@ -47,7 +47,7 @@ from .report_rows import Scope as Scope
 
 if TYPE_CHECKING:
     from ..config import FleetConfig
-    from ..occupancy import OccupancyGrid
+    from ..fleet.occupancy import OccupancyGrid
     from .store import Store
 
 #: What ``/report/<name>.<kind>`` and ``xr-relay report`` make; the longest suffix first (``.workorders.csv`` is

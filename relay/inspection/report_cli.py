@@ -32,7 +32,7 @@ from .report_rows import RangeError, SiteInfo, work_orders
 
 if TYPE_CHECKING:
     from ..config import FleetConfig
-    from ..occupancy import OccupancyGrid
+    from ..fleet.occupancy import OccupancyGrid
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -112,7 +112,7 @@ def _site_config(path: Path) -> tuple[FleetConfig | None, OccupancyGrid | None]:
     """robots.yaml and the plan of the site; without them the report goes on with a line saying what it lacks."""
     from ..config import load_config
     from ..errors import ConfigError
-    from ..occupancy import from_map_yaml
+    from ..fleet.occupancy import from_map_yaml
     from ..twin.facility import load_facility
 
     try:

@@ -4,7 +4,7 @@ the findings (local time, room, target, readings with units and limits, status i
 with its region). Also the page that asks for a range (``/report/range.html`` with no range).
 
 Every text from the database or a file is escaped; the page sets no ``style`` attribute (the relay's
-Content-Security-Policy allows only the embedded stylesheet, by its hash: relay.headers) and runs no script.
+Content-Security-Policy allows only the embedded stylesheet, by its hash: relay.net.headers) and runs no script.
 """
 
 from __future__ import annotations
@@ -31,14 +31,14 @@ from .report_rows import (
 if TYPE_CHECKING:
     from datetime import tzinfo
 
-    from ..occupancy import OccupancyGrid
+    from ..fleet.occupancy import OccupancyGrid
     from .records import MissionRecord
     from .store import Store
 
 COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
 OTHER_COLOUR = "#6b7280"  # a status this page does not know yet
 #: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
-#: this text by its hash (relay.headers), and the report sets no ``style`` attribute, which the policy would block.
+#: this text by its hash (relay.net.headers), and the report sets no ``style`` attribute, which the policy would block.
 STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
 PIXELS_PER_METRE = 50  # the plan: 1 px = 2 cm
 MISSION_STATES = {"pending": "Pending", "running": "Running", "paused": "Paused", "done": "Done", "aborted": "Aborted"}

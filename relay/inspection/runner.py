@@ -26,7 +26,7 @@ from dataclasses import replace
 from typing import Literal
 
 from ..errors import CommandRejected
-from ..events import NavEvent
+from ..fleet.events import NavEvent
 from .messages import MISSIONS_ON_CONNECT
 from .missions import Waypoint
 from .records import MissionRecord, Step

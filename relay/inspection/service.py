@@ -22,8 +22,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError
-from ..events import NavEvent
-from ..work import WorkPool
+from ..fleet.events import NavEvent
+from ..station.work import WorkPool
 from .captures import Captures
 from .kml import KmlError, targets_from_kml
 from .messages import FINDINGS_ON_CONNECT, MISSIONS_ON_CONNECT, finding_message, mission_message
@@ -38,14 +38,14 @@ from .write_behind import WriteBehind
 
 if TYPE_CHECKING:
     from ..backends.base import Backend
-    from ..clients import Client
+    from ..cli.options import Options
     from ..config import FleetConfig
-    from ..control import Control
-    from ..fleet import FleetState
-    from ..occupancy import OccupancyGrid
-    from ..options import Options
-    from ..outbox import Outbox
-    from ..stop_notices import StopNotices
+    from ..control.control import Control
+    from ..control.stop_notices import StopNotices
+    from ..fleet.occupancy import OccupancyGrid
+    from ..fleet.state import FleetState
+    from ..session.clients import Client
+    from ..station.outbox import Outbox
     from ..twin.facility import Facility
     from .report import Scope
     from .store import Store

@@ -9,11 +9,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from ..errors import CommandRejected
-from ..protocol import ErrorCode, RequestId
-from ..work import Busy, WorkPool
+from ..session.protocol import ErrorCode, RequestId
+from ..station.work import Busy, WorkPool
 
 if TYPE_CHECKING:
-    from ..options import Options
+    from ..cli.options import Options
     from .store import Store
 
 T = TypeVar("T")

@@ -13,12 +13,12 @@ from collections.abc import Awaitable, Callable, Iterable
 from typing import TYPE_CHECKING
 
 from ..errors import CommandRejected
-from ..protocol import ErrorCode, RequestId
+from ..session.protocol import ErrorCode, RequestId
 from .messages import TargetsMessage, targets_changed_message, targets_message
 from .records import Target
 
 if TYPE_CHECKING:
-    from ..outbox import Outbox
+    from ..station.outbox import Outbox
     from .store import Store
 
 #: Runs a call on the store's thread; raises CommandRejected naming the database when it fails.

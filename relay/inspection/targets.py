@@ -20,7 +20,7 @@ from yaml.nodes import Node
 
 from ..config.reader import _Reader
 from ..errors import ConfigError
-from ..occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
 from ..twin.facility import Facility
 from .records import TARGET_ID as TARGET_ID
 from .records import Target

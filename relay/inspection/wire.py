@@ -1,6 +1,6 @@
 """The inspection commands on the wire: missions, findings, regions and targets (docs/protocol.md).
 
-Parsed like every other command (relay.protocol, whose helpers this uses): a bad frame gets one ``error`` naming
+Parsed like every other command (relay.session.protocol, whose helpers this uses): a bad frame gets one ``error`` naming
 the field; nothing here touches a robot. Every command is global (``mission/start``, not ``robot1/...``): a
 mission may span the fleet, and findings belong to captures.
 """
@@ -131,7 +131,7 @@ class TargetAdd(WireCommand):
             )
 
 
-#: The inspection commands, for the station's table (relay/protocol.py).
+#: The inspection commands, for the station's table (relay/session/protocol.py).
 INSPECTION_COMMANDS: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
 InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
 

@@ -1,7 +1,7 @@
 """The simulated wide-angle camera: the facility twin seen through a lens model, by ray casting.
 
 A :class:`SimCamera` is built once from the twin (``scenes/facility.glb``, glTF Y-up, PBR base colours) and
-then renders any robot pose through any :class:`~relay.lens.LensModel`: one ray per pixel, cast all at once
+then renders any robot pose through any :class:`~relay.media.lens.LensModel`: one ray per pixel, cast all at once
 against the whole scene (Embree through ``embreex`` when it imports, else trimesh's pure triangle
 intersector), and shaded flatly per face. It is the picture a robot's camera would show, good enough to
 recognise the spill, the panels and the puddle on the operator's hemisphere screen; it is not a
@@ -15,7 +15,7 @@ Frames (REP 103 and REP 105)
 * The camera sits at ``(x, y, height)`` on the robot and looks along the robot's +x. ``yaw`` turns it
   counter-clockwise about +z; ``pitch`` is a right-handed rotation about the robot's +y, so a positive pitch
   tilts it *down* (REP 103). Rays are generated in OpenCV's optical frame (+z forward, +x right, +y down),
-  the convention of :mod:`relay.lens`.
+  the convention of :mod:`relay.media.lens`.
 
 Shading
 -------
@@ -75,8 +75,8 @@ import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from ..config import Lens
-from ..imaging import JPEG_QUALITY, encode_jpeg
-from ..lens import LensModel, pixel_grid, unproject
+from ..media.imaging import JPEG_QUALITY, encode_jpeg
+from ..media.lens import LensModel, pixel_grid, unproject
 from .scene_parts import ScenePart, parts_from_scene
 
 __all__ = [

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from relay.occupancy import OccupancyGrid
-from relay.sim.hazards import HazardSource
+from ..fleet.occupancy import OccupancyGrid
+from .hazards import HazardSource
 
 __all__ = [
     "Box",

@@ -22,7 +22,7 @@ import math
 from collections.abc import Sequence
 from enum import Enum
 
-from relay.sim.kinematics import DiffDriveState, DriveLimits, normalize_angle
+from .kinematics import DiffDriveState, DriveLimits, normalize_angle
 
 __all__ = ["PathFollower"]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from relay.occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
 
 __all__ = ["DiffDriveState", "DriveLimits", "normalize_angle", "step"]
 

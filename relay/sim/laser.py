@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
 
 
 class LaserScanner:

@@ -37,7 +37,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from relay.occupancy import OccupancyGrid
+from ..fleet.occupancy import OccupancyGrid
 
 __all__ = ["NoPathError", "Planner", "plan_path"]
 

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from relay.occupancy import OccupancyGrid, read_yaml
-from relay.sim.floorplan import FloorPlan, Room, Spawn, rasterise, room_named, spawn_of
-from relay.sim.hazards import HazardSource
+from ..fleet.occupancy import OccupancyGrid, read_yaml
+from ..sim.floorplan import FloorPlan, Room, Spawn, rasterise, room_named, spawn_of
+from ..sim.hazards import HazardSource
 
 __all__ = [
     "FORMAT",

@@ -10,9 +10,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from relay.geometry import yaw_to_quaternion
-from relay.sim.floorplan import Box, Decal, FloorPlan, Pipe
-
+from ..fleet.geometry import yaw_to_quaternion
+from ..sim.floorplan import Box, Decal, FloorPlan, Pipe
 from .gltf import Geometry, Material, Mesh, Node, Primitive, build_glb, merge
 from .shapes import box, cylinder, polygon, sphere
 

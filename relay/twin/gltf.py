@@ -210,7 +210,7 @@ class Node:
     """A named scene node in ROS conventions.
 
     ``translation`` is metres in the parent's ROS frame; ``rotation`` a unit quaternion ``(x, y, z, w)``
-    in that frame (``relay.geometry.yaw_to_quaternion`` gives a yaw). ``extras`` must be JSON-serialisable;
+    in that frame (``relay.fleet.geometry.yaw_to_quaternion`` gives a yaw). ``extras`` must be JSON-serialisable;
     three.js exposes it as ``userData``. A node without mesh or children is allowed (an anchor), but the
     validator reports it as an info-level issue.
     """

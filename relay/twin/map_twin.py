@@ -14,7 +14,7 @@ Merging, so that a 1.7 megacell map stays a few draw calls and a few megabytes:
 
 **Unknown cells are not walls**: an unexplored area is shown as floor (optionally darkened by the
 ``unknown`` overlay, a flat mesh 3 mm above the floor), never as a block, because most maps are mostly
-unknown outside the explored area. :func:`relay.occupancy.from_map_yaml` deliberately counts unknown cells
+unknown outside the explored area. :func:`relay.fleet.occupancy.from_map_yaml` deliberately counts unknown cells
 as occupied (safe for planning), so callers pass the unknown mask separately: :func:`map_yaml_layers` and
 :func:`ros_map_layers` return both.
 
@@ -41,8 +41,7 @@ import numpy as np
 import yaml  # type: ignore[import-untyped, unused-ignore]
 from numpy.typing import NDArray
 
-from relay.occupancy import OccupancyGrid, from_map_yaml, read_pgm
-
+from ..fleet.occupancy import OccupancyGrid, from_map_yaml, read_pgm
 from .gltf import Geometry, Material, Mesh, Node, Primitive, build_glb, merge
 
 __all__ = ["grid_to_glb", "map_yaml_layers", "ros_map_layers"]
@@ -214,7 +213,7 @@ def grid_to_glb(
 def map_yaml_layers(path: str | os.PathLike[str]) -> tuple[OccupancyGrid, NDArray[np.bool_]]:
     """Load a map_server map as ``(grid, unknown)`` for :func:`grid_to_glb`.
 
-    ``grid`` is exactly :func:`relay.occupancy.from_map_yaml`'s (free only below ``free_thresh``, so it
+    ``grid`` is exactly :func:`relay.fleet.occupancy.from_map_yaml`'s (free only below ``free_thresh``, so it
     validates the file and is what the planner sees); ``unknown`` marks the cells that are neither free nor
     above ``occupied_thresh`` (in ``raw`` mode: values above 100, or between the two thresholds), which the
     twin shows as floor rather than walls. Raises ``ValueError`` naming the file, like ``from_map_yaml``.
@@ -252,7 +251,7 @@ def ros_map_layers(
 
     ``data`` is row-major with row 0 at ``origin_y`` (the message's own order), values ``-1`` (unknown) or
     ``0..100``. Cells at or above ``occupied_threshold`` (65, map_saver's default ``occupied_thresh``) are
-    walls; ``grid`` counts unknown cells as occupied too, as :func:`relay.occupancy.from_map_yaml` does, and
+    walls; ``grid`` counts unknown cells as occupied too, as :func:`relay.fleet.occupancy.from_map_yaml` does, and
     ``unknown`` marks them. Raises ``ValueError`` when ``data`` does not hold ``width * height`` values.
     """
     values = np.asarray(data, dtype=np.int16)

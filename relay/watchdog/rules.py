@@ -4,8 +4,8 @@ The watchdog runs on or next to the robot and is the only publisher of its ``cmd
 It takes two sources and the relay's word:
 
 - **teleop**: the relay's TwistStamped, forwarded only while the relay's heartbeat is fresh and the command itself
-  is fresh (its stamp, on the relay's clock, no older than ``timeout`` by ``relay.freshness``); a zero (a stop) is
-  always forwarded. A relay stopped by SIGSTOP, starved of CPU or cut off stops nothing itself (a robot once turned
+  is fresh (its stamp, on the relay's clock, no older than ``timeout`` by ``relay.session.freshness``); a zero (a stop)
+  is always forwarded. A relay stopped by SIGSTOP, starved of CPU or cut off stops nothing itself (a robot once turned
   for the 3 s the relay was stopped): its heartbeat stops, and so do its commands here.
 - **autonomy**: the robot's own navigation output (Nav2's controller on ``cmd_vel_nav``), unstamped: forwarded only
   while no teleop arrived within ``timeout`` (teleop overrides it, a teleop zero included), the gate is ``drive``,
@@ -27,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from ..freshness import SenderClock
+from ..session.freshness import SenderClock
 
 Gate = Literal["drive", "hold", "estop"]
 GATES: tuple[Gate, ...] = ("drive", "hold", "estop")

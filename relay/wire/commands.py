@@ -30,7 +30,7 @@ from .fields import MAX_COORDINATE, MAX_YAW, ErrorCode, RequestId, number, show,
 
 #: Highest camera stream rate a client may ask for.
 MAX_STREAM_FPS: Final = 60.0
-#: How a camera may be streamed (``<robot>/stream`` ``codec``): JPEG frames, or H.264 video (relay/video.py).
+#: How a camera may be streamed (``<robot>/stream`` ``codec``): JPEG frames, or H.264 video (relay/media/video.py).
 STREAM_CODECS: Final = ("jpeg", "h264")
 #: Playback speed factors a client may ask for (bag backend).
 MIN_PLAYBACK_RATE: Final = 0.05

@@ -1,6 +1,6 @@
 """The fields every client command is read from, and the codes a refusal carries: the bottom of the wire layer.
 
-``relay.protocol`` parses the station's own commands with these and ``relay.inspection.wire`` the inspection
+``relay.session.protocol`` parses the station's own commands with these and ``relay.inspection.wire`` the inspection
 commands; both import this module, neither the other's internals. It imports nothing of the relay but its errors.
 """
 

@@ -3,7 +3,7 @@
 Each builder returns the message whose bytes tests pin (tests/test_protocol.py); ``encode`` turns it into the
 text frame every interested client receives, encoded once. No I/O; the browser's types are generated from these
 (``tools/gen_protocol_js.py`` -> ``xr_client/src/protocol.js``). A feature's messages are its own
-(relay/inspection/messages.py); relay/messages.py gathers them all.
+(relay/inspection/messages.py); relay/station/messages.py gathers them all.
 """
 
 from __future__ import annotations
@@ -192,7 +192,7 @@ class HelloMessage(TypedDict):
     backend: BackendMessage
 
 
-#: Every message the station's own parts send as a text frame (relay/messages.py adds the features').
+#: Every message the station's own parts send as a text frame (relay/station/messages.py adds the features').
 StationMessage = (
     HelloMessage
     | PoseMessage
@@ -213,7 +213,8 @@ StationMessage = (
     | OperatorsMessage
 )
 
-#: The messages of a client's state lane (relay/hub.py): a slow client gets only the newest of each coalescing key.
+#: The messages of a client's state lane (relay/station/hub.py): a slow client gets only the newest of each coalescing
+#: key.
 StateMessage = (
     PoseMessage
     | SensorMessage
@@ -228,7 +229,7 @@ StateMessage = (
 
 def state_key(message: StateMessage) -> str:
     """The coalescing key of a state message, for ``Hub.publish_state``: its identifier, except that each sensor
-    of a robot keeps its own newest reading (``relay.protocol.sensor_key``), as docs/protocol.md promises."""
+    of a robot keeps its own newest reading (``relay.session.protocol.sensor_key``), as docs/protocol.md promises."""
     identifier = message["identifier"]
     robot, _, kind = identifier.partition("/")
     if kind == "sensor":

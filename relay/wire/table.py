@@ -1,7 +1,7 @@
 """The commands a relay accepts, as one table: a frame's identifier picks its declaration, which parses it.
 
-Built once from every declared command (the station's and each feature's, relay/protocol.py), so adding a command
-is adding its declaration to a list; nothing here knows any command.
+Built once from every declared command (the station's and each feature's, relay/session/protocol.py), so adding a
+command is adding its declaration to a list; nothing here knows any command.
 """
 
 from __future__ import annotations

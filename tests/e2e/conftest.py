@@ -21,7 +21,7 @@ import pytest
 from playwright.async_api import Browser, Page, async_playwright
 
 from relay.config import FleetConfig, load_config
-from relay.events import FrameEvent
+from relay.fleet.events import FrameEvent
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, Client, OpenClient, Station
 

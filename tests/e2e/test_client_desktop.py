@@ -10,8 +10,8 @@ import time
 
 from playwright.async_api import Browser
 
+from relay.cli.options import Options
 from relay.config import load_config
-from relay.options import Options
 from tests.conftest import ROOT, start_relay
 from tests.helpers.browser import (
     SOFTWARE_GL,

@@ -1,4 +1,4 @@
-"""The relay's Content-Security-Policy (relay/headers.py) against the pages it serves, in Debian's Chromium: the
+"""The relay's Content-Security-Policy (relay/net/headers.py) against the pages it serves, in Debian's Chromium: the
 operator station on the desktop and with the emulated headset, a finding with its capture image in the findings
 list, and the HTML report of a mission. Every page loads, connects and draws with no violation reported, and an
 injected inline handler is blocked (the policy is enforced, so a violation would be seen)."""

@@ -222,7 +222,7 @@ STALL_SECONDS = 4.5
 #: The camera's bitrate for that test (bit/s): x264 gives the sim's simple picture ~1 Mbit/s of it (measured
 #: 132 kB/s while turning, four times robots.yaml's default), so that what lies between the relay's video lane and
 #: the held proxy fills within the stall: the relay's side of a connection holds up to ~100 kB unsent
-#: (relay.server.bound_backlog; measured 63 kB in tests/test_video.py), the proxy's side 8 kB.
+#: (relay.net.server.bound_backlog; measured 63 kB in tests/test_video.py), the proxy's side 8 kB.
 LOUD_BITRATE = 20_000_000
 #: The relay's video lane for that test (packets; 30 by default, 2-3 s of this camera): with the buffers above, 30
 #: took more than the 4.5 s a page may go without a pong before it reconnects.

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from relay.cli.options import Options
 from relay.config import FleetConfig
-from relay.options import Options
 from tests.conftest import RunningRelay, start_relay
 from tests.wsclient import TestClient
 

@@ -31,7 +31,7 @@ float32 distance_remaining
 
 
 def nav2_store() -> Any:
-    """A type store with NavigateToPose registered by this test, apart from relay.nav2_types."""
+    """A type store with NavigateToPose registered by this test, apart from relay.ros.nav2_types."""
     goal, result, feedback = JAZZY_ACTION.split("---\n")
     name = "nav2_msgs/action/NavigateToPose"
     types: dict[str, Any] = {}

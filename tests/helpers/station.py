@@ -12,9 +12,9 @@ import orjson
 
 from relay.backends.base import Backend
 from relay.config import FleetConfig
-from relay.core import Relay
-from relay.events import EventSink, FrameEvent
-from relay.messages import decode_frame
+from relay.fleet.events import EventSink, FrameEvent
+from relay.station.core import Relay
+from relay.station.messages import decode_frame
 
 Call = tuple[Any, ...]
 

@@ -10,8 +10,8 @@ import pytest
 
 zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip install '.[zenoh]'`")
 
+from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import FleetConfig, parse_config  # noqa: E402
-from relay.options import Options, ZenohOptions  # noqa: E402
 from tests.conftest import RunningRelay, start_relay  # noqa: E402
 from tests.zenoh_robots import (  # noqa: E402
     STORE,

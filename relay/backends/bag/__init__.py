@@ -19,7 +19,7 @@ messages its robots need, in time order, turns them into immutable events (poses
 pose source is ``tf``; decimated scans; sensor values; maps) and appends them to a bounded buffer ahead of
 the playback position; a bag is never read into memory whole. On the loop, one task per bag pops events from
 that buffer when the clock reaches them (the lock is held for microseconds) and hands them to the relay.
-Camera images cross the same buffer as decoded messages and are converted to JPEG (relay.imaging) in a small
+Camera images cross the same buffer as decoded messages and are converted to JPEG (relay.media.imaging) in a small
 worker pool, only when a client streams or snapshots that camera.
 """
 

@@ -7,11 +7,11 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 
+from ...cli.options import BagOptions
 from ...config import FleetConfig
 from ...errors import BackendUnavailable, CommandRejected
-from ...events import EventSink, FrameEvent, RobotModelEvent
-from ...options import BagOptions
-from ...protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
+from ...fleet.events import EventSink, FrameEvent, RobotModelEvent
+from ...session.protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
 from ..base import Backend
 from .binding import BagContents, BagPlan, BagSpec, _lookup, bind_bags, parse_bag_specs
 from .cameras import BagCameras

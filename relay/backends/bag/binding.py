@@ -9,8 +9,8 @@ from pathlib import Path
 
 from ...config import Camera, FleetConfig, Robot, Sensor
 from ...errors import BackendUnavailable
-from ...protocol import ROBOT_NAME_PATTERN
-from ...rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
+from ...ros.rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
+from ...session.protocol import ROBOT_NAME_PATTERN
 
 logger = logging.getLogger(__name__)
 

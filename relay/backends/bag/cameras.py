@@ -5,9 +5,9 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 
-from ...events import CameraError, EventSink, FrameEvent
-from ...frame_encoder import LatestFrameEncoder
-from ...rosmsg import image_to_frame
+from ...fleet.events import CameraError, EventSink, FrameEvent
+from ...media.frame_encoder import LatestFrameEncoder
+from ...ros.rosmsg import image_to_frame
 from .decoding import _Image
 
 #: A snapshot waits this long for a camera's first image (s).

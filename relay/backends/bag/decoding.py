@@ -10,18 +10,18 @@ from pathlib import Path
 from typing import Any
 
 from ...config import Camera, Sensor
-from ...events import (
+from ...fleet.events import (
     Event,
     MapEvent,
     SensorEvent,
 )
-from ...maps import map_event
-from ...rosmsg import (
+from ...fleet.scan import scan_event
+from ...ros.maps import map_event
+from ...ros.rosmsg import (
     SENSOR_TYPES,
     message_stamp,
     pose_event,
 )
-from ...scan import scan_event
 from .binding import BagPlan
 from .tf_chain import _TfChain
 

@@ -8,9 +8,9 @@ import logging
 from collections.abc import Sequence
 
 from ...errors import CommandRejected
-from ...events import EventSink, PlaybackEvent, PoseEvent, ScanEvent
-from ...protocol import MAX_SCAN_RATE, ErrorCode
-from ...scan import RateCap
+from ...fleet.events import EventSink, PlaybackEvent, PoseEvent, ScanEvent
+from ...fleet.scan import RateCap
+from ...session.protocol import MAX_SCAN_RATE, ErrorCode
 from .cameras import BagCameras
 from .clock import PlaybackClock
 from .decoding import Payload, _Image

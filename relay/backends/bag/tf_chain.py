@@ -1,4 +1,4 @@
-"""A robot's map-frame pose from recorded TF, through the static tree (relay.tf.TfPose does map->odom->base)."""
+"""A robot's map-frame pose from recorded TF, through the static tree (relay.ros.tf.TfPose does map->odom->base)."""
 
 from __future__ import annotations
 
@@ -6,14 +6,14 @@ import logging
 from typing import Any
 
 from ...config import Robot
-from ...events import (
+from ...fleet.events import (
     PoseEvent,
 )
-from ...rosmsg import (
+from ...ros.rosmsg import (
     header_stamp,
     transform_of,
 )
-from ...tf import TfPose, Transform, compose, rotate, strip_slash
+from ...ros.tf import TfPose, Transform, compose, rotate, strip_slash
 
 logger = logging.getLogger(__name__)
 

@@ -12,8 +12,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from relay.twin.gltf import Geometry, Material, Mesh, Node, Primitive, build_glb
-
+from ..gltf import Geometry, Material, Mesh, Node, Primitive, build_glb
 from .materials import unique_name
 from .normals import CREASE_ANGLE_DEG, crease_normals, drop_degenerate
 from .primitives import Triangles, concatenate

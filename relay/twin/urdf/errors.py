@@ -8,7 +8,7 @@ MeshUnavailable       one mesh file cannot be used; the conversion turns it into
 
 from __future__ import annotations
 
-from relay.errors import RelayError
+from ...errors import RelayError
 
 
 class RobotModelError(RelayError):

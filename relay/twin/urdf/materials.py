@@ -13,8 +13,7 @@ from typing import Any, Final
 
 import numpy as np
 
-from relay.twin.gltf import Material
-
+from ..gltf import Material
 from .parse import leaf_name
 
 #: Name of the tintable chassis material (see the module docstring).

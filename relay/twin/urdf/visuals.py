@@ -13,8 +13,7 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from relay.twin.gltf import Material
-
+from ..gltf import Material
 from .errors import MeshUnavailable, RobotModelError
 from .materials import visual_material
 from .meshes import MeshResolver, load_mesh

@@ -1,0 +1,297 @@
+"""The ``xr-relay`` command (also ``python -m relay``)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import os
+import secrets
+import sys
+from pathlib import Path
+
+from .. import __version__
+from ..backends import BACKENDS
+from ..config import load_config
+from ..errors import AuditLogUnavailable, BackendUnavailable, ConfigError
+from ..inspection.kml import KmlError
+from ..inspection.store import StoreError
+from ..logs.redaction import redact_logs
+from ..net.access import MIN_TOKEN_BITS, weak_token
+from .options import BagOptions, Options, ZenohOptions
+
+EXIT_USAGE = 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="xr-relay",
+        description=(
+            "WebXR operator station relay: bridges a ROS 2 robot fleet (or the built-in simulated fleet) to "
+            "browsers and headsets over one WebSocket, and serves the WebXR client on the same port."
+        ),
+        epilog="Open the printed URL in a browser. `xr-relay record --out DIR` records the fleet's topics from a "
+        "live ROS 2 graph (see `xr-relay record --help`); `xr-relay watchdog` stops robots when the relay cannot "
+        "(see `xr-relay watchdog --help`). Protocol: docs/protocol.md; configuration: "
+        "docs/configuration.md; security: docs/security.md.",
+    )
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=Path("robots.yaml"),
+        help="fleet configuration file (default: ./robots.yaml)",
+    )
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="sim",
+        help="where robots come from: sim = built-in simulated fleet (default, no ROS needed), "
+        "ros = a live ROS 2 graph through rclpy, bag = recorded topics, zenoh = ROS 2 over a Zenoh network "
+        "(rmw_zenoh or zenoh-bridge-ros2dds; no ROS install needed)",
+    )
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1: this machine only; use 0.0.0.0 to serve the LAN)",
+    )
+    parser.add_argument(
+        "--port", type=int, default=None, help="TCP port (default 8080, or 8443 with TLS; 0 picks a free one)"
+    )
+    parser.add_argument(
+        "--log-level",
+        default="info",
+        choices=("debug", "info", "warning", "error"),
+        help="logging verbosity (default info)",
+    )
+    parser.add_argument(
+        "--audit-log",
+        default="xr-relay-audit.jsonl",
+        metavar="PATH",
+        help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
+        "(default ./xr-relay-audit.jsonl; '' turns it off)",
+    )
+    inspection = parser.add_argument_group("inspection (missions, captures, findings)")
+    inspection.add_argument(
+        "--database",
+        default="xr-relay-inspection.sqlite",
+        metavar="FILE_OR_URL",
+        help="where missions, captures and findings are kept: a SQLite file (default ./xr-relay-inspection.sqlite, "
+        "images in ./xr-relay-inspection-images) or a postgresql:// URL (better without its password: libpq reads "
+        "$PGPASSWORD and ~/.pgpass; a password in the URL is never logged)",
+    )
+    inspection.add_argument(
+        "--images",
+        metavar="DIR",
+        help="capture images (default: beside a SQLite file; for PostgreSQL ~/.local/share/xr-relay/images)",
+    )
+    inspection.add_argument("--targets", metavar="FILE", help="a targets file besides the facility's own targets")
+    _add_access_options(parser.add_argument_group("access (docs/security.md)"))
+    _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
+    _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
+    _add_zenoh_options(parser.add_argument_group("Zenoh (--backend zenoh; docs/zenoh.md)"))
+    parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
+    return parser
+
+
+def _add_access_options(access: argparse._ArgumentGroup) -> None:
+    access.add_argument(
+        "--token",
+        help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start), of at least "
+        f"{MIN_TOKEN_BITS} bits of entropy (e.g. python3 -c 'import secrets; print(secrets.token_urlsafe(32))'); "
+        "the relay prints its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+    )
+    access.add_argument(
+        "--allow-weak-token",
+        action="store_true",
+        help=f"accept a --token (or $XR_RELAY_TOKEN) of fewer than {MIN_TOKEN_BITS} bits of entropy, for a closed "
+        "test network only; the relay says so at start-up",
+    )
+    access.add_argument(
+        "--allow-viewers",
+        action="store_true",
+        help="let clients without a valid token connect as viewers: they see everything, command nothing",
+    )
+    access.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="ORIGIN",
+        help="a web origin (scheme://host:port) allowed to open /ws besides the relay's own; repeatable",
+    )
+    access.add_argument(
+        "--allow-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a host name the relay is reached by, besides IP addresses, localhost and this machine's names "
+        "(requests naming any other Host are refused: DNS rebinding); repeatable",
+    )
+    access.add_argument(
+        "--max-message-rate",
+        type=float,
+        default=60.0,
+        metavar="PER_SECOND",
+        help="messages a client may send per second, bursts of twice that allowed (default 60; estop is "
+        "never limited); faster ones get error rate_limited",
+    )
+    access.add_argument(
+        "--lease-timeout",
+        type=float,
+        default=30.0,
+        metavar="SECONDS",
+        help="release an idle robot's control lease after this long without commands (default 30)",
+    )
+
+
+def _add_tls_options(tls: argparse._ArgumentGroup) -> None:
+    tls.add_argument(
+        "--tls",
+        choices=("off", "auto"),
+        default="off",
+        help="auto: create (once) and use a self-signed certificate for this machine's names and addresses, "
+        "serve https/wss and print the certificate's fingerprint",
+    )
+    tls.add_argument("--tls-cert", metavar="PEM", help="serve https/wss with this certificate (chain) ...")
+    tls.add_argument("--tls-key", metavar="PEM", help="... and this private key")
+    tls.add_argument(
+        "--tls-dir",
+        type=Path,
+        default=Path.home() / ".local" / "share" / "xr-relay" / "tls",
+        help="where --tls auto keeps its certificate (default ~/.local/share/xr-relay/tls)",
+    )
+
+
+def _add_bag_options(bag: argparse._ArgumentGroup) -> None:
+    bag.add_argument(
+        "--bag",
+        action="append",
+        default=[],
+        metavar="[ROBOT=]PATH",
+        help="a rosbag2 recording (sqlite3 or MCAP; a bag directory or file) to replay; ROBOT= binds it to a "
+        "robot of the config, otherwise a bag of un-namespaced topics plays as the first robot not yet bound. "
+        "Repeat for several robots",
+    )
+    bag.add_argument("--rate", type=float, default=1.0, help="replay speed factor (default 1.0)")
+    bag.add_argument("--loop", action="store_true", help="start over at the end of the recordings")
+    bag.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help="start this far into the recordings")
+
+
+def _add_zenoh_options(zenoh: argparse._ArgumentGroup) -> None:
+    zenoh.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="a Zenoh router (or peer) to connect to, e.g. tcp/10.0.0.5:7447; repeatable (default: robots.yaml's "
+        "zenoh.connect, else the local router tcp/127.0.0.1:7447)",
+    )
+    zenoh.add_argument("--zenoh-mode", choices=("client", "peer"), help="Zenoh session mode (default client)")
+    zenoh.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="a Zenoh JSON5 configuration file (TLS certificates, user/password, ...), passed to Zenoh as is",
+    )
+    zenoh.add_argument(
+        "--relay-id",
+        metavar="NAME",
+        help="this relay's name among the relays of one fleet (default: its Zenoh session id)",
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "record":
+        # `xr-relay record --out DIR`: record the fleet's topics from a live ROS graph (relay/cli/record.py).
+        from .record import main as record_main
+
+        return record_main(argv[1:])
+    if argv and argv[0] == "report":
+        # `xr-relay report`: the inspection report and work orders as files (relay/inspection/report_cli.py).
+        from ..inspection.report_cli import main as report_main
+
+        return report_main(argv[1:])
+    if argv and argv[0] == "watchdog":
+        # `xr-relay watchdog`: the robot-side stop (relay/watchdog/node.py), run on or next to the robots.
+        from ..watchdog.node import main as watchdog_main
+
+        return watchdog_main(argv[1:])
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=getattr(logging, args.log_level.upper()),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    redact_logs()  # a database URL's password or a token in a log line is written as *** (relay.logs.redaction)
+    log = logging.getLogger("relay")
+    token, source = (args.token, "--token") if args.token else (os.environ.get("XR_RELAY_TOKEN"), "$XR_RELAY_TOKEN")
+    why = weak_token(token) if token else None
+    if why is not None and not args.allow_weak_token:
+        log.error(
+            "%s: the operator token has %s. Give one of at least %d bits (python3 -c 'import secrets; "
+            "print(secrets.token_urlsafe(32))'), or none for a new random one each start; --allow-weak-token "
+            "accepts it anyway (a closed test network only)",
+            source, why, MIN_TOKEN_BITS,
+        )  # fmt: skip
+        return EXIT_USAGE
+    if why is not None:
+        log.warning(
+            "WEAK OPERATOR TOKEN, accepted because of --allow-weak-token: %s has %s. Anyone who can reach this "
+            "relay may guess it and command the robots: use it on a closed test network only",
+            source, why,
+        )  # fmt: skip
+    try:
+        config = load_config(args.config)
+    except ConfigError as exc:
+        log.error("%s", exc)
+        return EXIT_USAGE
+    from ..net.server import serve
+
+    try:
+        if bool(args.tls_cert) != bool(args.tls_key):
+            log.error("--tls-cert and --tls-key go together")
+            return EXIT_USAGE
+        cert, key = args.tls_cert, args.tls_key
+        if args.tls == "auto" and not cert:
+            from ..net.tls import ensure_certificate
+
+            extra = (args.host,) if args.host not in ("0.0.0.0", "::", "127.0.0.1") else ()
+            cert_path, key_path = ensure_certificate(args.tls_dir, extra)
+            cert, key = str(cert_path), str(key_path)
+        port = args.port if args.port is not None else (8443 if cert else 8080)
+        options = Options(
+            backend=args.backend,
+            host=args.host,
+            port=port,
+            token=token or secrets.token_urlsafe(24),
+            allow_viewers=args.allow_viewers,
+            allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
+            allowed_hosts=tuple(args.allow_host),
+            tls_cert=cert,
+            tls_key=key,
+            max_message_rate=args.max_message_rate,
+            lease_timeout=args.lease_timeout,
+            bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
+            zenoh=ZenohOptions(
+                connect=tuple(args.zenoh_connect),
+                mode=args.zenoh_mode,
+                config=args.zenoh_config,
+                relay_id=args.relay_id,
+            ),
+            audit_log=args.audit_log or None,
+            database=args.database,
+            images=args.images,
+            targets=args.targets,
+        )
+        asyncio.run(serve(config, options))
+    except (BackendUnavailable, AuditLogUnavailable, StoreError, KmlError, ConfigError) as exc:
+        log.error("%s", exc)
+        return EXIT_USAGE
+    except OSError as exc:
+        log.error("cannot listen on %s:%s: %s", args.host, args.port, exc.strerror or exc)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""HTTP and WebSocket on one port, hardened: access, TLS, security headers, connection guards, loop stalls."""
