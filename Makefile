@@ -59,7 +59,7 @@ $(POSTGRES):
 # parts always run; the target fails if either did.
 TEST_WORKERS ?= 4
 BROWSER_WORKERS ?= 2
-PYTEST = $(BIN)/python -m pytest -q -p no:cacheprovider --dist worksteal
+PYTEST = $(BIN)/python -m pytest -q -p no:cacheprovider --dist worksteal --durations=15
 
 test: setup $(CHROMIUM) $(POSTGRES)
 	cd xr_client && node --test test/
