@@ -179,7 +179,7 @@ async def test_a_flood_of_targets_neither_delays_an_estop_nor_grows_without_boun
     The relay runs in a process of its own, so that the nine clients' reading is not counted as the relay's."""
     token = secrets.token_urlsafe(24)
     relay, base = await relay_process(
-        "--backend", "sim", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+        "--backend", "sim", "--config", str(ROOT / "robots.yaml"), f"--token={token}", "--audit-log", "",
         "--database", str(tmp_path / "i.sqlite"),
     )  # fmt: skip
     url = base.replace("http", "ws") + f"/ws?token={token}"

@@ -33,7 +33,7 @@ def password_server() -> Iterator[tuple[str, str]]:
 async def _relay(database: str, cwd: Path, env: dict[str, str]) -> tuple[asyncio.subprocess.Process, str]:
     """``python -m relay`` as a user starts it, in ``cwd``; the process and the first line it printed."""
     process = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--port", "0", "--config", str(ROOT / "robots.yaml"), "--token", TOKEN,
+        sys.executable, "-m", "relay", "--port", "0", "--config", str(ROOT / "robots.yaml"), f"--token={TOKEN}",
         "--database", database, "--audit-log", "", "--log-level", "debug",
         cwd=cwd, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
     )  # fmt: skip

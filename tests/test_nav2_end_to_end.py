@@ -145,7 +145,7 @@ async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int,
     pytest.importorskip("nav2_msgs.action", reason="no nav2_msgs: `make setup` builds it (tools/build_nav2_msgs.py)")
     processes: list[asyncio.subprocess.Process | None] = []  # every one is stopped, whatever fails
     relay_args = (
-        "--backend", "ros", "--config", str(ROOT / "robots.yaml"), "--token", token, "--audit-log", "",
+        "--backend", "ros", "--config", str(ROOT / "robots.yaml"), f"--token={token}", "--audit-log", "",
         "--database", str(tmp_path / "i.sqlite"),
     )  # fmt: skip
     try:
@@ -192,7 +192,7 @@ async def test_over_zenoh_an_estop_stops_a_robot_that_nav2_drives(relays: int, t
         for index in range(relays):
             relay, base = await relay_process(
                 "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
-                "--relay-id", f"R{index}", "--token", token, "--audit-log", "",
+                "--relay-id", f"R{index}", f"--token={token}", "--audit-log", "",
                 "--database", str(tmp_path / f"{index}.sqlite"),
             )  # fmt: skip
             processes.append(relay)
