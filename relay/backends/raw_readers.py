@@ -33,10 +33,8 @@ STRING_TYPE = "std_msgs/msg/String"
 
 def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     """A tf2_msgs/TFMessage: the robot's pose once the chain map -> odom -> base is known (relay.ros.tf)."""
-    try:
-        message = decode(data, POSE_TYPES["tf"])
-    except ValueError as exc:
-        warn("%s: %s", robot, exc)
+    message = _decoded(robot, data, decode, POSE_TYPES["tf"], "tf", warn)
+    if message is None:
         return
     latest = None
     for t in message.transforms:
@@ -55,12 +53,9 @@ def read_scan(robot: str, cap: RateCap, data: bytes, decode: Decode, put: Put, *
     """A sensor_msgs/LaserScan, at most the wire's scan rate (over it: not even decoded)."""
     if not cap.allow(robot, time.monotonic()):
         return
-    try:
-        message = decode(data, SCAN_TYPE)
-    except ValueError as exc:
-        warn("%s: %s", robot, exc)
-        return
-    put(scan_event(robot, header_stamp(message.header), message))
+    message = _decoded(robot, data, decode, SCAN_TYPE, "scan", warn)
+    if message is not None:
+        put(scan_event(robot, header_stamp(message.header), message))
 
 
 def read_sensor(
@@ -81,20 +76,23 @@ def path_points(message: Any) -> tuple[tuple[float, float], ...]:
     return tuple((float(p.pose.position.x), float(p.pose.position.y)) for p in message.poses)
 
 
-def read_path(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
+def _decoded(robot: str, data: bytes, decode: Decode, type_name: str, what: str, warn: Warn) -> Any | None:
+    """The message, or None after one warning naming the robot and what it was (a bad sample changes nothing)."""
     try:
-        message = decode(data, PATH_TYPE)
+        return decode(data, type_name)
     except ValueError as exc:
-        warn("%s plan: %s", robot, exc)
-        return
-    put(PathEvent(robot, path_points(message)))
+        warn("%s %s: %s", robot, what, exc)
+        return None
+
+
+def read_path(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
+    message = _decoded(robot, data, decode, PATH_TYPE, "plan", warn)
+    if message is not None:
+        put(PathEvent(robot, path_points(message)))
 
 
 def read_model(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
     """robot_state_publisher's robot_description (std_msgs/String, URDF)."""
-    try:
-        message = decode(data, STRING_TYPE)
-    except ValueError as exc:
-        warn("%s robot description: %s", robot, exc)
-        return
-    put(RobotModelEvent(robot, str(message.data)))
+    message = _decoded(robot, data, decode, STRING_TYPE, "robot description", warn)
+    if message is not None:
+        put(RobotModelEvent(robot, str(message.data)))

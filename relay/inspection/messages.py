@@ -15,6 +15,8 @@ from .records import FindingRecord, FindingStatus, MissionRecord, MissionState, 
 
 #: Findings a newly connected client is sent (the newest); the rest are in the report and the database.
 FINDINGS_ON_CONNECT = 200
+#: Findings in a page of the history when ``findings/page`` names no limit.
+FINDINGS_PAGE = 50
 #: Missions a client gets after its ``hello``: every active one, and the newest of those that ended.
 MISSIONS_ON_CONNECT = 100
 
@@ -80,6 +82,15 @@ class FindingMessage(TypedDict):
     updated: float
 
 
+class FindingsMessage(TypedDict):
+    """The answer to ``findings/page``: a page of the history, newest first; ``more``: older ones remain."""
+
+    identifier: Literal["findings"]
+    id: RequestId
+    findings: list[FindingMessage]
+    more: bool
+
+
 class RegionMessage(TypedDict):
     identifier: Literal["region"]
     id: RequestId
@@ -138,6 +149,16 @@ def finding_message(finding: FindingRecord, image: str | None, readings: dict[st
         "created": round(finding.created, 3),
         "updated": round(finding.updated, 3),
     }
+
+
+#: Every message of the inspection feature (relay/station/messages.py gathers it into ``ServerMessage``).
+InspectionMessage = (
+    TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage
+)
+
+
+def findings_message(request_id: RequestId, findings: list[FindingMessage], more: bool) -> FindingsMessage:
+    return {"identifier": "findings", "id": request_id, "findings": findings, "more": more}
 
 
 def region_message(request_id: RequestId, capture: str, outline: tuple[tuple[int, int], ...]) -> RegionMessage:

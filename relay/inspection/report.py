@@ -115,12 +115,12 @@ def asked_range(query: Mapping[str, str], kind: str, config: FleetConfig, now: f
     name, zone = site_header(config)
     start, end = query.get("from"), query.get("to")
     if kind == "html" and start is None and end is None:
-        return 200, range_form_page(name, zone, now, query.get("token"))
+        return 200, range_form(name, zone, now, query.get("token"))
     try:
         return range_scope(start, end, zone)
     except RangeError as exc:
         if kind == "html":
-            return 400, range_form_page(name, zone, now, query.get("token"), str(exc), (start, end))
+            return 400, range_form(name, zone, now, query.get("token"), str(exc), (start, end))
         return 400, f"{exc}\n"
 
 
@@ -316,19 +316,6 @@ def render(report: Report, kind: str, store: Store, grid: OccupancyGrid | None, 
         "json": as_json, "csv": as_csv, "workorders.csv": work_orders_csv, "workorders.json": work_orders_json,
     }  # fmt: skip
     return writers[kind](report, image_url)
-
-
-def range_form_page(
-    name: str,
-    zone: tzinfo | None,
-    now: float,
-    token: str | None,
-    problem: str | None = None,
-    asked: tuple[str | None, str | None] = (None, None),
-) -> str:
-    """``/report/range.html`` without a range, or with one that cannot be read: the page that asks for one
-    (report_html.range_form)."""
-    return range_form(name, zone, now, token, problem, asked)
 
 
 def zone_named(name: str) -> zoneinfo.ZoneInfo:

@@ -26,14 +26,29 @@ from ..fleet.events import NavEvent
 from ..station.work import WorkPool
 from .captures import Captures
 from .kml import KmlError, targets_from_kml
-from .messages import FINDINGS_ON_CONNECT, MISSIONS_ON_CONNECT, finding_message, mission_message
+from .messages import (
+    FINDINGS_ON_CONNECT,
+    FINDINGS_PAGE,
+    MISSIONS_ON_CONNECT,
+    finding_message,
+    findings_message,
+    mission_message,
+)
 from .mission_commands import MissionCommands
 from .planning import MissionPlanning
 from .records import MissionRecord, Target
 from .storage import Storage
 from .target_book import TargetBook
 from .targets import facility_targets, load_targets
-from .wire import FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd, inspection_identifier
+from .wire import (
+    FindingMark,
+    FindingsPage,
+    MissionControl,
+    MissionStart,
+    RegionRequest,
+    TargetAdd,
+    inspection_identifier,
+)
 from .write_behind import WriteBehind
 
 if TYPE_CHECKING:
@@ -169,6 +184,9 @@ class Inspection:
 
     async def handle(self, client: Client, command: Any, now: float) -> None:
         """Carry out one inspection command; raises CommandRejected (or ProtocolError) when refused."""
+        if isinstance(command, FindingsPage):
+            await self._page(client, command)  # what a viewer sees already, further back
+            return
         self.control.gate.require_operator(client, inspection_identifier(command), command.id)
         if isinstance(command, MissionStart):
             await self.missions.start(client, command, now)
@@ -180,6 +198,15 @@ class Inspection:
             await self.captures.region(client, command)
         elif isinstance(command, TargetAdd):
             await self.captures.add_target(client, command)
+
+    async def _page(self, client: Client, command: FindingsPage) -> None:
+        """A page of the findings history from the database (off the loop), newest first."""
+        store, limit = self.store, command.limit or FINDINGS_PAGE
+        rows = []
+        if store is not None:
+            rows = await self._storage.run(lambda: store.recent_findings(limit + 1, command.before))
+        page = [finding_message(f, c.image, c.readings) for f, c in rows[:limit]]
+        self.outbox.to(client, findings_message(command.id, page, more=len(rows) > limit))
 
     # -- mission records --------------------------------------------------------------------------
 

@@ -21,6 +21,9 @@ MISSION_ACTIONS: Final = ("pause", "resume", "skip", "abort")
 MAX_NOTE = 1000
 MAX_OUTLINE = 256
 MAX_PIXEL = 16384
+#: Most findings one ``findings/page`` returns, and the latest time it may name (the year 2286).
+MAX_PAGE = 100
+MAX_TIME = 1.0e10
 
 
 @command("mission/start")
@@ -131,9 +134,20 @@ class TargetAdd(WireCommand):
             )
 
 
+@command("findings/page")
+@dataclass(frozen=True, slots=True)
+class FindingsPage(WireCommand):
+    """A page of the findings history, newest first: at most ``limit`` findings made before ``before`` (seconds
+    since the epoch, a finding's ``created``; none: the newest). Viewers may read it too."""
+
+    id: RequestId = request()
+    before: float | None = real(required=False, low=0.0, high=MAX_TIME)
+    limit: int | None = real(required=False, low=1, high=MAX_PAGE, integer=True)
+
+
 #: The inspection commands, for the station's table (relay/session/protocol.py).
-INSPECTION_COMMANDS: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
-InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
+INSPECTION_COMMANDS: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd, FindingsPage)
+InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd | FindingsPage
 
 
 def _status(value: Any, field: str, identifier: str) -> FindingStatus | None:

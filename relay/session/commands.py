@@ -199,6 +199,9 @@ class CommandHandler:
             client.name = command.name
             self.outbox.ack(client, command.id)
             self.outbox.operators(self.roster())
+        else:
+            # A declared command with no handler here would otherwise go unanswered.
+            raise ProtocolError(ErrorCode.INTERNAL, f"{command.identifier}: this relay carries out no such command")
 
     def roster(self) -> dict[str, str]:
         """Client id -> name, of the connected clients that gave one."""

@@ -15,26 +15,14 @@ import math
 from collections.abc import Collection
 from typing import Final, TypeAlias
 
-from ..inspection.wire import INSPECTION_COMMANDS, FindingMark, MissionControl, MissionStart, RegionRequest, TargetAdd
+from ..inspection.wire import INSPECTION_COMMANDS, InspectionCommand
 from ..wire.commands import MAX_CLIENT_CLOCK as MAX_CLIENT_CLOCK
 from ..wire.commands import MAX_NAME_LENGTH as MAX_NAME_LENGTH
 from ..wire.commands import MAX_PLAYBACK_RATE as MAX_PLAYBACK_RATE
 from ..wire.commands import MAX_STREAM_FPS as MAX_STREAM_FPS
 from ..wire.commands import MIN_PLAYBACK_RATE as MIN_PLAYBACK_RATE
 from ..wire.commands import NAME_PATTERN as NAME_PATTERN
-from ..wire.commands import (
-    STATION_COMMANDS,
-    Cancel,
-    CmdVel,
-    EStop,
-    GoalPose,
-    Lease,
-    Name,
-    Ping,
-    Playback,
-    Snapshot,
-    Stream,
-)
+from ..wire.commands import STATION_COMMANDS, StationCommand
 from ..wire.commands import STREAM_CODECS as STREAM_CODECS
 from ..wire.fields import MAX_COORDINATE as MAX_COORDINATE
 from ..wire.fields import MAX_ID_LENGTH as MAX_ID_LENGTH
@@ -79,11 +67,9 @@ FRAME_CREDIT: Final = 2.0
 MAX_SCAN_POINTS: Final = 360
 MAX_SCAN_RATE: Final = 10.0
 
-InspectionCommands: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd)
-Command: TypeAlias = (
-    GoalPose | CmdVel | Cancel | Snapshot | Stream | EStop | Ping | Name | Playback | Lease
-    | MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd
-)  # fmt: skip
+#: The inspection feature's commands: the session hands them to relay.inspection.
+InspectionCommands: Final = INSPECTION_COMMANDS
+Command: TypeAlias = StationCommand | InspectionCommand
 
 
 def parse_command(data: str | bytes, robots: Collection[str]) -> Command:

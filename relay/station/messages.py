@@ -4,7 +4,7 @@ browser's generated types."""
 
 from __future__ import annotations
 
-from ..inspection.messages import FindingMessage, MissionMessage, RegionMessage, TargetsChangedMessage, TargetsMessage
+from ..inspection.messages import InspectionMessage
 from ..wire.descriptions import *  # noqa: F403
 from ..wire.frames import FrameHeader as FrameHeader
 from ..wire.frames import decode_frame as decode_frame
@@ -13,6 +13,4 @@ from ..wire.messages import *  # noqa: F403
 from ..wire.messages import StationMessage
 
 #: Every message the server sends as a text frame (the browser's ``ServerMessage`` is generated from this).
-ServerMessage = (
-    StationMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage
-)
+ServerMessage = StationMessage | InspectionMessage

@@ -176,3 +176,4 @@ class Playback(WireCommand):
 
 #: The station's own commands, in the order docs/protocol.md lists them.
 STATION_COMMANDS: Final = (GoalPose, CmdVel, Cancel, Snapshot, Stream, Lease, EStop, Ping, Name, Playback)
+StationCommand = GoalPose | CmdVel | Cancel | Snapshot | Stream | Lease | EStop | Ping | Name | Playback

@@ -10,9 +10,9 @@ export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
-export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add"]);
+export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "region", "operators"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators"]);
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
@@ -61,10 +61,11 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{kind: StepKind, target: string | null, x: number | null, y: number | null, yaw: number | null, seconds: number | null}} StepDescription */
 /** @typedef {{identifier: 'mission', id: string, name: string, robot: string, state: MissionState, current: number, steps: StepDescription[], reason: string, owner: string, updated: number}} MissionMessage */
 /** @typedef {{identifier: 'finding', id: string, capture: string, mission: string | null, target: string | null, robot: string, x: number, y: number, status: FindingStatus, note: string, source: 'operator' | 'rule', region: number[][] | null, image: string | null, readings: Object<string, number>, created: number, updated: number}} FindingMessage */
+/** @typedef {{identifier: 'findings', id: RequestId, findings: FindingMessage[], more: boolean}} FindingsMessage */
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage} ServerMessage
  */
 
 // Client to server
@@ -90,9 +91,10 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, x: number, y: number, name?: string, kind?: string, facing?: number}} TargetAddCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, capture: string, u: number, v: number, name?: string, kind?: string}} TargetFromPixelCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, robot: string, u: number, v: number, name?: string, kind?: string}} TargetFromLiveCommand */
+/** @typedef {{identifier: 'findings/page', id: RequestId, before?: number, limit?: number}} FindingsPageCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);
