@@ -23,7 +23,6 @@ from tests.helpers.browser import (
     record_timing,
     snapshot_until_uploaded,
     wait_until,
-    window_stats,
 )
 
 GOAL = (10.0, 6.5)
@@ -129,10 +128,6 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     await client.wait("!s.menu.buttons.some((b) => b.id === 'estop:reset')")
     await client.wait("s.menu.buttons.find((b) => b.id === 'tool:teleop').enabled === true")
 
-    # Frame timing with three robots in the twin, then in Robot POV with a still image and with a live
-    # stream: streaming must add little JS per frame (decoding is off the render path, one texture reused).
-    free_roam = window_stats(await client.drawn(10), (await client.state())["timing"])
-
     # Robot POV: the hemisphere in its panel, a snapshot, then live.
     if station.camera is None:
         return
@@ -141,28 +136,14 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     await snapshot_until_uploaded(client, press=lambda: page.click('#menu button[data-button="camera:snapshot"]'))
     await client.frames(3)
     await client.shot("04-pov-snapshot", "desktop-pov.png")
-    still = window_stats(await client.drawn(10), (await client.state())["timing"])
     s = await client.state()
     await page.click('#menu button[data-button="camera:live"]')
-    await client.wait("s.pov.uploads >= arg", 60, s["pov"]["uploads"] + 10)
+    await client.wait("s.pov.uploads >= arg", 60, s["pov"]["uploads"] + 4)
     live_state = await client.state()
-    live = window_stats(s["timing"], live_state["timing"])
     # One texture of fixed size, reused: no texture is created per frame.
     assert live_state["textures"] == s["textures"] and live_state["pov"]["textureUuid"] == s["pov"]["textureUuid"]
     assert live_state["pov"]["mipmaps"] is False
-    record_timing(
-        "desktop",
-        {
-            "free_roam_3_robots": free_roam,
-            "pov_still": still,
-            "pov_live": live,
-            "pov": live_state["pov"],
-            "video": live_state["video"],
-            "note": "JS ms per drawn frame (update + render), headless Chromium on SwiftShader: a regression budget",
-        },
-    )
-    # The regression budget, as a ratio to the same view without streaming (machines are noisy).
-    assert live["p50"] <= max(2 * still["p50"], still["p50"] + 5), (still, live)
+    # What a frame costs, with and without a stream, is a benchmark's (bench/bench_client_frame.py), not this test's.
     await page.click('#menu button[data-button="camera:live"]')
     await page.click('#menu button[data-button="mode:free_roam"]')
     await client.wait("s.menu.mode === 'free_roam' && !s.menu.live")

@@ -222,6 +222,15 @@ export class CommandSender {
     return this.#send({ identifier: 'region', capture, u: Math.round(u), v: Math.round(v) });
   }
 
+  /**
+   * A page of the findings history, newest first: those made before `before` (a finding's `created`; null: the
+   * newest). The answer comes as a `findings` message.
+   * @param {number | null} before
+   */
+  findingsPage(before) {
+    return this.#send({ identifier: 'findings/page', ...(before === null ? {} : { before }) });
+  }
+
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;

@@ -33,11 +33,17 @@ export class InspectionModel {
   settled = new Map();
   /** Bumped on every change, so views redraw only when something changed. */
   version = 0;
+  /**
+   * The findings history beyond those the relay sent at connect: `unknown` (none asked yet), `asked` (a page is on
+   * its way), `more` (older ones remain), `all` (the oldest is here).
+   * @type {'unknown' | 'asked' | 'more' | 'all'}
+   */
+  history = 'unknown';
 
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
    * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding
-   *   | Region} message
+   *   | Region | import('./protocol.js').FindingsMessage} message
    * @returns {InspectionNotice[]}
    */
   apply(message) {
@@ -61,7 +67,18 @@ export class InspectionModel {
       case 'region':
         this.regions.set(String(message.id), message.outline);
         return [];
+      case 'findings': // a page of the history, asked for: no notices for old news
+        for (const finding of message.findings) this.findings.set(finding.id, finding);
+        this.history = message.more ? 'more' : 'all';
+        return [];
     }
+  }
+
+  /** The oldest finding's `created`: where the next page of the history starts. @returns {number | null} */
+  oldest() {
+    let oldest = null;
+    for (const f of this.findings.values()) if (oldest === null || f.created < oldest) oldest = f.created;
+    return oldest;
   }
 
   /** @param {Mission} mission @returns {InspectionNotice[]} */
@@ -138,6 +155,7 @@ export class InspectionModel {
     this.missions.clear();
     this.findings.clear();
     this.regions.clear();
+    this.history = 'unknown';
     this.version++;
   }
 }

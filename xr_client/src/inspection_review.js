@@ -14,7 +14,8 @@
  *   | {type: 'target_pixel', target: string, capture: string, u: number, v: number}
  *   | {type: 'target_at', target: string, x: number, y: number}
  *   | {type: 'target_live', target: string, robot: string, u: number, v: number}
- *   | {type: 'mission_targets', targets: string[], robot: string | null}} ReviewCommand
+ *   | {type: 'mission_targets', targets: string[], robot: string | null}
+ *   | {type: 'findings_page', before: number | null}} ReviewCommand
  */
 
 export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);

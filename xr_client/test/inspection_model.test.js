@@ -89,6 +89,45 @@ test('findings are listed newest first, filtered, and an anomaly is announced on
   );
 });
 
+test('a page of the findings history joins the list quietly and says whether older ones remain', () => {
+  const model = new InspectionModel();
+  model.apply(finding({ id: 'f-9', created: 90 }));
+  assert.equal(model.history, 'unknown');
+  assert.equal(model.oldest(), 90);
+  const older = [finding({ id: 'f-5', created: 50 }), finding({ id: 'f-4', created: 40 })];
+  const told = model.apply({ identifier: 'findings', id: 'p1', findings: older, more: true });
+  assert.deepEqual(told, []); // old anomalies are history, not news
+  assert.equal(model.history, 'more');
+  assert.equal(model.oldest(), 40);
+  assert.deepEqual(
+    model.list().map((f) => f.id),
+    ['f-9', 'f-5', 'f-4'],
+  );
+  model.apply({ identifier: 'findings', id: 'p2', findings: [], more: false });
+  assert.equal(model.history, 'all');
+  model.reset();
+  assert.equal(model.history, 'unknown');
+  assert.equal(model.oldest(), null);
+});
+
+test('the sender asks for a page before the oldest finding, or the newest', () => {
+  /** @type {any[]} */
+  const sent = [];
+  const sender = new CommandSender(
+    /** @type {any} */ ({ send: (/** @type {any} */ m) => (sent.push(m), 1) }),
+    () => {},
+  );
+  sender.findingsPage(40);
+  sender.findingsPage(null);
+  assert.deepEqual(
+    sent.map(({ identifier, before }) => ({ identifier, before })),
+    [
+      { identifier: 'findings/page', before: 40 },
+      { identifier: 'findings/page', before: undefined },
+    ],
+  );
+});
+
 test('the router hands inspection messages to the model and resets it on hello', () => {
   const inspection = new InspectionModel();
   const router = new MessageRouter({

@@ -76,12 +76,20 @@ export class FindingsPanel {
     this.root.innerHTML =
       `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
-      `<ol>${items}</ol>${this.#detail()}`;
+      `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);
       span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
     }
+  }
+
+  /** Older findings from the relay's database, a page at a time, until the oldest is here. */
+  #older() {
+    const history = this.model.history;
+    if (this.model.findings.size === 0 || history === 'all') return '';
+    const asked = history === 'asked';
+    return `<p><button type="button" data-older="1"${asked ? ' disabled' : ''}>Older findings</button></p>`;
   }
 
   /** The targets, picked in order for a new mission (click to pick or unpick). */
@@ -141,6 +149,7 @@ export class FindingsPanel {
     const pick = target.closest('[data-target]');
     if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
     else if (target.dataset.mission === 'start') this.run(review.startPicked(this.robot));
+    else if (target.dataset.older) this.run([{ type: 'findings_page', before: this.model.oldest() }]);
     else if (item) review.select(item.getAttribute('data-finding'));
     else if (target.dataset.status) this.run(review.setStatus(/** @type {any} */ (target.dataset.status)));
     else if (target.dataset.region === 'accept') this.run(review.accept());

@@ -52,6 +52,8 @@ export class InspectionUi {
           this.model.await(String(request));
           this.review.liveAsked(String(request), c.target);
         }
+      } else if (c.type === 'findings_page') {
+        if (sender.findingsPage(c.before)) this.model.history = 'asked';
       } else if (c.type === 'mission_targets') {
         if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
       } else if (c.type === 'region') {
