@@ -27,6 +27,7 @@ from relay.config import FleetConfig, load_config, parse_config
 from tests.conftest import ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
 from tests.gltf_validate import validate_glb
 from tests.helpers.ros import Peer, start_peer
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -135,6 +136,11 @@ async def test_goal_arrives_as_pose_stamped_and_cmd_vel_clamped(ros_relay: Runni
     client = await connected(ros_relay)
     try:
         await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
+        # A goal is one message on a volatile topic: it reaches only subscribers DDS has matched. The peer's poses
+        # reaching the relay says nothing of the other direction; under a loaded suite (4 workers on 2 cores) the
+        # peer's goal subscription was once matched only after the goal was sent, and the goal never arrived.
+        publisher = ros_relay.relay.backend._goal_pubs["alpha"]  # type: ignore[attr-defined]
+        await wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the peer's goal subscription matched")
         reply = await client.request({"identifier": "alpha/goal_pose", "x": 2.0, "y": 3.0, "yaw": 1.0})
         assert reply["identifier"] == "ack"
         goal = await peer.wait_for(lambda line: line.get("topic") == "/alpha/goal_pose")
