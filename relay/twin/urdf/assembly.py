@@ -8,6 +8,7 @@ out converted and no node carries the axis swap as a rotation.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,8 +60,16 @@ def _geometry(parts: list[Triangles], smooth: bool) -> Geometry | None:
         normals = None
     if len(indices) == 0:
         return None
-    normals64 = None if normals is None else normals.astype(np.float64)
-    return Geometry(positions.astype(np.float64), normals64, indices)
+    normals64 = None if normals is None else _settled(normals)
+    return Geometry(_settled(positions), normals64, indices)
+
+
+def _settled(values: NDArray[Any]) -> NDArray[np.float64]:
+    """Values to a nanometre (and -0.0 as 0.0): numpy builds differ in the last bits of sums (values of 1e-16 where
+    another build gives 0 were seen in the committed model), and the model is committed as bytes."""
+    settled: NDArray[np.float64] = np.asarray(values, dtype=np.float64).round(9)
+    settled += 0.0
+    return settled
 
 
 def _quaternion(matrix: NDArray[np.float64]) -> tuple[float, float, float, float]:
