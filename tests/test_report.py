@@ -95,7 +95,7 @@ def test_a_range_is_whole_days_of_the_site_or_exact_instants_and_bad_ones_are_na
 
 def test_a_place_is_in_the_room_of_the_facility_file_that_holds_it() -> None:
     facility = load_facility(ROOT / "scenes" / "facility.yaml")
-    rooms = tuple(Room(r.name, r.title, r.min_x, r.min_y, r.max_x, r.max_y) for r in facility.rooms)
+    rooms = tuple(facility.rooms)
     for room in rooms:
         assert room_at(rooms, *facility.room(room.name).centre) == room
     # Neighbours share their walls: a point on one belongs to the room whose centre is nearer.

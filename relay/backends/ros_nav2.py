@@ -19,13 +19,15 @@ import importlib
 import logging
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 from ..config import FleetConfig, Robot
 from ..fleet.events import GateWord
 from ..fleet.scan import RateCap
 from ..ros.nav2_types import ALL_GOALS, CancelAnswer, Decode, ResultAnswer, read_feedback, read_status
 from .navigation import Arrive
+
+T = TypeVar("T")
 
 logger = logging.getLogger(__name__)
 
@@ -107,22 +109,24 @@ class RosNav2:
     # -- callbacks (executor thread) --------------------------------------------------------------
 
     def _on_status(self, robot: str, data: bytes) -> None:
-        try:
-            goals = read_status(data, self._decode)
-        except ValueError as exc:
-            logger.warning("%s: Nav2 status: %s", robot, exc)
-            return
-        self._arrive(lambda n: n.status(robot, goals))
+        goals = self._read(robot, "status", read_status, data)
+        if goals is not None:
+            self._arrive(lambda n: n.status(robot, goals))
 
     def _on_feedback(self, robot: str, data: bytes) -> None:
         if not self._feedback_cap.allow(robot, time.monotonic()):
             return
+        feedback = self._read(robot, "feedback", read_feedback, data)
+        if feedback is not None:
+            self._arrive(lambda n: n.feedback(robot, feedback))
+
+    def _read(self, robot: str, what: str, reader: Callable[[bytes, Decode], T], data: bytes) -> T | None:
+        """One Nav2 message read, or None with a warning that names the robot and the topic's kind."""
         try:
-            feedback = read_feedback(data, self._decode)
+            return reader(data, self._decode)
         except ValueError as exc:
-            logger.warning("%s: Nav2 feedback: %s", robot, exc)
-            return
-        self._arrive(lambda n: n.feedback(robot, feedback))
+            logger.warning("%s: Nav2 %s: %s", robot, what, exc)
+            return None
 
     def _on_gate_state(self, robot: str, message: Any) -> None:
         word = gate_word(str(message.data))

@@ -142,7 +142,7 @@ def site_of(config: FleetConfig, store: Store | None = None, *, zone: str | None
         except (ValueError, OSError):  # the relay refuses to start on a bad scene file: this is the CLI's case
             pass
         else:
-            rooms = tuple(Room(r.name, r.title, r.min_x, r.min_y, r.max_x, r.max_y) for r in facility.rooms)
+            rooms = tuple(facility.rooms)
             targets.update((t.id, t.name) for t in facility_targets(facility))
     if store is not None:
         targets.update((t.id, t.name) for t in store.targets())

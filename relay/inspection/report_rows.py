@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import date, datetime, timedelta, tzinfo
 
+from ..sim.floorplan import Room as Room  # a named area of the site: its bounds in the map frame
 from .records import CaptureRecord, FindingRecord, MissionRecord
 
 #: A finding's status as people say it (the store keeps the code).
@@ -32,21 +33,6 @@ _DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
 
 class RangeError(ValueError):
     """A time range that cannot be read; the message names the parameter and what was expected."""
-
-
-@dataclass(frozen=True)
-class Room:
-    """A named area of the site (a facility file's room, relay.sim.floorplan.Room), its bounds in the map frame."""
-
-    name: str
-    title: str
-    min_x: float
-    min_y: float
-    max_x: float
-    max_y: float
-
-    def contains(self, x: float, y: float) -> bool:
-        return self.min_x <= x <= self.max_x and self.min_y <= y <= self.max_y
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,23 @@ export function fillRounded(ctx, rect, radius, colour) {
 }
 
 /**
+ * A button's face filling a canvas: a rounded colour and one centred word in white.
+ * @param {HTMLCanvasElement} canvas @param {string} word @param {string} colour @param {number} radius
+ * @param {number} px @param {number} weight
+ */
+export function drawButtonFace(canvas, word, colour, radius, px, weight) {
+  const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+  const { width, height } = canvas;
+  ctx.clearRect(0, 0, width, height);
+  fillRounded(ctx, [2, 2, width - 4, height - 4], radius, colour);
+  ctx.fillStyle = '#fff';
+  ctx.textAlign = 'center';
+  ctx.textBaseline = 'middle';
+  ctx.font = font(px, weight);
+  ctx.fillText(word, width / 2, height / 2 + 2);
+}
+
+/**
  * Text shrunk to fit a width.
  * @param {CanvasRenderingContext2D} ctx @param {string} text @param {number} x @param {number} y
  * @param {number} maxWidth @param {number} px @param {number} [weight]

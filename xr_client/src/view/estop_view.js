@@ -6,9 +6,9 @@
  * the same refusals for viewers). What the banner says is estop_banner.js's (pure). The banner is an alarm: solid
  * red with white words, drawn over everything (the menu too), fixed in the view wherever the head turns.
  */
-import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
-import { fillRounded, fitText, font } from './canvas_text.js';
+import { drawButtonFace, fillRounded, fitText, font } from './canvas_text.js';
+import { CanvasSprite } from './label_sprite.js';
 
 /** The banner's canvas, and its size and place in the view: 0.75 m wide at 0.9 m, about 45 x 9 degrees (its first
  * line's letters 2.5 degrees tall), from 8.5 to 17.5 degrees over the view's centre (a Quest 3 shows about 48 up):
@@ -58,14 +58,7 @@ export class EstopView {
   /** @param {boolean} hovered */
   #drawButton(hovered) {
     this.hovered = hovered;
-    const ctx = /** @type {CanvasRenderingContext2D} */ (this.button.canvas.getContext('2d'));
-    ctx.clearRect(0, 0, 256, 96);
-    fillRounded(ctx, [2, 2, 252, 92], 22, hovered ? '#ff4d4d' : '#d31f1f');
-    ctx.fillStyle = '#fff';
-    ctx.textAlign = 'center';
-    ctx.textBaseline = 'middle';
-    ctx.font = font(46, 800);
-    ctx.fillText('E-STOP', 128, 50);
+    drawButtonFace(this.button.canvas, 'E-STOP', hovered ? '#ff4d4d' : '#d31f1f', 22, 46, 800);
     this.button.texture.needsUpdate = true;
   }
 
@@ -78,23 +71,11 @@ export class EstopView {
 }
 
 /** The latched E-STOP as an alarm in the view: a solid red card with a white edge, a warning sign and white words. */
-class AlarmBanner {
+class AlarmBanner extends CanvasSprite {
   constructor() {
-    this.canvas = document.createElement('canvas');
-    [this.canvas.width, this.canvas.height] = BANNER_PX;
-    this.texture = new THREE.CanvasTexture(this.canvas);
-    this.texture.colorSpace = THREE.SRGBColorSpace;
-    this.texture.generateMipmaps = false;
-    this.texture.minFilter = THREE.LinearFilter;
-    this.material = new THREE.SpriteMaterial({
-      map: this.texture,
-      transparent: true,
-      depthTest: false,
-      depthWrite: false,
-    });
-    this.sprite = new THREE.Sprite(this.material);
+    super(BANNER_PX[0], BANNER_PX[1], true);
     this.sprite.name = 'estop-banner';
-    this.sprite.scale.set((BANNER_HEIGHT_M * BANNER_PX[0]) / BANNER_PX[1], BANNER_HEIGHT_M, 1);
+    this.scaleTo(BANNER_HEIGHT_M);
     this.sprite.renderOrder = 60; // over the menu (30) and the labels
     this.sprite.raycast = () => {}; // read, not pointed at: a ray passes to what is behind it
     this.key = '';
@@ -131,10 +112,5 @@ class AlarmBanner {
     ctx.fillStyle = '#ffe3e3';
     fitText(ctx, hint, 180, 146, w - 210, 34, 600);
     this.texture.needsUpdate = true;
-  }
-
-  dispose() {
-    this.texture.dispose();
-    this.material.dispose();
   }
 }

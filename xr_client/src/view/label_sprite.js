@@ -6,12 +6,16 @@
 import * as THREE from 'three';
 import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
 
-export class LabelSprite {
-  /** @param {{width?: number, height?: number, worldHeight?: number, onTop?: boolean}} [options] */
-  constructor(options = {}) {
+/**
+ * A canvas drawn as a sprite: its texture (sRGB, no mipmaps: redrawn text stays sharp) and material.
+ * ``onTop``: drawn over everything (no depth test), as alarms and toasts are.
+ */
+export class CanvasSprite {
+  /** @param {number} width @param {number} height canvas pixels @param {boolean} [onTop] */
+  constructor(width, height, onTop = false) {
     this.canvas = document.createElement('canvas');
-    this.canvas.width = options.width ?? 512;
-    this.canvas.height = options.height ?? 128;
+    this.canvas.width = width;
+    this.canvas.height = height;
     this.texture = new THREE.CanvasTexture(this.canvas);
     this.texture.colorSpace = THREE.SRGBColorSpace;
     this.texture.generateMipmaps = false;
@@ -19,12 +23,28 @@ export class LabelSprite {
     this.material = new THREE.SpriteMaterial({
       map: this.texture,
       transparent: true,
-      depthTest: !options.onTop,
+      depthTest: !onTop,
       depthWrite: false,
     });
     this.sprite = new THREE.Sprite(this.material);
-    const worldHeight = options.worldHeight ?? 0.22;
-    this.sprite.scale.set((worldHeight * this.canvas.width) / this.canvas.height, worldHeight, 1);
+  }
+
+  /** Its size in the world: ``height`` metres tall, as wide as the canvas's proportions. @param {number} height */
+  scaleTo(height) {
+    this.sprite.scale.set((height * this.canvas.width) / this.canvas.height, height, 1);
+  }
+
+  dispose() {
+    this.texture.dispose();
+    this.material.dispose();
+  }
+}
+
+export class LabelSprite extends CanvasSprite {
+  /** @param {{width?: number, height?: number, worldHeight?: number, onTop?: boolean}} [options] */
+  constructor(options = {}) {
+    super(options.width ?? 512, options.height ?? 128, options.onTop);
+    this.scaleTo(options.worldHeight ?? 0.22);
     if (options.onTop) this.sprite.renderOrder = 10;
     this.key = '';
   }
@@ -42,11 +62,6 @@ export class LabelSprite {
     ctx.clearRect(0, 0, width, height);
     drawLabel(ctx, 0, 0, width, height, lines, style);
     this.texture.needsUpdate = true;
-  }
-
-  dispose() {
-    this.texture.dispose();
-    this.material.dispose();
   }
 }
 

@@ -6,7 +6,7 @@
 import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
 import { buttonAt, layoutMenu, MENU_ROWS } from '../menu_layout.js';
-import { fillRounded, fitText, font, roundRect } from './canvas_text.js';
+import { drawButtonFace, fillRounded, fitText, font, roundRect } from './canvas_text.js';
 import { drawSensorPanel } from './sensor_drawing.js';
 
 /** @type {[number, number]} */
@@ -113,14 +113,7 @@ export class MenuPanel {
   #drawTab(hovered) {
     if (this.tabHover === hovered) return;
     this.tabHover = hovered;
-    const ctx = /** @type {CanvasRenderingContext2D} */ (this.tabCanvas.getContext('2d'));
-    ctx.clearRect(0, 0, 256, 96);
-    fillRounded(ctx, [2, 2, 252, 92], 40, hovered ? 'rgba(61,139,255,0.95)' : 'rgba(14,18,26,0.85)');
-    ctx.fillStyle = '#fff';
-    ctx.textAlign = 'center';
-    ctx.textBaseline = 'middle';
-    ctx.font = font(40, 700);
-    ctx.fillText('☰ Menu', 128, 50);
+    drawButtonFace(this.tabCanvas, '☰ Menu', hovered ? 'rgba(61,139,255,0.95)' : 'rgba(14,18,26,0.85)', 40, 40, 700);
     this.tabTexture.needsUpdate = true;
   }
 
