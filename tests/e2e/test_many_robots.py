@@ -14,7 +14,7 @@ import pytest
 from bench.bench_client_frame import fleet_yaml
 from relay.config import parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import SOFTWARE_GL, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, OpenClient
 
 ROBOTS = 100
 
@@ -35,7 +35,7 @@ async def hundred() -> AsyncIterator[RunningRelay]:
 async def test_a_hundred_robots_stay_connected_drawn_and_labelled(
     hundred: RunningRelay, open_client: OpenClient
 ) -> None:
-    client = await open_client(f"{hundred.url}/?emulate=quest3&{SOFTWARE_GL}", "hundred", 640, 400)
+    client = await open_client(f"{hundred.url}/?{HEADSET}&{SOFTWARE_GL}", "hundred", 640, 400)
     await client.wait("s.vr.available", 30)
     await client.page.click("#enter-vr")
     await client.wait("s.presenting", 60)

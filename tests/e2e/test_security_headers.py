@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from playwright.async_api import Browser, Page
 
-from tests.helpers.browser import SOFTWARE_GL, Client, Station
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, Station
 from tests.wsclient import TestClient
 
 #: Collects every violation the page reports (the document's securitypolicyviolation events), from its first script.
@@ -97,7 +97,7 @@ async def test_the_station_and_the_report_pass_the_content_security_policy(stati
         await enforced(client, console)
 
         # The emulated headset (IWER, ?emulate=quest3): the same policy, nothing else needed.
-        await page.goto(f"{station.url}/?name=Tess&emulate=quest3&{SOFTWARE_GL}")
+        await page.goto(f"{station.url}/?name=Tess&{HEADSET}&{SOFTWARE_GL}")
         await client.wait("s.connected && s.twin.state === 'loaded' && s.vr.available", 60)
         await page.click("#enter-vr")
         await client.wait("s.presenting", 30)

@@ -9,7 +9,7 @@ from typing import Any
 
 from playwright.async_api import Browser
 
-from tests.helpers.browser import SOFTWARE_GL, Client, Station, wait_until
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, Station, wait_until
 from tests.helpers.xr import aim, button, click
 
 ROBOTS = ("robot1", "robot2", "robot3")
@@ -50,7 +50,7 @@ async def open_page(
     page = await browser.new_page(viewport={"width": size[0], "height": size[1]})
     await page.add_init_script(script)
     client = Client(page, name)
-    await page.goto(f"{url}/?{'emulate=quest3&' if vr else ''}{SOFTWARE_GL}&name=Vera")
+    await page.goto(f"{url}/?{HEADSET + '&' if vr else ''}{SOFTWARE_GL}&name=Vera")
     await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
     return client
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, OpenClient
 
 # In the corridor, in sight of where VR starts (the relay's vantage: the corridor's west end, facing the fleet).
 GOAL = (7.0, 2.0)
@@ -219,7 +219,7 @@ async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] |
 
 
 async def enter_vr(open_client: OpenClient, url: str) -> Client:
-    client = await open_client(f"{url}/?emulate=quest3&{SOFTWARE_GL}", "vr", 640, 400)
+    client = await open_client(f"{url}/?{HEADSET}&{SOFTWARE_GL}", "vr", 640, 400)
     await client.wait("s.vr.available", 10)
     await client.page.click("#enter-vr")
     await client.wait("s.presenting && s.rig.position[2] !== 0")

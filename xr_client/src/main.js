@@ -20,6 +20,8 @@ if (emulate) {
   if (!config) {
     console.warn(`?emulate=${emulate}: unknown device; use one of ${Object.keys(configs).join(', ')}`);
   } else {
+    const pace = Number(params.get('xrfps'));
+    if (pace > 0) (await import('./emulator_pace.js')).paceAnimationFrames(window, pace);
     const device = new iwer.XRDevice(config);
     // Chromium already defines navigator.xr on localhost: replace it.
     device.installRuntime({ forceInstall: true });
