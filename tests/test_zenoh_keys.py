@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 from typing import Any
 
 import hypothesis.strategies as st
@@ -260,3 +261,68 @@ def test_a_relay_id_the_others_would_refuse_stops_the_relay_at_start() -> None:
     assert ZenohFleet("xr_relay", "ops 1", lambda call: None, ["alpha"]).relay_id == "ops_1"
     with pytest.raises(BackendUnavailable, match=r"--relay-id \(zenoh.relay_id\) is 1 to 64 letters"):
         ZenohFleet("xr_relay", "r" * 65, lambda call: None, ["alpha"])
+
+
+class _Entity:
+    """A declared publisher, subscriber or token of the fake session: who undeclared it, from which thread."""
+
+    def __init__(self, key: str, log: list[tuple[str, str, str]]) -> None:
+        self.key, self.log = key, log
+
+    def put(self, payload: bytes) -> None:
+        self.log.append(("put", self.key, threading.current_thread().name))
+
+    def undeclare(self) -> None:
+        self.log.append(("undeclare", self.key, threading.current_thread().name))
+
+
+class _SlowSession:
+    """Zenoh's session as ZenohFleet uses it; declaring a token waits (Zenoh's runtime busy, as on a loaded
+    machine) until the test lets it go."""
+
+    def __init__(self) -> None:
+        self.log: list[tuple[str, str, str]] = []
+        self.release = threading.Event()
+
+    def zid(self) -> str:
+        return "fake"
+
+    def declare_publisher(self, key: str, **_: Any) -> _Entity:
+        return _Entity(key, self.log)
+
+    def declare_subscriber(self, key: str, *_: Any, **__: Any) -> _Entity:
+        return _Entity(key, self.log)
+
+    def liveliness(self) -> _SlowSession:
+        return self
+
+    def declare_token(self, key: str) -> _Entity:
+        self.release.wait(10)
+        self.log.append(("token", key, threading.current_thread().name))
+        return _Entity(key, self.log)
+
+
+def test_a_lease_change_never_waits_on_zenoh_on_the_loop_and_its_tokens_follow_in_order() -> None:
+    """Declaring and withdrawing a lease's token wait on Zenoh's runtime: they run on the fleet's token thread, in
+    the order the leases changed, while the heartbeat (a put that drops under congestion) says so at once."""
+    from types import SimpleNamespace
+
+    from relay.backends.zenoh_fleet import ZenohFleet
+
+    zenoh = SimpleNamespace(
+        CongestionControl=SimpleNamespace(BLOCK=0, DROP=1), Priority=SimpleNamespace(REAL_TIME=0), SampleKind=None
+    )
+    session = _SlowSession()
+    fleet = ZenohFleet("xr_relay", "ops", lambda call: None, ["alpha"])
+    fleet.open(zenoh, session)
+    fleet.lease_changed("alpha", "c1")  # returns with the token still waiting on the session
+    fleet.lease_changed("alpha", "c2")
+    fleet.lease_changed("alpha", None)
+    loop_thread = threading.current_thread().name
+    assert [entry[0] for entry in session.log if entry[0] != "put"] == []
+    assert sum(entry[0] == "put" for entry in session.log) >= 4  # open's beat and one a change, at once
+    session.release.set()
+    fleet._token_worker.submit(lambda: None).result(10)  # the token thread has done what was asked before
+    tokens = [(kind, key.rsplit("/", 2)[-1]) for kind, key, _ in session.log if kind != "put"]
+    assert tokens == [("token", "c1"), ("undeclare", "c1"), ("token", "c2"), ("undeclare", "c2")]
+    assert all(thread != loop_thread for kind, _, thread in session.log if kind != "put")

@@ -22,6 +22,7 @@ The table of remote leases is read on the loop and written on Zenoh's threads, u
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import functools
 import logging
@@ -94,9 +95,13 @@ class ZenohFleet:
         #: Samples of other relays refused, by kind; entries left out of full tables.
         self.refused = {"estop": 0, "heartbeat": 0, "lease": 0}
         self.left_out = 0
-        #: This relay's leases (robot -> holder) and their tokens (robot -> token).
+        #: This relay's leases (robot -> holder; the loop's) and their tokens (robot -> token; under _token_lock).
         self._held: dict[str, str] = {}
         self._tokens: dict[str, Any] = {}
+        self._token_lock = threading.Lock()
+        #: Declaring and withdrawing a token are calls that wait on Zenoh's runtime (the loop must never; a goal that
+        #: took a lease once saw the loop held 1.26 s on a loaded machine): one thread does them, in order.
+        self._token_worker = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="fleet-tokens")
 
     def open(self, zenoh: Any, session: Any) -> None:
         """Declare the estop and heartbeat publishers and subscribers and the lease tokens' subscriber on
@@ -121,9 +126,10 @@ class ZenohFleet:
             session.declare_subscriber(heartbeat_selector(self._key), self._on_heartbeat),
             session.liveliness().declare_subscriber(lease_selector(self._key), self._on_token, history=True),
         ]
-        self._tokens.clear()
-        for robot, holder in self._held.items():
-            self._declare(robot, holder)
+        with self._token_lock:
+            self._tokens.clear()
+        for robot, holder in dict(self._held).items():
+            self._swap_token(robot, holder)
         self._beat()
 
     def attach(self, on_estop: OnEstop, on_lease: OnLease) -> None:
@@ -153,19 +159,25 @@ class ZenohFleet:
             return self._leases.lease(robot, self._clock(), time.time())
 
     def lease_changed(self, robot: str, holder: str | None) -> None:
-        old = self._tokens.pop(robot, None)
-        if old is not None:
-            old.undeclare()
+        """Loop: this relay's lease of ``robot`` changed hands (None: released). The heartbeat says so at once; the
+        token follows on the token thread."""
         self._held.pop(robot, None)
         if holder is not None:
             self._held[robot] = holder
-            self._declare(robot, holder)
+        self._token_worker.submit(self._swap_token, robot, holder)
         self._beat()
 
-    def _declare(self, robot: str, holder: str) -> None:
-        if self._session is not None:
-            key = lease_key(self._key, robot, self.relay_id, holder)
-            self._tokens[robot] = self._session.liveliness().declare_token(key)
+    def _swap_token(self, robot: str, holder: str | None) -> None:
+        """Token thread (or the backend's worker in ``open``): withdraw ``robot``'s token, declare the holder's."""
+        with self._token_lock:
+            old = self._tokens.pop(robot, None)
+            with contextlib.suppress(Exception):  # a session being closed took it with it
+                if old is not None:
+                    old.undeclare()
+                session = self._session
+                if holder is not None and session is not None:
+                    key = lease_key(self._key, robot, self.relay_id, holder)
+                    self._tokens[robot] = session.liveliness().declare_token(key)
 
     def _beat(self) -> None:
         publisher = self._beat_pub
@@ -275,10 +287,12 @@ class ZenohFleet:
 
     def close(self) -> None:
         """Undeclare everything (the session is closing); the leases held are remembered for ``open``."""
-        for entity in [*self._tokens.values(), *self._entities]:
+        with self._token_lock:
+            tokens = list(self._tokens.values())
+            self._tokens.clear()
+        for entity in [*tokens, *self._entities]:
             with contextlib.suppress(Exception):  # a session already gone took them with it
                 entity.undeclare()
-        self._tokens.clear()
         self._entities = []
         self._estop_pub = self._beat_pub = None
         with self._lock:
