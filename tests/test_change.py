@@ -1,0 +1,103 @@
+"""What changed at a target between two captures (relay/inspection/change.py), on real photographs: the fisheye
+frames of ../shared/data/fisheye. The later capture is the earlier one seen from a slightly different standoff pose
+(a perspective warp, as a robot that stops a few centimetres off makes), with a known part of the place changed
+(a spill painted on the floor, as the sim's spill grows): the change map must cover that part and nothing else."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from relay.inspection.change import SCORE_THRESHOLD, ChangeError, compare, decode
+from tests.conftest import SHARED_DATA
+
+FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4"
+
+pytestmark = pytest.mark.skipif(
+    not FISHEYE.is_dir(),
+    reason=f"the real fisheye photographs are not there ({FISHEYE}); they come with ../shared/data",
+)
+
+
+def photo(name: str) -> NDArray[np.uint8]:
+    return decode((FISHEYE / f"{name}.jpg").read_bytes(), name)
+
+
+def moved(image: NDArray[np.uint8], dx: float, dy: float, tilt: float) -> tuple[NDArray[Any], NDArray[Any]]:
+    """The image as seen from a pose a little off: corners moved by a few percent (a homography), and that map."""
+    h, w = image.shape[:2]
+    corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], np.float32)
+    shifted = corners + np.array(
+        [[dx * w, dy * h + tilt * h], [dx * w, dy * h - tilt * h], [dx * w, dy * h], [dx * w, dy * h]], np.float32
+    )
+    homography = cv2.getPerspectiveTransform(corners, shifted)
+    return cv2.warpPerspective(image, homography, (w, h), borderMode=cv2.BORDER_REFLECT), homography
+
+
+def spill(image: NDArray[np.uint8], centre: tuple[float, float], axes: tuple[float, float]) -> NDArray[np.uint8]:
+    """A dark green-brown puddle painted at ``centre`` (fractions of the image), ``axes`` (fractions of its width)."""
+    out = image.copy()
+    h, w = image.shape[:2]
+    cv2.ellipse(
+        out, (int(centre[0] * w), int(centre[1] * h)), (int(axes[0] * w), int(axes[1] * w)), 0, 0, 360, (40, 90, 60), -1
+    )
+    return out
+
+
+def truth(shape: tuple[int, ...], centre: tuple[float, float], axes: tuple[float, float]) -> NDArray[np.bool_]:
+    mask = np.zeros(shape[:2], np.uint8)
+    h, w = shape[:2]
+    cv2.ellipse(
+        mask, (int(centre[0] * w), int(centre[1] * h)), (int(axes[0] * w), int(axes[1] * w)), 0, 0, 360, 255, -1
+    )
+    return mask > 0
+
+
+@pytest.mark.parametrize("name", ["front", "left", "rear", "right"])
+def test_the_same_place_from_a_pose_a_little_off_has_not_changed(name: str) -> None:
+    earlier = photo(name)
+    later, _ = moved(earlier, 0.02, -0.015, 0.01)
+    change = compare(earlier, later)
+    assert change.aligned in ("features", "intensity")
+    assert change.score < SCORE_THRESHOLD / 2, f"{name}: {change.score:.4f} changed with nothing changed"
+    assert change.box() is None or change.score < SCORE_THRESHOLD / 2
+
+
+@pytest.mark.parametrize("name", ["front", "right"])
+def test_a_grown_spill_is_mapped_where_it_grew_and_nowhere_else(name: str) -> None:
+    base = photo(name)
+    centre = (0.55, 0.7)
+    earlier = spill(base, centre, (0.05, 0.03))  # last round: a small puddle
+    grown = spill(base, centre, (0.12, 0.07))  # this round: grown, seen from a pose a little off
+    later, _ = moved(grown, -0.015, 0.01, -0.008)
+    change = compare(earlier, later)
+    assert change.changed, f"{name}: score {change.score:.4f}"
+    # The simulator's own truth, in the later image: the grown ring (grown less the old puddle), both moved.
+    _, homography = moved(grown, -0.015, 0.01, -0.008)
+    h, w = later.shape[:2]
+    grew = truth(base.shape, centre, (0.12, 0.07)) & ~truth(base.shape, centre, (0.05, 0.03))
+    grew = cv2.warpPerspective(grew.astype(np.uint8) * 255, homography, (w, h)) > 127
+    grew = cv2.resize(grew.astype(np.uint8), (change.mask.shape[1], change.mask.shape[0])) > 0
+    found = change.mask > 0
+    covered = np.count_nonzero(found & grew) / np.count_nonzero(grew)
+    stray = np.count_nonzero(found & ~grew) / found.size
+    assert covered > 0.8, f"{name}: the map covers {covered:.0%} of what grew"
+    assert stray < 0.01, f"{name}: {stray:.2%} of the image marked changed outside what grew"
+    u0, v0, u1, v1 = change.box() or (0, 0, 0, 0)
+    assert u0 < centre[0] < u1 and v0 < centre[1] < v1
+
+
+def test_another_place_altogether_is_a_change_not_a_match() -> None:
+    change = compare(photo("front"), photo("rear"))
+    assert change.changed and change.score > 0.3, change.score
+
+
+def test_captures_that_cannot_be_compared_are_named() -> None:
+    with pytest.raises(ChangeError, match="the earlier capture: not an image"):
+        decode(b"\xff\xd8 not a jpeg", "the earlier capture")
+    with pytest.raises(ChangeError, match="the later capture: a colour image of at least 32x32"):
+        compare(photo("front"), np.zeros((8, 8, 3), np.uint8))
