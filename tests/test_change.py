@@ -5,6 +5,8 @@ frames of ../shared/data/fisheye. The later capture is the earlier one seen from
 
 from __future__ import annotations
 
+import time
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -12,8 +14,11 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from relay.config import FleetConfig
+from relay.fleet.events import FrameEvent
 from relay.inspection.change import SCORE_THRESHOLD, ChangeError, compare, decode
-from tests.conftest import SHARED_DATA
+from tests.conftest import LOAD_SLACK, SHARED_DATA
+from tests.helpers.inspection import operator, relay_with_database
 
 FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4"
 
@@ -101,3 +106,57 @@ def test_captures_that_cannot_be_compared_are_named() -> None:
         decode(b"\xff\xd8 not a jpeg", "the earlier capture")
     with pytest.raises(ChangeError, match="the later capture: a colour image of at least 32x32"):
         compare(photo("front"), np.zeros((8, 8, 3), np.uint8))
+
+
+async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlining_the_change(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """Three rounds of a one-target mission, the camera showing a real photograph: the spill there grows between the
+    first and the second round (seen from a pose a little off), not between the second and the third. The second
+    round's capture gets a finding to review, outlining the grown spill on its image; the third gets none."""
+    base = photo("front")
+    centre = (0.55, 0.7)
+    rounds = [
+        spill(base, centre, (0.05, 0.03)),
+        moved(spill(base, centre, (0.12, 0.07)), -0.015, 0.01, -0.008)[0],
+        moved(spill(base, centre, (0.12, 0.07)), -0.015, 0.01, -0.008)[0],
+    ]
+    pictures = [cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes() for image in rounds]
+    h, w = base.shape[:2]
+    running = await relay_with_database(fleet_config, tmp_path)
+    shown = {"round": 0}
+
+    async def camera(robot: str, name: str) -> FrameEvent:
+        return FrameEvent(robot, name, time.time(), w, h, pictures[shown["round"]])
+
+    backend: Any = running.relay.backend
+    backend.snapshot = camera
+    try:
+        client = await operator(running)
+        added = await client.request({"identifier": "target/add", "target": "drum", "x": 3.0, "y": 3.2, "name": "Drum"})
+        assert added["identifier"] == "ack", added
+        changed: list[list[dict[str, Any]]] = []
+        for index in range(3):
+            shown["round"] = index
+            start = len(client.messages)
+            reply = await client.request(
+                {"identifier": "mission/start", "robot": "robot1", "steps": [{"inspect": "drum"}]}, timeout=30
+            )
+            assert reply["identifier"] == "ack", reply
+            await client.wait_for(
+                lambda m: m["identifier"] == "mission" and m["state"] in ("done", "aborted"), 60 + LOAD_SLACK, start
+            )
+            found = [m for _, m in client.messages[start:] if m["identifier"] == "finding"]
+            assert any(f["source"] == "rule" and f["status"] in ("ok", "anomaly") for f in found), found
+            changed.append([f for f in found if f["status"] == "needs_review"])
+        assert changed[0] == [] and changed[2] == [], changed
+        [finding] = changed[1]
+        assert finding["note"].startswith("changed since the last round (") and finding["target"] == "drum"
+        outline = np.array(finding["region"], np.int32)
+        u0, v0 = outline.min(axis=0)
+        u1, v1 = outline.max(axis=0)
+        assert u0 < centre[0] * w < u1 and v0 < centre[1] * h < v1, (u0, v0, u1, v1)
+        assert (u1 - u0) < 0.5 * w and (v1 - v0) < 0.5 * h  # the spill, not the view
+        await client.close()
+    finally:
+        await running.runner.cleanup()

@@ -3,23 +3,27 @@
 A capture is the robot's first camera's image (a snapshot), its readings, its pose and the time, stored with the
 image beside the database (relay.inspection.store). At a mission's ``inspect`` step a rule makes a finding:
 ``anomaly`` naming each reading over its threshold (robots.yaml's ``warn_above``/``warn_below``), else ``ok``
-with the readings; a ``capture`` step makes one only for an anomaly. Operators mark and update findings, ask for
-the region around a point of an image (GrabCut, on a pool of its own), and add targets where a pixel looks.
+with the readings, and a ``needs_review`` one outlining what changed since the target's previous capture
+(relay.inspection.change_watch); a ``capture`` step makes one only for an anomaly. Operators mark and update
+findings, ask for the region around a point of an image (GrabCut, on a pool of its own), and add targets where a
+pixel looks.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Awaitable, Callable, Mapping
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..errors import CommandRejected
 from ..session.protocol import ErrorCode, RequestId
 from ..station.work import Busy, WorkPool
+from .change_watch import ChangeWatch
 from .messages import FINDINGS_ON_CONNECT, finding_message, region_message
 from .pixel import pixel_to_map
 from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target, new_id
+from .storage import StoreRunner
 from .target_book import TargetBook
 from .wire import FindingMark, RegionRequest, TargetAdd
 
@@ -30,16 +34,9 @@ if TYPE_CHECKING:
     from ..fleet.state import FleetState
     from ..session.clients import Client
     from ..station.outbox import Outbox
-    from .store import Store
 
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
-
-
-class StoreRunner(Protocol):
-    """Runs ``work`` on the store's thread; raises CommandRejected naming the database when it fails."""
-
-    def __call__(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> Awaitable[T]: ...
 
 
 class Captures:
@@ -60,10 +57,12 @@ class Captures:
         self._backend, self._fleet, self._outbox, self._book, self._store = backend, fleet, outbox, book, store
         self._map_grid, self._clock, self._wall = map_grid, clock, wall_clock
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
+        self._changes = ChangeWatch(store, wall_clock)
         self.recent: list[Any] = []  # the newest finding messages, for clients that connect later
 
     def close(self) -> None:
         self._segmenting.shutdown()
+        self._changes.close()
 
     async def for_mission(self, record: MissionRecord, step: Step) -> None:
         robot = self.robots[record.robot]
@@ -96,6 +95,10 @@ class Captures:
             "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
         )  # fmt: skip
         await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
+        if jpeg is not None:  # and what changed there since the last round
+            changed = await self._changes.since_last_round(stored, jpeg, (finding.x, finding.y))
+            if changed is not None:
+                await self._announce(await self._store(lambda s: s.add_finding(changed)), stored)
 
     async def _snap(
         self, robot_name: str, mission: str | None, target: str | None, request_id: RequestId | None = None

@@ -88,14 +88,24 @@ def region_from_point(jpeg: bytes, u: int, v: int, *, max_side: int = 320) -> tu
     # GrabCut finding nothing (a flat wall, a tap on the floor) and outlining it would invent an object.
     if not np.any((chosen > 0) & (mask != cv2.GC_FGD)):
         raise SegmentError(f"nothing stands out at ({u}, {v}): no region beyond the tapped point; tap an object")
-    contours, _ = cv2.findContours(chosen, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    outline = outline_of(chosen, width, height)
+    if outline is None:
+        raise SegmentError(f"nothing was segmented at ({u}, {v}): the region is too small to outline")
+    return outline
+
+
+def outline_of(mask: NDArray[np.uint8], width: int, height: int) -> tuple[tuple[int, int], ...] | None:
+    """The largest region of ``mask`` (255 inside) as an outline of at most ``MAX_POINTS`` vertices in the pixels of
+    a ``width`` x ``height`` image (the mask may be a shrunk copy of it); None when no region has an area."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:
-        raise SegmentError(f"nothing was segmented at ({u}, {v})")
+        return None
     # One component has one outer contour (8-connected components, traced 8-connected); max() guards the rule.
     contour = np.asarray(max(contours, key=cv2.contourArea), dtype=np.int32)
     polygon = _simplify(contour)
     if len(polygon) < 3 or cv2.contourArea(polygon) <= 0.0:
-        raise SegmentError(f"nothing was segmented at ({u}, {v}): the region is too small to outline")
+        return None
+    sh, sw = mask.shape[:2]
     return _to_full_resolution(polygon, width / sw, height / sh, width, height)
 
 

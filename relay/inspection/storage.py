@@ -4,9 +4,9 @@ as the ``error`` its client gets, naming the database."""
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from ..errors import CommandRejected
 from ..session.protocol import ErrorCode, RequestId
@@ -17,6 +17,12 @@ if TYPE_CHECKING:
     from .store import Store
 
 T = TypeVar("T")
+
+
+class StoreRunner(Protocol):
+    """Runs ``work`` on the store's thread; raises CommandRejected naming the database when it fails."""
+
+    def __call__(self, work: Callable[[Store], T], request_id: RequestId | None = None) -> Awaitable[T]: ...
 
 
 class Storage:

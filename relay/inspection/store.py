@@ -138,6 +138,15 @@ class Store(Database):
             for r in self._read(f"SELECT {_CAPTURE} FROM captures {where} ORDER BY t, id", args)
         ]
 
+    def last_capture_of(self, target: str, before: float, but: str) -> CaptureRecord | None:
+        """The newest capture of ``target`` with an image taken before ``before`` (Unix s), other than ``but``."""
+        rows = self._read(
+            f"SELECT {_CAPTURE} FROM captures WHERE target = ? AND image IS NOT NULL AND t <= ? AND id <> ?"
+            " ORDER BY t DESC, id DESC LIMIT 1",
+            (target, before, but),
+        )
+        return record_of(CaptureRecord, rows[0]) if rows else None
+
     # -- findings ---------------------------------------------------------------------------------
 
     def add_finding(self, finding: FindingRecord) -> FindingRecord:

@@ -1,0 +1,68 @@
+"""A mission's capture of a target against the target's previous capture: where the place changed since the last
+round becomes a finding to review, outlined on the new image (the comparison itself is relay/inspection/change.py).
+
+Run after the capture is stored, on a pool of its own (one worker, a short queue: a full pool skips the comparison
+with a warning and the mission goes on); the database is read on its own thread. Nothing here is on a stop's path.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from datetime import datetime
+
+from ..station.work import Busy, WorkPool
+from .change import Change, ChangeError, compare, decode
+from .records import CaptureRecord, FindingRecord, new_id
+from .segment import outline_of
+from .storage import StoreRunner
+
+logger = logging.getLogger(__name__)
+
+
+class ChangeWatch:
+    def __init__(self, store: StoreRunner, wall_clock: Callable[[], float]) -> None:
+        self._store = store
+        self._wall = wall_clock
+        self._pool = WorkPool("comparing", workers=1, queue=2)
+
+    def close(self) -> None:
+        self._pool.shutdown()
+
+    async def since_last_round(
+        self, capture: CaptureRecord, jpeg: bytes, place: tuple[float, float]
+    ) -> FindingRecord | None:
+        """A ``needs_review`` finding on ``capture`` (stored, of a target) when its image changed from the target's
+        previous capture beyond the change threshold; None when it did not, or there is nothing to compare with."""
+        target = capture.target
+        if target is None:
+            return None
+        previous = await self._store(lambda s: s.last_capture_of(target, capture.t, capture.id))
+        if previous is None or previous.image is None:
+            return None
+        sha = previous.image
+        earlier = await self._store(lambda s: s.image(sha))
+        if earlier is None:
+            logger.warning(
+                "target %s: the image of its previous capture %s is gone: nothing to compare", target, previous.id
+            )
+            return None
+        try:
+            change = await self._pool.run(
+                lambda: compare(decode(earlier, "the previous capture"), decode(jpeg, "the capture"))
+            )
+        except (ChangeError, Busy) as exc:
+            logger.warning("target %s: not compared with its previous capture: %s", target, exc)
+            return None
+        if not change.changed:
+            return None
+        wall = self._wall()
+        return FindingRecord(
+            new_id("f"), capture.id, capture.robot, place[0], place[1], "needs_review", _note(change, previous),
+            "rule", wall, wall, capture.mission, target, outline_of(change.mask, capture.width, capture.height),
+        )  # fmt: skip
+
+
+def _note(change: Change, previous: CaptureRecord) -> str:
+    when = datetime.fromtimestamp(previous.t).astimezone().strftime("%Y-%m-%d %H:%M")
+    return f"changed since the last round ({when}): {100 * change.score:.1f} % of the view"
