@@ -18,6 +18,8 @@ FindingStatus = Literal["ok", "anomaly", "needs_review"]
 FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review")
 MissionState = Literal["pending", "running", "paused", "done", "aborted"]
 StepKind = Literal["inspect", "goto", "capture", "dwell"]
+AlertSeverity = Literal["warning", "critical"]
+ALERT_SEVERITIES: tuple[AlertSeverity, ...] = ("warning", "critical")
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,6 +92,22 @@ class FindingRecord:
     mission: str | None = None
     target: str | None = None
     region: tuple[tuple[int, int], ...] | None = None  # outline in image pixels (u right, v down), None: none
+
+
+@dataclass(frozen=True, slots=True)
+class AlertRecord:
+    """Something a person must see and acknowledge (relay.inspection.alerts): raised by the relay, acknowledged once."""
+
+    id: str
+    kind: str  # what raised it: "anomaly", "threshold", "mission_aborted", ... (webhooks filter on it)
+    robot: str | None
+    subject: str | None  # the finding, capture, mission or target it is about
+    text: str  # for people: "Anomaly at Spill (robot2): gas 312.0 ppm (over 200 ppm)"
+    severity: AlertSeverity
+    raised: float
+    acked_by: str | None = None  # the operator's name (their client id when they gave none); None: not yet
+    acked_at: float | None = None
+    ack_note: str = ""
 
 
 def new_id(prefix: str) -> str:
