@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 from ..errors import CommandRejected
 from ..session.protocol import ErrorCode, RequestId
 from .messages import ALERTS_ON_CONNECT, AlertMessage, alert_message
-from .records import AlertRecord, AlertSeverity, new_id
+from .records import ALERT_ACKNOWLEDGED, AlertRecord, AlertSeverity, new_id
 from .wire import AlertAck
 from .write_behind import WriteBehind
 
@@ -38,9 +38,9 @@ logger = logging.getLogger(__name__)
 
 #: Longest text an alert keeps (it names a target, a robot and a few readings).
 MAX_TEXT = 500
-#: Events handed to the webhooks besides each raised alert's: an acknowledgement.
-ACKNOWLEDGED = "alert.acknowledged"
+#: The events handed to the webhooks: an alert raised, an alert acknowledged.
 RAISED = "alert.raised"
+ACKNOWLEDGED = ALERT_ACKNOWLEDGED
 
 #: Told of each alert raised or acknowledged: (event, the alert as clients see it). The webhooks' ``notify``.
 Notify = Callable[[str, AlertMessage], None]

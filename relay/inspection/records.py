@@ -20,6 +20,10 @@ MissionState = Literal["pending", "running", "paused", "done", "aborted"]
 StepKind = Literal["inspect", "goto", "capture", "dwell"]
 AlertSeverity = Literal["warning", "critical"]
 ALERT_SEVERITIES: tuple[AlertSeverity, ...] = ("warning", "critical")
+#: What raises alerts (relay.inspection.alerts): a new kind is added here, where webhooks' ``events`` are checked.
+ALERT_KINDS: Final = ("anomaly", "threshold", "mission_aborted")
+#: The webhook event of an acknowledgement (a raised alert's event is ``alert.raised``, filtered by its kind).
+ALERT_ACKNOWLEDGED: Final = "alert.acknowledged"
 
 
 @dataclass(frozen=True, slots=True)
