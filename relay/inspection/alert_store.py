@@ -1,4 +1,5 @@
-"""The alerts table (relay.inspection.alerts keeps alerts in it): raised once, acknowledged once.
+"""The alerts table (relay.inspection.alerts keeps alerts in it): raised once, acknowledged once; and the webhooks'
+deliveries (relay.inspection.webhooks), one row per attempt.
 
 A part of the store (relay.inspection.store's ``Store`` is one): the same connection, transactions and errors
 (relay.inspection.database). Both statements that write are single upserts, so they are atomic on SQLite and
@@ -13,15 +14,16 @@ PostgreSQL alike, also when two relays share one PostgreSQL database:
 from __future__ import annotations
 
 from .database import Database
-from .records import AlertRecord
+from .records import AlertRecord, DeliveryRecord
 from .rows import columns, record_of, row_of
 
 _ALERT = columns(AlertRecord)
+_DELIVERY = columns(DeliveryRecord)
 _ACK = ("acked_by", "acked_at", "ack_note")
 
 
 class AlertTables(Database):
-    """The alerts of the inspection database."""
+    """The alerts of the inspection database, and their deliveries to webhooks."""
 
     def add_alert(self, alert: AlertRecord) -> None:
         """Keep a raised alert; one of that id already there is left as it is."""
@@ -58,3 +60,18 @@ class AlertTables(Database):
     def alerts(self) -> list[AlertRecord]:
         """Every alert, oldest first (tests, reports)."""
         return [record_of(AlertRecord, r) for r in self._read(f"SELECT {_ALERT} FROM alerts ORDER BY raised, id")]
+
+    # -- webhook deliveries -----------------------------------------------------------------------
+
+    def add_delivery(self, delivery: DeliveryRecord) -> None:
+        values = row_of(delivery)
+        self._write(f"INSERT INTO webhook_deliveries ({_DELIVERY}) VALUES ({', '.join('?' * len(values))})", values)
+
+    def deliveries(self, limit: int, alert: str | None = None) -> list[DeliveryRecord]:
+        """The newest ``limit`` delivery attempts (of one alert when given), newest first."""
+        where, args = ("WHERE alert = ? ", [alert]) if alert is not None else ("", [])
+        rows = self._read(
+            f"SELECT {_DELIVERY} FROM webhook_deliveries {where}ORDER BY t DESC, attempt DESC, id DESC LIMIT ?",
+            [*args, limit],
+        )
+        return [record_of(DeliveryRecord, r) for r in rows]

@@ -114,6 +114,21 @@ class AlertRecord:
     ack_note: str = ""
 
 
+@dataclass(frozen=True, slots=True)
+class DeliveryRecord:
+    """One attempt to POST an event to a webhook (relay.inspection.webhooks), and how it ended. No secret in it."""
+
+    id: str
+    endpoint: str  # the URL without user, password, query or fragment
+    event: str  # "alert.raised" or "alert.acknowledged"
+    alert: str
+    attempt: int  # 1, 2, ...
+    t: float  # when it was sent (Unix seconds)
+    status: int | None  # the HTTP status, None: no answer (refused, unreachable, timed out)
+    outcome: str  # "delivered", "retrying", "refused" (not retried: 4xx, 3xx), "failed" (gave up)
+    detail: str  # why, when it did not succeed
+
+
 def new_id(prefix: str) -> str:
     """A record's id: its kind, when it was made (local time, to the second) and 24 random bits."""
     return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"

@@ -33,5 +33,11 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         ack_note TEXT NOT NULL)""",
         "CREATE INDEX alerts_raised ON alerts (raised)",
     ),
+    (  # 4: every attempt to deliver an alert to a webhook, and its outcome (no secret)
+        """CREATE TABLE webhook_deliveries (id TEXT PRIMARY KEY, endpoint TEXT NOT NULL, event TEXT NOT NULL,
+        alert TEXT NOT NULL, attempt INTEGER NOT NULL, t DOUBLE PRECISION NOT NULL, status INTEGER,
+        outcome TEXT NOT NULL, detail TEXT NOT NULL)""",
+        "CREATE INDEX webhook_deliveries_t ON webhook_deliveries (t)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)

@@ -9,6 +9,7 @@
   read and steps checked on the planning pool).
 - **Alerts** (relay.inspection.alerts): raised through :meth:`Inspection.raise_alert` by findings, readings and
   missions, acknowledged with ``alert/ack``; stored after they are announced, like mission records.
+- **Webhooks** (relay.inspection.webhooks): every alert raised or acknowledged, POSTed and signed in the background.
 - **Storage** runs on one thread of its own (relay.inspection.storage); a database that is locked or full pauses the
   mission with the store's message, and the command that needed it gets an ``error`` naming the database.
 """
@@ -39,10 +40,11 @@ from .messages import (
 )
 from .mission_commands import MissionCommands
 from .planning import MissionPlanning
-from .records import AlertRecord, AlertSeverity, MissionRecord, Target
+from .records import AlertRecord, AlertSeverity, DeliveryRecord, MissionRecord, Target
 from .storage import Storage
 from .target_book import TargetBook
 from .targets import facility_targets, load_targets
+from .webhooks import Webhooks
 from .wire import (
     AlertAck,
     FindingMark,
@@ -104,7 +106,8 @@ class Inspection:
         )
         #: Mission records are stored after their change is announced: a stop never waits for the database.
         self._records: WriteBehind[MissionRecord] = WriteBehind(self._save)
-        self.alerts = Alerts(outbox, self._storage, lambda event, alert: None, wall_clock=wall_clock)
+        self.webhooks = Webhooks(config.inspection.webhooks, self._save_delivery)
+        self.alerts = Alerts(outbox, self._storage, self.webhooks.notify, wall_clock=wall_clock)
         self.captures = Captures(
             self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._storage.call,
             alert=self.raise_alert, map_grid=map_grid, clock=clock, wall_clock=wall_clock,
@@ -140,6 +143,7 @@ class Inspection:
             raise ConfigError(self.config.source, None, "inspection.max_targets", str(exc)) from None
         await self._load_history(store)
         await self.alerts.start(store)
+        self.webhooks.start()
         # The store's name: a path, or the URL without its password.
         logger.info("inspection: %d targets, database %s", len(self.targets), store.name)
 
@@ -169,6 +173,7 @@ class Inspection:
             self._records.put(run.record)
         await self._records.close()
         await self.alerts.close()
+        await self.webhooks.stop()
         await self._storage.close()
         self.captures.close()
         self._planning.shutdown()
@@ -244,7 +249,17 @@ class Inspection:
         if store is not None:
             await self._storage.run(lambda: store.save_mission(record))
 
+    async def _save_delivery(self, delivery: DeliveryRecord) -> None:
+        store = self.store
+        if store is not None:
+            await self._storage.run(lambda: store.add_delivery(delivery))
+
     # -- reading ----------------------------------------------------------------------------------
+
+    async def deliveries(self, limit: int) -> list[DeliveryRecord]:
+        """The newest webhook delivery attempts, newest first (``/webhooks/deliveries``)."""
+        store = self.store
+        return [] if store is None else await self._storage.run(lambda: store.deliveries(limit))
 
     async def image(self, sha: str) -> bytes | None:
         store = self.store
