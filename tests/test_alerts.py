@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ from relay.config import FleetConfig
 from relay.inspection.records import CaptureRecord
 from relay.inspection.store import Store
 from tests.helpers.inspection import operator, relay_with_database
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 WAIT = 30.0  # seconds: generous, for a loaded machine; a test never waits it out when all is well
@@ -171,4 +173,33 @@ async def test_an_aborted_mission_raises_an_alert(fleet_config: FleetConfig, tmp
         assert alert["text"].startswith("Mission Night round of robot1 aborted at step 1: aborted by "), alert
         await client.close()
     finally:
+        await running.runner.cleanup()
+
+
+async def test_a_locked_database_delays_neither_an_alert_nor_an_estop(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """Another process holds the SQLite write lock: the alert reaches every client at once and is stored once the
+    lock is gone; an estop meanwhile is carried out and acknowledged while the lock is still held; an acknowledgement
+    meanwhile is refused naming the database, and changes nothing."""
+    running = await relay_with_database(fleet_config, tmp_path)
+    blocker = sqlite3.connect(tmp_path / "inspection.sqlite", isolation_level=None, check_same_thread=False)
+    try:
+        client = await operator(running)
+        blocker.execute("BEGIN IMMEDIATE")  # the write lock, as another process would hold it
+        alert = running.relay.inspection.raise_alert("threshold", "Past its limit at Spill (robot1)", robot="robot1")
+        await client.wait_for(lambda m: m["identifier"] == "alert" and m["alert"] == alert.id, WAIT)
+        stopped = await client.request({"identifier": "estop"}, timeout=WAIT)
+        assert stopped["identifier"] == "ack", stopped
+        assert blocker.in_transaction  # still held: the estop did not wait for it
+        refused = await client.request({"identifier": "alert/ack", "alert": alert.id}, timeout=WAIT)
+        assert refused["code"] == "internal" and "is locked" in refused["message"], refused
+        assert _open(client) == {alert.id}
+        blocker.execute("ROLLBACK")
+        stored = "SELECT id FROM alerts WHERE id = ?"  # read on a connection of the test's own
+        await wait_until(lambda: bool(blocker.execute(stored, (alert.id,)).fetchall()), WAIT, "the alert stored")
+        assert (await client.request({"identifier": "alert/ack", "alert": alert.id}))["identifier"] == "ack"
+        await client.close()
+    finally:
+        blocker.close()
         await running.runner.cleanup()
