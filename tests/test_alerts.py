@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from relay.config import FleetConfig
-from relay.inspection.records import CaptureRecord
+from relay.inspection.records import AlertRecord, CaptureRecord
 from relay.inspection.store import Store
+from tests.conftest import RunningRelay
 from tests.helpers.inspection import operator, relay_with_database
 from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
@@ -25,6 +26,14 @@ def _capture(tmp_path: Path) -> None:
     with Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "inspection-images") as store:
         capture = CaptureRecord("c-1", "robot1", 1795388500.0, 1.0, 7.5, 0.0, {"gas": 698.2}, None, "spill")
         store.add_capture(capture, None)
+
+
+def _stored_alert(running: RunningRelay, alert_id: str) -> AlertRecord | None:
+    """The alert as the relay's database holds it, read on a connection of the test's own."""
+    store = running.relay.inspection.store
+    assert store is not None
+    with Store.open(store.name, store.images) as own:
+        return own.alert(alert_id)
 
 
 def _alerts(client: TestClient) -> dict[str, dict[str, Any]]:
@@ -83,9 +92,7 @@ async def test_an_alert_acknowledged_by_one_operator_leaves_every_clients_list(
         late = await operator(running)  # a client that connects now lists nothing
         assert (await late.request({"identifier": "findings/page", "limit": 1}))["identifier"] == "ack"
         assert _alerts(late) == {}
-        store = running.relay.inspection.store
-        assert store is not None
-        stored = await asyncio.to_thread(store.alert, alert_id)
+        stored = await asyncio.to_thread(_stored_alert, running, alert_id)
         assert stored is not None and (stored.acked_by, stored.ack_note) == ("Ana", "valve closed")
         for client in (ana, ben, viewer, late):
             await client.close()

@@ -13,10 +13,11 @@ import hmac
 import logging
 import time
 from collections import deque
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import AsyncIterator, Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import aiohttp
 import orjson
@@ -34,6 +35,7 @@ from tests.helpers.inspection import TOKEN, operator
 from tests.helpers.postgres import running_postgres
 from tests.helpers.waiting import wait_until
 
+T = TypeVar("T")
 SECRET = "s3cret-for-the-receiver-only"
 WAIT = 30.0  # seconds: generous for a loaded machine; never waited out when all is well
 
@@ -111,27 +113,34 @@ def _alert(kind: str = "anomaly", alert_id: str = "a-1") -> AlertRecord:
     return AlertRecord(alert_id, kind, "robot2", "f-1", "Anomaly at Spill (robot2): gas 312.0 ppm", "critical", 5.0)
 
 
+#: The test's store is used from this one thread only, as the relay uses its own (a connection is not thread-safe).
+_DB = ThreadPoolExecutor(1, thread_name_prefix="test-store")
+
+
+async def _db(work: Callable[[], T]) -> T:
+    return await asyncio.get_running_loop().run_in_executor(_DB, work)
+
+
 def _hooks(store: Store, *webhooks: Webhook, time_: HandMovedTime, **limits: Any) -> Webhooks:
     async def record(delivery: DeliveryRecord) -> None:
-        await asyncio.to_thread(store.add_delivery, delivery)
+        await _db(lambda: store.add_delivery(delivery))
 
     return Webhooks(webhooks, record, sleep=time_.sleep, monotonic=time_.monotonic, **limits)
 
 
+async def _rows(store: Store, done: Callable[[list[DeliveryRecord]], bool], what: str) -> list[DeliveryRecord]:
+    """The recorded attempts, newest first, once ``done`` holds of them (polled every 50 ms, up to WAIT s)."""
+    deadline = time.monotonic() + WAIT
+    while not done(found := await _db(lambda: store.deliveries(100))):
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {WAIT} s waiting for {what}")
+        await asyncio.sleep(0.05)
+    return found
+
+
 async def _outcomes(store: Store, count: int) -> list[tuple[int, int | None, str]]:
     """(attempt, status, outcome) of the ``count`` recorded attempts, oldest first, once there are that many."""
-
-    def rows() -> list[DeliveryRecord]:
-        return store.deliveries(100)
-
-    found: list[DeliveryRecord] = []
-
-    def enough() -> bool:
-        nonlocal found
-        found = rows()
-        return len(found) >= count
-
-    await wait_until(enough, WAIT, f"{count} recorded deliveries")
+    found = await _rows(store, lambda rows: len(rows) >= count, f"{count} recorded deliveries")
     return [(d.attempt, d.status, d.outcome) for d in reversed(found)]
 
 
@@ -157,7 +166,7 @@ async def test_a_signed_alert_is_retried_after_two_5xx_and_delivered_once(receiv
     assert not verify(SECRET, headers, body.replace(b"312.0", b"31.2"), time.time())
     assert not verify("another-secret-of-the-same-size", headers, body, time.time())
     assert not verify(SECRET, headers, body, int(headers["X-XR-Relay-Timestamp"]) + 360)
-    rows = store.deliveries(10)
+    rows = await _db(lambda: store.deliveries(10))
     assert {d.endpoint for d in rows} == {receiver.url} and all(SECRET not in repr(d) for d in rows)
 
 
@@ -192,21 +201,23 @@ async def test_an_unreachable_endpoint_is_tried_five_times_within_the_budget(tmp
             hooks = _hooks(store, Webhook(url, SECRET), time_=time_, budget=budget)
             hooks.start()
             try:
-                hooks.notify("alert.raised", alert_message(_alert(alert_id=f"a-{budget:g}")))
-                await wait_until(partial(_gave_up, store, f"a-{budget:g}"), WAIT, "giving up")
+                alert = f"a-{budget:g}"
+                hooks.notify("alert.raised", alert_message(_alert(alert_id=alert)))
+                await _rows(store, partial(_gave_up, alert), f"giving up {alert}")
             finally:
                 await hooks.stop()
             assert time_.pauses == pauses and hooks.health()["endpoints"][0]["failed"] == 1
-            tried = store.deliveries(100, f"a-{budget:g}")
+            tried = [d for d in await _db(lambda: store.deliveries(100)) if d.alert == alert]
             assert [d.outcome for d in reversed(tried)] == ["retrying"] * len(pauses) + ["failed"]
             assert all(d.status is None and "ClientConnectorError" in d.detail for d in tried)
         # The endpoint is named without its user, password or query, in rows and in what /healthz shows.
-        assert {d.endpoint for d in store.deliveries(100)} == {f"http://127.0.0.1:{port}/hook"}
-        assert "pa55word" not in repr(hooks.health()) and "t0ken" not in repr(store.deliveries(100))
+        rows = await _db(lambda: store.deliveries(100))
+        assert {d.endpoint for d in rows} == {f"http://127.0.0.1:{port}/hook"}
+        assert "pa55word" not in repr(hooks.health()) and "t0ken" not in repr(rows)
 
 
-def _gave_up(store: Store, alert: str) -> bool:
-    return any(d.outcome == "failed" for d in store.deliveries(100, alert))
+def _gave_up(alert: str, rows: list[DeliveryRecord]) -> bool:
+    return any(d.alert == alert and d.outcome == "failed" for d in rows)
 
 
 async def test_a_full_queue_drops_the_oldest_and_endpoints_get_the_events_they_want(
@@ -250,9 +261,10 @@ async def test_a_relay_delivers_an_anomaly_and_its_acknowledgement_once_and_neve
         assert receiver.events() == [("alert.raised", raised.id), ("alert.acknowledged", raised.id)]
         assert all(verify(SECRET, headers, body, time.time()) for headers, body in receiver.got)
         assert orjson.loads(receiver.got[1][1])["alert"]["acknowledged"]["note"] == "seen"
-        store = running.relay.inspection.store
-        assert store is not None
-        await wait_until(lambda: len(store.deliveries(10)) == 2, WAIT, "both attempts recorded")
+        deadline = time.monotonic() + WAIT
+        while len(await running.relay.inspection.deliveries(10)) < 2:  # read on the relay's store thread
+            assert time.monotonic() < deadline, "both attempts recorded"
+            await asyncio.sleep(0.05)
         async with aiohttp.ClientSession() as http:
             async with http.get(f"{running.url}/webhooks/deliveries?token={TOKEN}") as response:
                 assert response.status == 200
