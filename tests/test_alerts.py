@@ -5,8 +5,10 @@ database and the audit log), gone from every client's list, and the same after a
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import sqlite3
+import time
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +20,7 @@ from tests.helpers.inspection import operator, relay_with_database
 from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
+LIVE_TARGET = {"identifier": "target/add", "target": "spot-1", "robot": "robot1", "u": 240, "v": 360}
 WAIT = 30.0  # seconds: generous, for a loaded machine; a test never waits it out when all is well
 
 
@@ -209,4 +212,41 @@ async def test_a_locked_database_delays_neither_an_alert_nor_an_estop(
         await client.close()
     finally:
         blocker.close()
+        await running.runner.cleanup()
+
+
+async def test_readings_past_their_limits_raise_a_critical_alert_at_a_mission_capture(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    """robot1's gas limit set below anything it reads: a mission's capture step where it stands makes the rule's
+    anomaly finding, and that raises one critical alert naming the target and the reading."""
+    robot1 = fleet_config.robots[0]
+    sensors = tuple(dataclasses.replace(s, warn_above=-1.0) if s.name == "gas" else s for s in robot1.sensors)
+    robots = (dataclasses.replace(robot1, sensors=sensors), *fleet_config.robots[1:])
+    running = await relay_with_database(dataclasses.replace(fleet_config, robots=robots), tmp_path)
+    try:
+        client = await operator(running)
+        await client.wait_for(lambda m: m["identifier"] == "robot1/sensor" and m["name"] == "gas", WAIT)
+        started = await client.request(
+            {"identifier": "mission/start", "robot": "robot1", "steps": [{"capture": "spill"}]}, timeout=WAIT
+        )
+        assert started["identifier"] == "ack", started
+        finding = await client.wait_for(lambda m: m["identifier"] == "finding" and m["status"] == "anomaly", WAIT)
+        alert = await client.wait_for(lambda m: m["identifier"] == "alert", WAIT)
+        assert (alert["kind"], alert["robot"], alert["subject"], alert["severity"]) == (
+            "anomaly", "robot1", finding["id"], "critical",
+        )  # fmt: skip
+        assert alert["text"].startswith("Anomaly at Spill (robot1): gas "), alert
+        assert alert["text"].endswith(" ppm (over -1 ppm)") and finding["source"] == "rule", alert
+        # A target marked on the live image: its finding is to review, so the readings raise their own alert.
+        deadline = time.monotonic() + WAIT
+        while (added := await client.request(LIVE_TARGET, timeout=WAIT)).get("code") == "no_camera":
+            assert time.monotonic() < deadline, added  # the sim's first frame is on its way
+            await asyncio.sleep(0.2)
+        assert added["identifier"] == "ack", added
+        past = await client.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "threshold", WAIT)
+        assert (past["robot"], past["severity"]) == ("robot1", "critical") and past["subject"].startswith("c-")
+        assert past["text"].startswith("Past its limit at spot-1 (robot1): gas "), past
+        await client.close()
+    finally:
         await running.runner.cleanup()
