@@ -250,3 +250,30 @@ async def test_readings_past_their_limits_raise_a_critical_alert_at_a_mission_ca
         await client.close()
     finally:
         await running.runner.cleanup()
+
+
+async def test_memory_holds_the_newest_500_open_alerts_and_an_older_one_is_acknowledged_from_the_database(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        inspection = running.relay.inspection
+        raised = [inspection.raise_alert("threshold", f"reading #{n}", robot="robot2") for n in range(502)]
+        oldest = raised[0].id
+        deadline = time.monotonic() + WAIT
+        while await asyncio.to_thread(_stored_alert, running, raised[-1].id) is None:  # written in order
+            assert time.monotonic() < deadline, "the alerts stored"
+            await asyncio.sleep(0.1)
+        client = await operator(running)
+        reply = await client.request({"identifier": "alert/ack", "alert": oldest, "note": "old news"}, timeout=WAIT)
+        assert reply["identifier"] == "ack", reply
+        # After its hello, before any reply: the newest 500 open alerts, oldest first.
+        sent = [m["alert"] for _, m in client.messages if m["identifier"] == "alert" and m["acknowledged"] is None]
+        assert sent == [a.id for a in raised[2:]]
+        gone = await client.wait_for(lambda m: m["identifier"] == "alert" and m["alert"] == oldest, WAIT)
+        assert gone["acknowledged"]["note"] == "old news" and gone["text"] == "reading #0"
+        stored = await asyncio.to_thread(_stored_alert, running, oldest)
+        assert stored is not None and stored.acked_by is not None
+        await client.close()
+    finally:
+        await running.runner.cleanup()

@@ -37,7 +37,7 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
                            "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
                            "facing": 0.5, "codec": "h264", "before": 1795388500.25, "limit": 20,
-                           "alert": "a-20261122-230140-3f9a21"}  # fmt: skip
+                           "alert": "a-20261122-230140-3f9a21c07b5e44d8"}  # fmt: skip
 
 
 def _forms() -> list[tuple[str, WireForm]]:

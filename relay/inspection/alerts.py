@@ -98,7 +98,7 @@ class Alerts:
         severity: AlertSeverity = "warning",
     ) -> AlertRecord:
         """Raise an alert: every client gets it now; it is stored and sent to the webhooks after. Awaits nothing."""
-        alert = AlertRecord(new_id("a"), kind, robot, subject, text[:MAX_TEXT], severity, self._wall())
+        alert = AlertRecord(new_id("a", 8), kind, robot, subject, text[:MAX_TEXT], severity, self._wall())
         self._open[alert.id] = alert
         while len(self._open) > self._limit:  # the oldest leaves memory; the database keeps it, unacknowledged
             del self._open[next(iter(self._open))]

@@ -111,7 +111,12 @@ class _Endpoint:
             self.wake.clear()
             while self.queue:
                 event, alert, body = self.queue.popleft()
-                await self._deliver(session, event, alert, body)
+                try:
+                    await self._deliver(session, event, alert, body)
+                except asyncio.CancelledError:
+                    raise
+                except Exception:  # a bug must cost one event, not every later one
+                    logger.exception("webhook %s: %s of alert %s failed", self.name, event, alert)
 
     async def _deliver(self, session: aiohttp.ClientSession, event: str, alert: str, body: bytes) -> None:
         hooks = self._hooks
@@ -134,7 +139,7 @@ class _Endpoint:
                 self.last_failure = f"{event} of {alert}: {detail}"[:300]
                 logger.warning("webhook %s: %s of alert %s not delivered after %d attempt(s): %s",
                                self.name, event, alert, attempt, detail)  # fmt: skip
-            await hooks.record(DeliveryRecord(new_id("d"), self.name, event, alert, attempt, sent, status, outcome,
+            await hooks.record(DeliveryRecord(new_id("d", 8), self.name, event, alert, attempt, sent, status, outcome,
                                               detail[:300]))  # fmt: skip
             if outcome != "retrying":
                 return
