@@ -139,7 +139,8 @@ def test_a_hostile_frame_makes_a_record_under_700_characters(tmp_path: Path) -> 
     path = tmp_path / "a.jsonl"
     now = [0.0]
     audit = CommandAudit(AuditLog(path), clock=lambda: now[0])
-    client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1"})()
+    name = "Ana Maria de la Cruz Fernandes-Oliveira"  # 40 characters: the longest name a client may give
+    client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1", "name": name})()
     hostile = '"\\\x01' * 200
     audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)
     refused = CommandRejected("bad_request", "target/add: field 'name' " + hostile[:375])

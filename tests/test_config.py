@@ -328,3 +328,62 @@ def test_the_dds_profile_is_the_relays_unless_the_environment_or_the_config_name
     assert "FASTDDS_DEFAULT_PROFILES_FILE" not in theirs, "the operator's choice wins"
     builtin: dict[str, str] = {}
     assert dds_profile.apply("builtin", builtin) == "builtin" and builtin == {}
+
+
+WEBHOOKS = MINIMAL + "inspection:\n  webhooks:\n"
+
+
+@pytest.mark.parametrize(
+    ("entry", "expected"),
+    [
+        (
+            "    - {url: 'ftp://alerts.example/in', secret: 'a-long-enough-secret'}\n",
+            "robots.yaml:6: inspection.webhooks[0].url: expected an http:// or https:// URL, got a ftp: URL",
+        ),
+        (
+            "    - {url: 'alerts.example/in', secret: 'a-long-enough-secret'}\n",
+            "robots.yaml:6: inspection.webhooks[0].url: expected an http:// or https:// URL, got no scheme",
+        ),
+        (
+            "    - {url: 'https:///in', secret: 'a-long-enough-secret'}\n",
+            "robots.yaml:6: inspection.webhooks[0].url: expected an http:// or https:// URL with a host",
+        ),
+        (
+            "    - {url: 'https://alerts.example/in'}\n",
+            "robots.yaml:6: inspection.webhooks[0]: give exactly one of secret (the shared secret) or secret_env",
+        ),
+        (
+            "    - {url: 'https://alerts.example/in', secret: 'short-one'}\n",
+            "robots.yaml:6: inspection.webhooks[0].secret: expected a secret of at least 16 characters (not shown",
+        ),
+        (
+            "    - {url: 'https://alerts.example/in', secret_env: XR_RELAY_TEST_UNSET}\n",
+            "robots.yaml:6: inspection.webhooks[0].secret_env: the environment variable XR_RELAY_TEST_UNSET is not set",
+        ),
+        (
+            "    - {url: 'https://alerts.example/in', secret: 'a-long-enough-secret', events: [anomaly, fire]}\n",
+            "robots.yaml:6: inspection.webhooks[0].events[1]: expected one of anomaly, threshold, mission_aborted, "
+            'alert.acknowledged, got "fire"',
+        ),
+    ],
+)
+def test_a_bad_webhook_is_a_clear_error_that_never_shows_its_secret(entry: str, expected: str) -> None:
+    message = error_of(WEBHOOKS + entry)
+    assert message.startswith(expected), message
+    assert "short-one" not in message and "a-long-enough-secret" not in message
+
+
+def test_webhooks_read_their_secret_from_the_file_or_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("XR_RELAY_HOOK_SECRET", "from-the-environment-0123")
+    config = parse_config(
+        WEBHOOKS
+        + "    - {url: 'https://alerts.example/in', secret_env: XR_RELAY_HOOK_SECRET, events: [alert.acknowledged]}\n"
+        + "    - {url: 'http://127.0.0.1:8088/hook', secret: 'in-the-file-0123456'}\n"
+    )
+    first, second = config.inspection.webhooks
+    assert (first.url, first.secret, first.events) == (
+        "https://alerts.example/in", "from-the-environment-0123", ("alert.acknowledged",),
+    )  # fmt: skip
+    assert (second.url, second.secret, second.events) == ("http://127.0.0.1:8088/hook", "in-the-file-0123456", None)
+    assert "from-the-environment" not in repr(config) and "in-the-file" not in repr(config)
+    assert parse_config(MINIMAL).inspection.webhooks == ()

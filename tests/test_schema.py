@@ -36,7 +36,8 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "targets": ["spill"], "name": "Valves", "mission": "m-1.robot1", "capture": "c-1",
                            "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
                            "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
-                           "facing": 0.5, "codec": "h264", "before": 1795388500.25, "limit": 20}  # fmt: skip
+                           "facing": 0.5, "codec": "h264", "before": 1795388500.25, "limit": 20,
+                           "alert": "a-20261122-230140-3f9a21c07b5e44d8"}  # fmt: skip
 
 
 def _forms() -> list[tuple[str, WireForm]]:
@@ -108,7 +109,7 @@ def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> Non
         for name, value in vars(module).items()
         if name.endswith("Message") and is_typeddict(value) and value.__module__ == module.__name__
     }
-    assert union == declared and len(union) == 23
+    assert union == declared and len(union) == 24
     generated = _generator().render()
     for name in union | {form.name for _, form in FORMS}:
         assert f"}} {name} */" in generated, name

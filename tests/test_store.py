@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 
 import relay.inspection.store as store_module
-from relay.inspection.records import CaptureRecord, FindingRecord, MissionRecord, Step
+from relay.inspection.records import AlertRecord, CaptureRecord, FindingRecord, MissionRecord, Step
 from relay.inspection.schema import SCHEMA_VERSION
 from relay.inspection.store import Store, StoreError, UnknownRecord
 from tests.helpers.postgres import running_postgres
@@ -114,7 +114,7 @@ def _version(url: str) -> int:
 
 
 def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
-    assert store.schema_version == SCHEMA_VERSION == 2
+    assert store.schema_version == SCHEMA_VERSION == 4
     assert store.mission("m-1.robot1") is None and store.missions() == []
     store.save_mission(_mission())
     assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
@@ -230,6 +230,24 @@ def test_image_refuses_names_that_are_not_a_hash(tmp_path: Path) -> None:
         assert store.image(sha) == JPEG
 
 
+def test_alerts_are_acknowledged_once_and_a_late_raise_does_not_undo_it(store: Store) -> None:
+    """Raised, listed while open (newest first), acknowledged once: a second acknowledgement learns it came late,
+    and the raise written after the acknowledgement (a write-behind that was retrying) leaves it acknowledged."""
+    first = AlertRecord("a-1", "anomaly", "robot2", "f-1", "Anomaly at Spill (robot2): gas 312.0 ppm", "critical", 5.0)
+    second = AlertRecord("a-2", "mission_aborted", None, None, "Mission Round — Nord ✓ aborted", "warning", 6.5)
+    store.add_alert(first)
+    store.add_alert(second)
+    assert store.open_alerts(10) == [second, first] and store.open_alerts(1) == [second]
+    acked = replace(first, acked_by="Ana", acked_at=7.25, ack_note="valve closed, 'B' side")
+    assert store.acknowledge_alert(acked) == acked
+    assert store.acknowledge_alert(replace(acked, acked_by="Ben", acked_at=8.0)) is None
+    store.add_alert(first)  # the raise, written late
+    assert store.alert("a-1") == acked and store.open_alerts(10) == [second]
+    late = AlertRecord("a-3", "threshold", "robot1", "c-9", "Past its limit", "critical", 9.0, "Ben", 9.5, "")
+    assert store.acknowledge_alert(late) == late  # acknowledged before its raise was written: stored whole
+    assert store.alert("nope") is None and [a.id for a in store.alerts()] == ["a-1", "a-2", "a-3"]
+
+
 # -- migrations -----------------------------------------------------------------------------------------------------
 
 
@@ -253,7 +271,9 @@ def test_a_newer_database_is_refused_untouched(url: str, tmp_path: Path) -> None
     raw = _raw(url)
     raw.execute("UPDATE schema_version SET version = 99")
     raw.close()
-    with pytest.raises(StoreError, match=r"has schema version 99, newer than this relay's 2: use a newer relay"):
+    with pytest.raises(
+        StoreError, match=rf"has schema version 99, newer than this relay's {SCHEMA_VERSION}: use a newer relay"
+    ):
         Store.open(url, tmp_path / "images")
     assert _version(url) == 99
 
@@ -266,17 +286,17 @@ def test_a_second_migration_applies_or_changes_nothing(
         store.add_finding(_finding())
     broken = ("CREATE TABLE extra (id TEXT)", "ALTER TABLE no_such_table ADD COLUMN x INTEGER")
     monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS, broken))
-    with pytest.raises(StoreError, match=r"no_such_table.*\(in migration 3; nothing changed\)"):
+    with pytest.raises(StoreError, match=rf"no_such_table.*\(in migration {SCHEMA_VERSION + 1}; nothing changed\)"):
         Store.open(url, tmp_path / "images")
     raw = _raw(url)
     with pytest.raises(Exception, match="extra"):  # its first statement was rolled back with the rest
         raw.execute("SELECT id FROM extra")
     raw.close()
-    assert _version(url) == 2
+    assert _version(url) == SCHEMA_VERSION
     added = ("ALTER TABLE findings ADD COLUMN severity INTEGER", "UPDATE findings SET severity = 2")
-    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS[:2], added))
+    monkeypatch.setattr(store_module, "MIGRATIONS", (*store_module.MIGRATIONS[:SCHEMA_VERSION], added))
     with Store.open(url, tmp_path / "images") as store:
-        assert store.schema_version == 3 and _version(url) == 3
+        assert store.schema_version == SCHEMA_VERSION + 1 and _version(url) == SCHEMA_VERSION + 1
         assert store.findings() == [_finding()]  # the code reads the columns it knows
     raw = _raw(url)
     assert raw.execute("SELECT id, severity FROM findings").fetchall() == [("f-1", 2)]

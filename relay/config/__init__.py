@@ -48,10 +48,12 @@ from .model import (
     Sensor,
     Sim,
     Site,
+    Webhook,
     Zenoh,
 )
 from .reader import _Reader, _topic, resolve_topic
 from .robots import _robot
+from .webhooks import webhooks
 
 __all__ = [
     "LENS_MODELS",
@@ -77,6 +79,7 @@ __all__ = [
     "Sensor",
     "Sim",
     "Site",
+    "Webhook",
     "Zenoh",
     "load_config",
     "parse_config",
@@ -232,9 +235,10 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
 
 
 def _inspection(reader: _Reader, node: Node) -> InspectionSettings:
-    f = reader.mapping(node, "inspection", ("max_targets",))
+    f = reader.mapping(node, "inspection", ("max_targets", "webhooks"))
     return InspectionSettings(
-        max_targets=reader.get(f, "max_targets", "inspection", reader.integer, InspectionSettings.max_targets)
+        max_targets=reader.get(f, "max_targets", "inspection", reader.integer, InspectionSettings.max_targets),
+        webhooks=webhooks(reader, f["webhooks"]) if "webhooks" in f else (),
     )
 
 

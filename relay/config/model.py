@@ -250,10 +250,21 @@ class Zenoh:
 
 
 @dataclass(frozen=True)
+class Webhook:
+    """An endpoint alerts are POSTed to, signed with ``secret`` (relay.inspection.webhooks)."""
+
+    url: str  # http:// or https://
+    secret: str = field(repr=False)  # never in a repr, a log line or the database
+    #: Alert kinds (relay.inspection.records.ALERT_KINDS) and ``alert.acknowledged`` it wants; None: everything.
+    events: tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True)
 class InspectionSettings:
     #: Targets a site may hold, however they are made (operators, mission files, the scene): each is sent to every
     #: client that connects, so the count is bounded (an estop once waited 9.7 s behind ~2300 targets re-sent).
     max_targets: int = 2000
+    webhooks: tuple[Webhook, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..errors import CommandRejected
 from ..session.protocol import ErrorCode, RequestId
@@ -22,7 +22,7 @@ from ..station.work import Busy, WorkPool
 from .change_watch import ChangeWatch
 from .messages import FINDINGS_ON_CONNECT, finding_message, region_message
 from .pixel import pixel_to_map
-from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target, new_id
+from .records import AlertRecord, AlertSeverity, CaptureRecord, FindingRecord, MissionRecord, Step, Target, new_id
 from .storage import StoreRunner
 from .target_book import TargetBook
 from .wire import FindingMark, RegionRequest, TargetAdd
@@ -34,9 +34,18 @@ if TYPE_CHECKING:
     from ..fleet.state import FleetState
     from ..session.clients import Client
     from ..station.outbox import Outbox
+    from .store import Store
 
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
+
+
+class RaiseAlert(Protocol):
+    """relay.inspection.alerts.Alerts.raise_alert."""
+
+    def __call__(
+        self, kind: str, text: str, *, robot: str | None = ..., subject: str | None = ..., severity: AlertSeverity = ...
+    ) -> AlertRecord: ...
 
 
 class Captures:
@@ -49,12 +58,14 @@ class Captures:
         outbox: Outbox,
         book: TargetBook,
         store: StoreRunner,
+        alert: RaiseAlert,
         map_grid: Callable[[], OccupancyGrid | None],
         clock: Callable[[], float],
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self.robots = robots
         self._backend, self._fleet, self._outbox, self._book, self._store = backend, fleet, outbox, book, store
+        self._alert = alert
         self._map_grid, self._clock, self._wall = map_grid, clock, wall_clock
         self._segmenting = WorkPool("segmenting", workers=1, queue=2)
         self._changes = ChangeWatch(store, wall_clock)
@@ -72,6 +83,28 @@ class Captures:
         warnings = [m for m in sensors.values() if m["warning"]]
         if step.kind != "inspect" and not warnings:
             return
+        if warnings:
+            note = self._past_limits(robot, warnings)
+        else:
+            note = "within thresholds: " + ", ".join(
+                f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values()
+            )
+        target = self._book.targets.get(step.target or "")
+        finding = FindingRecord(
+            new_id("f"), stored.id, robot.name, target.x if target else stored.x, target.y if target else stored.y,
+            "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
+        )  # fmt: skip
+        await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
+        if warnings:
+            self._anomaly(finding, "critical")
+        if jpeg is not None:  # and what changed there since the last round
+            changed = await self._changes.since_last_round(stored, jpeg, (finding.x, finding.y))
+            if changed is not None:
+                await self._announce(await self._store(lambda s: s.add_finding(changed)), stored)
+
+    @staticmethod
+    def _past_limits(robot: Robot, warnings: list[dict[str, Any]]) -> str:
+        """``gas 698.2 ppm (over 400 ppm); ...``: each reading past its sensor's limit (robots.yaml)."""
         specs = {s.name: s for s in robot.sensors}
 
         def over(name: str, value: float, unit: str) -> str:
@@ -83,22 +116,17 @@ class Captures:
             )
             return f"{name} {value:.1f} {unit} ({bound} {unit})"
 
-        if warnings:
-            note = "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
-        else:
-            note = "within thresholds: " + ", ".join(
-                f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values()
-            )
-        target = self._book.targets.get(step.target or "")
-        finding = FindingRecord(
-            new_id("f"), stored.id, robot.name, target.x if target else stored.x, target.y if target else stored.y,
-            "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
-        )  # fmt: skip
-        await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
-        if jpeg is not None:  # and what changed there since the last round
-            changed = await self._changes.since_last_round(stored, jpeg, (finding.x, finding.y))
-            if changed is not None:
-                await self._announce(await self._store(lambda s: s.add_finding(changed)), stored)
+        return "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
+
+    def _place(self, target: str | None, x: float, y: float) -> str:
+        known = self._book.targets.get(target or "")
+        return known.name if known is not None else f"({x:.1f}, {y:.1f})"
+
+    def _anomaly(self, finding: FindingRecord, severity: AlertSeverity = "warning") -> None:
+        """The alert of a finding made as, or changed to, ``anomaly``."""
+        place = self._place(finding.target, finding.x, finding.y)
+        text = f"Anomaly at {place} ({finding.robot})" + (f": {finding.note}" if finding.note else "")
+        self._alert("anomaly", text, robot=finding.robot, subject=finding.id, severity=severity)
 
     async def _snap(
         self, robot_name: str, mission: str | None, target: str | None, request_id: RequestId | None = None
@@ -146,16 +174,22 @@ class Captures:
                 capture.mission, capture.target, command.region,
             )  # fmt: skip
             await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), capture)
+            if finding.status == "anomaly":
+                self._anomaly(finding)
             return
         assert command.finding is not None
         finding_id = command.finding
-        updated = await self._store(
-            lambda s: s.update_finding(
+
+        def update(store: Store) -> tuple[FindingRecord | None, FindingRecord]:
+            before = store.finding(finding_id)
+            return before, store.update_finding(
                 finding_id, status=command.status, note=command.note, region=command.region, updated=wall
-            ),
-            command.id,
-        )
+            )
+
+        before, updated = await self._store(update, command.id)
         await self._announce(updated, await self._capture_record(updated.capture, command.id))
+        if updated.status == "anomaly" and (before is None or before.status != "anomaly"):
+            self._anomaly(updated)
 
     async def _capture_record(self, capture_id: str, request_id: RequestId) -> CaptureRecord:
         capture: CaptureRecord | None = await self._store(lambda s: s.capture(capture_id), request_id)
@@ -243,6 +277,12 @@ class Captures:
             None, target.id,
         )  # fmt: skip
         await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), stored)
+        warnings = [m for m in sensors.values() if m["warning"]]
+        if warnings:  # a needs_review finding does not name them: the readings raise their own alert
+            self._alert(
+                "threshold", f"Past its limit at {target.name} ({robot.name}): {self._past_limits(robot, warnings)}",
+                robot=robot.name, subject=stored.id, severity="critical",
+            )  # fmt: skip
         try:
             outline = await self._segmenting.run(lambda: region_from_point(jpeg, int(u), int(v)))
         except (SegmentError, Busy) as exc:

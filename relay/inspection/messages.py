@@ -1,4 +1,5 @@
-"""What clients are told of inspection work: ``targets``, ``mission``, ``finding`` and ``region`` (docs/protocol.md).
+"""What clients are told of inspection work: ``targets``, ``mission``, ``finding``, ``region`` and ``alert``
+(docs/protocol.md).
 
 Missions, findings and targets go through every client's priority lane: they are few, and none may be coalesced
 away (a finding is not a newer value of another). A client that connects gets the targets, the missions and the
@@ -11,7 +12,16 @@ from collections.abc import Sequence
 from typing import Literal, TypedDict
 
 from ..wire.fields import RequestId
-from .records import FindingRecord, FindingStatus, MissionRecord, MissionState, StepKind, Target
+from .records import (
+    AlertRecord,
+    AlertSeverity,
+    FindingRecord,
+    FindingStatus,
+    MissionRecord,
+    MissionState,
+    StepKind,
+    Target,
+)
 
 #: Findings a newly connected client is sent (the newest); the rest are in the report and the database.
 FINDINGS_ON_CONNECT = 200
@@ -19,6 +29,8 @@ FINDINGS_ON_CONNECT = 200
 FINDINGS_PAGE = 50
 #: Missions a client gets after its ``hello``: every active one, and the newest of those that ended.
 MISSIONS_ON_CONNECT = 100
+#: Unacknowledged alerts a client gets after its ``hello`` (the newest), and the most the relay holds in memory.
+ALERTS_ON_CONNECT = 500
 
 
 class TargetDescription(TypedDict):
@@ -91,6 +103,26 @@ class FindingsMessage(TypedDict):
     more: bool
 
 
+class AlertAcknowledgement(TypedDict):
+    by: str  # the operator's name (their client id when they gave none)
+    at: float
+    note: str
+
+
+class AlertMessage(TypedDict):
+    """An alert as raised, and again once acknowledged (``acknowledged`` set): clients drop it from their list."""
+
+    identifier: Literal["alert"]
+    alert: str
+    kind: str
+    robot: str | None
+    subject: str | None
+    text: str
+    severity: AlertSeverity
+    raised: float
+    acknowledged: AlertAcknowledgement | None
+
+
 class RegionMessage(TypedDict):
     identifier: Literal["region"]
     id: RequestId
@@ -151,9 +183,32 @@ def finding_message(finding: FindingRecord, image: str | None, readings: dict[st
     }
 
 
+def alert_message(alert: AlertRecord) -> AlertMessage:
+    acknowledged: AlertAcknowledgement | None = None
+    if alert.acked_by is not None:
+        acknowledged = {"by": alert.acked_by, "at": round(alert.acked_at or 0.0, 3), "note": alert.ack_note}
+    return {
+        "identifier": "alert",
+        "alert": alert.id,
+        "kind": alert.kind,
+        "robot": alert.robot,
+        "subject": alert.subject,
+        "text": alert.text,
+        "severity": alert.severity,
+        "raised": round(alert.raised, 3),
+        "acknowledged": acknowledged,
+    }
+
+
 #: Every message of the inspection feature (relay/station/messages.py gathers it into ``ServerMessage``).
 InspectionMessage = (
-    TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage
+    TargetsMessage
+    | TargetsChangedMessage
+    | MissionMessage
+    | FindingMessage
+    | RegionMessage
+    | FindingsMessage
+    | AlertMessage
 )
 
 

@@ -1,5 +1,6 @@
 """``mission/start`` and ``mission/control`` under the rules every command obeys (role, lease, estop latch,
-recordings), and what a running mission asks of the relay: go, stop, announce its record, give its lease back."""
+recordings), and what a running mission asks of the relay: go, stop, announce its record (an aborted mission
+raises an alert, relay.inspection.alerts), give its lease back."""
 
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
     from ..fleet.state import FleetState
     from ..session.clients import Client
     from ..station.outbox import Outbox
+    from .captures import RaiseAlert
     from .planning import MissionPlanning, Position
     from .storage import Storage
     from .store import Store
@@ -45,15 +47,16 @@ class MissionCommands:
         book: TargetBook,
         planning: MissionPlanning,
         storage: Storage,
-        records: WriteBehind,
+        records: WriteBehind[MissionRecord],
         capture: Callable[[MissionRecord, Step], Awaitable[None]],
+        alert: RaiseAlert,
         clock: Callable[[], float],
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self._robots = robots
         self._backend, self._control, self._fleet, self._outbox = backend, control, fleet, outbox
         self._book, self._planning, self._storage, self._records = book, planning, storage, records
-        self._clock, self._wall = clock, wall_clock
+        self._clock, self._wall, self._alert = clock, wall_clock, alert
         self.runner = MissionRunner(
             go=self._go, stop=self._stop, capture=capture, publish=self._publish, release=self._release,
             wall_clock=wall_clock,
@@ -180,6 +183,10 @@ class MissionCommands:
     def _publish(self, record: MissionRecord) -> None:
         self._outbox.broadcast(mission_message(record))
         self._records.put(record)
+        if record.state == "aborted":  # announced once: an ended mission changes no more
+            reason = f": {record.reason}" if record.reason else ""
+            text = f"Mission {record.name} of {record.robot} aborted at step {record.current + 1}{reason}"
+            self._alert("mission_aborted", text, robot=record.robot, subject=record.id)
 
     def _release(self, record: MissionRecord) -> None:
         robot, now = record.robot, self._clock()

@@ -18,6 +18,12 @@ FindingStatus = Literal["ok", "anomaly", "needs_review"]
 FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review")
 MissionState = Literal["pending", "running", "paused", "done", "aborted"]
 StepKind = Literal["inspect", "goto", "capture", "dwell"]
+AlertSeverity = Literal["warning", "critical"]
+ALERT_SEVERITIES: tuple[AlertSeverity, ...] = ("warning", "critical")
+#: What raises alerts (relay.inspection.alerts): a new kind is added here, where webhooks' ``events`` are checked.
+ALERT_KINDS: Final = ("anomaly", "threshold", "mission_aborted")
+#: The webhook event of an acknowledgement (a raised alert's event is ``alert.raised``, filtered by its kind).
+ALERT_ACKNOWLEDGED: Final = "alert.acknowledged"
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,6 +98,38 @@ class FindingRecord:
     region: tuple[tuple[int, int], ...] | None = None  # outline in image pixels (u right, v down), None: none
 
 
-def new_id(prefix: str) -> str:
-    """A record's id: its kind, when it was made (local time, to the second) and 24 random bits."""
-    return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(3)}"
+@dataclass(frozen=True, slots=True)
+class AlertRecord:
+    """Something a person must see and acknowledge (relay.inspection.alerts): raised by the relay, acknowledged once."""
+
+    id: str
+    kind: str  # what raised it: "anomaly", "threshold", "mission_aborted", ... (webhooks filter on it)
+    robot: str | None
+    subject: str | None  # the finding, capture, mission or target it is about
+    text: str  # for people: "Anomaly at Spill (robot2): gas 312.0 ppm (over 200 ppm)"
+    severity: AlertSeverity
+    raised: float
+    acked_by: str | None = None  # the operator's name (their client id when they gave none); None: not yet
+    acked_at: float | None = None
+    ack_note: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class DeliveryRecord:
+    """One attempt to POST an event to a webhook (relay.inspection.webhooks), and how it ended. No secret in it."""
+
+    id: str
+    endpoint: str  # the URL without user, password, query or fragment
+    event: str  # "alert.raised" or "alert.acknowledged"
+    alert: str
+    attempt: int  # 1, 2, ...
+    t: float  # when it was sent (Unix seconds)
+    status: int | None  # the HTTP status, None: no answer (refused, unreachable, timed out)
+    outcome: str  # "delivered", "retrying", "refused" (not retried: 4xx, 3xx), "failed" (gave up)
+    detail: str  # why, when it did not succeed
+
+
+def new_id(prefix: str, random_bytes: int = 3) -> str:
+    """A record's id: its kind, when it was made (local time, to the second) and 24 random bits; records made in
+    bursts (alerts, webhook deliveries: hundreds a second) take more, so that two of one second never meet."""
+    return f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(random_bytes)}"

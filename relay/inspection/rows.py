@@ -7,9 +7,10 @@ from collections.abc import Sequence
 from dataclasses import asdict, fields
 from typing import Any, TypeVar
 
-from .records import CaptureRecord, FindingRecord, MissionRecord, Step, Target
+from .records import AlertRecord, CaptureRecord, DeliveryRecord, FindingRecord, MissionRecord, Step, Target
 
-_R = TypeVar("_R", MissionRecord, CaptureRecord, FindingRecord, Target)
+_R = TypeVar("_R", MissionRecord, CaptureRecord, FindingRecord, Target, AlertRecord, DeliveryRecord)
+Record = MissionRecord | CaptureRecord | FindingRecord | Target | AlertRecord | DeliveryRecord
 
 
 def columns(record: type[Any]) -> str:
@@ -17,7 +18,7 @@ def columns(record: type[Any]) -> str:
     return ", ".join(f.name for f in fields(record))
 
 
-def row_of(record: MissionRecord | CaptureRecord | FindingRecord | Target) -> tuple[Any, ...]:
+def row_of(record: Record) -> tuple[Any, ...]:
     """The row of a record: its fields in order, steps, readings and region as JSON text."""
     values: list[Any] = []
     for f in fields(record):

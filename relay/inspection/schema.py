@@ -27,5 +27,17 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "CREATE INDEX findings_created ON findings (created)",
         "CREATE INDEX missions_created ON missions (created)",
     ),
+    (  # 3: alerts a person acknowledges (issue #30); the unacknowledged ones are loaded at start
+        """CREATE TABLE alerts (id TEXT PRIMARY KEY, kind TEXT NOT NULL, robot TEXT, subject TEXT, text TEXT NOT NULL,
+        severity TEXT NOT NULL, raised DOUBLE PRECISION NOT NULL, acked_by TEXT, acked_at DOUBLE PRECISION,
+        ack_note TEXT NOT NULL)""",
+        "CREATE INDEX alerts_raised ON alerts (raised)",
+    ),
+    (  # 4: every attempt to deliver an alert to a webhook, and its outcome (no secret)
+        """CREATE TABLE webhook_deliveries (id TEXT PRIMARY KEY, endpoint TEXT NOT NULL, event TEXT NOT NULL,
+        alert TEXT NOT NULL, attempt INTEGER NOT NULL, t DOUBLE PRECISION NOT NULL, status INTEGER,
+        outcome TEXT NOT NULL, detail TEXT NOT NULL)""",
+        "CREATE INDEX webhook_deliveries_t ON webhook_deliveries (t)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)

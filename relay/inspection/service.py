@@ -7,6 +7,9 @@
 - **Targets**: relay.inspection.target_book (bounded, stored, announced as deltas).
 - **Missions**: relay.inspection.mission_commands (the commands and their rules), relay.inspection.planning (files
   read and steps checked on the planning pool).
+- **Alerts** (relay.inspection.alerts): raised through :meth:`Inspection.raise_alert` by findings, readings and
+  missions, acknowledged with ``alert/ack``; stored after they are announced, like mission records.
+- **Webhooks** (relay.inspection.webhooks): every alert raised or acknowledged, POSTed and signed in the background.
 - **Storage** runs on one thread of its own (relay.inspection.storage); a database that is locked or full pauses the
   mission with the store's message, and the command that needed it gets an ``error`` naming the database.
 """
@@ -24,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import ConfigError
 from ..fleet.events import NavEvent
 from ..station.work import WorkPool
+from .alerts import Alerts
 from .captures import Captures
 from .kml import KmlError, targets_from_kml
 from .messages import (
@@ -36,11 +40,13 @@ from .messages import (
 )
 from .mission_commands import MissionCommands
 from .planning import MissionPlanning
-from .records import MissionRecord, Target
+from .records import AlertRecord, AlertSeverity, DeliveryRecord, MissionRecord, Target
 from .storage import Storage
 from .target_book import TargetBook
 from .targets import facility_targets, load_targets
+from .webhooks import Webhooks
 from .wire import (
+    AlertAck,
     FindingMark,
     FindingsPage,
     MissionControl,
@@ -99,15 +105,17 @@ class Inspection:
             config, options.missions_dir, self._planning, targets=self.targets, map_grid=map_grid
         )
         #: Mission records are stored after their change is announced: a stop never waits for the database.
-        self._records = WriteBehind(self._save)
+        self._records: WriteBehind[MissionRecord] = WriteBehind(self._save)
+        self.webhooks = Webhooks(config.inspection.webhooks, self._save_delivery)
+        self.alerts = Alerts(outbox, self._storage, self.webhooks.notify, wall_clock=wall_clock)
         self.captures = Captures(
             self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._storage.call,
-            map_grid=map_grid, clock=clock, wall_clock=wall_clock,
+            alert=self.raise_alert, map_grid=map_grid, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self.missions = MissionCommands(
             self.robots, backend=backend, control=control, fleet=fleet, outbox=outbox, book=self.book,
             planning=planning, storage=self._storage, records=self._records, capture=self.captures.for_mission,
-            clock=clock, wall_clock=wall_clock,
+            alert=self.raise_alert, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self.runner = self.missions.runner
         stops.follow(self.runner.robot_stopped, self.mission_robots)
@@ -134,6 +142,8 @@ class Inspection:
         except ValueError as exc:
             raise ConfigError(self.config.source, None, "inspection.max_targets", str(exc)) from None
         await self._load_history(store)
+        await self.alerts.start(store)
+        self.webhooks.start()
         # The store's name: a path, or the URL without its password.
         logger.info("inspection: %d targets, database %s", len(self.targets), store.name)
 
@@ -162,6 +172,8 @@ class Inspection:
         for run in self.runner.runs.values():
             self._records.put(run.record)
         await self._records.close()
+        await self.alerts.close()
+        await self.webhooks.stop()
         await self._storage.close()
         self.captures.close()
         self._planning.shutdown()
@@ -176,6 +188,21 @@ class Inspection:
             self.outbox.to(client, mission_message(record))
         for message in self.captures.recent[-FINDINGS_ON_CONNECT:]:
             self.outbox.to(client, message)
+        self.alerts.on_connect(client)
+
+    def raise_alert(
+        self,
+        kind: str,
+        text: str,
+        *,
+        robot: str | None = None,
+        subject: str | None = None,
+        severity: AlertSeverity = "warning",
+    ) -> AlertRecord:
+        """Raise an alert (relay.inspection.alerts): every client gets it now, the database and the webhooks after.
+        ``kind`` says what raised it (``anomaly``, ``threshold``, ``mission_aborted``, ...); ``subject`` the finding,
+        capture, mission or target it is about. Awaits nothing."""
+        return self.alerts.raise_alert(kind, text, robot=robot, subject=subject, severity=severity)
 
     def on_nav(self, event: NavEvent) -> None:
         self.runner.on_nav(event)
@@ -198,6 +225,8 @@ class Inspection:
             await self.captures.region(client, command)
         elif isinstance(command, TargetAdd):
             await self.captures.add_target(client, command)
+        elif isinstance(command, AlertAck):
+            await self.alerts.acknowledge(client, command)
 
     async def _page(self, client: Client, command: FindingsPage) -> None:
         """A page of the findings history from the database (off the loop), newest first."""
@@ -212,15 +241,25 @@ class Inspection:
 
     @property
     def store_failure(self) -> str | None:
-        """Why mission records wait to be stored (``/healthz``), or None."""
-        return self._records.failure
+        """Why mission records or alerts wait to be stored (``/healthz``), or None."""
+        return self._records.failure or self.alerts.failure
 
     async def _save(self, record: MissionRecord) -> None:
         store = self.store
         if store is not None:
             await self._storage.run(lambda: store.save_mission(record))
 
+    async def _save_delivery(self, delivery: DeliveryRecord) -> None:
+        store = self.store
+        if store is not None:
+            await self._storage.run(lambda: store.add_delivery(delivery))
+
     # -- reading ----------------------------------------------------------------------------------
+
+    async def deliveries(self, limit: int) -> list[DeliveryRecord]:
+        """The newest webhook delivery attempts, newest first (``/webhooks/deliveries``)."""
+        store = self.store
+        return [] if store is None else await self._storage.run(lambda: store.deliveries(limit))
 
     async def image(self, sha: str) -> bytes | None:
         store = self.store

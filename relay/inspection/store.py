@@ -21,7 +21,7 @@ default: 0.27 ms a finding is nothing at a capture every few seconds, and a find
 survive the station losing power, which ``NORMAL`` does not promise.
 
 The SQL layer (dialects, transactions, migrations, errors) is relay/inspection/database.py; capture images are files
-beside the database (relay/inspection/images.py).
+beside the database (relay/inspection/images.py); alerts are relay/inspection/alert_store.py's.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from collections.abc import Sequence
 from dataclasses import fields, replace
 from pathlib import Path
 
-from .database import Database
+from .alert_store import AlertTables
 from .database import StoreError as StoreError  # re-exported: what callers catch
 from .images import ImageFiles
 from .records import FINDING_STATUSES, CaptureRecord, FindingRecord, MissionRecord, Target
@@ -50,8 +50,9 @@ class UnknownRecord(StoreError, LookupError):
     """No record has that id (a LookupError, as a missing key is)."""
 
 
-class Store(Database):
-    """Missions, captures and findings in one database. Not thread-safe: the relay calls it from one thread."""
+class Store(AlertTables):
+    """Missions, captures, findings and alerts (relay.inspection.alert_store) in one database. Not thread-safe: the
+    relay calls it from one thread."""
 
     def __init__(self, url: str, images: Path, busy_timeout: float) -> None:
         super().__init__(url, busy_timeout)
@@ -178,6 +179,10 @@ class Store(Database):
         if not rows:
             raise UnknownRecord(f"no finding {finding_id[:80]!r}")
         return record_of(FindingRecord, rows[0])
+
+    def finding(self, finding_id: str) -> FindingRecord | None:
+        rows = self._read(f"SELECT {_FINDING} FROM findings WHERE id = ?", (finding_id,))
+        return record_of(FindingRecord, rows[0]) if rows else None
 
     def findings(
         self, *, mission: str | None = None, status: str | None = None, robot: str | None = None

@@ -1,4 +1,4 @@
-"""The inspection commands on the wire: missions, findings, regions and targets (docs/protocol.md).
+"""The inspection commands on the wire: missions, findings, regions, targets and alerts (docs/protocol.md).
 
 Parsed like every other command (relay.session.protocol, whose helpers this uses): a bad frame gets one ``error`` naming
 the field; nothing here touches a robot. Every command is global (``mission/start``, not ``robot1/...``): a
@@ -24,6 +24,8 @@ MAX_PIXEL = 16384
 #: Most findings one ``findings/page`` returns, and the latest time it may name (the year 2286).
 MAX_PAGE = 100
 MAX_TIME = 1.0e10
+#: Longest note an alert's acknowledgement keeps.
+MAX_ACK_NOTE = 200
 
 
 @command("mission/start")
@@ -75,7 +77,7 @@ class FindingMark(WireCommand):
     capture: str | None = text(required=False)
     finding: str | None = text(required=False)
     status: FindingStatus | None = custom(lambda value, field, ident: _status(value, field, ident), "FindingStatus")
-    note: str | None = custom(lambda value, _, ident: _note(value, ident), "string")
+    note: str | None = custom(lambda value, _, ident: _note(value, ident, MAX_NOTE), "string")
     region: tuple[tuple[int, int], ...] | None = custom(
         lambda value, _, ident: _outline(value, ident), "number[][] | null"
     )
@@ -145,9 +147,22 @@ class FindingsPage(WireCommand):
     limit: int | None = real(required=False, low=1, high=MAX_PAGE, integer=True)
 
 
+@command("alert/ack")
+@dataclass(frozen=True, slots=True)
+class AlertAck(WireCommand):
+    """Acknowledge ``alert`` (an ``alert`` message's id), with an optional note: recorded with the operator's name,
+    and every client learns it."""
+
+    id: RequestId = request()
+    alert: str = text()
+    note: str | None = custom(lambda value, _, ident: _note(value, ident, MAX_ACK_NOTE), "string")
+
+
 #: The inspection commands, for the station's table (relay/session/protocol.py).
-INSPECTION_COMMANDS: Final = (MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd, FindingsPage)
-InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd | FindingsPage
+INSPECTION_COMMANDS: Final = (
+    MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd, FindingsPage, AlertAck,
+)  # fmt: skip
+InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd | FindingsPage | AlertAck
 
 
 def _status(value: Any, field: str, identifier: str) -> FindingStatus | None:
@@ -190,15 +205,16 @@ def _outline(value: Any, identifier: str) -> tuple[tuple[int, int], ...] | None:
     return tuple(points)
 
 
-def _note(value: Any, identifier: str) -> str | None:
-    """A finding's note: up to MAX_NOTE characters, and ``""`` clears it (the generic string field is 1 to 64
-    characters, which cut notes at 64 where docs/protocol.md promises 1000 and left no way to clear one)."""
+def _note(value: Any, identifier: str, limit: int) -> str | None:
+    """A note: up to ``limit`` characters (a finding's MAX_NOTE, an acknowledgement's MAX_ACK_NOTE), and ``""`` is
+    none (the generic string field is 1 to 64 characters, which cut notes at 64 where docs/protocol.md promises 1000
+    and left no way to clear one)."""
     if value is None:
         return None
-    if not isinstance(value, str) or len(value) > MAX_NOTE:
+    if not isinstance(value, str) or len(value) > limit:
         raise ProtocolError(
             ErrorCode.BAD_REQUEST,
-            f"{identifier}: field 'note' must be a string of at most {MAX_NOTE} characters (\"\" clears it), "
+            f"{identifier}: field 'note' must be a string of at most {limit} characters (\"\" clears it), "
             f"got {show(value)}",
         )
     return value

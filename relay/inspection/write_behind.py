@@ -1,4 +1,4 @@
-"""Mission records stored after the fact: a change of state never waits for the database.
+"""Records stored after the fact (missions, alerts): a change of state never waits for the database.
 
 An estop once waited 15 s for a locked SQLite file (each mission's abort written one after another, 5 s busy
 timeout each), and with PostgreSQL stopped it closed the operator's connection with no ack. A mission's state now
@@ -9,6 +9,7 @@ writing: a burst of changes costs one write each, and what waits is bounded by t
 A write that fails is kept (unless a newer record of that mission came meanwhile) and tried again with a growing
 pause (0.5 s to 10 s); ``failure`` says why meanwhile (``/healthz``), and one log line says so per failure streak.
 Nothing is dropped: at shutdown ``close`` tries what is left, for a bounded time, and names what it could not write.
+Alerts (relay.inspection.alerts) are stored the same way: raising one is on paths that must not wait.
 """
 
 from __future__ import annotations
@@ -17,8 +18,7 @@ import asyncio
 import contextlib
 import logging
 from collections.abc import Awaitable, Callable
-
-from .records import MissionRecord
+from typing import Generic, Protocol, TypeVar
 
 logger = logging.getLogger(__name__)
 
@@ -26,16 +26,27 @@ logger = logging.getLogger(__name__)
 RETRY_FIRST, RETRY_LAST = 0.5, 10.0
 
 
-class WriteBehind:
-    def __init__(self, write: Callable[[MissionRecord], Awaitable[None]]) -> None:
+class Identified(Protocol):
+    @property
+    def id(self) -> str: ...
+
+
+R = TypeVar("R", bound=Identified)
+
+
+class WriteBehind(Generic[R]):
+    """``what``: the records' name in log lines and ``failure`` ("mission records", "alerts")."""
+
+    def __init__(self, write: Callable[[R], Awaitable[None]], what: str = "mission records") -> None:
         self._write = write
-        self._pending: dict[str, MissionRecord] = {}
+        self._what = what
+        self._pending: dict[str, R] = {}
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
         #: Why the last write failed, while records wait for a retry (None: the store is keeping up).
         self.failure: str | None = None
 
-    def put(self, record: MissionRecord) -> None:
+    def put(self, record: R) -> None:
         """Store ``record`` soon; returns at once."""
         self._pending.pop(record.id, None)  # re-inserted last: records are written in the order of their changes
         self._pending[record.id] = record
@@ -46,7 +57,7 @@ class WriteBehind:
         return len(self._pending)
 
     def start(self) -> None:
-        self._task = asyncio.get_running_loop().create_task(self._run(), name="mission-write-behind")
+        self._task = asyncio.get_running_loop().create_task(self._run(), name=f"write-behind {self._what}")
 
     async def _run(self) -> None:
         pause = RETRY_FIRST
@@ -63,20 +74,22 @@ class WriteBehind:
     async def _drain(self) -> bool:
         """Write what waits, oldest change first; False at the first failure (the rest waits for the retry)."""
         while self._pending:
-            mission_id, record = next(iter(self._pending.items()))
+            record_id, record = next(iter(self._pending.items()))
             try:
                 await self._write(record)
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
                 if self.failure is None:
-                    logger.error("inspection database: mission %s not stored yet, will retry: %s", mission_id, exc)
-                self.failure = f"mission records not stored yet ({len(self._pending)} waiting): {exc}"[:400]
+                    logger.error(
+                        "inspection database: %s %s not stored yet, will retry: %s", self._what, record_id, exc
+                    )
+                self.failure = f"{self._what} not stored yet ({len(self._pending)} waiting): {exc}"[:400]
                 return False
-            if self._pending.get(mission_id) is record:
-                del self._pending[mission_id]
+            if self._pending.get(record_id) is record:
+                del self._pending[record_id]
             if self.failure is not None:
-                logger.warning("inspection database: mission records are being stored again")
+                logger.warning("inspection database: %s are being stored again", self._what)
                 self.failure = None
         return True
 
@@ -91,7 +104,13 @@ class WriteBehind:
             await asyncio.wait_for(self._drain(), timeout)
         if self._pending:
             logger.error(
-                "inspection database: %d mission records could not be stored before shutdown: %s",
+                "inspection database: %d %s could not be stored before shutdown: %s",
                 len(self._pending),
-                ", ".join(f"{r.id} ({r.state})" for r in self._pending.values())[:400],
+                self._what,
+                ", ".join(_named(r) for r in self._pending.values())[:400],
             )
+
+
+def _named(record: Identified) -> str:
+    state = getattr(record, "state", None)
+    return record.id if state is None else f"{record.id} ({state})"

@@ -1,4 +1,5 @@
-"""HTTP and WebSocket on one port (aiohttp): the static client, the scenes, /ws, /healthz and /metrics.
+"""HTTP and WebSocket on one port (aiohttp): the static client, the scenes, /ws, /healthz and /metrics (the
+inspection's reading routes: relay.net.inspection_routes).
 
 Every background task, socket and the backend belong to the application's lifecycle: the relay starts in a
 ``cleanup_ctx`` and stops there; on shutdown every robot is stopped first, then every WebSocket is closed
@@ -26,6 +27,11 @@ from ..station.core import BackendFactory, Relay
 from .access import Access, Refused
 from .guard import ConnectionGuard
 from .headers import SecurityHeaders
+from .inspection_routes import capture_image, report, webhook_deliveries
+from .keys import ACCESS_KEY as ACCESS_KEY
+from .keys import GUARD_KEY as GUARD_KEY
+from .keys import RELAY_KEY as RELAY_KEY
+from .keys import SOCKETS_KEY as SOCKETS_KEY
 from .loop_lag import ArrivalDates, date_reads, unread_bytes
 from .tls import fingerprint, server_context
 
@@ -53,11 +59,6 @@ WRITE_BUFFER_BYTES = 32 * 1024
 WEBSOCKET_WRITER_LIMIT = 16 * 1024
 #: Shutdown budget: Ctrl-C must leave within 2 s, robots stopped and sockets closed.
 SHUTDOWN_TIMEOUT = 1.5
-
-RELAY_KEY = web.AppKey("relay", Relay)
-ACCESS_KEY = web.AppKey("access", Access)
-SOCKETS_KEY = web.AppKey("sockets", set[web.WebSocketResponse])
-GUARD_KEY = web.AppKey("guard", ConnectionGuard)
 
 
 class AiohttpTransport:
@@ -240,66 +241,6 @@ async def check_token(request: web.Request) -> web.Response:
     return web.json_response({"role": role})
 
 
-#: What /captures and /report answer for what does not exist and for what the request may not read: the same
-#: status and words, so that a guesser cannot tell a wrong token from a right one by the answer (it was 401 for a
-#: wrong token, 404 for the right one and an unknown mission).
-NOT_FOUND = "no such {what}, or not for this token: open it from the relay's page, whose links carry the token\n"
-
-
-async def _may_read_inspection(request: web.Request) -> bool:
-    """Capture images and reports: for the operator (the token in ``?token=``), and for anyone when viewers are
-    allowed (viewers see findings). Wrong tokens are slowed as at the handshake (``Access.admit``: one count per
-    address, shared with /ws and /auth); a refusal is then answered as an unknown name is (``NOT_FOUND``)."""
-    access = request.app[ACCESS_KEY]
-    try:
-        access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
-        _, delay = access.admit(request.query.get("token"), request.remote or "unknown", time.monotonic())
-    except Refused as exc:
-        await asyncio.sleep(exc.delay)
-        return False
-    if delay > 0:
-        await asyncio.sleep(delay)
-    return True
-
-
-async def capture_image(request: web.Request) -> web.Response:
-    allowed = await _may_read_inspection(request)
-    jpeg = await request.app[RELAY_KEY].inspection.image(request.match_info["sha"]) if allowed else None
-    if jpeg is None:
-        raise web.HTTPNotFound(text=NOT_FOUND.format(what="capture image"))
-    return web.Response(body=jpeg, content_type="image/jpeg", headers={"Cache-Control": "private, max-age=86400"})
-
-
-async def report(request: web.Request) -> web.Response:
-    """``/report/<mission>.<kind>`` and ``/report/range.<kind>?from=...&to=...`` (relay.inspection.report);
-    ``/report/range.html`` alone asks for a range. A range that cannot be read or holds too much is a 400 saying
-    so; what the token may not read, or that does not exist, is ``NOT_FOUND``."""
-    from ..inspection import report as reports
-
-    named = reports.split_name(request.match_info["name"]) if await _may_read_inspection(request) else None
-    if named is None:
-        raise web.HTTPNotFound(text=NOT_FOUND.format(what="report"))
-    stem, kind = named
-    relay = request.app[RELAY_KEY]
-    scope = reports.Scope(mission=stem)
-    if stem == reports.RANGE:
-        asked = reports.asked_range(request.query, kind, relay.config, time.time())
-        if not isinstance(asked, reports.Scope):
-            status, text = asked
-            return web.Response(text=text, status=status, content_type=reports.content_type(kind), charset="utf-8")
-        scope = asked
-    try:
-        text = await relay.inspection.report(scope, kind, f"{request.scheme}://{request.host}")
-    except reports.ReportRefused as exc:
-        raise web.HTTPBadRequest(text=f"{exc}\n") from None
-    except ValueError:
-        raise web.HTTPNotFound(text=NOT_FOUND.format(what="report")) from None
-    response = web.Response(text=text, content_type=reports.content_type(kind), charset="utf-8")
-    if kind != "html":  # a file to keep or import, under a name that says what it holds
-        response.headers["Content-Disposition"] = f'attachment; filename="report-{stem}.{kind}"'
-    return response
-
-
 async def generated_scene(request: web.Request) -> web.Response:
     """A twin the relay built (from a live map); kept in memory, replaced when the map changes."""
     glb = request.app[RELAY_KEY].generated.get(request.match_info["name"])
@@ -322,6 +263,7 @@ async def healthz(request: web.Request) -> web.Response:
             "backend_error": failure,
             "audit_error": audit_failure,
             "inspection_error": store_failure,
+            "webhooks": relay.inspection.webhooks.health(),
             "robots": {r: relay.fleet.online(r, now) for r in relay.config.names},
             "robots_online": relay.fleet.robots_online(now),
             "clients": relay.clients,
@@ -459,6 +401,7 @@ def create_app(
     app.router.add_post("/auth", check_token)
     app.router.add_get(r"/captures/{sha:[0-9a-f]{64}}.jpg", capture_image)
     app.router.add_get(r"/report/{name:[A-Za-z0-9_.-]{1,160}}", report)
+    app.router.add_get("/webhooks/deliveries", webhook_deliveries)
     app.router.add_get("/healthz", healthz)
     app.router.add_get("/metrics", metrics)
     app.router.add_get("/scenes/generated/{name}", generated_scene)

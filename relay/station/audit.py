@@ -17,9 +17,11 @@ viewer or a client sending garbage at most ~4 MB an hour (records clipped to und
 A record (docs/security.md lists the fields):
 
     {"time": "2026-11-21T23:42:22.123456+00:00", "t": 1795304542.123456, "client": "c1-ab12cd",
-     "role": "operator", "address": "127.0.0.1", "identifier": "robot2/goal_pose", "id": "g1",
+     "name": "Ana", "role": "operator", "address": "127.0.0.1", "identifier": "robot2/goal_pose", "id": "g1",
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
+``name``, only in the records of a client that gave one (``name``), is that name: who acknowledged an alert, who sent
+a goal.
 ``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its
 first 120 characters).
 The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
@@ -87,13 +89,16 @@ class AuditLog:
         outcome: str,
         code: str | None = None,
         message: str | None = None,
+        name: str | None = None,
     ) -> None:
         now = dt.datetime.now(dt.UTC)
+        named = {"name": name} if name is not None else {}
         line = orjson.dumps(
             {
                 "time": now.isoformat(),
                 "t": round(now.timestamp(), 6),
                 "client": client,
+                **named,
                 "role": role,
                 "address": address,
                 "identifier": identifier,
@@ -199,6 +204,7 @@ class CommandAudit:
             outcome="refused" if error else "accepted",
             code=error.code if error else None,
             message=message,
+            name=client.name,
         )
 
     def forget(self, client_id: str) -> None:
@@ -229,9 +235,9 @@ class CommandAudit:
 
 #: A record's values past this many characters of JSON are kept as their first characters (a 1000-character note, a
 #: mission's 200 steps), and so are a refusal's message (before the count of records not written, ~80) and a
-#: request's id: with the fixed fields (~230), a record stays under 700 characters, as the budget above counts,
-#: whatever a hostile client puts in them.
-MAX_VALUES = 210
+#: request's id: with the fixed fields (~230, and a client's name of up to 40 characters, ~50 more), a record stays
+#: under 700 characters, as the budget above counts, whatever a hostile client puts in them.
+MAX_VALUES = 160
 MAX_MESSAGE = 120
 MAX_ID = 48
 

@@ -231,6 +231,11 @@ export class CommandSender {
     return this.#send({ identifier: 'findings/page', ...(before === null ? {} : { before }) });
   }
 
+  /** Acknowledge an alert (the relay records this operator's name). @param {string} alert @param {string} [note] */
+  alertAck(alert, note) {
+    return this.#send({ identifier: 'alert/ack', alert, ...(note ? { note } : {}) });
+  }
+
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;

@@ -1,8 +1,9 @@
 // @ts-check
 /**
- * Inspection as the relay reports it: targets, missions (one per robot) and findings, kept by id, with what the
- * operator is told when a mission changes state. No DOM, no WebGL: test/inspection_model.test.js drives it with the
- * relay's message shapes. Views (view/inspection_view.js, the findings list) read it.
+ * Inspection as the relay reports it: targets, missions (one per robot), findings and the alerts nobody acknowledged
+ * yet, kept by id, with what the operator is told when a mission changes state or an alert is raised. No DOM, no
+ * WebGL: test/inspection_model.test.js drives it with the relay's message shapes. Views (view/inspection_view.js,
+ * the findings list) read it.
  */
 import { count } from './wording.js';
 
@@ -11,12 +12,16 @@ import { count } from './wording.js';
  * @typedef {import('./protocol.js').MissionMessage} Mission
  * @typedef {import('./protocol.js').FindingMessage} Finding
  * @typedef {import('./protocol.js').RegionMessage} Region
+ * @typedef {import('./protocol.js').AlertMessage} Alert
  * @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus
  * @typedef {{text: string, kind: 'info' | 'warning' | 'error'}} InspectionNotice
  */
 
 /** Pin colours by status (the report uses the same). */
 export const STATUS_COLOURS = Object.freeze({ ok: '#2e9e4f', anomaly: '#d62d20', needs_review: '#e8a317' });
+
+/** Seconds an alert is news: one raised longer ago (sent again after a reconnect) is listed, not told. */
+export const FRESH_ALERT = 120;
 
 export class InspectionModel {
   /** @type {Map<string, Target>} */
@@ -25,6 +30,8 @@ export class InspectionModel {
   missions = new Map();
   /** @type {Map<string, Finding>} */
   findings = new Map();
+  /** Alerts nobody acknowledged yet, by id; an acknowledged one leaves. @type {Map<string, Alert>} */
+  alerts = new Map();
   /** Outlines the relay segmented, by the request id that asked (region). @type {Map<string, number[][]>} */
   regions = new Map();
   /** Requests the review waits on (a target from the live image), until their ack or error. @type {Set<string>} */
@@ -43,7 +50,7 @@ export class InspectionModel {
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
    * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding
-   *   | Region | import('./protocol.js').FindingsMessage} message
+   *   | Region | import('./protocol.js').FindingsMessage | Alert} message
    * @returns {InspectionNotice[]}
    */
   apply(message) {
@@ -71,7 +78,37 @@ export class InspectionModel {
         for (const finding of message.findings) this.findings.set(finding.id, finding);
         this.history = message.more ? 'more' : 'all';
         return [];
+      case 'alert':
+        return this.#alert(message);
     }
+  }
+
+  /** @param {() => number} [wall] seconds since the epoch: how old an alert is when it arrives */
+  constructor(wall = () => Date.now() / 1000) {
+    this.wall = wall;
+  }
+
+  /**
+   * An alert raised (told at once, unless it is old news: the open alerts the relay sends after each hello are in
+   * the list and its badge, not in as many notices) or acknowledged (it leaves the list).
+   * @param {Alert} alert @returns {InspectionNotice[]}
+   */
+  #alert(alert) {
+    if (alert.acknowledged) {
+      // Acknowledged by someone (this operator, or another): it leaves every list; the one who did it knows.
+      this.alerts.delete(alert.alert);
+      return [];
+    }
+    const known = this.alerts.has(alert.alert);
+    this.alerts.set(alert.alert, alert);
+    return known || this.wall() - alert.raised > FRESH_ALERT
+      ? []
+      : [{ text: `Alert: ${alert.text}`, kind: alert.severity === 'critical' ? 'error' : 'warning' }];
+  }
+
+  /** The alerts to acknowledge, newest first. @returns {Alert[]} */
+  openAlerts() {
+    return [...this.alerts.values()].sort((a, b) => b.raised - a.raised);
   }
 
   /** The oldest finding's `created`: where the next page of the history starts. @returns {number | null} */
@@ -154,6 +191,7 @@ export class InspectionModel {
     this.targets.clear();
     this.missions.clear();
     this.findings.clear();
+    this.alerts.clear();
     this.regions.clear();
     this.history = 'unknown';
     this.version++;

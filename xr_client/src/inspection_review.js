@@ -15,7 +15,7 @@
  *   | {type: 'target_at', target: string, x: number, y: number}
  *   | {type: 'target_live', target: string, robot: string, u: number, v: number}
  *   | {type: 'mission_targets', targets: string[], robot: string | null}
- *   | {type: 'findings_page', before: number | null}} ReviewCommand
+ *   | {type: 'findings_page', before: number | null} | {type: 'alert_ack', alert: string}} ReviewCommand
  */
 
 export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);

@@ -19,7 +19,8 @@ import { ControlNews } from './control_news.js';
  *   | import('./protocol.js').PongMessage | import('./protocol.js').TargetsMessage
  *   | import('./protocol.js').TargetsChangedMessage | import('./protocol.js').MissionMessage
  *   | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage
- *   | import('./protocol.js').FindingsMessage | import('./protocol.js').OperatorsMessage} GlobalMessage the messages
+ *   | import('./protocol.js').FindingsMessage | import('./protocol.js').OperatorsMessage
+ *   | import('./protocol.js').AlertMessage} GlobalMessage the messages
  *   whose identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
@@ -181,6 +182,7 @@ export class MessageRouter {
       case 'mission':
       case 'finding':
       case 'findings':
+      case 'alert':
       case 'region': {
         const told = this.inspection.apply(message).map((n) => notice(n.text, n.kind));
         return [{ type: 'inspection' }, ...told];

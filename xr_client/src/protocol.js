@@ -10,9 +10,9 @@ export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
-export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page"]);
+export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert"]);
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
@@ -62,10 +62,12 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'mission', id: string, name: string, robot: string, state: MissionState, current: number, steps: StepDescription[], reason: string, owner: string, updated: number}} MissionMessage */
 /** @typedef {{identifier: 'finding', id: string, capture: string, mission: string | null, target: string | null, robot: string, x: number, y: number, status: FindingStatus, note: string, source: 'operator' | 'rule', region: number[][] | null, image: string | null, readings: Object<string, number>, created: number, updated: number}} FindingMessage */
 /** @typedef {{identifier: 'findings', id: RequestId, findings: FindingMessage[], more: boolean}} FindingsMessage */
+/** @typedef {{by: string, at: number, note: string}} AlertAcknowledgement */
+/** @typedef {{identifier: 'alert', alert: string, kind: string, robot: string | null, subject: string | null, text: string, severity: 'warning' | 'critical', raised: number, acknowledged: AlertAcknowledgement | null}} AlertMessage */
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage | AlertMessage} ServerMessage
  */
 
 // Client to server
@@ -92,9 +94,10 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, capture: string, u: number, v: number, name?: string, kind?: string}} TargetFromPixelCommand */
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, robot: string, u: number, v: number, name?: string, kind?: string}} TargetFromLiveCommand */
 /** @typedef {{identifier: 'findings/page', id: RequestId, before?: number, limit?: number}} FindingsPageCommand */
+/** @typedef {{identifier: 'alert/ack', id: RequestId, alert: string, note?: string}} AlertAckCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand | AlertAckCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

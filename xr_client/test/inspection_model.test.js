@@ -203,3 +203,72 @@ test("the sensor panel's status line carries the selected robot's mission progre
     /mission/,
   );
 });
+
+/** @param {Partial<import('../src/protocol.js').AlertMessage>} fields @returns {import('../src/protocol.js').AlertMessage} */
+function alert(fields) {
+  return {
+    identifier: 'alert',
+    alert: 'a-1',
+    kind: 'anomaly',
+    robot: 'robot2',
+    subject: 'f-1',
+    text: 'Anomaly at Spill (robot2): gas 312.0 ppm (over 200 ppm)',
+    severity: 'critical',
+    raised: 10,
+    acknowledged: null,
+    ...fields,
+  };
+}
+
+test('alerts are listed newest first until someone acknowledges them, and told once while new', () => {
+  const inspection = new InspectionModel(() => 15);
+  /** @type {any[]} */
+  const sent = [];
+  const sender = new CommandSender(
+    /** @type {any} */ ({ send: (/** @type {any} */ m) => (sent.push(m), 1) }),
+    () => {},
+  );
+  const router = new MessageRouter({
+    fleet: new FleetModel(),
+    goals: new GoalTracker(),
+    history: new SensorHistory(),
+    commands: sender,
+    inspection,
+  });
+  const raised = router.route(alert({}), 0);
+  assert.deepEqual(raised, [
+    { type: 'inspection' },
+    {
+      type: 'notify',
+      text: 'Alert: Anomaly at Spill (robot2): gas 312.0 ppm (over 200 ppm)',
+      kind: 'error',
+      toast: true,
+    },
+  ]);
+  assert.deepEqual(router.route(alert({}), 0), [{ type: 'inspection' }]); // the same alert again: no second notice
+  inspection.apply(alert({ alert: 'a-2', kind: 'mission_aborted', severity: 'warning', raised: 20, text: 'Mission' }));
+  assert.deepEqual(
+    inspection.openAlerts().map((a) => a.alert),
+    ['a-2', 'a-1'],
+  );
+  // This operator acknowledges one; the relay tells everyone, and it leaves the list (also of other operators).
+  sender.alertAck('a-1');
+  sender.alertAck('a-2', 'valve closed');
+  assert.deepEqual(
+    sent.map(({ identifier, alert, note }) => ({ identifier, alert, note })),
+    [
+      { identifier: 'alert/ack', alert: 'a-1', note: undefined },
+      { identifier: 'alert/ack', alert: 'a-2', note: 'valve closed' },
+    ],
+  );
+  assert.deepEqual(router.route(alert({ acknowledged: { by: 'Ana', at: 11, note: '' } }), 0), [{ type: 'inspection' }]);
+  assert.deepEqual(
+    inspection.openAlerts().map((a) => a.alert),
+    ['a-2'],
+  );
+  inspection.reset(); // a new hello: the relay sends the open alerts again
+  assert.equal(inspection.alerts.size, 0);
+  inspection.wall = () => 10 + 121; // old news by now: listed, not told
+  assert.deepEqual(router.route(alert({}), 0), [{ type: 'inspection' }]);
+  assert.equal(inspection.alerts.size, 1);
+});

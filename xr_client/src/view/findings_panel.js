@@ -1,9 +1,10 @@
 // @ts-check
 /**
- * The findings on the desktop: a list with a status filter, and the selected finding's image with its region,
- * readings and note. The operator sets its status, and marks a region: a click on the image asks the relay to
- * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo:
- * click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
+ * The alerts to acknowledge on the desktop (a count badge, each with its Acknowledge button; an alert another operator
+ * acknowledged leaves the list), then the findings: a list with a status filter, and the selected finding's image
+ * with its region, readings and note. The operator sets its status, and marks a region: a click on the image asks
+ * the relay to segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it
+ * (Redo: click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
@@ -51,7 +52,7 @@ export class FindingsPanel {
 
   render() {
     const findings = this.model.list({ status: this.filter || null });
-    this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0;
+    this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0 && this.model.alerts.size === 0;
     const selected = this.review.selected;
     const options = ['', ...FINDING_STATUSES]
       .map(
@@ -74,7 +75,7 @@ export class FindingsPanel {
       .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
       .join('');
     this.root.innerHTML =
-      `${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
+      `${this.#alerts()}${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
@@ -82,6 +83,24 @@ export class FindingsPanel {
       const span = /** @type {HTMLElement} */ (dot);
       span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
     }
+  }
+
+  /** The alerts nobody acknowledged, newest first, with their count and an Acknowledge button each. */
+  #alerts() {
+    const alerts = this.model.openAlerts();
+    if (!alerts.length) return '';
+    const rows = alerts
+      .map(
+        (a) =>
+          `<li data-alert="${esc(a.alert)}" class="alert ${esc(a.severity)}">${esc(a.text)}` +
+          `<br><small>${esc(new Date(a.raised * 1000).toLocaleString())}</small> ` +
+          `<button type="button" data-ack="${esc(a.alert)}">Acknowledge</button></li>`,
+      )
+      .join('');
+    return (
+      `<div class="head"><b>Alerts <span class="badge" title="alerts to acknowledge">${alerts.length}</span></b>` +
+      `</div><ol class="alerts">${rows}</ol>`
+    );
   }
 
   /** Older findings from the relay's database, a page at a time, until the oldest is here. */
@@ -147,7 +166,8 @@ export class FindingsPanel {
     const review = this.review;
     const item = target.closest('[data-finding]');
     const pick = target.closest('[data-target]');
-    if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
+    if (target.dataset.ack) this.run([{ type: 'alert_ack', alert: target.dataset.ack }]);
+    else if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
     else if (target.dataset.mission === 'start') this.run(review.startPicked(this.robot));
     else if (target.dataset.older) this.run([{ type: 'findings_page', before: this.model.oldest() }]);
     else if (item) review.select(item.getAttribute('data-finding'));

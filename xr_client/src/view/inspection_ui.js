@@ -54,6 +54,8 @@ export class InspectionUi {
         }
       } else if (c.type === 'findings_page') {
         if (sender.findingsPage(c.before)) this.model.history = 'asked';
+      } else if (c.type === 'alert_ack') {
+        sender.alertAck(c.alert);
       } else if (c.type === 'mission_targets') {
         if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
       } else if (c.type === 'region') {
