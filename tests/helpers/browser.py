@@ -46,10 +46,9 @@ CHROMIUM_ARGS = [
 #: timers (input, pings) and IWER's input frames their time. Teleop's 20 Hz runs in the socket worker, whatever
 #: the frames do (tests/e2e/test_teleop_rate.py).
 SOFTWARE_GL = "quality=low&maxfps=2"
-#: The emulated headset (IWER) at 5 device frames a second (xr_client/src/emulator_pace.js). Unpaced, it drew
-#: stereo frames back to back on SwiftShader and held the page's main thread for each: every read of the page's
-#: state queued behind a frame (0.3-0.6 s each), and a VR test took 54 s and 40 s of CPU; paced, 36 s and 24 s.
-HEADSET = "emulate=quest3&xrfps=5"
+#: The emulated headset (IWER), unpaced. Paced at 5 frames/s (?xrfps=5, xr_client/src/emulator_pace.js) a VR test
+#: took 36 s instead of 54, but test_vr_goal_and_teleop then missed its goal at the backend in 2 of 3 loaded runs.
+HEADSET = "emulate=quest3"
 
 
 @dataclasses.dataclass
