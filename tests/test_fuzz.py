@@ -8,7 +8,7 @@ import json
 import logging
 import math
 import random
-import tracemalloc
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +20,7 @@ from relay.cli.options import Options
 from relay.config import FleetConfig
 from relay.errors import ProtocolError
 from relay.session.protocol import CLIENT_ROBOT_KINDS, Command, parse_command
-from tests.conftest import RunningRelay, start_relay
+from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.spy import CommandSpy
 from tests.wsclient import TestClient
 
@@ -133,60 +133,28 @@ def mutated_frames(rng: random.Random, count: int) -> list[str | bytes]:
     return frames
 
 
-def relay_memory() -> tracemalloc.Snapshot:
-    """Memory held by the relay's own code and its server library (the test client keeps every message). Not the
-    simulator's: its laser's per-tick arrays (889 KiB twice, seen in CI as "1.85 MB grown") are alive or not
-    depending on when the snapshot falls, whatever the frames."""
-    return tracemalloc.take_snapshot().filter_traces(
-        [
-            tracemalloc.Filter(True, "*/relay/*"),
-            tracemalloc.Filter(True, "*/aiohttp/*"),
-            tracemalloc.Filter(False, "*/relay/sim/*"),
-        ]
-    )
-
-
-# The memory snapshots themselves hold the loop for seconds; the relay's own blocking is covered elsewhere.
-@pytest.mark.allow_blocking
-async def test_websocket_endpoint_survives_generated_bad_frames(relay_server: RunningRelay) -> None:
-    spy = CommandSpy(relay_server.relay.backend)  # type: ignore[arg-type]
-    rng = random.Random(20261121)
-    client = await TestClient.open(relay_server.ws_url)
-    await client.hello()
-    frames = mutated_frames(rng, 400)
-    try:  # tracing slows every allocation of the process: never left on for the worker's next tests
-        baseline: tracemalloc.Snapshot | None = None
-        errors_before = 0
-        for index, frame in enumerate(frames):
-            if index == 100:
-                # Traced from here: what the last 300 frames leave allocated is the growth (the first 100 fill the
-                # relay's caches). Tracing all 400 slowed the whole process, the simulated fleet with it.
-                tracemalloc.start()
-                baseline = relay_memory()
-            start = len(client.messages)
-            await client.send_raw(frame)
-            reply = await client.wait_for(lambda m: m["identifier"] in ("error", "ack"), start=start, timeout=10)
-            assert reply["identifier"] == "error", (frame if isinstance(frame, bytes) else frame[:200], reply)
-            errors_before += 1
-            # Rate limit (60/s) is not what is under test here: pace the stream under it.
-            await asyncio.sleep(0.012)
-        assert baseline is not None
-        diff = relay_memory().compare_to(baseline, "lineno")
+async def test_websocket_endpoint_survives_generated_bad_frames() -> None:
+    """400 bad frames to /ws: an error for each, nothing reaches a robot, the relay's memory stays flat and the
+    connection stays usable. Run in a process of its own (tests/helpers/ws_fuzz_memory.py), which traces its memory
+    and exits without stopping the tracer."""
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "tests.helpers.ws_fuzz_memory", "20261121", "400",
+        cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    try:
+        out, err = await asyncio.wait_for(process.communicate(), 300)
     finally:
-        tracemalloc.stop()
-    grown = sum(stat.size_diff for stat in diff)
-    biggest = [str(stat) for stat in sorted(diff, key=lambda s: -s.size_diff)[:5]]  # where, should it fail
-    logger.info(
-        "fuzzed /ws with %d bad frames: %d errors, memory growth %.1f kB", len(frames), errors_before, grown / 1e3
-    )
-    print(f"\n/ws fuzz: {len(frames)} bad frames, {errors_before} errors, memory +{grown / 1e3:.1f} kB")  # noqa: T201
-    assert errors_before == len(frames)
-    assert grown < 500_000, biggest  # flat: no per-frame leak (400 frames, some of 200 kB, passed through)
-    assert spy.moving_commands() == []
-    # Still usable afterwards.
-    reply = await client.request({"identifier": "robot1/cancel"})
-    assert reply["identifier"] == "ack"
-    await client.close()
+        if process.returncode is None:
+            process.kill()
+            await process.wait()
+    assert process.returncode == 0 and out, err.decode(errors="replace")[-3000:]
+    result = json.loads(out.decode().strip().splitlines()[-1])
+    logger.info("fuzzed /ws: %s", result)
+    print(f"\n/ws fuzz: {result['frames']} bad frames, memory +{result['grown'] / 1e3:.1f} kB")  # noqa: T201
+    assert result["not_errors"] == []  # an error for every frame
+    assert result["grown"] < 500_000, result["biggest"]  # flat: no per-frame leak (frames of up to 200 kB)
+    assert result["moving"] == []  # nothing reached a robot
+    assert result["after"] == "ack"  # still usable afterwards
 
 
 @pytest.mark.parametrize("size", [1024 * 1024 + 1, 3 * 1024 * 1024])

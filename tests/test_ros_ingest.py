@@ -259,11 +259,12 @@ def test_the_executor_spins_from_a_thread_takes_late_subscriptions_and_stops(kin
         for round_ in range(3):  # subscribe, receive, destroy: three times while spinning
             got = threading.Event()
             subscription = node.create_subscription(String, "/late", lambda _m, g=got: g.set(), 10, raw=True)
-            deadline = time.monotonic() + 10
+            # Discovery of the new subscription takes a few ms on a quiet machine; 30 s bounds a loaded one.
+            deadline = time.monotonic() + 30
             while not got.is_set() and time.monotonic() < deadline:
                 publisher.publish(String(data=f"round {round_}"))
                 got.wait(0.05)
-            assert got.is_set(), f"round {round_}: a subscription made while spinning got nothing in 10 s"
+            assert got.is_set(), f"round {round_}: a subscription made while spinning got nothing in 30 s"
             node.destroy_subscription(subscription)
         started = time.monotonic()
         spinner.stop(timeout=3.0)

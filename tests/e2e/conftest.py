@@ -146,8 +146,19 @@ async def station() -> AsyncIterator[Station]:
         await original_goal(robot, x, y, yaw, **options)
 
     backend.send_goal = goal_spy
+    refusals: list[tuple[str, str]] = []
+    outbox = running.relay.outbox
+    original_error = outbox.error
+
+    def error_spy(client: Any, request_id: Any, code: str, message: str) -> None:
+        refusals.append((code, message))
+        original_error(client, request_id, code, message)
+
+    outbox.error = error_spy  # type: ignore[method-assign]
     try:
-        yield Station(running, first.cameras[0].name if first else None, synthetic is not None, velocities, goals)
+        yield Station(
+            running, first.cameras[0].name if first else None, synthetic is not None, velocities, goals, refusals
+        )
     finally:
         if cameras is not None:
             cameras.close()

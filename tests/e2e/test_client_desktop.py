@@ -19,6 +19,7 @@ from tests.helpers.browser import (
     OpenClient,
     Station,
     distance,
+    goal_at_backend,
     measure_rate,
     record_timing,
     snapshot_until_uploaded,
@@ -67,8 +68,14 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     await client.shot("02-goal-drag", "desktop-goal.png")
     await page.mouse.up()
     await client.wait("s.goal.sent === 1")
-    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
-    robot, sx, sy, syaw = station.goals[0]
+
+    async def drag() -> None:
+        await page.mouse.move(gx, gy)
+        await page.mouse.down()
+        await page.mouse.move(ex, ey, steps=4)
+        await page.mouse.up()
+
+    robot, sx, sy, syaw = await goal_at_backend(station, drag)
     assert robot == "robot2"
     assert distance((sx, sy), GOAL) < 0.3, (sx, sy)
     assert syaw is not None and abs(syaw) < 0.3

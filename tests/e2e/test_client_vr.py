@@ -17,6 +17,7 @@ from tests.helpers.browser import (
     OpenClient,
     Station,
     distance,
+    goal_at_backend,
     measure_rate,
     record_timing,
     snapshot_until_uploaded,
@@ -59,9 +60,16 @@ async def test_vr_goal_and_teleop(station: Station, open_client: OpenClient) -> 
     await button(client, "right", "trigger", 0)
     await client.wait("s.goal.sent === 1")
 
+    async def place_again() -> None:
+        await aim_arc(client, "right", target)
+        await button(client, "right", "trigger", 1)
+        await client.wait("s.goal.pointer === 'placing'")
+        await aim_arc(client, "right", south)
+        await client.wait("s.goal.marker && s.goal.marker.yaw !== null")
+        await button(client, "right", "trigger", 0)
+
     # The relay got that goal, from the hit point (not the operator's position), and robot2 moves.
-    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
-    robot, gx, gy, gyaw = station.goals[0]
+    robot, gx, gy, gyaw = await goal_at_backend(station, place_again)
     assert robot == "robot2"
     assert math.hypot(gx - hover["x"], gy - hover["y"]) < 1e-3
     assert gyaw is not None and abs(gyaw + math.pi / 2) < 0.2

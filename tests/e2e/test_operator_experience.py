@@ -14,7 +14,7 @@ from pathlib import Path
 from playwright.async_api import Browser
 
 from tests.conftest import relay_process
-from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, choose, wait_until
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, choose, goal_at_backend, wait_until
 from tests.helpers.xr import aim, aim_arc, button, click, enter_vr, press_menu_button, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
@@ -142,10 +142,13 @@ async def test_goal_mode_says_what_a_click_would_do_and_a_click_on_a_robot_selec
     # The floor of power distribution: blue, and a click sends robot1 there.
     goal = await hover(9.0, 6.0)
     assert goal["verdict"] == {"kind": "goal"} and goal["colour"] == "#3d8bff", goal
-    await page.mouse.down()
-    await page.mouse.up()
-    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
-    assert station.goals[0][0] == "robot1"
+
+    async def press() -> None:
+        await page.mouse.down()
+        await page.mouse.up()
+
+    await press()
+    assert (await goal_at_backend(station, press))[0] == "robot1"
     assert client.errors == [], client.errors
 
 
@@ -232,12 +235,15 @@ async def test_vr_starts_seeing_the_fleet_and_sends_robot1_to_chemical_storage_f
     # Chemical storage's floor on the table: a goal there, pressed and released on the table.
     await point_at_table(3.0, 6.5)
     await client.wait("s.goal.verdict && s.goal.verdict.kind === 'goal'", 10)
-    await button(client, "right", "trigger", 1)
-    await client.wait("s.goal.pointer === 'placing'")
-    await button(client, "right", "trigger", 0)
+
+    async def pull() -> None:
+        await button(client, "right", "trigger", 1)
+        await client.wait("s.goal.pointer === 'placing'")
+        await button(client, "right", "trigger", 0)
+
+    await pull()
     await client.wait("s.goal.sent === 1")
-    await wait_until(lambda: len(station.goals) == 1, 10, "the goal at the backend")
-    robot, gx, gy, _ = station.goals[0]
+    robot, gx, gy, _ = await goal_at_backend(station, pull)
     assert robot == "robot1" and math.hypot(gx - 3.0, gy - 6.5) < 0.15, station.goals
     assert (await client.state())["rig"]["position"] == start, "the operator did not move"
     await wait_until(lambda: station.status("robot1")["mode"] == "navigating", 10, "robot1 on its way")

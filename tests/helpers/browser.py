@@ -60,6 +60,7 @@ class Station:
     synthetic: bool
     velocities: list[tuple[float, str, float, float]]  # (monotonic time, robot, linear, angular) at the backend
     goals: list[tuple[str, float, float, float | None]]  # (robot, x, y, yaw) as the backend received them
+    refusals: list[tuple[str, str]]  # (code, message) of every error the relay sent a page
 
     @property
     def url(self) -> str:
@@ -76,6 +77,31 @@ class Station:
 
     def velocities_of(self, robot: str, since: float = 0.0) -> list[tuple[float, float, float]]:
         return [(t, lin, ang) for t, r, lin, ang in self.velocities if r == robot and t >= since]
+
+
+async def goal_at_backend(
+    station: Station, send_again: Callable[[], Awaitable[object]], tries: int = 3, timeout: float = 20.0
+) -> tuple[str, float, float, float | None]:
+    """The first goal at the backend, once the page has sent it. A goal the relay dropped as ``stale`` is sent again
+    with ``send_again``, as an operator would after reading the notice: the relay dates a frame read just after a
+    stall of its loop to the stall's start (docs/protocol.md), and in these tests the relay shares its loop with the
+    test's own Playwright and a loaded machine's stalls last 0.5-0.8 s. Any other refusal, or nothing, fails."""
+
+    def stale() -> int:
+        return sum(1 for code, text in station.refusals if code == "stale" and "/goal_pose" in text)
+
+    handled = 0
+
+    def answered() -> bool:
+        return bool(station.goals) or stale() > handled
+
+    for _ in range(tries):
+        await wait_until(answered, timeout, "the goal at the backend")
+        if station.goals:
+            return station.goals[0]
+        handled = stale()
+        await send_again()
+    raise AssertionError(f"the goal was dropped as stale {handled} times: {station.refusals[-3:]}")
 
 
 class Client:
