@@ -265,14 +265,17 @@ async def test_a_software_renderer_is_detected_and_quality_lowered_by_itself(
     await client.wait("s.connected && Object.keys(s.robots).length > 0 && s.twin.state !== 'loading'", 30)
     quality = await client.page.evaluate("window.__xrRelay.quality")
     assert quality["software"] is True and quality["lowQuality"] is True and quality["maxFps"] == 10, quality
-    # What the page does with it: 0.75 resolution, at most 10 drawn frames a second.
-    draw = (await client.state())["draw"]
-    assert draw["pixelRatio"] == 0.75 and draw["maxFps"] == 10, draw
+    # What the page does with it: 0.75 resolution, at most 10 drawn frames a second, every robot the shared shape.
+    s = await client.state()
+    assert s["draw"]["pixelRatio"] == 0.75 and s["draw"]["maxFps"] == 10 and s["draw"]["detailedMax"] == 0, s["draw"]
+    assert not any(r["detailed"] for r in s["robots"].values()), s["robots"]
     # ?quality=high: the operator asked for full quality; nothing is lowered or said.
     full = await open_client(f"{station.url}/?quality=high", "quality-high", 640, 400)
     quality = await full.page.evaluate("window.__xrRelay.quality")
-    assert quality == {"lowQuality": False, "maxFps": None, "software": True, "reason": ""}, quality
+    assert quality == {"lowQuality": False, "maxFps": None, "software": True, "reason": "", "detailedMax": 4}, quality
     draw = (await full.state())["draw"]
     assert draw["pixelRatio"] == 1 and draw["maxFps"] is None, draw  # headless Chromium: device pixel ratio 1
+    # and the demo's three robots with their full models (the nearest four are: level_of_detail.js).
+    await full.wait("Object.values(s.robots).filter((r) => r.detailed).length === 3", 30)
     assert client.errors == [] and full.errors == [], (client.errors, full.errors)
     await page.close()

@@ -45,9 +45,10 @@ export class App {
 
   /**
    * @param {HTMLElement} container where the canvas goes
-   * @param {{maxFps?: number, lowQuality?: boolean}} [options] for software-rendered browsers (CI), where each
-   *   WebGL frame holds the page for long: maxFps caps how often a frame is drawn outside VR (the behaviour
-   *   keeps running every frame); lowQuality draws without multisampling at a lower resolution
+   * @param {{maxFps?: number, lowQuality?: boolean, detailedMax?: number}} [options] for software-rendered browsers
+   *   (CI), where each WebGL frame holds the page for long: maxFps caps how often a frame is drawn outside VR (the
+   *   behaviour keeps running every frame); lowQuality draws without multisampling at a lower resolution;
+   *   detailedMax: robots drawn with their full model at most (render_quality.js)
    */
   constructor(container, options = {}) {
     this.container = container;

@@ -11,6 +11,13 @@
 export const DETAILED_MAX = 4;
 
 /**
+ * At most, on a software renderer (render_quality.js: lowQuality): none, every robot is the shared shape. The demo's
+ * three full models are 144 k triangles, 288 k a VR frame (two eyes): the emulated headset on SwiftShader drew 4.3
+ * frames/s with them, 6.3 with the nearest one only, 11.8 with none (the twin itself is 4.6 k triangles; 2026-11-27).
+ */
+export const DETAILED_MAX_LOW_QUALITY = 0;
+
+/**
  * The indices of the `max` smallest distances (ties: the lower index), in no particular order. Allocates only its
  * result's Set, which the caller may pass back in to be reused.
  * @param {ArrayLike<number>} distances per robot; NaN or Infinity: never detailed (no pose yet, no model)

@@ -42,7 +42,11 @@ const container = /** @type {HTMLElement} */ (document.getElementById('viewport'
 // ?maxfps=N caps the drawing rate (a laptop on battery); ?quality=low: no multisampling, a lower resolution. A
 // software renderer gets both by itself (render_quality.js), unless ?quality=high.
 const quality = renderQuality(webglRenderer(), params);
-const app = new App(container, { maxFps: quality.maxFps ?? undefined, lowQuality: quality.lowQuality });
+const app = new App(container, {
+  maxFps: quality.maxFps ?? undefined,
+  lowQuality: quality.lowQuality,
+  detailedMax: quality.detailedMax,
+});
 app.start();
 if (quality.reason) {
   console.info(quality.reason);

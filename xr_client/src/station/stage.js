@@ -15,7 +15,8 @@ import { TwinPlan } from '../view/twin_plan.js';
 export class Stage {
   /**
    * @param {HTMLElement} container where the canvas goes
-   * @param {{lowQuality?: boolean}} options lowQuality: no multisampling, a lower resolution
+   * @param {{lowQuality?: boolean, detailedMax?: number}} options lowQuality: no multisampling, a lower
+   *   resolution; detailedMax: robots drawn with their full model at most (render_quality.js)
    * @param {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
    *   onError: (text: string) => void}} host what the picking and the XR session read, and where their errors go
    */
@@ -47,7 +48,7 @@ export class Stage {
     this.loader = new ModelLoader(this.renderer);
     this.twin = new TwinView(this.loader);
     this.world.add(this.twin.group);
-    this.fleetView = new FleetView(this.world, this.loader, this.renderer);
+    this.fleetView = new FleetView(this.world, this.loader, this.renderer, options.detailedMax);
     this.robotViews = this.fleetView.views;
     this.picking = new Picking(this.twin, this.robotViews, host.fleet);
     const plan = new TwinPlan(this.twin, this.picking, host.fleet);

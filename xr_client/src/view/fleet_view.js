@@ -17,7 +17,7 @@ import { FleetInstances } from './fleet_instances.js';
 import { LabelAtlas } from './label_atlas.js';
 import { FleetScans } from './fleet_scans.js';
 import { labelOpacity } from '../label_rule.js';
-import { nearestDetailed } from '../level_of_detail.js';
+import { DETAILED_MAX, nearestDetailed } from '../level_of_detail.js';
 import { MapAnnotations } from './map_annotations.js';
 import { formatSilence } from '../freshness.js';
 import { displayName } from '../operator_names.js';
@@ -36,9 +36,11 @@ export class FleetView {
   /**
    * @param {THREE.Group} world @param {import('./gltf_loading.js').ModelLoader} loader
    * @param {THREE.WebGLRenderer} [renderer] uploads single label cells (without it, the whole atlas each time)
+   * @param {number} [detailedMax] robots drawn with their full model at most (level_of_detail.js)
    */
-  constructor(world, loader, renderer) {
+  constructor(world, loader, renderer, detailedMax = DETAILED_MAX) {
     this.world = world;
+    this.detailedMax = detailedMax;
     this.loader = loader;
     this.renderer = renderer ?? null;
     this.annotations = new MapAnnotations();
@@ -128,7 +130,7 @@ export class FleetView {
         this.#status(view, entry, fleet, history, selected, freshness, link, now);
       this.distances[i] = view.group.visible && view.hasModel ? eye.distanceTo(view.group.position) : Infinity;
     }
-    nearestDetailed(this.distances, undefined, this.detailed);
+    nearestDetailed(this.distances, this.detailedMax, this.detailed);
     for (let i = 0; i < n; i++) {
       const view = this.order[i];
       const shown = view.group.visible;

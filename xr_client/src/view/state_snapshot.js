@@ -190,6 +190,7 @@ export function snapshotState(app) {
       triangles: app.stage.renderer.info.render.triangles,
       pixelRatio: app.stage.renderer.getPixelRatio(),
       maxFps: app.loop.minFrameMs ? 1000 / app.loop.minFrameMs : null,
+      detailedMax: app.stage.fleetView.detailedMax,
     },
   };
 }
