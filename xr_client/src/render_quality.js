@@ -4,9 +4,10 @@
  * Windows basic display driver: a machine without a usable GPU, a VM, CI) takes 100-300 ms for a frame of the
  * twin; drawn at full quality and every frame it holds the page's main thread and everything behind it (input,
  * the connection). There the station lowers quality by itself: no multisampling, 0.75 resolution, every robot as
- * the fleet's shared shape (level_of_detail.js), and at most SOFTWARE_MAX_FPS drawn frames a second (behaviour keeps running every frame; teleop has its own clock).
- * `?quality=high` overrides, `?quality=low`, `?maxfps=N` and `?detail=N` (robots with their full model at most) force.
- * Pure: the WebGL probe is the caller's.
+ * the fleet's shared shape (level_of_detail.js), and at most SOFTWARE_MAX_FPS drawn frames a second (behaviour
+ * keeps running every frame; teleop has its own clock).
+ * `?quality=high` overrides; `?quality=low`, `?maxfps=N` and `?detail=N` (robots with their full model at most)
+ * force. Pure: the WebGL probe is the caller's.
  */
 import { DETAILED_MAX, DETAILED_MAX_LOW_QUALITY } from './level_of_detail.js';
 
