@@ -99,12 +99,8 @@ async def test_unstamped_teleop_that_waited_in_a_frozen_relay_never_moves_the_ro
     try:
         client = await TestClient.open(base.replace("http", "ws") + f"/ws?token={token}")
         await client.hello()
-        # Fresh teleop is taken. On a loaded machine the relay's own loop may stall past the deadman's 0.5 s just as
-        # the frame comes in, and then it is rightly dropped as stale: the operator's next command is taken.
-        for attempt in range(5):
-            first = await client.request(drive("robot1", f"x{attempt}"))
-            if first.get("code") != "stale":
-                break
+        # Fresh teleop is taken (request sends it again if a loaded machine starved the relay just then: stale).
+        first = await client.request(drive("robot1", "x"))
         assert first["identifier"] == "ack", first
         await asyncio.sleep(1.5)  # the deadman stops it; the robot rests
         before = client.pose("robot1")

@@ -546,7 +546,9 @@ async def test_a_client_that_asks_gets_state_in_batches_and_the_same_messages(re
         return counted
 
     a, b = kinds(plain), kinds(batching)
-    assert set(a) == set(b) and {f"robot{i}/pose" for i in (1, 2, 3)} <= set(b)
+    # The same kinds; one that comes once a second (status) may fall inside one client's window and not the other's.
+    assert all(max(a.get(k, 0), b.get(k, 0)) <= 1 for k in set(a) ^ set(b)), (a, b)
+    assert {f"robot{i}/pose" for i in (1, 2, 3)} <= set(b)
     for robot in ("robot1", "robot2", "robot3"):  # 30 Hz each, in both (coalescing may merge a few)
         assert 20 <= b[f"{robot}/pose"] <= 33 and abs(a[f"{robot}/pose"] - b[f"{robot}/pose"]) <= 6
     # Commands and their replies work as for any client.
