@@ -19,9 +19,18 @@ from typing import Any
 from playwright.async_api import Page
 
 from tests.conftest import ROOT, RunningRelay
-from tests.helpers.waiting import wait_until
+from tests.helpers import waiting
 
-__all__ = ["wait_until"]  # the browser tests' poll of the relay's state, with the rest of their helpers
+#: The least a browser test waits for anything (its own timeout when longer). Every wait here is for a condition, never
+#: a measurement: on a 2-core machine loaded beside them (a fresh clone's run with other work going on, load 13),
+#: SwiftShader drew 1-2 frames a second, a hand's ray took over 10 s to reach the wrist E-STOP it was aimed at, and a
+#: goal's robot over 15 s to start moving. Waiting longer costs time only when a test is failing anyway.
+PATIENCE = 30.0
+
+
+async def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    """The browser tests' poll of the relay's state: tests.helpers.waiting's, given at least PATIENCE."""
+    await waiting.wait_until(predicate, max(timeout, PATIENCE), what)
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = ROOT / "test-artifacts"
@@ -128,7 +137,7 @@ class Client:
         handle = await self.page.wait_for_function(
             f"(arg) => {{ const s = window.__xrRelay && window.__xrRelay.state; return s && ({condition}); }}",
             arg=arg,
-            timeout=timeout * 1000,
+            timeout=max(timeout, PATIENCE) * 1000,
             polling=50,
         )
         return await handle.json_value()
