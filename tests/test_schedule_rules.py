@@ -122,7 +122,7 @@ def test_a_schedule_that_can_never_run_has_no_next_run() -> None:
     ("timing", "says"),
     [
         (Timing(0.0, 3600.0, ()), "needs at least one window"),
-        (Timing(0.0, 59.0, (Window((0,), 8, 9),)), "interval must be at least 60 s"),
+        (Timing(0.0, 59.0, (Window((0,), 8, 9),)), "repeat must be at least 60 s"),
         (Timing(0.0, 60.0, (Window((7,), 8, 9),)), "windows[0].days"),
         (Timing(0.0, 60.0, (Window((0,), 9, 9),)), "windows[0]: hours"),
         (Timing(0.0, 60.0, (Window((0,), 8, 25),)), "windows[0]: hours"),

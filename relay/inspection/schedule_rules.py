@@ -80,7 +80,7 @@ def check(timing: Timing) -> None:
     if not (math.isfinite(timing.start) and timing.start >= 0):
         raise ScheduleError(f"start must be a time (Unix seconds), got {timing.start!r}")
     if not (math.isfinite(timing.interval) and timing.interval >= MIN_INTERVAL):
-        raise ScheduleError(f"interval must be at least {MIN_INTERVAL:g} s, got {timing.interval!r}")
+        raise ScheduleError(f"repeat must be at least {MIN_INTERVAL:g} s, got {timing.interval!r}")
     if not timing.windows:
         raise ScheduleError("a schedule needs at least one window (days and hours)")
     for n, window in enumerate(timing.windows):

@@ -1,0 +1,203 @@
+"""Schedules (issue #30 item 1) on a real relay with real WebSocket clients, the simulated fleet and a real SQLite
+database, the schedule's time moved by hand (the relay's wall clock; its monotonic clock, leases and deadman, runs):
+bad input refused naming it, a run started as a mission like any other, a busy robot waited for or skipped, a run
+that pauses or is missed an alert, and runs missed while the relay was down recorded at start-up."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from aiohttp import web
+
+from relay.cli.options import Options
+from relay.config import FleetConfig
+from relay.inspection.store import Store
+from relay.net.server import RELAY_KEY, create_app, open_runner
+from tests.conftest import RunningRelay
+from tests.helpers.inspection import TOKEN, missions, operator
+from tests.wsclient import TestClient
+
+#: Seconds: generous for a loaded 2-core machine (the scheduler beats once a second); never waited out when all is well.
+WAIT = 30.0
+EVERY_DAY = [{"days": ["mon", "tue", "wed", "thu", "fri", "sat", "sun"], "hours": [0, 24]}]
+
+
+class HandClock:
+    """The relay's time of day, moved by the test."""
+
+    def __init__(self, now: float) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+async def _relay(fleet_config: FleetConfig, tmp_path: Path, clock: HandClock) -> RunningRelay:
+    options = Options(token=TOKEN, allow_viewers=True, database=str(tmp_path / "inspection.sqlite"))
+    app = create_app(fleet_config, options, wall_clock=clock)
+    runner = await open_runner(app)
+    site = web.TCPSite(runner, "127.0.0.1", 0)
+    await site.start()
+    host, port = runner.addresses[0][:2]
+    return RunningRelay(f"http://{host}:{port}", f"ws://{host}:{port}/ws", app[RELAY_KEY], runner)
+
+
+def _schedules(client: TestClient) -> dict[str, dict[str, Any]]:
+    """The schedules as the newest `schedules` message this client got lists them."""
+    latest = [m for _, m in client.messages if m["identifier"] == "schedules"]
+    return {s["schedule"]: s for s in latest[-1]["schedules"]} if latest else {}
+
+
+async def _schedule_state(client: TestClient, name: str, check: Any) -> dict[str, Any]:
+    """The first `schedules` message (from now on, or the newest) whose entry ``name`` passes ``check``."""
+    message = await client.wait_for(
+        lambda m: m["identifier"] == "schedules" and any(s["schedule"] == name and check(s) for s in m["schedules"]),
+        WAIT,
+    )
+    return next(s for s in message["schedules"] if s["schedule"] == name)
+
+
+def _alerts(client: TestClient, kind: str) -> list[dict[str, Any]]:
+    return [m for _, m in client.messages if m["identifier"] == "alert" and m["kind"] == kind]
+
+
+def _stored(tmp_path: Path) -> Store:
+    return Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "inspection-images")
+
+
+async def test_a_schedule_runs_its_mission_waits_for_a_busy_robot_skips_and_alerts(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    clock = HandClock(time.time())
+    start = clock.now + 120.0
+    running = await _relay(fleet_config, tmp_path, clock)
+    try:
+        ana = await operator(running)
+        viewer = await TestClient.open(running.ws_url)
+        await viewer.hello()
+        nightly = {
+            "identifier": "schedule/add", "schedule": "nightly", "start": start, "repeat": 3600, "windows": EVERY_DAY,
+            "mission": {"robot": "robot1", "steps": [{"dwell": 60}], "name": "rounds"},
+        }  # fmt: skip
+
+        # Bad input: an error naming it, and nothing changes.
+        bad: list[tuple[dict[str, Any], str, str]] = [
+            ({"repeat": 59}, "bad_request", "repeat must be at least 60 s"),
+            ({"windows": []}, "bad_request", "field 'windows'"),
+            ({"windows": [{"days": ["funday"], "hours": [8, 17]}]}, "bad_request", "unknown weekday 'funday'"),
+            ({"windows": [{"days": ["mon"], "hours": [17, 8]}]}, "bad_request", "hours must be 0 <= first < last"),
+            ({"mission": {"targets": ["spill", "gone"]}}, "bad_request", "unknown target(s) gone"),
+            ({"mission": {"robot": "robot1", "steps": [{"inspect": "gone"}]}}, "bad_request", "unknown target(s) gone"),
+            ({"mission": {"robot": "robot9", "steps": [{"dwell": 1}]}}, "unknown_robot", "robot9"),
+            ({"mission": {"file": "no-such-file"}}, "bad_request", "no mission file 'no-such-file'"),
+        ]
+        for change, code, says in bad:
+            refused = await ana.request({**nightly, **change})
+            assert refused["identifier"] == "error" and refused["code"] == code, (change, refused)
+            assert says in refused["message"] and refused["message"].startswith("schedule/add: "), refused
+        forbidden = await viewer.request(nightly)
+        assert forbidden["identifier"] == "error" and forbidden["code"] == "forbidden", forbidden
+        store = running.relay.inspection.store
+        assert store is not None and store.schedules() == [] and _schedules(ana) == {}
+
+        added = await ana.request(nightly)
+        assert added["identifier"] == "ack", added
+        shown = await _schedule_state(viewer, "nightly", lambda s: s["state"] == "scheduled")
+        assert shown["next_run"] == start and shown["last_run"] is None and shown["on_busy"] == "wait"
+        again = await ana.request(nightly)
+        assert again["identifier"] == "error" and "exists already" in again["message"], again
+
+        # The first run: a mission like any other, owned by the schedule.
+        clock.now = start + 1.0
+        shown = await _schedule_state(ana, "nightly", lambda s: s["state"] == "running")
+        assert shown["last_run"]["outcome"] == "started" and shown["last_run"]["slot"] == start
+        mission_id = shown["last_run"]["mission"]
+        mission = missions(ana)[mission_id]
+        assert (mission["owner"], mission["robot"], mission["name"]) == ("schedule nightly", "robot1", "rounds")
+
+        # An estop holds it (paused): the run's pause is an alert.
+        assert (await ana.request({"identifier": "estop", "robot": "robot1"}))["identifier"] == "ack"
+        paused = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_failed", WAIT)
+        assert paused["subject"] == mission_id and "paused" in paused["text"] and "nightly" in paused["text"], paused
+        aborted = await ana.request({"identifier": "mission/abort", "mission": mission_id})
+        assert aborted["identifier"] == "ack", aborted
+
+        # The next run finds robot1 estopped: it waits within its window, saying why...
+        clock.now = start + 3601.0
+        waiting = await _schedule_state(ana, "nightly", lambda s: s["state"] == "waiting")
+        assert "robot1 is emergency-stopped" in waiting["reason"] and waiting["next_run"] == start + 3600
+        # ... and when the window (here: the next slot) passes, it is missed, and that is an alert.
+        clock.now = start + 7201.0
+        missed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_missed", WAIT)
+        assert "Schedule nightly missed 1 run" in missed["text"] and "emergency-stopped" in missed["text"], missed
+        await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "missed")
+
+        # With on_busy skip, the run due now is skipped, saying so.
+        changed = await ana.request({"identifier": "schedule/update", "schedule": "nightly", "on_busy": "skip"})
+        assert changed["identifier"] == "ack", changed
+        skipped = await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
+        assert skipped["last_run"]["slot"] == start + 7200 and "emergency-stopped" in skipped["last_run"]["reason"]
+        bad_update = await ana.request({"identifier": "schedule/update", "schedule": "nightly", "repeat": 30})
+        assert bad_update["identifier"] == "error" and "repeat must be at least 60 s" in bad_update["message"]
+        assert store.schedule("nightly") is not None and store.schedule("nightly").repeat == 3600  # type: ignore[union-attr]
+
+        # After the reset the next run starts.
+        reset = await ana.request({"identifier": "estop", "robot": "robot1", "action": "reset"})
+        assert reset["identifier"] == "ack", reset
+        clock.now = start + 3 * 3600 + 1.0
+        shown = await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("slot") == start + 3 * 3600)
+        assert shown["last_run"]["outcome"] == "started" and shown["last_run"]["mission"] != mission_id
+        outcomes = [(r.slot - start, r.outcome) for r in reversed(store.schedule_runs("nightly"))]
+        assert outcomes == [(0, "started"), (3600, "missed"), (7200, "skipped"), (10800, "started")]
+
+        # Removed: gone for every client and from the database; an unknown one is refused.
+        removed = await ana.request({"identifier": "schedule/remove", "schedule": "nightly"})
+        assert removed["identifier"] == "ack", removed
+        await viewer.wait_for(lambda m: m["identifier"] == "schedules" and m["schedules"] == [], WAIT)
+        assert store.schedules() == [] and store.schedule_runs("nightly") == []
+        unknown = await ana.request({"identifier": "schedule/remove", "schedule": "nightly"})
+        assert unknown["identifier"] == "error" and "no schedule 'nightly'" in unknown["message"], unknown
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_runs_missed_while_the_relay_was_down_are_recorded_and_alerted_never_started_late(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    clock = HandClock(time.time())
+    start = clock.now + 60.0
+    running = await _relay(fleet_config, tmp_path, clock)
+    try:
+        ana = await operator(running)
+        hourly = {
+            "identifier": "schedule/add", "schedule": "hourly", "start": start, "repeat": 3600,
+            "windows": EVERY_DAY, "mission": {"robot": "robot2", "steps": [{"dwell": 1}]}, "priority": 3,
+        }  # fmt: skip
+        added = await ana.request(hourly)
+        assert added["identifier"] == "ack", added
+    finally:
+        await running.runner.cleanup()
+
+    # Down for three slots and a bit: those three are missed; the fourth is inside its time and starts.
+    clock.now = start + 3 * 3600 + 10.0
+    running = await _relay(fleet_config, tmp_path, clock)
+    try:
+        ana = await operator(running)
+        missed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_missed", WAIT)
+        assert missed["subject"] == "hourly" and missed["robot"] == "robot2", missed
+        assert "missed 3 runs" in missed["text"] and "the relay was not running" in missed["text"], missed
+        shown = await _schedule_state(ana, "hourly", lambda s: (s["last_run"] or {}).get("outcome") == "started")
+        assert shown["last_run"]["slot"] == start + 3 * 3600 and shown["priority"] == 3
+        with _stored(tmp_path) as store:
+            runs = [(r.slot - start, r.outcome, r.reason) for r in reversed(store.schedule_runs("hourly"))]
+        assert runs == [
+            (0, "missed", "the relay was not running"),
+            (3600, "missed", "the relay was not running"),
+            (7200, "missed", "the relay was not running"),
+            (10800, "started", ""),
+        ]
+        assert len(_alerts(ana, "schedule_missed")) == 1
+    finally:
+        await running.runner.cleanup()
