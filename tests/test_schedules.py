@@ -201,3 +201,26 @@ async def test_runs_missed_while_the_relay_was_down_are_recorded_and_alerted_nev
         assert len(_alerts(ana, "schedule_missed")) == 1
     finally:
         await running.runner.cleanup()
+
+
+async def test_runs_due_together_start_by_priority_and_the_other_is_skipped_saying_why(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    clock = HandClock(time.time())
+    start = clock.now + 120.0
+    running = await _relay(fleet_config, tmp_path, clock)
+    try:
+        ana = await operator(running)
+        for name, priority in (("low", 1), ("high", 5)):
+            schedule = {
+                "identifier": "schedule/add", "schedule": name, "start": start, "repeat": 3600, "windows": EVERY_DAY,
+                "mission": {"robot": "robot2", "steps": [{"dwell": 60}]}, "priority": priority, "on_busy": "skip",
+            }  # fmt: skip
+            made = await ana.request(schedule)
+            assert made["identifier"] == "ack", made
+        clock.now = start + 1.0
+        high = await _schedule_state(ana, "high", lambda s: (s["last_run"] or {}).get("outcome") == "started")
+        low = await _schedule_state(ana, "low", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
+        assert f"robot2 is on mission {high['last_run']['mission']}" in low["last_run"]["reason"], low
+    finally:
+        await running.runner.cleanup()

@@ -255,7 +255,8 @@ class Scheduler:
     def _record(self, held: _Schedule, slot: float, outcome: ScheduleOutcome, mission: str | None, why: str) -> None:
         run = ScheduleRun(new_id("r", 6), held.record.id, slot, self._wall(), outcome, mission, why[:500])
         held.last, held.after, held.waiting = run, max(held.after, slot), None
-        self._runs.put(run)
+        if self._schedules.get(held.record.id) is held:  # not removed while its start was awaited: no orphan row
+            self._runs.put(run)
 
     async def _save(self, run: ScheduleRun) -> None:
         store = self._storage.store

@@ -7,7 +7,8 @@
 
 /**
  * @typedef {import('./protocol.js').ScheduleDescription} Schedule
- * @typedef {{name: string, what: string, next: string, last: string, state: string, tone: 'ok' | 'warning'}} ScheduleRow
+ * @typedef {{name: string, what: string, next: string, last: string, state: string, tone: 'ok' | 'warning'}}
+ *   ScheduleRow
  */
 
 /**

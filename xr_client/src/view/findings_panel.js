@@ -80,7 +80,8 @@ export class FindingsPanel {
       .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
       .join('');
     this.root.innerHTML =
-      `${this.#alerts()}${this.#schedules()}${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
+      `${this.#alerts()}${this.#schedules()}${this.#targets()}` +
+      `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
