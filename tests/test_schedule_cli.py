@@ -3,6 +3,7 @@ with nothing changed, and a relay started on the database runs what the command 
 
 from __future__ import annotations
 
+import asyncio
 import time
 from datetime import datetime
 from pathlib import Path
@@ -59,16 +60,17 @@ async def test_a_schedule_made_on_the_command_line_runs_in_the_relay(
 ) -> None:
     clock = HandClock(time.time())
     start = float(int(clock.now) + 120)
-    made = _run(
+    made = await asyncio.to_thread(
+        _run,
         tmp_path, "add", "rounds", "--robot", "robot3", "--steps", '[{"dwell": 1}]', "--start", _local(start),
         "--repeat", "3600", "--window", "mon-sun", "0-24", "--on-busy", "skip", "--priority", "2",
     )  # fmt: skip
     assert made == 0, capsys.readouterr().err
     assert "added rounds; next run" in capsys.readouterr().out
-    assert _run(tmp_path, "add", "rounds", "--file", "demo", "--start", _local(start), "--repeat", "60",
-                "--window", "sat,sun", "0-24") == 2  # fmt: skip
+    twice = ["add", "rounds", "--file", "demo", "--start", _local(start), "--repeat", "60", "--window", "sat", "0-24"]
+    assert await asyncio.to_thread(_run, tmp_path, *twice) == 2
     assert "schedule 'rounds' exists already" in capsys.readouterr().err
-    assert _run(tmp_path, "list") == 0
+    assert await asyncio.to_thread(_run, tmp_path, "list") == 0
     listed = capsys.readouterr().out
     assert listed.startswith("rounds\t") and "every 3600 s" in listed and "on busy skip" in listed, listed
     assert "mon,tue,wed,thu,fri,sat,sun 0-24" in listed and "last none" in listed, listed
@@ -84,7 +86,7 @@ async def test_a_schedule_made_on_the_command_line_runs_in_the_relay(
     finally:
         await running.runner.cleanup()
 
-    assert _run(tmp_path, "remove", "rounds") == 0
-    assert _schedules(tmp_path) == []
-    assert _run(tmp_path, "remove", "rounds") == 2
+    assert await asyncio.to_thread(_run, tmp_path, "remove", "rounds") == 0
+    assert await asyncio.to_thread(_schedules, tmp_path) == []
+    assert await asyncio.to_thread(_run, tmp_path, "remove", "rounds") == 2
     assert "no schedule 'rounds'" in capsys.readouterr().err

@@ -79,6 +79,14 @@ class _Schedule:
     waiting: str | None = None  # why the due run waits
     missions: tuple[str, ...] = ()  # the last run's missions
     seen: dict[str, str] = field(default_factory=dict)  # mission -> its state at the last beat
+    upcoming: tuple[float, float | None] | None = None  # (after, the next run after it): computed once per ``after``
+
+    def next_run(self, tz: tzinfo) -> float | None:
+        """The first run after ``after``. Cached: a beat with nothing due costs a comparison, not a search (a
+        narrow window with a drifting repeat takes a few ms to search, and a relay keeps up to 100 schedules)."""
+        if self.upcoming is None or self.upcoming[0] != self.after:
+            self.upcoming = (self.after, next_run(self.timing, self.after, tz, strictly=True))
+        return self.upcoming[1]
 
 
 class Scheduler:
@@ -181,7 +189,10 @@ class Scheduler:
             if self._schedules.get(held.record.id) is not held:
                 continue  # removed or changed by a command while an earlier schedule's start was awaited
             changed |= self._follow(held)
-            owed = pending(held.timing, held.after, self._wall(), self._tz)
+            upcoming, now = held.next_run(self._tz), self._wall()
+            if upcoming is None or upcoming > now:
+                continue  # nothing owed yet
+            owed = pending(held.timing, held.after, now, self._tz)
             if owed.missed:
                 self._missed(held, owed.missed, owed.more, down or held.waiting or "not started in its window")
                 held.after, held.waiting, changed = owed.last_missed or held.after, None, True
@@ -270,7 +281,7 @@ class Scheduler:
         found = []
         for name in sorted(self._schedules):
             held = self._schedules[name]
-            upcoming = next_run(held.timing, held.after, self._tz, strictly=True)
+            upcoming = held.next_run(self._tz)
             active = any(
                 (m := self._mission(mission_id)) is not None and m.state in ("running", "paused")
                 for mission_id in held.missions
