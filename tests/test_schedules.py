@@ -6,6 +6,7 @@ that pauses or is missed an alert, and runs missed while the relay was down reco
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -38,8 +39,12 @@ class HandClock:
         return self.now
 
 
-async def _relay(fleet_config: FleetConfig, tmp_path: Path, clock: HandClock) -> RunningRelay:
+async def _relay(
+    fleet_config: FleetConfig, tmp_path: Path, clock: HandClock, missions_dir: Path | None = None
+) -> RunningRelay:
     options = Options(token=TOKEN, allow_viewers=True, database=str(tmp_path / "inspection.sqlite"))
+    if missions_dir is not None:
+        options = dataclasses.replace(options, missions_dir=missions_dir)
     app = create_app(fleet_config, options, wall_clock=clock)
     runner = await open_runner(app)
     site = web.TCPSite(runner, "127.0.0.1", 0)
@@ -251,5 +256,32 @@ async def test_runs_due_together_start_by_priority_and_the_other_is_skipped_sayi
         high = await _schedule_state(ana, "high", lambda s: (s["last_run"] or {}).get("outcome") == "started")
         low = await _schedule_state(ana, "low", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
         assert f"robot2 is on mission {high['last_run']['mission']}" in low["last_run"]["reason"], low
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_a_run_that_cannot_start_is_recorded_failed_and_alerted(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    folder = tmp_path / "missions"
+    folder.mkdir()
+    (folder / "round.yaml").write_text("name: Round\nrobots: [{robot: robot1, steps: [{dwell: 1}]}]\n")
+    clock = HandClock(time.time())
+    start = clock.now + 120.0
+    running = await _relay(fleet_config, tmp_path, clock, folder)
+    try:
+        ana = await operator(running)
+        schedule = {
+            "identifier": "schedule/add", "schedule": "round", "start": start, "repeat": 3600, "windows": EVERY_DAY,
+            "mission": {"file": "round"},
+        }  # fmt: skip
+        assert (await ask(ana, schedule))["identifier"] == "ack"
+        (folder / "round.yaml").unlink()  # the file goes after the schedule was made
+        clock.now = start + 1.0
+        failed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_failed", WAIT)
+        assert failed["subject"] == "round" and "could not start" in failed["text"], failed
+        assert "no mission file 'round'" in failed["text"], failed
+        shown = await _schedule_state(ana, "round", lambda s: (s["last_run"] or {}).get("outcome") == "failed")
+        assert shown["next_run"] == start + 3600 and "no mission file 'round'" in shown["last_run"]["reason"]
     finally:
         await running.runner.cleanup()
