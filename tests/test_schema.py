@@ -37,7 +37,12 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "finding": "f-1", "status": "anomaly", "note": "rust", "u": 5, "v": 6,
                            "region": [[0, 0], [10, 0], [10, 10]], "target": "valve-1", "kind": "valve",
                            "facing": 0.5, "codec": "h264", "before": 1795388500.25, "limit": 20,
-                           "alert": "a-20261122-230140-3f9a21c07b5e44d8"}  # fmt: skip
+                           "alert": "a-20261122-230140-3f9a21c07b5e44d8", "schedule": "nightly",
+                           "start": 1795388400.0, "repeat": 3600, "windows": [{"days": ["mon"], "hours": [8, 17]}],
+                           "blackouts": [{"start": 1795400000, "end": 1795403600}], "priority": 1,
+                           "on_busy": "skip"}  # fmt: skip
+#: A schedule's ``mission`` is mission/start's form, where mission/* commands name a mission by id.
+SCHEDULE_SAMPLES: dict[str, Any] = {**SAMPLES, "mission": {"targets": ["spill"]}}
 
 
 def _forms() -> list[tuple[str, WireForm]]:
@@ -58,6 +63,7 @@ def test_each_commands_wire_form_is_what_the_parser_accepts(identifier: str, for
     required = [key for key, _, needed in form.fields if needed]
     optional = [key for key, _, needed in form.fields if not needed]
     samples = {**SAMPLES, "action": "reset"} if identifier == "estop" else SAMPLES
+    samples = SCHEDULE_SAMPLES if identifier.startswith("schedule/") else samples
     full = {"identifier": identifier, **{k: samples[k] for k in required + optional}}
     protocol.parse_command(protocol_bytes(full), ROBOTS)
     protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: samples[k] for k in required}}), ROBOTS)
@@ -109,7 +115,7 @@ def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> Non
         for name, value in vars(module).items()
         if name.endswith("Message") and is_typeddict(value) and value.__module__ == module.__name__
     }
-    assert union == declared and len(union) == 24
+    assert union == declared and len(union) == 25
     generated = _generator().render()
     for name in union | {form.name for _, form in FORMS}:
         assert f"}} {name} */" in generated, name

@@ -210,6 +210,11 @@ def main(argv: list[str] | None = None) -> int:
         from ..inspection.report_cli import main as report_main
 
         return report_main(argv[1:])
+    if argv and argv[0] == "schedule":
+        # `xr-relay schedule add|list|remove`: schedules on the database directly (relay/inspection/schedule_cli.py).
+        from ..inspection.schedule_cli import main as schedule_main
+
+        return schedule_main(argv[1:])
     if argv and argv[0] == "watchdog":
         # `xr-relay watchdog`: the robot-side stop (relay/watchdog/node.py), run on or next to the robots.
         from ..watchdog.node import main as watchdog_main

@@ -12,7 +12,7 @@ from typing import Protocol
 
 from ..backends.base import Backend
 from ..errors import CommandRejected, ProtocolError
-from ..session.clients import Client
+from ..session.clients import Actor, Client
 from ..session.protocol import ErrorCode, RequestId
 from ..station.messages import LeaseReason
 from .fleet_peer import FleetPeer
@@ -79,13 +79,13 @@ class MotionGate:
     # -- its parts ---------------------------------------------------------------------------------
 
     @staticmethod
-    def require_operator(client: Client, identifier: str, request_id: RequestId | None) -> None:
+    def require_operator(client: Actor, identifier: str, request_id: RequestId | None) -> None:
         if client.role != "operator":
             raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
 
     def require_commandable(
         self,
-        client: Client,
+        client: Actor,
         robot: str,
         identifier: str,
         request_id: RequestId | None,
@@ -108,7 +108,7 @@ class MotionGate:
             self.acquired(robot, client.client_id, None, "acquired", now)
 
     def require_movable(
-        self, client: Client, robot: str, identifier: str, request_id: RequestId | None, *, moves: bool = True
+        self, client: Actor, robot: str, identifier: str, request_id: RequestId | None, *, moves: bool = True
     ) -> None:
         """Every rule of :meth:`require_commandable` but the lease: for what acts through a lease it does not hold
         (an operator resuming a mission that holds the robot)."""

@@ -1,5 +1,5 @@
-"""What clients are told of inspection work: ``targets``, ``mission``, ``finding``, ``region`` and ``alert``
-(docs/protocol.md).
+"""What clients are told of inspection work: ``targets``, ``mission``, ``finding``, ``region``, ``alert`` and
+``schedules`` (docs/protocol.md).
 
 Missions, findings and targets go through every client's priority lane: they are few, and none may be coalesced
 away (a finding is not a newer value of another). A client that connects gets the targets, the missions and the
@@ -9,7 +9,8 @@ latest findings right after ``hello``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Literal, TypedDict
+from dataclasses import dataclass
+from typing import Any, Literal, TypedDict
 
 from ..wire.fields import RequestId
 from .records import (
@@ -19,9 +20,13 @@ from .records import (
     FindingStatus,
     MissionRecord,
     MissionState,
+    ScheduleOutcome,
+    ScheduleRecord,
+    ScheduleRun,
     StepKind,
     Target,
 )
+from .schedule_rules import WEEKDAYS
 
 #: Findings a newly connected client is sent (the newest); the rest are in the report and the database.
 FINDINGS_ON_CONNECT = 200
@@ -200,6 +205,92 @@ def alert_message(alert: AlertRecord) -> AlertMessage:
     }
 
 
+# -- schedules (relay.inspection.scheduler): every schedule with its next run, its last run and its state, sent
+# after ``hello`` and to every client when any changes (they are few: at most scheduler.MAX_SCHEDULES) ----------------
+
+ScheduleStateName = Literal["scheduled", "waiting", "running", "over"]
+
+
+@dataclass(frozen=True, slots=True)
+class ScheduleState:
+    """A schedule as clients see it now (relay.inspection.scheduler.Scheduler.states)."""
+
+    record: ScheduleRecord
+    next_run: float | None
+    last: ScheduleRun | None
+    state: ScheduleStateName
+    reason: str
+    now: float
+
+
+class WindowDescription(TypedDict):
+    days: list[str]  # "mon" .. "sun"
+    hours: list[int]  # [first, last): 8, 17 is 08:00 to 17:00
+
+
+class BlackoutDescription(TypedDict):
+    start: float
+    end: float
+
+
+class ScheduleRunDescription(TypedDict):
+    slot: float
+    t: float
+    outcome: ScheduleOutcome
+    mission: str | None
+    reason: str
+
+
+class ScheduleDescription(TypedDict):
+    schedule: str
+    mission: dict[str, Any]
+    start: float
+    repeat: float
+    windows: list[WindowDescription]
+    blackouts: list[BlackoutDescription]
+    priority: int
+    on_busy: Literal["wait", "skip"]
+    owner: str
+    updated: float
+    next_run: float | None
+    last_run: ScheduleRunDescription | None
+    state: ScheduleStateName
+    reason: str
+
+
+class SchedulesMessage(TypedDict):
+    identifier: Literal["schedules"]
+    schedules: list[ScheduleDescription]
+
+
+def schedule_description(found: ScheduleState) -> ScheduleDescription:
+    record, last = found.record, found.last
+    return {
+        "schedule": record.id,
+        "mission": record.mission,
+        "start": record.start,
+        "repeat": record.repeat,
+        "windows": [
+            {"days": [WEEKDAYS[d] for d in days], "hours": [first, end]} for days, first, end in record.windows
+        ],
+        "blackouts": [{"start": a, "end": b} for a, b in record.blackouts],
+        "priority": record.priority,
+        "on_busy": record.on_busy,
+        "owner": record.owner,
+        "updated": record.updated,
+        "next_run": found.next_run,
+        "last_run": None
+        if last is None
+        else {"slot": last.slot, "t": last.t, "outcome": last.outcome, "mission": last.mission, "reason": last.reason},
+        "state": found.state,
+        "reason": found.reason,
+    }
+
+
+def schedules_message(states: Sequence[ScheduleState]) -> SchedulesMessage:
+    return {"identifier": "schedules", "schedules": [schedule_description(s) for s in states]}
+
+
 #: Every message of the inspection feature (relay/station/messages.py gathers it into ``ServerMessage``).
 InspectionMessage = (
     TargetsMessage
@@ -209,6 +300,7 @@ InspectionMessage = (
     | RegionMessage
     | FindingsMessage
     | AlertMessage
+    | SchedulesMessage
 )
 
 

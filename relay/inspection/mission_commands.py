@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from ..config import Robot
     from ..control.control import Control
     from ..fleet.state import FleetState
-    from ..session.clients import Client
+    from ..session.clients import Actor, Client
     from ..station.outbox import Outbox
     from .captures import RaiseAlert
     from .planning import MissionPlanning, Position
@@ -62,7 +62,9 @@ class MissionCommands:
             wall_clock=wall_clock,
         )  # fmt: skip
 
-    async def start(self, client: Client, command: MissionStart, now: float) -> None:
+    async def start(self, client: Actor, command: MissionStart, now: float) -> list[str]:
+        """Start the mission (every rule checked first: CommandRejected naming what refused it); its records' ids.
+        ``client``: who starts it (a client, or a schedule, relay.inspection.scheduler)."""
         plan, placemarks = await self._planning.plan(command)
         if placemarks:
             await self._book.add(placemarks, f"mission/start: {command.file}", command.id)
@@ -109,8 +111,30 @@ class MissionCommands:
             self._control.lease_changed(robot, holder(record.id), previous, "acquired", now)
             self.runner.start(record, waypoints[robot])
             logger.info("mission %s started by %s: %s, %d steps", record.id, client.client_id, robot, len(record.steps))
+        return [record.id for record in records]
 
-    def _free(self, client: Client, robot: str, now: float) -> bool:
+    def busy(self, robot: str | None, now: float) -> str | None:
+        """Why ``robot`` (None: every robot of the fleet) cannot take a mission now, or None when it (one of them)
+        can: offline, emergency-stopped, on a mission, held by an operator, a recording. A schedule's run waits or is
+        skipped for it (relay.inspection.scheduler)."""
+        names = [robot] if robot is not None else list(self._robots)
+        reasons = [self._busy_reason(name, now) for name in names if name in self._robots]
+        return "; ".join(reasons)[:300] if reasons and all(reasons) else None
+
+    def _busy_reason(self, robot: str, now: float) -> str:
+        if not self._fleet.online(robot, now):
+            return f"{robot} is offline"
+        if robot in self._control.latched:
+            return f"{robot} is emergency-stopped"
+        run = self.runner.active(robot)
+        if run is not None:
+            return f"{robot} is on mission {run.record.id} ({run.record.state})"
+        lease = self._control.leases.holder(robot)
+        if lease is not None:
+            return f"{robot} is controlled by {lease}"
+        return self._backend.command_refusal(robot) or ""
+
+    def _free(self, client: Actor, robot: str, now: float) -> bool:
         holder_now = self._control.leases.holder(robot)
         return (
             self._fleet.online(robot, now)

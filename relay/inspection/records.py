@@ -9,7 +9,7 @@ import re
 import secrets
 import time
 from dataclasses import dataclass, field
-from typing import Final, Literal
+from typing import Any, Final, Literal
 
 #: What a target id may be: it names targets in mission files, KML placemarks and commands.
 TARGET_ID: Final = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
@@ -21,7 +21,7 @@ StepKind = Literal["inspect", "goto", "capture", "dwell"]
 AlertSeverity = Literal["warning", "critical"]
 ALERT_SEVERITIES: tuple[AlertSeverity, ...] = ("warning", "critical")
 #: What raises alerts (relay.inspection.alerts): a new kind is added here, where webhooks' ``events`` are checked.
-ALERT_KINDS: Final = ("anomaly", "threshold", "mission_aborted")
+ALERT_KINDS: Final = ("anomaly", "threshold", "mission_aborted", "schedule_missed", "schedule_failed")
 #: The webhook event of an acknowledgement (a raised alert's event is ``alert.raised``, filtered by its kind).
 ALERT_ACKNOWLEDGED: Final = "alert.acknowledged"
 
@@ -127,6 +127,44 @@ class DeliveryRecord:
     status: int | None  # the HTTP status, None: no answer (refused, unreachable, timed out)
     outcome: str  # "delivered", "retrying", "refused" (not retried: 4xx, 3xx), "failed" (gave up)
     detail: str  # why, when it did not succeed
+
+
+@dataclass(frozen=True, slots=True)
+class ScheduleRecord:
+    """A mission started at times (relay.inspection.schedule_rules reads ``start`` .. ``blackouts``).
+
+    ``mission`` is the ``mission/start`` command's form without ``id``: ``{"file"}``, ``{"targets"}`` or
+    ``{"robot", "steps"}``, with an optional ``name``. ``windows``: ``(days, first_hour, last_hour)`` each;
+    ``blackouts``: ``(start, end)`` each (Unix seconds)."""
+
+    id: str  # the schedule's name: letters, digits, _ and -; unique
+    mission: dict[str, Any]
+    start: float
+    repeat: float  # seconds between runs (the rules' interval; "interval" is a PostgreSQL keyword)
+    windows: tuple[tuple[tuple[int, ...], int, int], ...]
+    blackouts: tuple[tuple[float, float], ...]
+    priority: int  # higher first when runs are due together
+    on_busy: Literal["wait", "skip"]
+    created: float
+    updated: float
+    owner: str  # who made or last changed it
+
+
+ScheduleOutcome = Literal["started", "skipped", "missed", "failed"]
+
+
+@dataclass(frozen=True, slots=True)
+class ScheduleRun:
+    """What became of one run of a schedule: ``started`` (``mission`` names it), ``skipped``, ``missed`` or
+    ``failed`` (``reason`` says why)."""
+
+    id: str
+    schedule: str
+    slot: float  # when it was due (Unix seconds)
+    t: float  # when this was decided
+    outcome: ScheduleOutcome
+    mission: str | None
+    reason: str
 
 
 def new_id(prefix: str, random_bytes: int = 3) -> str:

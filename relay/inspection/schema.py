@@ -39,5 +39,14 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         outcome TEXT NOT NULL, detail TEXT NOT NULL)""",
         "CREATE INDEX webhook_deliveries_t ON webhook_deliveries (t)",
     ),
+    (  # 5: schedules (issue #30): missions started at times, and what became of each run
+        """CREATE TABLE schedules (id TEXT PRIMARY KEY, mission TEXT NOT NULL, start DOUBLE PRECISION NOT NULL,
+        repeat DOUBLE PRECISION NOT NULL, windows TEXT NOT NULL, blackouts TEXT NOT NULL,
+        priority INTEGER NOT NULL, on_busy TEXT NOT NULL, created DOUBLE PRECISION NOT NULL,
+        updated DOUBLE PRECISION NOT NULL, owner TEXT NOT NULL)""",
+        """CREATE TABLE schedule_runs (id TEXT PRIMARY KEY, schedule TEXT NOT NULL, slot DOUBLE PRECISION NOT NULL,
+        t DOUBLE PRECISION NOT NULL, outcome TEXT NOT NULL, mission TEXT, reason TEXT NOT NULL)""",
+        "CREATE INDEX schedule_runs_schedule ON schedule_runs (schedule, slot)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)

@@ -9,6 +9,8 @@
   read and steps checked on the planning pool).
 - **Alerts** (relay.inspection.alerts): raised through :meth:`Inspection.raise_alert` by findings, readings and
   missions, acknowledged with ``alert/ack``; stored after they are announced, like mission records.
+- **Schedules** (relay.inspection.scheduler, schedule_commands): missions started at their times as ``schedule
+  <name>``, through the same path as ``mission/start``.
 - **Webhooks** (relay.inspection.webhooks): every alert raised or acknowledged, POSTed and signed in the background.
 - **Storage** runs on one thread of its own (relay.inspection.storage); a database that is locked or full pauses the
   mission with the store's message, and the command that needed it gets an ``error`` naming the database.
@@ -37,10 +39,13 @@ from .messages import (
     finding_message,
     findings_message,
     mission_message,
+    schedules_message,
 )
 from .mission_commands import MissionCommands
 from .planning import MissionPlanning
 from .records import AlertRecord, AlertSeverity, DeliveryRecord, MissionRecord, Target
+from .schedule_commands import ScheduleCommands
+from .scheduler import Scheduler
 from .storage import Storage
 from .target_book import TargetBook
 from .targets import facility_targets, load_targets
@@ -52,6 +57,8 @@ from .wire import (
     MissionControl,
     MissionStart,
     RegionRequest,
+    ScheduleChange,
+    ScheduleRemove,
     TargetAdd,
     inspection_identifier,
 )
@@ -118,6 +125,15 @@ class Inspection:
             alert=self.raise_alert, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self.runner = self.missions.runner
+        self.scheduler = Scheduler(
+            start=self.missions.start, busy=lambda record, now: self.missions.busy(record.mission.get("robot"), now),
+            mission=self._mission_record, storage=self._storage, outbox=outbox, alert=self.raise_alert, clock=clock,
+            wall_clock=wall_clock,
+        )  # fmt: skip
+        self.schedules = ScheduleCommands(
+            self.robots, targets=self.targets, planning=planning, storage=self._storage, scheduler=self.scheduler,
+            wall_clock=wall_clock,
+        )  # fmt: skip
         stops.follow(self.runner.robot_stopped, self.mission_robots)
 
     @property
@@ -144,6 +160,7 @@ class Inspection:
         await self._load_history(store)
         await self.alerts.start(store)
         self.webhooks.start()
+        await self.scheduler.start(store)  # after the alerts: runs missed while the relay was down raise some
         # The store's name: a path, or the URL without its password.
         logger.info("inspection: %d targets, database %s", len(self.targets), store.name)
 
@@ -168,6 +185,7 @@ class Inspection:
         return load_targets(path)
 
     async def stop(self) -> None:
+        await self.scheduler.stop()  # first: no run starts while the rest stops
         await self.runner.stop()
         for run in self.runner.runs.values():
             self._records.put(run.record)
@@ -189,6 +207,11 @@ class Inspection:
         for message in self.captures.recent[-FINDINGS_ON_CONNECT:]:
             self.outbox.to(client, message)
         self.alerts.on_connect(client)
+        self.outbox.to(client, schedules_message(self.scheduler.states()))
+
+    def _mission_record(self, mission_id: str) -> MissionRecord | None:
+        run = self.runner.runs.get(mission_id)
+        return None if run is None else run.record
 
     def raise_alert(
         self,
@@ -227,6 +250,10 @@ class Inspection:
             await self.captures.add_target(client, command)
         elif isinstance(command, AlertAck):
             await self.alerts.acknowledge(client, command)
+        elif isinstance(command, ScheduleChange):
+            await self.schedules.change(client, command)
+        elif isinstance(command, ScheduleRemove):
+            await self.schedules.remove(command)
 
     async def _page(self, client: Client, command: FindingsPage) -> None:
         """A page of the findings history from the database (off the loop), newest first."""
@@ -242,7 +269,7 @@ class Inspection:
     @property
     def store_failure(self) -> str | None:
         """Why mission records or alerts wait to be stored (``/healthz``), or None."""
-        return self._records.failure or self.alerts.failure
+        return self._records.failure or self.alerts.failure or self.scheduler.failure
 
     async def _save(self, record: MissionRecord) -> None:
         store = self.store

@@ -31,11 +31,11 @@ from collections.abc import Sequence
 from dataclasses import fields, replace
 from pathlib import Path
 
-from .alert_store import AlertTables
 from .database import StoreError as StoreError  # re-exported: what callers catch
 from .images import ImageFiles
 from .records import FINDING_STATUSES, CaptureRecord, FindingRecord, MissionRecord, Target
 from .rows import columns, record_of, row_of
+from .schedule_store import ScheduleTables
 from .schema import MIGRATIONS as MIGRATIONS  # re-exported: a test adds a migration to the store's
 
 _MISSION, _CAPTURE, _FINDING, _TARGET = (
@@ -50,9 +50,9 @@ class UnknownRecord(StoreError, LookupError):
     """No record has that id (a LookupError, as a missing key is)."""
 
 
-class Store(AlertTables):
-    """Missions, captures, findings and alerts (relay.inspection.alert_store) in one database. Not thread-safe: the
-    relay calls it from one thread."""
+class Store(ScheduleTables):
+    """Missions, captures, findings, alerts (relay.inspection.alert_store) and schedules
+    (relay.inspection.schedule_store) in one database. Not thread-safe: the relay calls it from one thread."""
 
     def __init__(self, url: str, images: Path, busy_timeout: float) -> None:
         super().__init__(url, busy_timeout)

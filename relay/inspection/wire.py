@@ -158,11 +158,144 @@ class AlertAck(WireCommand):
     note: str | None = custom(lambda value, _, ident: _note(value, ident, MAX_ACK_NOTE), "string")
 
 
+@command("schedule/add", "schedule/update")
+@dataclass(frozen=True, slots=True)
+class ScheduleChange(WireCommand):
+    """A schedule made (``schedule/add``: a new name) or changed (``schedule/update``: the fields given replace the
+    schedule's). Its rules (a window, a repeat of at least 60 s, targets that exist) are checked by
+    relay.inspection.schedule_commands, against the schedule as it would be."""
+
+    FORMS: ClassVar[Forms] = {
+        "ScheduleAddCommand": (
+            ("schedule/add",), ("schedule", "mission", "start", "repeat", "windows"),
+            ("blackouts", "priority", "on_busy"),
+        ),
+        "ScheduleUpdateCommand": (
+            ("schedule/update",), ("schedule",),
+            ("mission", "start", "repeat", "windows", "blackouts", "priority", "on_busy"),
+        ),
+    }  # fmt: skip
+    id: RequestId = request()
+    action: Literal["add", "update"] = from_identifier()
+    schedule: str = text(pattern=TARGET_ID, says="1-64 letters, digits, _ or -")
+    mission: dict[str, Any] | None = custom(lambda value, _, ident: _mission(value, ident), "Object<string, unknown>")
+    start: float | None = real(required=False, low=0.0, high=MAX_TIME)
+    repeat: float | None = real(required=False, low=0.0, high=MAX_TIME)
+    windows: tuple[tuple[tuple[int, ...], int, int], ...] | None = custom(
+        lambda value, _, ident: _windows(value, ident), "{days: string[], hours: number[]}[]"
+    )
+    blackouts: tuple[tuple[float, float], ...] | None = custom(
+        lambda value, _, ident: _blackouts(value, ident), "{start: number, end: number}[]"
+    )
+    priority: int | None = real(required=False, low=-1000, high=1000, integer=True)
+    on_busy: Literal["wait", "skip"] | None = custom(lambda value, _, ident: _on_busy(value, ident), "'wait' | 'skip'")
+
+    def check(self, frame: Frame) -> None:
+        if self.action == "add":
+            for field in ("mission", "start", "repeat", "windows"):
+                if getattr(self, field) is None:
+                    raise ProtocolError(ErrorCode.BAD_REQUEST, f"{frame.identifier}: missing field '{field}'")
+
+
+@command("schedule/remove")
+@dataclass(frozen=True, slots=True)
+class ScheduleRemove(WireCommand):
+    id: RequestId = request()
+    schedule: str = text()
+
+
 #: The inspection commands, for the station's table (relay/session/protocol.py).
 INSPECTION_COMMANDS: Final = (
-    MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd, FindingsPage, AlertAck,
+    MissionStart, MissionControl, FindingMark, RegionRequest, TargetAdd, FindingsPage, AlertAck, ScheduleChange,
+    ScheduleRemove,
 )  # fmt: skip
-InspectionCommand = MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd | FindingsPage | AlertAck
+InspectionCommand = (
+    MissionStart | MissionControl | FindingMark | RegionRequest | TargetAdd | FindingsPage | AlertAck | ScheduleChange
+    | ScheduleRemove
+)  # fmt: skip
+#: The keys of a schedule's ``mission``: ``mission/start``'s (one of file, targets, robot with steps; a name).
+MISSION_KEYS: Final = ("file", "targets", "robot", "steps", "name")
+#: Most windows and blackouts a schedule keeps.
+MAX_WINDOWS = 14
+MAX_BLACKOUTS = 50
+
+
+def _mission(value: Any, identifier: str) -> dict[str, Any] | None:
+    if value is None:
+        return None
+    where = f"{identifier}: field 'mission'"
+    if not isinstance(value, dict) or not value.keys() <= set(MISSION_KEYS):
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{where} must be an object of {', '.join(MISSION_KEYS)} (as mission/start's)"
+        )
+    given = [k for k in ("file", "targets", "steps") if value.get(k) is not None]
+    if len(given) != 1 or (value.get("steps") is None) != (value.get("robot") is None):
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{where} must give exactly one of file, targets, or robot with steps"
+        )
+    for key in ("file", "robot", "name"):
+        if key in value and not (isinstance(value[key], str) and 1 <= len(value[key]) <= 64):
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{where}: '{key}' must be a string of 1 to 64 characters")
+    if value.get("targets") is not None:
+        _strings(value["targets"], "mission.targets", identifier)
+    return dict(value)
+
+
+def _windows(value: Any, identifier: str) -> tuple[tuple[tuple[int, ...], int, int], ...] | None:
+    from .schedule_rules import ScheduleError, weekday_numbers
+
+    if value is None:
+        return None
+    says = (
+        f"{identifier}: field 'windows' must be a list of 1 to {MAX_WINDOWS} "
+        '{"days": ["mon", ...], "hours": [first, last]} (hours 0 to 24)'
+    )
+    if not isinstance(value, list) or not 1 <= len(value) <= MAX_WINDOWS:
+        raise ProtocolError(ErrorCode.BAD_REQUEST, says)
+    windows = []
+    for n, window in enumerate(value):
+        days, hours = (window.get("days"), window.get("hours")) if isinstance(window, dict) else (None, None)
+        if not (isinstance(days, list) and days and all(isinstance(d, str) for d in days)):
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{says}; windows[{n}].days is not")
+        if not (
+            isinstance(hours, list)
+            and len(hours) == 2
+            and all(isinstance(h, int) and not isinstance(h, bool) and 0 <= h <= 24 for h in hours)
+        ):
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{says}; windows[{n}].hours is not")
+        try:
+            windows.append((weekday_numbers(days), hours[0], hours[1]))
+        except ScheduleError as exc:
+            raise ProtocolError(ErrorCode.BAD_REQUEST, f"{identifier}: windows[{n}]: {exc}") from None
+    return tuple(windows)
+
+
+def _blackouts(value: Any, identifier: str) -> tuple[tuple[float, float], ...] | None:
+    if value is None:
+        return None
+    ok = isinstance(value, list) and len(value) <= MAX_BLACKOUTS
+    found = []
+    for item in value if ok else ():
+        times = [item.get("start"), item.get("end")] if isinstance(item, dict) else [None]
+        if not all(isinstance(t, int | float) and not isinstance(t, bool) and 0 <= t <= MAX_TIME for t in times):
+            ok = False
+            break
+        found.append((float(times[0]), float(times[1])))  # type: ignore[arg-type]
+    if not ok:
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST,
+            f"{identifier}: field 'blackouts' must be a list of at most {MAX_BLACKOUTS} "
+            '{"start": s, "end": s} (seconds since the epoch)',
+        )
+    return tuple(found)
+
+
+def _on_busy(value: Any, identifier: str) -> Literal["wait", "skip"] | None:
+    if value is not None and value not in ("wait", "skip"):
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{identifier}: field 'on_busy' must be 'wait' or 'skip', got {show(value)}"
+        )
+    return value  # type: ignore[no-any-return]
 
 
 def _status(value: Any, field: str, identifier: str) -> FindingStatus | None:

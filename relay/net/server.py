@@ -380,12 +380,17 @@ def own_host_names(options: Options) -> frozenset[str]:
 
 
 def create_app(
-    config: FleetConfig, options: Options | None = None, *, backend_factory: BackendFactory | None = None
+    config: FleetConfig,
+    options: Options | None = None,
+    *,
+    backend_factory: BackendFactory | None = None,
+    wall_clock: Callable[[], float] = time.time,
 ) -> web.Application:
-    """``backend_factory``: a backend of the caller's (the benchmarks' synthetic fleet), else the one options name."""
+    """``backend_factory``: a backend of the caller's (the benchmarks' synthetic fleet), else the one options name;
+    ``wall_clock``: the time of day (tests move a schedule's time by hand)."""
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
-    app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory)
+    app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory, wall_clock=wall_clock)
     app[ACCESS_KEY] = Access(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
     )

@@ -7,6 +7,7 @@ import itertools
 import secrets
 from collections.abc import Awaitable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from ..station.hub import Channel
 from .freshness import SenderClock
@@ -19,6 +20,17 @@ _ids = itertools.count(1)
 def new_client_id() -> str:
     """``c<n>-<6 hex>``: short for logs, and not guessable across restarts (the counter restarts, the suffix not)."""
     return f"c{next(_ids)}-{secrets.token_hex(3)}"
+
+
+class Actor(Protocol):
+    """Who a command acts as: a connected client, or the relay acting for a person who is not connected (a schedule's
+    runs, relay.inspection.scheduler: ``schedule <name>``, as an operator)."""
+
+    @property
+    def client_id(self) -> str: ...
+
+    @property
+    def role(self) -> Role: ...
 
 
 @dataclass

@@ -73,7 +73,10 @@ class Relay:
         *,
         backend_factory: BackendFactory | None = None,
         clock: Callable[[], float] = time.monotonic,
+        wall_clock: Callable[[], float] = time.time,
     ) -> None:
+        """``clock``: the relay's monotonic time (leases, deadman); ``wall_clock``: the time of day (records,
+        schedules). Tests pass clocks they move by hand."""
         options = options or Options()
         self.options = options
         self.config = config
@@ -101,7 +104,7 @@ class Relay:
         self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)
         self.inspection = Inspection(
             config, options, backend=self.backend, control=self.control, stops=stops, fleet=self.fleet,
-            outbox=self.outbox, map_grid=self.map_grid, clock=clock,
+            outbox=self.outbox, map_grid=self.map_grid, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self._clients: dict[str, Client] = {}
         self.commands = CommandHandler(

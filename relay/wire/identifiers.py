@@ -15,7 +15,7 @@ SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "nav", "path", 
 #: Global identifiers the server sends.
 SERVER_GLOBAL_KINDS: Final = (
     "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission",
-    "finding", "findings", "region", "operators", "alert",
+    "finding", "findings", "region", "operators", "alert", "schedules",
 )  # fmt: skip
 
 

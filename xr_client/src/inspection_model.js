@@ -13,6 +13,7 @@ import { count } from './wording.js';
  * @typedef {import('./protocol.js').FindingMessage} Finding
  * @typedef {import('./protocol.js').RegionMessage} Region
  * @typedef {import('./protocol.js').AlertMessage} Alert
+ * @typedef {import('./protocol.js').ScheduleDescription} Schedule
  * @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus
  * @typedef {{text: string, kind: 'info' | 'warning' | 'error'}} InspectionNotice
  */
@@ -32,6 +33,8 @@ export class InspectionModel {
   findings = new Map();
   /** Alerts nobody acknowledged yet, by id; an acknowledged one leaves. @type {Map<string, Alert>} */
   alerts = new Map();
+  /** The schedules, as the relay's newest `schedules` message lists them. @type {Schedule[]} */
+  schedules = [];
   /** Outlines the relay segmented, by the request id that asked (region). @type {Map<string, number[][]>} */
   regions = new Map();
   /** Requests the review waits on (a target from the live image), until their ack or error. @type {Set<string>} */
@@ -50,7 +53,7 @@ export class InspectionModel {
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
    * @param {import('./protocol.js').TargetsMessage | import('./protocol.js').TargetsChangedMessage | Mission | Finding
-   *   | Region | import('./protocol.js').FindingsMessage | Alert} message
+   *   | Region | import('./protocol.js').FindingsMessage | Alert | import('./protocol.js').SchedulesMessage} message
    * @returns {InspectionNotice[]}
    */
   apply(message) {
@@ -80,6 +83,9 @@ export class InspectionModel {
         return [];
       case 'alert':
         return this.#alert(message);
+      case 'schedules': // the whole list, on every change: they are few (at most 100)
+        this.schedules = message.schedules;
+        return [];
     }
   }
 
@@ -192,6 +198,7 @@ export class InspectionModel {
     this.missions.clear();
     this.findings.clear();
     this.alerts.clear();
+    this.schedules = [];
     this.regions.clear();
     this.history = 'unknown';
     this.version++;

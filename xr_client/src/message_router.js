@@ -20,7 +20,7 @@ import { ControlNews } from './control_news.js';
  *   | import('./protocol.js').TargetsChangedMessage | import('./protocol.js').MissionMessage
  *   | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage
  *   | import('./protocol.js').FindingsMessage | import('./protocol.js').OperatorsMessage
- *   | import('./protocol.js').AlertMessage} GlobalMessage the messages
+ *   | import('./protocol.js').AlertMessage | import('./protocol.js').SchedulesMessage} GlobalMessage the messages
  *   whose identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
@@ -183,6 +183,7 @@ export class MessageRouter {
       case 'finding':
       case 'findings':
       case 'alert':
+      case 'schedules':
       case 'region': {
         const told = this.inspection.apply(message).map((n) => notice(n.text, n.kind));
         return [{ type: 'inspection' }, ...told];

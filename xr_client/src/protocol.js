@@ -10,9 +10,9 @@ export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
 export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
-export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack"]);
+export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack", "schedule/add", "schedule/update", "schedule/remove"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert", "schedules"]);
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
@@ -65,9 +65,14 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{by: string, at: number, note: string}} AlertAcknowledgement */
 /** @typedef {{identifier: 'alert', alert: string, kind: string, robot: string | null, subject: string | null, text: string, severity: 'warning' | 'critical', raised: number, acknowledged: AlertAcknowledgement | null}} AlertMessage */
 /** @typedef {{identifier: 'region', id: RequestId, capture: string, outline: number[][]}} RegionMessage */
+/** @typedef {{days: string[], hours: number[]}} WindowDescription */
+/** @typedef {{start: number, end: number}} BlackoutDescription */
+/** @typedef {{slot: number, t: number, outcome: 'started' | 'skipped' | 'missed' | 'failed', mission: string | null, reason: string}} ScheduleRunDescription */
+/** @typedef {{schedule: string, mission: Object<string, unknown>, start: number, repeat: number, windows: WindowDescription[], blackouts: BlackoutDescription[], priority: number, on_busy: 'wait' | 'skip', owner: string, updated: number, next_run: number | null, last_run: ScheduleRunDescription | null, state: 'scheduled' | 'waiting' | 'running' | 'over', reason: string}} ScheduleDescription */
+/** @typedef {{identifier: 'schedules', schedules: ScheduleDescription[]}} SchedulesMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage | AlertMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage | AlertMessage | SchedulesMessage} ServerMessage
  */
 
 // Client to server
@@ -95,9 +100,12 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'target/add', id: RequestId, target: string, robot: string, u: number, v: number, name?: string, kind?: string}} TargetFromLiveCommand */
 /** @typedef {{identifier: 'findings/page', id: RequestId, before?: number, limit?: number}} FindingsPageCommand */
 /** @typedef {{identifier: 'alert/ack', id: RequestId, alert: string, note?: string}} AlertAckCommand */
+/** @typedef {{identifier: 'schedule/add', id: RequestId, schedule: string, mission: Object<string, unknown>, start: number, repeat: number, windows: {days: string[], hours: number[]}[], blackouts?: {start: number, end: number}[], priority?: number, on_busy?: 'wait' | 'skip'}} ScheduleAddCommand */
+/** @typedef {{identifier: 'schedule/update', id: RequestId, schedule: string, mission?: Object<string, unknown>, start?: number, repeat?: number, windows?: {days: string[], hours: number[]}[], blackouts?: {start: number, end: number}[], priority?: number, on_busy?: 'wait' | 'skip'}} ScheduleUpdateCommand */
+/** @typedef {{identifier: 'schedule/remove', id: RequestId, schedule: string}} ScheduleRemoveCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand | AlertAckCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand | AlertAckCommand | ScheduleAddCommand | ScheduleUpdateCommand | ScheduleRemoveCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

@@ -9,6 +9,7 @@
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { reportLinks } from '../report_links.js';
+import { scheduleRows } from '../schedule_list.js';
 
 export class FindingsPanel {
   /** @type {'anomaly' | 'needs_review' | 'ok' | ''} */
@@ -52,7 +53,11 @@ export class FindingsPanel {
 
   render() {
     const findings = this.model.list({ status: this.filter || null });
-    this.root.hidden = this.model.findings.size === 0 && this.model.targets.size === 0 && this.model.alerts.size === 0;
+    this.root.hidden =
+      this.model.findings.size === 0 &&
+      this.model.targets.size === 0 &&
+      this.model.alerts.size === 0 &&
+      this.model.schedules.length === 0;
     const selected = this.review.selected;
     const options = ['', ...FINDING_STATUSES]
       .map(
@@ -75,7 +80,8 @@ export class FindingsPanel {
       .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
       .join('');
     this.root.innerHTML =
-      `${this.#alerts()}${this.#targets()}<div class="head"><b>Findings (${this.model.findings.size})</b>` +
+      `${this.#alerts()}${this.#schedules()}${this.#targets()}` +
+      `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
@@ -101,6 +107,20 @@ export class FindingsPanel {
       `<div class="head"><b>Alerts <span class="badge" title="alerts to acknowledge">${alerts.length}</span></b>` +
       `</div><ol class="alerts">${rows}</ol>`
     );
+  }
+
+  /** The schedules: what each runs, its next run, what became of its last run, its state (docs/inspection.md). */
+  #schedules() {
+    const rows = scheduleRows(this.model.schedules);
+    if (!rows.length) return '';
+    const items = rows
+      .map(
+        (r) =>
+          `<li data-schedule="${esc(r.name)}" class="schedule ${r.tone}"><b>${esc(r.name)}</b> · ${esc(r.what)}` +
+          `<br><small>next ${esc(r.next)} · last ${esc(r.last)} · ${esc(r.state)}</small></li>`,
+      )
+      .join('');
+    return `<div class="head"><b>Schedules (${rows.length})</b></div><ol class="schedules">${items}</ol>`;
   }
 
   /** Older findings from the relay's database, a page at a time, until the oldest is here. */
