@@ -32,6 +32,7 @@ async def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -
     """The browser tests' poll of the relay's state: tests.helpers.waiting's, given at least PATIENCE."""
     await waiting.wait_until(predicate, max(timeout, PATIENCE), what)
 
+
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = ROOT / "test-artifacts"
 DOC_IMAGES = ROOT / "docs" / "img"
