@@ -114,7 +114,7 @@ def _version(url: str) -> int:
 
 
 def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
-    assert store.schema_version == SCHEMA_VERSION == 4
+    assert store.schema_version == SCHEMA_VERSION == 5
     assert store.mission("m-1.robot1") is None and store.missions() == []
     store.save_mission(_mission())
     assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
