@@ -21,14 +21,14 @@ import json
 import sys
 import time
 from collections.abc import Sequence
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .records import ScheduleRecord
+from .records import ScheduleRecord, ScheduleRun
 from .schedule_commands import refusal
 from .schedule_rules import WEEKDAYS, ScheduleError, next_run, weekday_numbers
-from .scheduler import timing_of
+from .scheduler import GRACE, owed_after, timing_of
 
 if TYPE_CHECKING:
     from .store import Store
@@ -38,6 +38,10 @@ _PROG = "xr-relay schedule"
 
 class _Refused(Exception):
     """A schedule that cannot be made; the message names why."""
+
+
+#: The zone of the windows: this machine's, as the relay's scheduler takes it.
+_LOCAL = datetime.now().astimezone().tzinfo or UTC
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -66,7 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     print(  # noqa: T201
                         f"{record.id}\t{json.dumps(record.mission)}\tevery {record.repeat:g} s\t"
                         f"{_windows(record)}\tpriority {record.priority}\ton busy {record.on_busy}\t"
-                        f"next {_when(_next(record))}\tlast {done}"
+                        f"next {_when(_next(record, run))}\tlast {done}"
                     )
     except (_Refused, StoreError, OSError) as exc:
         print(f"{_PROG}: {exc}", file=sys.stderr)  # noqa: T201
@@ -203,12 +207,13 @@ def _time(text: str, option: str) -> float:
         raise _Refused(f"{option} {text!r} is not an ISO 8601 time (2026-11-30T08:00)") from None
 
 
-def _next(record: ScheduleRecord) -> float | None:
+def _next(record: ScheduleRecord, last: ScheduleRun | None = None) -> float | None:
+    """The next run as the relay's scheduler counts it (owed_after): a start less than its grace in the past still
+    runs when a relay takes the schedule up; older ones it records missed."""
+    after = max(owed_after(record, last), time.time() - GRACE)
     try:
-        local = datetime.now().astimezone().tzinfo
-        assert local is not None
-        return next_run(timing_of(record), time.time(), local)
-    except (ScheduleError, AssertionError):
+        return next_run(timing_of(record), after, _LOCAL, strictly=True)
+    except ScheduleError:
         return None
 
 

@@ -65,6 +65,12 @@ class ScheduleActor:
     role: Role = "operator"
 
 
+def owed_after(record: ScheduleRecord, last: ScheduleRun | None) -> float:
+    """The time after which ``record`` owes runs: its last run handled, or (none yet) ``GRACE`` before it was made or
+    changed. The relay and ``xr-relay schedule`` both say the next run from it."""
+    return record.updated - GRACE if last is None else max(record.updated - GRACE, last.slot)
+
+
 def timing_of(record: ScheduleRecord) -> Timing:
     windows = tuple(Window(tuple(days), first, last) for days, first, last in record.windows)
     return Timing(record.start, record.repeat, windows, tuple(Blackout(a, b) for a, b in record.blackouts))
@@ -171,10 +177,7 @@ class Scheduler:
         self.announce()
 
     def _add(self, record: ScheduleRecord, last: ScheduleRun | None) -> None:
-        after = record.updated - GRACE
-        if last is not None:
-            after = max(after, last.slot)
-        held = _Schedule(record, timing_of(record), after, last)
+        held = _Schedule(record, timing_of(record), owed_after(record, last), last)
         if last is not None and last.mission:
             held.missions = tuple(last.mission.split(","))
         self._schedules[record.id] = held
