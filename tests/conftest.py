@@ -34,6 +34,7 @@ from relay.cli.options import Options
 from relay.config import FleetConfig, load_config
 from relay.net.server import RELAY_KEY, create_app, open_runner
 from relay.station.core import Relay
+from tests.helpers.shared_memory import memory_report, remove_orphaned_segments
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The shared recordings, maps, photos and robot description (../shared/data beside the repository; a clone of the
@@ -216,6 +217,21 @@ async def relay_server(fleet_config: FleetConfig) -> AsyncIterator[RunningRelay]
 #: ROS domain ids that are safe on Linux: from 102 on, a participant's ports can fall in the ephemeral range that
 #: port-0 sockets draw from. Domain 0, everyone's default, is left out.
 _DOMAIN_RANGE = range(1, 102)
+
+
+def _remove_orphaned_segments(session: pytest.Session) -> None:
+    # Once, in the process that runs the workers: between the suite's two parts and around the whole.
+    if not hasattr(session.config, "workerinput"):
+        remove_orphaned_segments()
+
+
+pytest_sessionstart = pytest_sessionfinish = _remove_orphaned_segments
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_handlecrashitem(crashitem: str, report: pytest.TestReport, sched: Any) -> None:
+    """A worker died under a test (pytest-xdist): the memory at that moment goes with the failure."""
+    report.sections.append(("memory when the worker died", memory_report()))
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -21,6 +21,7 @@ from relay.ros.nav2_types import (
     GoalState,
     ResultAnswer,
 )
+from tests.helpers.waiting import wait_until
 
 OLD, A, B = b"o" * 16, b"a" * 16, b"b" * 16
 GOAL = (9.0, 6.0, None)
@@ -191,8 +192,9 @@ async def test_stops_publish_the_gate_send_the_cancel_at_once_and_report_its_ans
         nav.stop("nav", "cancelled")  # a later stop (shutdown, a take-over): hold never lifts an estop
         assert transport.words[-1] == ("nav", "estop")
         transport.cancels[0].set_result(CancelAnswer(0, (A,)))
-        await asyncio.sleep(0.01)
-        assert CancelAnswerEvent("nav", GOAL, True, "Nav2 is cancelling 1 goal") in events
+        # The answer reaches the event a few loop turns later: a fixed 10 ms sleep lost that race on a loaded CI.
+        answered = CancelAnswerEvent("nav", GOAL, True, "Nav2 is cancelling 1 goal")
+        await wait_until(lambda: answered in events, 5.0, "the cancel's answer as an event")
         nav.release("nav")
         nav.stop("nav", "lease expired")
         assert transport.words[-2:] == [("nav", "drive"), ("nav", "hold")]
@@ -207,7 +209,7 @@ async def test_stops_publish_the_gate_send_the_cancel_at_once_and_report_its_ans
         nav.status("nav", (GoalState(B, 2.0, STATUS_EXECUTING),))
         nav.status("nav", (GoalState(B, 2.0, STATUS_ABORTED),))
         transport.results[-1].set_result(ResultAnswer(STATUS_ABORTED, 105, "stuck"))
-        await asyncio.sleep(0.01)
+        await wait_until(lambda: isinstance(events[-1], NavEvent) and events[-1].outcome == "failed", 5.0, "the abort")
         failed = events[-1]
         assert isinstance(failed, NavEvent) and failed.outcome == "failed" and failed.error_code == 105
         # A bare goal_pose robot: no gate (no watchdog), no cancel; its goal ends by pose or by a stop.
