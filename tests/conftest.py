@@ -18,6 +18,7 @@ import sys
 import tempfile
 import threading
 import time
+import weakref
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,18 +167,57 @@ def loop_block_collector() -> Iterator[SlowCallbackCollector]:
         logger.removeHandler(collector)
 
 
+_ASYNCIO_LOG = logging.getLogger("asyncio")
+_RUN_HANDLE = asyncio.Handle._run
+#: The loops whose callbacks are timed, and the duration from which one is reported.
+_TIMED: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, float] = weakref.WeakKeyDictionary()
+
+
+def _timed_run(handle: asyncio.Handle) -> None:
+    """A callback run as asyncio's debug mode runs it: timed, and reported in debug mode's words when slow."""
+    threshold = _TIMED.get(handle._loop)  # type: ignore[attr-defined]
+    if threshold is None:
+        _RUN_HANDLE(handle)
+        return
+    start = time.monotonic()
+    _RUN_HANDLE(handle)  # never raises: a callback's exception goes to the loop's exception handler
+    took = time.monotonic() - start
+    if took >= threshold:
+        _ASYNCIO_LOG.warning("Executing %s took %.3f seconds", asyncio.base_events._format_handle(handle), took)  # type: ignore[attr-defined]
+
+
+def _on_the_loops_thread(loop: asyncio.AbstractEventLoop, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``loop.<name>`` raises when called from another thread, as in debug mode (call_soon_threadsafe is the way)."""
+    method = getattr(loop, name)
+
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        loop._check_thread()  # type: ignore[attr-defined]
+        return method(*args, **kwargs)
+
+    monkeypatch.setattr(loop, name, checked)
+
+
 @pytest.fixture(autouse=True)
 async def _fail_on_blocking(
-    request: pytest.FixtureRequest, loop_block_collector: SlowCallbackCollector
+    request: pytest.FixtureRequest, loop_block_collector: SlowCallbackCollector, monkeypatch: pytest.MonkeyPatch
 ) -> AsyncIterator[None]:
-    """Every async test runs with asyncio debug mode; a callback that blocks the loop fails the test."""
+    """Every async test runs with the two checks of asyncio's debug mode that find relay bugs: a callback that
+    blocks the loop fails the test, and the loop's scheduling calls raise when made from another thread.
+
+    Not debug mode itself: it also records where every future, handle and task was made (a walk of the stack with a
+    stat() of each frame's file, at every create_future and call_soon). Profiled in a VR test, that was 16 s of the
+    39 s the test's own process computed (266 k stat calls, most for Playwright's futures); CPython's C futures
+    take the stack from a function they hold, so it cannot be turned off alone."""
     loop = asyncio.get_running_loop()
-    loop.set_debug(True)
-    loop.slow_callback_duration = BLOCKING_THRESHOLD
+    _TIMED[loop] = BLOCKING_THRESHOLD
+    monkeypatch.setattr(asyncio.Handle, "_run", _timed_run)
+    for name in ("call_soon", "call_at"):
+        _on_the_loops_thread(loop, name, monkeypatch)
     canary = Canary()
     canary.start()
     yield
     canary.running = False
+    _TIMED.pop(loop, None)
     blocking = loop_block_collector.blocking(canary)
     if blocking and "allow_blocking" not in request.keywords:
         pytest.fail("the event loop was blocked:\n" + "\n".join(blocking[:5]))

@@ -90,3 +90,18 @@ async def test_the_loop_blocking_check_catches_a_blocking_call(
     canary.running = False
     blocking = loop_block_collector.blocking(canary)
     assert blocking and "took" in blocking[0]
+
+
+async def test_the_loop_refuses_scheduling_from_another_thread() -> None:
+    """The autouse check's other half: a relay thread must hand work over with call_soon_threadsafe."""
+    loop = asyncio.get_running_loop()
+    errors: list[BaseException] = []
+
+    def from_a_thread() -> None:
+        try:
+            loop.call_soon(lambda: None)
+        except RuntimeError as error:
+            errors.append(error)
+
+    await asyncio.to_thread(from_a_thread)
+    assert errors and "thread" in str(errors[0])
