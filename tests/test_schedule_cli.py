@@ -12,10 +12,13 @@ import pytest
 
 from relay.cli.main import main
 from relay.config import FleetConfig
+from relay.inspection.scheduler import REREAD
 from relay.inspection.store import Store
-from tests.conftest import ROOT
+from tests.conftest import LOAD_SLACK, ROOT
 from tests.helpers.inspection import operator
-from tests.test_schedules import HandClock, _relay, _schedule_state
+from tests.helpers.waiting import wait_until
+from tests.test_schedules import EVERY_DAY, HandClock, _relay, _schedule_state, ask
+from tests.test_schedules import _schedules as _shown
 
 
 def _run(tmp_path: Path, *args: str) -> int:
@@ -90,3 +93,30 @@ async def test_a_schedule_made_on_the_command_line_runs_in_the_relay(
     assert await asyncio.to_thread(_schedules, tmp_path) == []
     assert await asyncio.to_thread(_run, tmp_path, "remove", "rounds") == 2
     assert "no schedule 'rounds'" in capsys.readouterr().err
+
+
+async def test_a_running_relay_takes_up_what_the_command_line_adds_and_removes(
+    fleet_config: FleetConfig, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    clock = HandClock(time.time())
+    start = float(int(clock.now) + 3600)
+    running = await _relay(fleet_config, tmp_path, clock)
+    try:
+        ana = await operator(running)
+        made = await ask(ana, {
+            "identifier": "schedule/add", "schedule": "by-hand", "start": start, "repeat": 3600, "windows": EVERY_DAY,
+            "mission": {"targets": ["spill"]},
+        })  # fmt: skip
+        assert made["identifier"] == "ack", made
+        args = ["--robot", "robot3", "--steps", '[{"dwell": 1}]', "--start", _local(start), "--repeat", "3600"]
+        added = await asyncio.to_thread(_run, tmp_path, "add", "nightly", *args, "--window", "mon-sun", "0-24")
+        assert added == 0, capsys.readouterr().err
+        # Within the relay's reading period (REREAD, 5 s), with a loaded machine's margin: no restart.
+        shown = await _schedule_state(ana, "nightly", lambda s: s["state"] == "scheduled")
+        assert shown["next_run"] == start and shown["owner"].startswith("xr-relay schedule")
+        assert await asyncio.to_thread(_run, tmp_path, "remove", "nightly") == 0
+        await wait_until(lambda: "nightly" not in _shown(ana), REREAD + 10 + LOAD_SLACK, "nightly gone")
+        # The schedule made by a client stays as it was: a reading never undoes a command.
+        assert _shown(ana)["by-hand"]["state"] == "scheduled"
+    finally:
+        await running.runner.cleanup()

@@ -49,6 +49,9 @@ MAX_SCHEDULES: Final = 100
 #: Runs a new or changed schedule owes from before it was made: none older than this (seconds), so a schedule
 #: whose start is "now" in the operator's browser still runs its first round when the command arrives a bit later.
 GRACE: Final = 60.0
+#: How often a running relay reads the database's schedules again (seconds): a change made with ``xr-relay schedule``
+#: reaches it within this. One query of at most MAX_SCHEDULES rows on the store's thread.
+REREAD: Final = 5.0
 #: Refusals that mean the robot is busy (wait or skip), not that the mission is wrong (failed).
 _BUSY_CODES: Final = (ErrorCode.ESTOPPED, ErrorCode.LEASED, ErrorCode.BUSY)
 
@@ -109,9 +112,11 @@ class Scheduler:
         wall_clock: Callable[[], float] = time.time,
         tz: tzinfo | None = None,
         period: float = 1.0,
+        reread: float = REREAD,
     ) -> None:
         """``start``: mission/start's path; ``busy``: why a schedule's robots cannot run it now; ``mission``: a
-        mission's record by id; ``tz``: the zone of the windows (None: the relay's local zone)."""
+        mission's record by id; ``tz``: the zone of the windows (None: the relay's local zone); ``reread``: how
+        often the database's schedules are read again (seconds)."""
         self._start, self._busy, self._mission = start, busy, mission
         self._storage, self._outbox, self._alert = storage, outbox, alert
         self._clock, self._wall, self._period = clock, wall_clock, period
@@ -119,6 +124,9 @@ class Scheduler:
         self._schedules: dict[str, _Schedule] = {}
         self._runs: WriteBehind[ScheduleRun] = WriteBehind(self._save, "schedule runs")
         self._task: asyncio.Task[None] | None = None
+        self._store: Store | None = None
+        self._reread, self._unread = reread, reread
+        self._edits = 0  # schedules put or removed by this relay's commands: a reading older than one is stale
 
     @property
     def tz(self) -> tzinfo:
@@ -134,6 +142,7 @@ class Scheduler:
     async def start(self, store: Store) -> None:
         """The schedules of the database, each taken up after its last run; runs missed while the relay was down
         are recorded and alerted now; then the beat."""
+        self._store = store
         records = await self._storage.run(store.schedules)
         last = await self._storage.run(store.last_schedule_runs)
         for record in records[:MAX_SCHEDULES]:
@@ -153,9 +162,40 @@ class Scheduler:
         while True:
             await asyncio.sleep(self._period)
             try:
+                self._unread -= self._period
+                if self._unread <= 0:
+                    self._unread = self._reread
+                    await self.reread()
                 await self._beat(None)
             except Exception:  # a bug in one beat must not end the schedules: logged, and the next beat comes
                 logger.exception("scheduler: a beat failed")
+
+    async def reread(self) -> None:
+        """The database's schedules again: ``xr-relay schedule`` writes there while the relay runs. A schedule
+        added, changed (its ``updated``) or removed there is taken up here as a client's command would be; a
+        reading during which a command of this relay changed a schedule is dropped (the next one decides)."""
+        store = self._store
+        if store is None:
+            return
+        edits = self._edits
+        records = await self._storage.run(store.schedules)
+        if edits != self._edits:
+            return
+        found = {r.id: r for r in records[:MAX_SCHEDULES]}
+        gone = [name for name in self._schedules if name not in found]
+        fresh = [
+            r for r in found.values() if (held := self._schedules.get(r.id)) is None or held.record.updated != r.updated
+        ]
+        for name in gone:
+            logger.info("schedule %s: removed from the database (xr-relay schedule)", name)
+            self._schedules.pop(name)
+        for record in fresh:
+            logger.info("schedule %s: %s in the database (xr-relay schedule)", record.id,
+                        "changed" if record.id in self._schedules else "added")  # fmt: skip
+            held = self._schedules.get(record.id)
+            self._add(record, None if held is None else held.last)
+        if gone or fresh:
+            self.announce()
 
     # -- the schedules ----------------------------------------------------------------------------
 
@@ -170,10 +210,12 @@ class Scheduler:
         """A schedule added or changed (stored already): runs owed from now on, announced to every client."""
         held = self._schedules.get(record.id)
         self._add(record, None if held is None else held.last)
+        self._edits += 1
         self.announce()
 
     def remove(self, name: str) -> None:
         self._schedules.pop(name, None)
+        self._edits += 1
         self.announce()
 
     def _add(self, record: ScheduleRecord, last: ScheduleRun | None) -> None:
