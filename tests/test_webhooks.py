@@ -291,3 +291,25 @@ async def test_a_relay_delivers_an_anomaly_and_its_acknowledgement_once_and_neve
         await running.runner.cleanup()
     assert len(receiver.got) == 2  # once each
     assert SECRET not in caplog.text
+
+
+def test_delivery_attempts_are_kept_90_days_and_at_most_a_bounded_count(
+    store: Store, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A webhook that fails for months, or an alert storm, does not grow the database without bound: attempts older
+    than 90 days go, and past the row cap the oldest go, as each new one is written."""
+    from relay.inspection import alert_store
+
+    def attempt(n: int, t: float) -> DeliveryRecord:
+        return DeliveryRecord(f"d-{n}", "http://127.0.0.1:9/hook", "alert.raised", "a-1", 1, t, None, "failed", "x")
+
+    now = time.time()
+    store.add_delivery(attempt(0, now - 91 * 86400))
+    store.add_delivery(attempt(1, now - 89 * 86400))
+    assert [d.id for d in store.deliveries(10)] == ["d-1", "d-0"]  # both kept until a newer attempt is written
+    store.add_delivery(attempt(2, now))
+    assert [d.id for d in store.deliveries(10)] == ["d-2", "d-1"]
+    monkeypatch.setattr(alert_store, "MOST_DELIVERIES", 4)
+    for n in range(3, 9):
+        store.add_delivery(attempt(n, now + n))
+    assert [d.id for d in store.deliveries(10)] == ["d-8", "d-7", "d-6", "d-5"]

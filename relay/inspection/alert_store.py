@@ -20,6 +20,10 @@ from .rows import columns, record_of, row_of
 _ALERT = columns(AlertRecord)
 _DELIVERY = columns(DeliveryRecord)
 _ACK = ("acked_by", "acked_at", "ack_note")
+#: How long a webhook delivery attempt is kept (seconds): 90 days, a quarter's audit of who was told what.
+DELIVERIES_KEPT = 90 * 86400.0
+#: Most delivery attempts kept, whatever their age: about 10 MB of rows.
+MOST_DELIVERIES = 50_000
 
 
 class AlertTables(Database):
@@ -64,8 +68,24 @@ class AlertTables(Database):
     # -- webhook deliveries -----------------------------------------------------------------------
 
     def add_delivery(self, delivery: DeliveryRecord) -> None:
+        """Keep a delivery attempt, in the same transaction dropping those older than ``DELIVERIES_KEPT`` seconds
+        before it, and the oldest beyond ``MOST_DELIVERIES`` rows (a webhook that fails for months, or an alert
+        storm, must not grow the database without bound)."""
         values = row_of(delivery)
-        self._write(f"INSERT INTO webhook_deliveries ({_DELIVERY}) VALUES ({', '.join('?' * len(values))})", values)
+        with self._transaction() as cursor:
+            cursor.execute(
+                self._sql(f"INSERT INTO webhook_deliveries ({_DELIVERY}) VALUES ({', '.join('?' * len(values))})"),
+                tuple(values),
+            )
+            cursor.execute(self._sql("DELETE FROM webhook_deliveries WHERE t < ?"), (delivery.t - DELIVERIES_KEPT,))
+            # The row cap: through the index on t, only past the newest MOST_DELIVERIES rows (a few ms at the cap).
+            cursor.execute(
+                self._sql(
+                    "DELETE FROM webhook_deliveries WHERE t < (SELECT t FROM webhook_deliveries "
+                    "ORDER BY t DESC LIMIT 1 OFFSET ?)"
+                ),
+                (MOST_DELIVERIES - 1,),  # the oldest row kept is the MOST_DELIVERIES-th newest
+            )
 
     def deliveries(self, limit: int, alert: str | None = None) -> list[DeliveryRecord]:
         """The newest ``limit`` delivery attempts (of one alert when given), newest first."""
