@@ -39,6 +39,7 @@ export function menuButtons(menu) {
     ...toolButtons(menu, context),
     ...cameraButtons(menu, context),
     ...missionButtons(menu),
+    ...alertButtons(menu),
     ...optionButtons(menu),
     ...estopButtons(menu, context),
   ];
@@ -174,6 +175,41 @@ function missionButtons(menu) {
             group: 'mission',
             active: false,
             enabled: menu.operator && menu.connected,
+          },
+        ]
+      : []),
+  ];
+}
+
+/** Alerts shown as buttons at most: the VR panel's row stays readable (60 characters a button at its width). */
+export const MENU_ALERTS = 2;
+const ALERT_TEXT = 60;
+
+/**
+ * The newest open alerts, each acknowledged by its button (operators), and how many more wait on the desktop's list.
+ * @param {MenuState} menu @returns {MenuButton[]}
+ */
+function alertButtons(menu) {
+  const shown = menu.alerts.slice(0, MENU_ALERTS);
+  const more = menu.alerts.length - shown.length;
+  const clip = (/** @type {string} */ text) => (text.length > ALERT_TEXT ? `${text.slice(0, ALERT_TEXT - 1)}…` : text);
+  return [
+    ...shown.map((a) => ({
+      id: `alert:${a.alert}`,
+      label: `Acknowledge: ${clip(a.text)}`,
+      group: 'alerts',
+      active: false,
+      enabled: menu.operator && menu.connected,
+      danger: a.severity === 'critical',
+    })),
+    ...(more > 0
+      ? [
+          {
+            id: 'alerts:more',
+            label: `${more} more alert${more > 1 ? 's' : ''}`,
+            group: 'alerts',
+            active: false,
+            enabled: false,
           },
         ]
       : []),

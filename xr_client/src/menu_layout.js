@@ -11,6 +11,7 @@ export const MENU_ROWS = Object.freeze([
   ['tools', 'Tool'],
   ['camera', 'Camera'],
   ['mission', 'Mission'],
+  ['alerts', 'Alerts'],
   ['options', 'Options'],
   ['sound', 'Sound'],
   ['estop', ''],

@@ -11,6 +11,8 @@
  *   pins, rings and the floor) needs no robot, and serves viewers too (they review, they change nothing);
  * - `Inspect picked (N)` is offered once targets are picked, for the selected robot or the fleet;
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
+ * - the open alerts (the newest two, and how many more) are a row of their own while there are any, each button
+ *   acknowledging its alert: in VR as on the desktop, so an alert is never out of sight in the headset;
  * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
  *   latched, `Reset E-STOP` sits beside them;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
@@ -39,8 +41,10 @@ import { MenuOptions } from './menu_options.js';
  *   | {type: 'cancel', robot: string}
  *   | {type: 'takeover', robot: string, holder: string}
  *   | {type: 'tool', tool: Tool}
- *   | {type: 'mission', action: MissionAction, robot: string | null}} MenuEffect
+ *   | {type: 'mission', action: MissionAction, robot: string | null}
+ *   | {type: 'alert_ack', alert: string}} MenuEffect
  */
+/** @typedef {{alert: string, text: string, severity: string, robot: string | null}} MenuAlert */
 
 export class MenuState {
   constructor() {
@@ -71,6 +75,8 @@ export class MenuState {
     this.holder = null;
     /** How many targets are picked for a new mission (from the inspection review). */
     this.picked = 0;
+    /** The alerts nobody acknowledged, newest first (from the inspection model). @type {MenuAlert[]} */
+    this.alerts = [];
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -159,6 +165,14 @@ export class MenuState {
     }
   }
 
+  /** The open alerts, newest first. @param {MenuAlert[]} alerts */
+  setAlerts(alerts) {
+    const same = alerts.length === this.alerts.length && alerts.every((a, i) => a.alert === this.alerts[i].alert);
+    if (same) return;
+    this.alerts = alerts.map(({ alert, text, severity, robot }) => ({ alert, text, severity, robot }));
+    this.#changed();
+  }
+
   get canCommand() {
     return this.operator && this.connected;
   }
@@ -213,6 +227,7 @@ export class MenuState {
       effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     else if (kind === 'mission') effects = missionEffects(arg, this);
+    else if (kind === 'alert') effects = [{ type: 'alert_ack', alert: arg }];
     this.#changed();
     return effects;
   }

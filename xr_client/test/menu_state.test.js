@@ -222,3 +222,45 @@ test('the volume steps in fifths from wherever the slider left it, and its butto
   assert.equal(m.options.ticks, true, 'the hazard ticks switch on from the menu, in VR too');
   assert.equal(button(m, 'opt:ticks')?.group, 'sound');
 });
+
+test('open alerts are a row of the menu, the newest two each acknowledged by its button, and a count of the rest', () => {
+  const m = menu();
+  assert.equal(m.buttons().filter((b) => b.group === 'alerts').length, 0, 'no alerts, no row');
+  const text = 'Anomaly at Spill (robot2): gas 312.0 ppm over its 50 ppm limit, seen by the camera at the door';
+  const alerts = [
+    { alert: 'al-3', text, severity: 'critical', robot: 'robot2' },
+    { alert: 'al-2', text: 'Schedule nightly missed 1 run', severity: 'warning', robot: null },
+    { alert: 'al-1', text: 'robot3 went offline during its mission', severity: 'warning', robot: 'robot3' },
+  ];
+  m.setAlerts(alerts);
+  const row = m.buttons().filter((b) => b.group === 'alerts');
+  assert.deepEqual(
+    row.map((b) => [b.id, b.enabled, Boolean(b.danger)]),
+    [
+      ['alert:al-3', true, true],
+      ['alert:al-2', true, false],
+      ['alerts:more', false, false],
+    ],
+  );
+  assert.ok(row[0].label.startsWith('Acknowledge: Anomaly at Spill') && row[0].label.length <= 74, row[0].label);
+  assert.equal(row[2].label, '1 more alert');
+  assert.deepEqual(m.press('alert:al-3'), [{ type: 'alert_ack', alert: 'al-3' }]);
+  assert.deepEqual(m.press('alerts:more'), [], 'the count is not a button that does anything');
+  // Acknowledged (here or on another page): the model's list shrinks, the row follows.
+  m.setAlerts(alerts.slice(1));
+  assert.deepEqual(
+    m
+      .buttons()
+      .filter((b) => b.group === 'alerts')
+      .map((b) => b.id),
+    ['alert:al-2', 'alert:al-1'],
+  );
+  // A viewer sees them and cannot acknowledge.
+  m.setFleet(m.robots, false);
+  assert.ok(
+    m
+      .buttons()
+      .filter((b) => b.group === 'alerts')
+      .every((b) => !b.enabled),
+  );
+});

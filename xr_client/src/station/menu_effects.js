@@ -69,6 +69,9 @@ export class MenuEffects {
         case 'mission':
           views.inspectionUi.command(effect, menu);
           break;
+        case 'alert_ack':
+          sender.alertAck(effect.alert);
+          break;
       }
     }
   }

@@ -80,6 +80,7 @@ export class InspectionUi {
     const mission = menu.selected ? this.model.active(menu.selected) : null;
     menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
     menu.setPicked(this.review.picked.length);
+    menu.setAlerts(this.model.openAlerts());
   }
 
   /**
