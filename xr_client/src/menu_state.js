@@ -130,22 +130,6 @@ export class MenuState {
     return this.latched.length > 0;
   }
 
-  /** Whether the selected robot follows a goal now (its status). @param {boolean} active */
-  setGoalActive(active) {
-    if (active !== this.goalActive) {
-      this.goalActive = active;
-      this.#changed();
-    }
-  }
-
-  /** The selected robot's mission state (from the inspection model). @param {'running' | 'paused' | null} state */
-  setMission(state) {
-    if (state !== this.mission) {
-      this.mission = state;
-      this.#changed();
-    }
-  }
-
   /**
    * Who holds the selected robot, if not this operator (its status and the operators' names).
    * @param {string | null} holder
@@ -157,19 +141,19 @@ export class MenuState {
     this.#changed();
   }
 
-  /** How many targets are picked, in order, for a new mission. @param {number} count */
-  setPicked(count) {
-    if (count !== this.picked) {
-      this.picked = count;
-      this.#changed();
-    }
-  }
-
-  /** The open alerts, newest first. @param {MenuAlert[]} alerts */
-  setAlerts(alerts) {
-    const same = alerts.length === this.alerts.length && alerts.every((a, i) => a.alert === this.alerts[i].alert);
+  /**
+   * News from the relay the menu shows: whether the selected robot follows a goal (its status), its mission's state
+   * (`running`, `paused` or null), how many targets are picked, the open alerts newest first (the inspection
+   * model's, the same objects while unchanged). Redrawn only when it changes.
+   * @param {'goalActive' | 'mission' | 'picked' | 'alerts'} key @param {any} value
+   */
+  show(key, value) {
+    const before = /** @type {any} */ (this)[key];
+    const same = Array.isArray(value)
+      ? value.length === before.length && value.every((v, i) => v === before[i])
+      : value === before;
     if (same) return;
-    this.alerts = alerts.map(({ alert, text, severity, robot }) => ({ alert, text, severity, robot }));
+    /** @type {any} */ (this)[key] = value;
     this.#changed();
   }
 

@@ -185,7 +185,7 @@ test('the menu offers Inspect in free roam to viewers too, and the picked target
     undefined,
     'nothing picked: no button',
   );
-  menu.setPicked(2);
+  menu.show('picked', 2);
   menu.press('robot:robot1');
   const button = menu.buttons().find((b) => b.id === 'mission:picked');
   assert.equal(button?.label, 'Inspect picked (2): robot1');

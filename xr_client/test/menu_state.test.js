@@ -160,7 +160,7 @@ test('Cancel goal is enabled while the selected robot follows a goal', () => {
   const m = menu();
   m.press('robot:robot1');
   assert.equal(button(m, 'goal:cancel')?.enabled, false);
-  m.setGoalActive(true);
+  m.show('goalActive', true);
   assert.deepEqual(m.press('goal:cancel'), [{ type: 'cancel', robot: 'robot1' }]);
   m.press('robot:robot2'); // another robot: its own status decides
   assert.equal(button(m, 'goal:cancel')?.enabled, false);
@@ -191,9 +191,9 @@ test('the mission buttons: the demo, every target for the selected robot or the 
     menu.buttons().find((b) => b.id === 'mission:toggle'),
     undefined,
   ); // no mission: no controls
-  menu.setMission('running');
+  menu.show('mission', 'running');
   assert.deepEqual(menu.press('mission:toggle'), [{ type: 'mission', action: 'pause', robot: 'robot1' }]);
-  menu.setMission('paused');
+  menu.show('mission', 'paused');
   assert.equal(menu.buttons().find((b) => b.id === 'mission:toggle')?.label, 'Resume mission');
   assert.deepEqual(menu.press('mission:abort'), [{ type: 'mission', action: 'abort', robot: 'robot1' }]);
   menu.setConnected(false);
@@ -232,7 +232,7 @@ test('open alerts are a row of the menu, the newest two each acknowledged by its
     { alert: 'al-2', text: 'Schedule nightly missed 1 run', severity: 'warning', robot: null },
     { alert: 'al-1', text: 'robot3 went offline during its mission', severity: 'warning', robot: 'robot3' },
   ];
-  m.setAlerts(alerts);
+  m.show('alerts', alerts);
   const row = m.buttons().filter((b) => b.group === 'alerts');
   assert.deepEqual(
     row.map((b) => [b.id, b.enabled, Boolean(b.danger)]),
@@ -247,7 +247,7 @@ test('open alerts are a row of the menu, the newest two each acknowledged by its
   assert.deepEqual(m.press('alert:al-3'), [{ type: 'alert_ack', alert: 'al-3' }]);
   assert.deepEqual(m.press('alerts:more'), [], 'the count is not a button that does anything');
   // Acknowledged (here or on another page): the model's list shrinks, the row follows.
-  m.setAlerts(alerts.slice(1));
+  m.show('alerts', alerts.slice(1));
   assert.deepEqual(
     m
       .buttons()

@@ -80,7 +80,7 @@ export class MenuEffects {
   syncSelection() {
     const { fleet, menu } = this.host;
     const { feed, hemisphere } = this.views;
-    menu.setGoalActive(Boolean(fleet.robot(menu.selected)?.status?.goal));
+    menu.show('goalActive', Boolean(fleet.robot(menu.selected)?.status?.goal));
     this.syncHolder();
     this.views.inspectionUi.update(menu);
     const camera = fleet.camera(menu.selected);

@@ -82,7 +82,7 @@ export class RelayEffects {
         stage.robotViews.get(effect.robot)?.setScan(effect.scan);
         break;
       case 'goal_state':
-        if (effect.robot === menu.selected) menu.setGoalActive(effect.active);
+        if (effect.robot === menu.selected) menu.show('goalActive', effect.active);
       // falls through: a status may also say who holds the robot now
       case 'names':
         this.menuEffects.syncHolder();

@@ -78,9 +78,9 @@ export class InspectionUi {
     if (this.panel) this.panel.robot = menu.selected;
     this.panel?.render();
     const mission = menu.selected ? this.model.active(menu.selected) : null;
-    menu.setMission(mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
-    menu.setPicked(this.review.picked.length);
-    menu.setAlerts(this.model.openAlerts());
+    menu.show('mission', mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
+    menu.show('picked', this.review.picked.length);
+    menu.show('alerts', this.model.openAlerts());
   }
 
   /**
