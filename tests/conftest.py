@@ -114,8 +114,11 @@ class Canary(threading.Thread):
                 os.close(self._schedstat)
 
     def starved(self, start: float, end: float) -> float:
-        """How late the canary woke, in all, between ``start`` and ``end`` (monotonic seconds)."""
-        return sum(late for at, late in self.late if start <= at <= end + 0.05)
+        """How long the canary was kept from running between ``start`` and ``end`` (monotonic seconds): the part of
+        each late wake's delay that falls in that span. A wake is noted when the canary runs again, which may be
+        well after the span when the process stays starved (a thread of its own holding the GIL while it waits for
+        a CPU): the delay is counted where it happened, not where it was noted."""
+        return sum(max(0.0, min(at, end) - max(at - late, start)) for at, late in self.late)
 
     def queued(self, start: float, end: float) -> float:
         """How long the loop's thread waited for a CPU between ``start`` and ``end``, at most (from the samples
