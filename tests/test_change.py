@@ -6,6 +6,7 @@ frames of ../shared/data/fisheye. The later capture is the earlier one seen from
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,9 @@ from numpy.typing import NDArray
 from relay.config import FleetConfig
 from relay.fleet.events import FrameEvent
 from relay.inspection.change import SCORE_THRESHOLD, ChangeError, compare, decode
+from relay.inspection.change_watch import ChangeWatch
+from relay.inspection.records import CaptureRecord
+from relay.inspection.store import Store
 from tests.conftest import LOAD_SLACK, SHARED_DATA
 from tests.helpers.inspection import operator, relay_with_database
 
@@ -113,7 +117,8 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
 ) -> None:
     """Three rounds of a one-target mission, the camera showing a real photograph: the spill there grows between the
     first and the second round (seen from a pose a little off), not between the second and the third. The second
-    round's capture gets a finding to review, outlining the grown spill on its image; the third gets none."""
+    round's capture gets a ``changed`` finding, outlining the grown spill on its image, with its score and the first
+    round's capture as its baseline; the third gets none."""
     base = photo("front")
     centre = (0.55, 0.7)
     rounds = [
@@ -148,10 +153,19 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
             )
             found = [m for _, m in client.messages[start:] if m["identifier"] == "finding"]
             assert any(f["source"] == "rule" and f["status"] in ("ok", "anomaly") for f in found), found
-            changed.append([f for f in found if f["status"] == "needs_review"])
+            changed.append([f for f in found if f["status"] == "changed"])
         assert changed[0] == [] and changed[2] == [], changed
         [finding] = changed[1]
         assert finding["note"].startswith("changed since the last round (") and finding["target"] == "drum"
+        assert finding["change"] > SCORE_THRESHOLD and finding["note"].endswith(
+            f"{100 * finding['change']:.1f} % of the view"
+        )
+        first = next(f for _, f in client.messages if f["identifier"] == "finding" and f["target"] == "drum")
+        assert finding["baseline"] == first["capture"] != finding["capture"]
+        alert = await client.wait_for(lambda m: m["identifier"] == "alert" and m["subject"] == finding["id"], 30)
+        assert (alert["kind"], alert["severity"]) == ("changed", "warning") and alert["text"].startswith(
+            "Changed at Drum"
+        )
         outline = np.array(finding["region"], np.int32)
         u0, v0 = outline.min(axis=0)
         u1, v1 = outline.max(axis=0)
@@ -160,3 +174,36 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
         await client.close()
     finally:
         await running.runner.cleanup()
+
+
+async def test_a_round_is_compared_with_the_capture_before_one_marked_a_false_alarm(tmp_path: Path) -> None:
+    """Three captures of a target, each showing the place otherwise: the third is compared with the second; once the
+    second's change is marked a false alarm (its image was noise), with the first, the last image accepted."""
+    base = photo("front")
+    pictures = [base, spill(base, (0.3, 0.65), (0.08, 0.05)), spill(base, (0.7, 0.65), (0.08, 0.05))]
+    jpegs = [cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes() for image in pictures]
+    h, w = base.shape[:2]
+    with Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "images") as store:
+
+        async def on_store(work: Callable[[Store], Any], request_id: Any = None) -> Any:
+            return work(store)  # the store's own thread is the relay's business; here the loop's will do
+
+        watch = ChangeWatch(on_store, lambda: 1795388600.0)
+        try:
+            captures = [
+                store.add_capture(CaptureRecord(f"c-{n}", "robot1", 1795388500.0 + n, 3.0, 2.0, 0.0, {}, "m-1",
+                                                "drum", None, w, h), jpeg)
+                for n, jpeg in enumerate(jpegs, 1)
+            ]  # fmt: skip
+            second = await watch.since_last_round(captures[1], jpegs[1], (3.0, 3.2))
+            assert second is not None and (second.status, second.baseline) == ("changed", "c-1")
+            assert second.change is not None and second.change > SCORE_THRESHOLD
+            store.add_finding(second)
+            third = await watch.since_last_round(captures[2], jpegs[2], (3.0, 3.2))
+            assert third is not None and third.baseline == "c-2"
+            store.update_finding(second.id, status="false_alarm", note="a bucket, moved back since", updated=1.0)
+            third = await watch.since_last_round(captures[2], jpegs[2], (3.0, 3.2))
+            assert third is not None and third.baseline == "c-1"
+            assert third.note.startswith("changed since the last round (") and third.status == "changed"
+        finally:
+            watch.close()

@@ -362,8 +362,8 @@ WEBHOOKS = MINIMAL + "inspection:\n  webhooks:\n"
         ),
         (
             "    - {url: 'https://alerts.example/in', secret: 'a-long-enough-secret', events: [anomaly, fire]}\n",
-            "robots.yaml:6: inspection.webhooks[0].events[1]: expected one of anomaly, threshold, mission_aborted, "
-            'schedule_missed, schedule_failed, alert.acknowledged, got "fire"',
+            "robots.yaml:6: inspection.webhooks[0].events[1]: expected one of anomaly, changed, threshold, "
+            'mission_aborted, schedule_missed, schedule_failed, alert.acknowledged, got "fire"',
         ),
     ],
 )

@@ -1,5 +1,6 @@
 """Findings as people write and read them (issue 28, finding 7): notes up to 1000 characters that can be cleared, and
-report cells a spreadsheet shows as typed instead of running them."""
+report cells a spreadsheet shows as typed instead of running them; a change marked a false alarm, and what is
+refused (issue 30, items 3 and 5)."""
 
 from __future__ import annotations
 
@@ -156,5 +157,58 @@ async def test_the_findings_history_pages_back_to_the_first_finding_for_a_viewer
         for bad, word in (({"limit": 0}, "limit"), ({"limit": 101}, "limit"), ({"before": "yesterday"}, "before")):
             refused = await viewer.request({"identifier": "findings/page"} | bad)
             assert refused["identifier"] == "error" and refused["code"] == "bad_request" and word in refused["message"]
+    finally:
+        await running.runner.cleanup()
+
+
+def _changed(tmp_path: Path) -> None:
+    """A database holding two captures of the spill and the second's change finding, as a round leaves them."""
+    with Store.open(str(tmp_path / "inspection.sqlite"), tmp_path / "inspection-images") as store:
+        for n in (1, 2):
+            store.add_capture(
+                CaptureRecord(f"c-{n}", "robot1", 1795388500.0 + n, 1.0, 7.5, 0.0, {}, "m-1", "spill"), None
+            )
+        store.add_finding(
+            FindingRecord("f-change", "c-2", "robot1", 1.8, 8.2, "changed", "changed since the last round", "rule",
+                          1795388502.0, 1795388502.0, "m-1", "spill", None, 0.042, "c-1")
+        )  # fmt: skip
+
+
+async def test_a_change_marked_a_false_alarm_keeps_its_evidence_and_bad_marks_change_nothing(
+    fleet_config: FleetConfig, tmp_path: Path
+) -> None:
+    await asyncio.to_thread(_changed, tmp_path)
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        sent = await client.wait_for(lambda m: m["identifier"] == "finding" and m["id"] == "f-change")
+        assert (sent["status"], sent["change"], sent["baseline"]) == ("changed", 0.042, "c-1")
+        store = running.relay.inspection.store
+        assert store is not None
+        before = store.findings()
+        bogus = await client.request({"identifier": "finding/update", "finding": "f-change", "status": "bogus"})
+        assert bogus.get("code") == "bad_request" and "'status'" in bogus["message"], bogus
+        assert "false_alarm" in bogus["message"] and '"bogus"' in bogus["message"]
+        nowhere = await client.request(
+            {"identifier": "finding/update", "finding": "f-nope", "status": "false_alarm", "note": "a shadow"}
+        )
+        assert nowhere.get("code") == "bad_request" and "no finding 'f-nope'" in nowhere["message"], nowhere
+        assert store.findings() == before  # nothing refused changed anything
+
+        marked = await client.request(
+            {"identifier": "finding/update", "finding": "f-change", "status": "false_alarm", "note": "a shadow"}
+        )
+        assert marked["identifier"] == "ack", marked
+        news = await client.wait_for(lambda m: m["identifier"] == "finding" and m["status"] == "false_alarm")
+        assert (news["note"], news["change"], news["baseline"]) == ("a shadow", 0.042, "c-1")
+        [stored] = store.findings()
+        assert (stored.status, stored.note, stored.change, stored.baseline) == ("false_alarm", "a shadow", 0.042, "c-1")
+        assert not [m for _, m in client.messages if m["identifier"] == "alert"]  # a false alarm alerts nobody
+        again = await client.request({"identifier": "finding/update", "finding": "f-change", "status": "changed"})
+        assert again["identifier"] == "ack", again
+        alert = await client.wait_for(lambda m: m["identifier"] == "alert")
+        assert (alert["kind"], alert["severity"], alert["subject"]) == ("changed", "warning", "f-change")
+        assert alert["text"] == "Changed at Spill (robot1): a shadow", alert
+        await client.close()
     finally:
         await running.runner.cleanup()

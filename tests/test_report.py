@@ -113,8 +113,8 @@ def test_readings_carry_their_unit_their_limit_and_whether_they_passed_it() -> N
     assert Reading("oxygen", 17.1, Limit("%", None, 19.5)).text() == "oxygen 17.1 % (minimum 19.5 %): under the minimum"
     assert Reading("ph", 6.5, Limit("", 9.0, 5.0)).text() == "ph 6.5 (range 5 to 9)"
     assert Reading("flow", 0.0123, Limit("m3/s")).text() == "flow 0.0123 m3/s"
-    assert [status_words(s) for s in ("ok", "anomaly", "needs_review", "false_alarm")] == [
-        "OK", "Anomaly", "Needs review", "False alarm",
+    assert [status_words(s) for s in ("ok", "anomaly", "needs_review", "changed", "false_alarm")] == [
+        "OK", "Anomaly", "Needs review", "Changed since last round", "False alarm",
     ]  # fmt: skip
 
 
@@ -147,6 +147,16 @@ def test_work_orders_are_the_findings_that_need_someone_with_a_due_date_by_prior
     assert medium.location == "Chemical storage" and medium.description.startswith("Needs review at (20.00, 8.20) in")
     far = rows_of([findings[2]], {"c-1": replace(capture, x=30.0)}, site)
     assert far[0].room is None and work_orders(far, BERLIN, str)[0].location == ""
+    # A place changed since the last round is one to go and look at within the week; a false alarm needs nobody.
+    changes = [
+        FindingRecord("f-4", "c-1", "robot1", 1.8, 8.2, "changed", "4.2 % of the view", "rule", seen, seen,
+                      "m-1.robot1", "spill", None, 0.042, "c-0"),
+        FindingRecord("f-5", "c-1", "robot1", 1.8, 8.2, "false_alarm", "a shadow", "operator", seen, seen + 60),
+    ]  # fmt: skip
+    [changed] = work_orders(rows_of(changes, {"c-1": capture}, site), BERLIN, str)
+    assert (changed.reference, changed.priority, changed.due) == ("f-4", "medium", "2026-12-01T14:00:00+01:00")
+    assert changed.description.startswith("Changed since last round at Leaking drum in Chemical storage. Note: 4.2 %")
+    assert changed.status == "Changed since last round"
 
 
 # -- the demo mission's report, over a real relay -----------------------------------------------------------------
@@ -449,3 +459,24 @@ def test_work_order_cells_a_spreadsheet_would_run_are_neutralised() -> None:
     assert cells["asset_name"] == "'" + hostile and cells["description"].startswith("Anomaly at =HYPERLINK")
     assert (cells["x"], cells["y"], cells["reported"]) == ("-1.500", "2.250", "2026-11-24T14:00:00+01:00")
     assert next(csv.DictReader(io.StringIO(report.as_csv(made, str))))["note"] == "'@SUM(A1)"
+
+
+def test_a_change_carries_its_score_and_baseline_into_the_csv_and_the_json() -> None:
+    """The before image a card will show is named in every form of the report; other findings leave both empty."""
+    site = SiteInfo("Plant", BERLIN, (), {}, {"drum": "Drum"})
+    t = berlin("2026-11-24T14:00:00")
+    capture = CaptureRecord("c-2", "robot1", t, -1.5, 2.25, 0.0, {}, "m-1.robot1", "drum", "cd" * 32)
+    findings = [
+        FindingRecord("f-1", "c-2", "robot1", -1.5, 2.25, "changed", "4.2 % of the view", "rule", t, t, "m-1.robot1",
+                      "drum", None, 0.04213, "c-1"),
+        FindingRecord("f-2", "c-2", "robot1", -1.5, 2.25, "ok", "", "rule", t, t, "m-1.robot1", "drum"),
+    ]  # fmt: skip
+    made = report.Report(report.Scope(mission="m-1"), site, [], rows_of(findings, {"c-2": capture}, site), t)
+    cells = list(csv.DictReader(io.StringIO(report.as_csv(made, str), newline="")))
+    assert [(c["status"], c["change"], c["baseline"]) for c in cells] == [
+        ("Changed since last round", "0.0421", "c-1"), ("OK", "", ""),
+    ]  # fmt: skip
+    data = json.loads(report.as_json(made, str))
+    assert [(f["status"], f["status_text"], f["change"], f["baseline"]) for f in data["findings"]] == [
+        ("changed", "Changed since last round", 0.04213, "c-1"), ("ok", "OK", None, None),
+    ]  # fmt: skip

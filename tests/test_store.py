@@ -114,7 +114,7 @@ def _version(url: str) -> int:
 
 
 def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
-    assert store.schema_version == SCHEMA_VERSION == 5
+    assert store.schema_version == SCHEMA_VERSION == 6
     assert store.mission("m-1.robot1") is None and store.missions() == []
     store.save_mission(_mission())
     assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
@@ -186,11 +186,30 @@ def test_update_finding_changes_only_what_is_given(store: Store) -> None:
     with pytest.raises(UnknownRecord, match=r"no finding 'f-9'") as unknown:
         store.update_finding("f-9", status="ok", updated=16.0)
     assert isinstance(unknown.value, StoreError) and isinstance(unknown.value, LookupError)
-    with pytest.raises(ValueError, match="status must be one of ok, anomaly, needs_review, got 'broken'"):
+    with pytest.raises(
+        ValueError, match="status must be one of ok, anomaly, needs_review, changed, false_alarm, got 'broken'"
+    ):
         store.update_finding("f-1", status="broken", updated=16.0)
     with pytest.raises(ValueError, match="status must be one of"):
         store.add_finding(_finding(id="f-2", status="fine"))
     assert store.findings() == [new]
+
+
+def test_a_change_finding_keeps_its_score_and_baseline_and_a_false_alarm_is_no_baseline(store: Store) -> None:
+    """The previous capture a round is compared with (relay.inspection.change_watch) skips a capture whose change
+    finding was marked a false alarm: its image showed noise, so the one accepted before it stays the baseline."""
+    for index, t in enumerate((10.0, 20.0, 30.0), 1):
+        store.add_capture(_capture(id=f"c-{index}", t=t), JPEG)
+    assert store.last_capture_of("spill", 30.0, "c-3") == store.capture("c-2")
+    change = _finding(id="f-2", capture="c-2", status="changed", change=0.042, baseline="c-1", created=20.0)
+    assert store.add_finding(change) == change and store.finding("f-2") == change  # score and baseline kept
+    assert store.finding("f-2").change == 0.042  # type: ignore[union-attr]  # bit for bit
+    store.add_finding(_finding(id="f-2b", capture="c-2", status="false_alarm", created=20.0))  # not a change finding
+    assert store.last_capture_of("spill", 30.0, "c-3") == store.capture("c-2")
+    store.update_finding("f-2", status="false_alarm", note="the lights were off", updated=25.0)
+    assert store.last_capture_of("spill", 30.0, "c-3") == store.capture("c-1")
+    store.update_finding("f-2", status="changed", updated=26.0)  # marked back: its image is the baseline again
+    assert store.last_capture_of("spill", 30.0, "c-3") == store.capture("c-2")
 
 
 def test_a_finding_needs_its_capture_and_ids_are_unique(store: Store) -> None:
@@ -301,6 +320,28 @@ def test_a_second_migration_applies_or_changes_nothing(
     raw = _raw(url)
     assert raw.execute("SELECT id, severity FROM findings").fetchall() == [("f-1", 2)]
     raw.close()
+
+
+def test_findings_of_a_version_5_database_come_through_migration_6_without_a_change(
+    url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Databases in the field made findings before a change kept its score: they read back with none."""
+    monkeypatch.setattr(store_module, "MIGRATIONS", store_module.MIGRATIONS[:5])
+    with Store.open(url, tmp_path / "images") as store:
+        assert store.schema_version == 5
+        store.add_capture(_capture(), None)
+    raw = _raw(url)  # a finding as a version-5 relay wrote it: no change, no baseline column
+    raw.execute(
+        "INSERT INTO findings (id, capture, robot, x, y, status, note, source, created, updated, mission, target, "
+        "region) VALUES ('f-1', 'c-1', 'robot1', 1.8, 8.2, 'needs_review', 'changed since the last round', 'rule', "
+        "13.0, 13.0, 'm-1.robot1', 'spill', NULL)"
+    )
+    raw.close()
+    monkeypatch.undo()
+    with Store.open(url, tmp_path / "images") as store:
+        assert store.schema_version == SCHEMA_VERSION == 6
+        [old] = store.findings()
+        assert (old.status, old.change, old.baseline) == ("needs_review", None, None)
 
 
 def test_relays_opening_a_new_database_at_once_migrate_it_once(url: str, tmp_path: Path) -> None:

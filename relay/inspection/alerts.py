@@ -1,8 +1,9 @@
 """Alerts: what a person must see and acknowledge, raised by the relay through one function, kept in the database.
 
 - **Raised** by :meth:`Alerts.raise_alert` (kind, text, robot, subject, severity): a finding made as or changed to
-  ``anomaly``, a capture's reading past its limit that no such finding names, a mission aborted; later kinds (a
-  scheduled run that failed or was missed, a robot offline mid-run) call the same function. Raising awaits nothing:
+  ``anomaly`` or ``changed`` (a place that changed since its last round: kind ``changed``), a capture's reading
+  past its limit that no such finding names, a mission aborted; later kinds (a scheduled run that failed or was
+  missed, a robot offline mid-run) call the same function. Raising awaits nothing:
   the alert is in memory and sent to every client at once, then stored (relay.inspection.write_behind) and handed to
   the webhooks (relay.inspection.webhooks), so it may be raised from any path, and nothing of an estop waits for it.
 - **Kept**: the newest ``ALERTS_ON_CONNECT`` unacknowledged ones in memory (loaded from the database at start), sent

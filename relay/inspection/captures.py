@@ -3,7 +3,7 @@
 A capture is the robot's first camera's image (a snapshot), its readings, its pose and the time, stored with the
 image beside the database (relay.inspection.store). At a mission's ``inspect`` step a rule makes a finding:
 ``anomaly`` naming each reading over its threshold (robots.yaml's ``warn_above``/``warn_below``), else ``ok``
-with the readings, and a ``needs_review`` one outlining what changed since the target's previous capture
+with the readings, and a ``changed`` one outlining what changed since the target's previous capture
 (relay.inspection.change_watch); a ``capture`` step makes one only for an anomaly. Operators mark and update
 findings, ask for the region around a point of an image (GrabCut, on a pool of its own), and add targets where a
 pixel looks.
@@ -96,11 +96,12 @@ class Captures:
         )  # fmt: skip
         await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
         if warnings:
-            self._anomaly(finding, "critical")
+            self._alert_of(finding, "critical")
         if jpeg is not None:  # and what changed there since the last round
             changed = await self._changes.since_last_round(stored, jpeg, (finding.x, finding.y))
             if changed is not None:
                 await self._announce(await self._store(lambda s: s.add_finding(changed)), stored)
+                self._alert_of(changed)
 
     @staticmethod
     def _past_limits(robot: Robot, warnings: list[dict[str, Any]]) -> str:
@@ -122,11 +123,15 @@ class Captures:
         known = self._book.targets.get(target or "")
         return known.name if known is not None else f"({x:.1f}, {y:.1f})"
 
-    def _anomaly(self, finding: FindingRecord, severity: AlertSeverity = "warning") -> None:
-        """The alert of a finding made as, or changed to, ``anomaly``."""
+    def _alert_of(self, finding: FindingRecord, severity: AlertSeverity = "warning") -> None:
+        """The alert of a finding made as, or changed to, a status someone must see: ``anomaly``, or ``changed``
+        (a kind of its own, so that a webhook may take changes without anomalies, or the reverse)."""
+        if finding.status not in ("anomaly", "changed"):
+            return
         place = self._place(finding.target, finding.x, finding.y)
-        text = f"Anomaly at {place} ({finding.robot})" + (f": {finding.note}" if finding.note else "")
-        self._alert("anomaly", text, robot=finding.robot, subject=finding.id, severity=severity)
+        text = f"{finding.status.capitalize()} at {place} ({finding.robot})"
+        text += f": {finding.note}" if finding.note else ""
+        self._alert(finding.status, text, robot=finding.robot, subject=finding.id, severity=severity)
 
     async def _snap(
         self, robot_name: str, mission: str | None, target: str | None, request_id: RequestId | None = None
@@ -174,8 +179,7 @@ class Captures:
                 capture.mission, capture.target, command.region,
             )  # fmt: skip
             await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), capture)
-            if finding.status == "anomaly":
-                self._anomaly(finding)
+            self._alert_of(finding)
             return
         assert command.finding is not None
         finding_id = command.finding
@@ -188,8 +192,8 @@ class Captures:
 
         before, updated = await self._store(update, command.id)
         await self._announce(updated, await self._capture_record(updated.capture, command.id))
-        if updated.status == "anomaly" and (before is None or before.status != "anomaly"):
-            self._anomaly(updated)
+        if before is None or before.status != updated.status:  # a new note on the same status alerts nobody again
+            self._alert_of(updated)
 
     async def _capture_record(self, capture_id: str, request_id: RequestId) -> CaptureRecord:
         capture: CaptureRecord | None = await self._store(lambda s: s.capture(capture_id), request_id)

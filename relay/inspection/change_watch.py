@@ -1,5 +1,6 @@
 """A mission's capture of a target against the target's previous capture: where the place changed since the last
-round becomes a finding to review, outlined on the new image (the comparison itself is relay/inspection/change.py).
+round becomes a ``changed`` finding, outlined on the new image, with its score and the capture it was compared
+with (the comparison itself is relay/inspection/change.py).
 
 Run after the capture is stored, on a pool of its own (one worker, a short queue: a full pool skips the comparison
 with a warning and the mission goes on); the database is read on its own thread. Nothing here is on a stop's path.
@@ -32,8 +33,9 @@ class ChangeWatch:
     async def since_last_round(
         self, capture: CaptureRecord, jpeg: bytes, place: tuple[float, float]
     ) -> FindingRecord | None:
-        """A ``needs_review`` finding on ``capture`` (stored, of a target) when its image changed from the target's
-        previous capture beyond the change threshold; None when it did not, or there is nothing to compare with."""
+        """A ``changed`` finding on ``capture`` (stored, of a target) when its image changed from the target's
+        previous capture beyond the change threshold; None when it did not, or there is nothing to compare with.
+        The previous capture is the newest one whose change no operator marked a false alarm (Store.last_capture_of)."""
         target = capture.target
         if target is None:
             return None
@@ -58,8 +60,9 @@ class ChangeWatch:
             return None
         wall = self._wall()
         return FindingRecord(
-            new_id("f"), capture.id, capture.robot, place[0], place[1], "needs_review", _note(change, previous),
+            new_id("f"), capture.id, capture.robot, place[0], place[1], "changed", _note(change, previous),
             "rule", wall, wall, capture.mission, target, outline_of(change.mask, capture.width, capture.height),
+            round(change.score, 4), previous.id,
         )  # fmt: skip
 
 

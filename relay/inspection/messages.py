@@ -97,6 +97,8 @@ class FindingMessage(TypedDict):
     readings: dict[str, float]
     created: float
     updated: float
+    change: float | None  # a change finding's score (the changed share of the view, 0-1); None for the others
+    baseline: str | None  # the capture a change finding was compared with (its before image); None for the others
 
 
 class FindingsMessage(TypedDict):
@@ -185,6 +187,8 @@ def finding_message(finding: FindingRecord, image: str | None, readings: dict[st
         "readings": readings,
         "created": round(finding.created, 3),
         "updated": round(finding.updated, 3),
+        "change": finding.change,
+        "baseline": finding.baseline,
     }
 
 

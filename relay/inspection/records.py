@@ -14,14 +14,17 @@ from typing import Any, Final, Literal
 #: What a target id may be: it names targets in mission files, KML placemarks and commands.
 TARGET_ID: Final = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
-FindingStatus = Literal["ok", "anomaly", "needs_review"]
-FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review")
+#: ``changed``: the place looks different from the target's previous round (relay.inspection.change_watch);
+#: ``false_alarm``: an operator judged the finding not real (a shadow, a bucket moved), and says why in its note.
+#: A status, not a flag beside one: the findings filter, pin colours, work orders, alerts and reports all key on it.
+FindingStatus = Literal["ok", "anomaly", "needs_review", "changed", "false_alarm"]
+FINDING_STATUSES: tuple[FindingStatus, ...] = ("ok", "anomaly", "needs_review", "changed", "false_alarm")
 MissionState = Literal["pending", "running", "paused", "done", "aborted"]
 StepKind = Literal["inspect", "goto", "capture", "dwell"]
 AlertSeverity = Literal["warning", "critical"]
 ALERT_SEVERITIES: tuple[AlertSeverity, ...] = ("warning", "critical")
 #: What raises alerts (relay.inspection.alerts): a new kind is added here, where webhooks' ``events`` are checked.
-ALERT_KINDS: Final = ("anomaly", "threshold", "mission_aborted", "schedule_missed", "schedule_failed")
+ALERT_KINDS: Final = ("anomaly", "changed", "threshold", "mission_aborted", "schedule_missed", "schedule_failed")
 #: The webhook event of an acknowledgement (a raised alert's event is ``alert.raised``, filtered by its kind).
 ALERT_ACKNOWLEDGED: Final = "alert.acknowledged"
 
@@ -96,6 +99,10 @@ class FindingRecord:
     mission: str | None = None
     target: str | None = None
     region: tuple[tuple[int, int], ...] | None = None  # outline in image pixels (u right, v down), None: none
+    #: For a change finding (relay.inspection.change_watch): the changed share of the view (0-1) and the capture
+    #: it was compared with, so that a card can show before and after; None for every other finding.
+    change: float | None = None
+    baseline: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

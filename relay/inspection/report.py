@@ -75,6 +75,8 @@ CSV_FIELDS = (
     "note",
     "readings",
     "image",
+    "change",  # a change finding's score: the changed share of the view (0-1); empty for other findings
+    "baseline",  # the capture a change finding was compared with
 )
 #: A cell starting with one of these is read as a formula by spreadsheets (CSV injection: a note "=HYPERLINK(...)"
 #: became a live link): such a cell gets a leading single quote, as OWASP advises, and is shown as typed.
@@ -264,7 +266,7 @@ def _finding_json(row: Row, zone: tzinfo | None, image_url: Callable[[str], str]
             for r in row.readings
         ],
         "capture": f.capture, "image": image, "image_url": image_url(image) if image else None,
-        "region": f.region,
+        "region": f.region, "change": f.change, "baseline": f.baseline,
     }  # fmt: skip
 
 
@@ -283,7 +285,8 @@ def as_csv(report: Report, image_url: Callable[[str], str]) -> str:
         image = image_url(capture.image) if capture is not None and capture.image else ""
         writer.writerow(
             (*map(_cell, text), reviewed, *map(_cell, place), f"{f.x:.3f}", f"{f.y:.3f}", iso_time(row.time, zone),
-             _cell(f.note), _cell("; ".join(r.text() for r in row.readings)), _cell(image))
+             _cell(f.note), _cell("; ".join(r.text() for r in row.readings)), _cell(image),
+             "" if f.change is None else f"{f.change:.4f}", _cell(f.baseline or ""))
         )  # fmt: skip
     return out.getvalue()
 

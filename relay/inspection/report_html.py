@@ -35,14 +35,22 @@ if TYPE_CHECKING:
     from .records import MissionRecord
     from .store import Store
 
-COLOURS = {"ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317"}  # also in report.css
+#: Also in report.css and the client's inspection_model.js. A change is purple, apart from the red of an anomaly
+#: and the amber of a finding to review; a false alarm is grey, as something nobody needs to act on.
+COLOURS = {
+    "ok": "#2e9e4f", "anomaly": "#d62d20", "needs_review": "#e8a317", "changed": "#8e44ad", "false_alarm": "#7f8c8d",
+}  # fmt: skip
 OTHER_COLOUR = "#6b7280"  # a status this page does not know yet
 #: The report's stylesheet, embedded (the report is one file); the relay's Content-Security-Policy allows exactly
 #: this text by its hash (relay.net.headers), and the report sets no ``style`` attribute, which the policy would block.
 STYLESHEET = (Path(__file__).resolve().parent / "report.css").read_text(encoding="utf-8")
 PIXELS_PER_METRE = 50  # the plan: 1 px = 2 cm
 MISSION_STATES = {"pending": "Pending", "running": "Running", "paused": "Paused", "done": "Done", "aborted": "Aborted"}
-_PLURALS = {"anomaly": ("anomaly", "anomalies"), "ok": ("OK", "OK"), "needs_review": ("needs review", "need review")}
+_PLURALS = {
+    "anomaly": ("anomaly", "anomalies"), "ok": ("OK", "OK"), "needs_review": ("needs review", "need review"),
+    "changed": ("changed since the last round", "changed since the last round"),
+    "false_alarm": ("false alarm", "false alarms"),
+}  # fmt: skip
 
 esc = html.escape
 

@@ -20,9 +20,14 @@ from ..sim.floorplan import Room as Room  # a named area of the site: its bounds
 from .records import CaptureRecord, FindingRecord, MissionRecord
 
 #: A finding's status as people say it (the store keeps the code).
-STATUS_WORDS = {"ok": "OK", "anomaly": "Anomaly", "needs_review": "Needs review"}
-#: Work orders come from findings that need someone: an anomaly now, a finding to review soon. OK findings make none.
-PRIORITIES = {"anomaly": "high", "needs_review": "medium"}
+STATUS_WORDS = {
+    "ok": "OK", "anomaly": "Anomaly", "needs_review": "Needs review", "changed": "Changed since last round",
+    "false_alarm": "False alarm",
+}  # fmt: skip
+#: Work orders come from findings that need someone: an anomaly now, a finding to review soon; a place that changed
+#: since the last round is one to go and look at, as a finding to review is (the change alone says nothing of
+#: danger: readings past a limit make their own anomaly). OK findings and false alarms make none.
+PRIORITIES = {"anomaly": "high", "needs_review": "medium", "changed": "medium"}
 #: When a work order is due, counted from the capture that showed it: a day for an anomaly (a leak, a hot panel is
 #: fixed or made safe within a shift or two), a week for something to look at again.
 DUE_AFTER = {"high": timedelta(days=1), "medium": timedelta(days=7)}

@@ -48,5 +48,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         t DOUBLE PRECISION NOT NULL, outcome TEXT NOT NULL, mission TEXT, reason TEXT NOT NULL)""",
         "CREATE INDEX schedule_runs_schedule ON schedule_runs (schedule, slot)",
     ),
+    (  # 6: a change finding keeps its score and the capture it was compared with (issue #30, items 3 and 5)
+        "ALTER TABLE findings ADD COLUMN change DOUBLE PRECISION",
+        "ALTER TABLE findings ADD COLUMN baseline TEXT",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)

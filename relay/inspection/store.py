@@ -140,10 +140,13 @@ class Store(ScheduleTables):
         ]
 
     def last_capture_of(self, target: str, before: float, but: str) -> CaptureRecord | None:
-        """The newest capture of ``target`` with an image taken before ``before`` (Unix s), other than ``but``."""
+        """The newest capture of ``target`` with an image taken before ``before`` (Unix s), other than ``but``, whose
+        change finding (one with a ``baseline``) no operator marked ``false_alarm``: a false alarm says that image
+        showed noise (a shadow, a passer-by), so the next round is measured against the image accepted before it."""
         rows = self._read(
-            f"SELECT {_CAPTURE} FROM captures WHERE target = ? AND image IS NOT NULL AND t <= ? AND id <> ?"
-            " ORDER BY t DESC, id DESC LIMIT 1",
+            f"SELECT {_CAPTURE} FROM captures c WHERE target = ? AND image IS NOT NULL AND t <= ? AND id <> ?"
+            " AND NOT EXISTS (SELECT 1 FROM findings f WHERE f.capture = c.id AND f.status = 'false_alarm'"
+            " AND f.baseline IS NOT NULL) ORDER BY t DESC, id DESC LIMIT 1",
             (target, before, but),
         )
         return record_of(CaptureRecord, rows[0]) if rows else None

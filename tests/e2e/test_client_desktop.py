@@ -243,6 +243,15 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await page.click('#findings button[data-mission="start"]')
     # Each robot inspects its target again (it stands next to it since the demo): two new findings.
     await client.wait("s.inspection.findings.length === 5", 60)
+    # A false alarm, with the note typed beside its button: the list says so in words, the database keeps the note.
+    await page.click("#findings li[data-finding]:has-text('leak') >> nth=0")
+    await page.fill("#findings input[data-note]", "condensation on the lens")
+    await page.click("#findings button[data-false-alarm]")
+    await client.wait("s.inspection.findings.some((f) => f.target === 'leak' && f.status === 'false_alarm')")
+    await page.wait_for_selector("#findings li[data-finding]:has-text('False alarm')")
+    store = station.running.relay.inspection.store
+    assert store is not None
+    assert [f.note for f in store.findings(status="false_alarm")] == ["condensation on the lens"]
     assert not client.errors, client.errors
 
 

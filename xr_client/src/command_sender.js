@@ -186,7 +186,7 @@ export class CommandSender {
   /**
    * Change a finding's status, note or region.
    * @param {string} finding
-   * @param {{status?: 'ok' | 'anomaly' | 'needs_review', note?: string, region?: number[][] | null}} fields
+   * @param {{status?: import('./protocol.js').FindingStatus, note?: string, region?: number[][] | null}} fields
    */
   findingUpdate(finding, fields) {
     return this.#send({ identifier: 'finding/update', finding, ...fields });

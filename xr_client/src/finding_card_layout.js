@@ -45,6 +45,11 @@ export function cardLayout(state) {
     ['status:needs_review', 'Review', state.status === 'needs_review', op],
     ['status:ok', 'OK', state.status === 'ok', op],
   ]);
+  // A second row: three buttons of a third of the column each are as narrow as a ray can still hit at arm's length.
+  row([
+    ['status:changed', 'Changed', state.status === 'changed', op],
+    ['status:false_alarm', 'False alarm', state.status === 'false_alarm', op],
+  ]);
   if (state.proposal) {
     row([
       ['region:accept', 'Accept region', false, op],

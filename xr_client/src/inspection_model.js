@@ -14,12 +14,21 @@ import { count } from './wording.js';
  * @typedef {import('./protocol.js').RegionMessage} Region
  * @typedef {import('./protocol.js').AlertMessage} Alert
  * @typedef {import('./protocol.js').ScheduleDescription} Schedule
- * @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus
+ * @typedef {import('./protocol.js').FindingStatus} FindingStatus
  * @typedef {{text: string, kind: 'info' | 'warning' | 'error'}} InspectionNotice
  */
 
-/** Pin colours by status (the report uses the same). */
-export const STATUS_COLOURS = Object.freeze({ ok: '#2e9e4f', anomaly: '#d62d20', needs_review: '#e8a317' });
+/**
+ * Pin colours by status (the report uses the same: relay/inspection/report_html.py). A change is purple, apart from
+ * the red of an anomaly and the amber of a finding to review; a false alarm grey, as nothing anyone must act on.
+ */
+export const STATUS_COLOURS = Object.freeze({
+  ok: '#2e9e4f',
+  anomaly: '#d62d20',
+  needs_review: '#e8a317',
+  changed: '#8e44ad',
+  false_alarm: '#7f8c8d',
+});
 
 /** Seconds an alert is news: one raised longer ago (sent again after a reconnect) is listed, not told. */
 export const FRESH_ALERT = 120;

@@ -7,9 +7,10 @@
  * test/inspection_review.test.js drives it with the relay's message shapes.
  */
 
-/** @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus */
+/** @typedef {import('./protocol.js').FindingStatus} FindingStatus */
 /**
- * @typedef {{type: 'finding_update', finding: string, fields: {status?: FindingStatus, region?: number[][]}}
+ * @typedef {{type: 'finding_update', finding: string, fields: {status?: FindingStatus, note?: string,
+ *   region?: number[][]}}
  *   | {type: 'region', capture: string, u: number, v: number}
  *   | {type: 'target_pixel', target: string, capture: string, u: number, v: number}
  *   | {type: 'target_at', target: string, x: number, y: number}
@@ -18,7 +19,7 @@
  *   | {type: 'findings_page', before: number | null} | {type: 'alert_ack', alert: string}} ReviewCommand
  */
 
-export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'needs_review', 'ok']);
+export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'changed', 'needs_review', 'ok', 'false_alarm']);
 
 /**
  * A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64.
@@ -150,6 +151,20 @@ export class InspectionReview {
   /** Set the open finding's status. @param {FindingStatus} status @returns {ReviewCommand[]} */
   setStatus(status) {
     return this.selected ? [{ type: 'finding_update', finding: this.selected, fields: { status } }] : [];
+  }
+
+  /**
+   * Mark the open finding a false alarm, saying why (a shadow, a passer-by): the relay then compares the target's
+   * next round with the image accepted before it (docs/inspection.md). An empty note leaves the note as it was.
+   * @param {string} note @returns {ReviewCommand[]}
+   */
+  falseAlarm(note) {
+    if (!this.selected) return [];
+    const why = note.trim().slice(0, 1000); // the relay's limit for a note
+    const fields = why
+      ? { status: /** @type {const} */ ('false_alarm'), note: why }
+      : { status: /** @type {const} */ ('false_alarm') };
+    return [{ type: 'finding_update', finding: this.selected, fields }];
   }
 
   /**

@@ -20,7 +20,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
 /** @typedef {'acquired' | 'released' | 'taken_over' | 'expired' | 'disconnected'} LeaseReason */
 /** @typedef {'pending' | 'running' | 'paused' | 'done' | 'aborted'} MissionState */
-/** @typedef {'ok' | 'anomaly' | 'needs_review'} FindingStatus */
+/** @typedef {'ok' | 'anomaly' | 'needs_review' | 'changed' | 'false_alarm'} FindingStatus */
 /** @typedef {'inspect' | 'goto' | 'capture' | 'dwell'} StepKind */
 
 // Server to client
@@ -60,7 +60,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 /** @typedef {{identifier: 'targets_changed', added: TargetDescription[], removed: string[]}} TargetsChangedMessage */
 /** @typedef {{kind: StepKind, target: string | null, x: number | null, y: number | null, yaw: number | null, seconds: number | null}} StepDescription */
 /** @typedef {{identifier: 'mission', id: string, name: string, robot: string, state: MissionState, current: number, steps: StepDescription[], reason: string, owner: string, updated: number}} MissionMessage */
-/** @typedef {{identifier: 'finding', id: string, capture: string, mission: string | null, target: string | null, robot: string, x: number, y: number, status: FindingStatus, note: string, source: 'operator' | 'rule', region: number[][] | null, image: string | null, readings: Object<string, number>, created: number, updated: number}} FindingMessage */
+/** @typedef {{identifier: 'finding', id: string, capture: string, mission: string | null, target: string | null, robot: string, x: number, y: number, status: FindingStatus, note: string, source: 'operator' | 'rule', region: number[][] | null, image: string | null, readings: Object<string, number>, created: number, updated: number, change: number | null, baseline: string | null}} FindingMessage */
 /** @typedef {{identifier: 'findings', id: RequestId, findings: FindingMessage[], more: boolean}} FindingsMessage */
 /** @typedef {{by: string, at: number, note: string}} AlertAcknowledgement */
 /** @typedef {{identifier: 'alert', alert: string, kind: string, robot: string | null, subject: string | null, text: string, severity: 'warning' | 'critical', raised: number, acknowledged: AlertAcknowledgement | null}} AlertMessage */

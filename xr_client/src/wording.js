@@ -11,3 +11,19 @@
 export function count(n, one, many = `${one}s`) {
   return `${n} ${n === 1 ? one : many}`;
 }
+
+/** A finding's status as the report words it (relay/inspection/report_rows.py STATUS_WORDS): the list, the card. */
+const STATUS_WORDS = Object.freeze({
+  ok: 'OK',
+  anomaly: 'Anomaly',
+  needs_review: 'Needs review',
+  changed: 'Changed since last round',
+  false_alarm: 'False alarm',
+});
+
+/**
+ * @param {string} status a finding's status code; one a newer relay adds reads as its code in words
+ */
+export function statusWords(status) {
+  return STATUS_WORDS[/** @type {keyof typeof STATUS_WORDS} */ (status)] ?? status.replaceAll('_', ' ');
+}

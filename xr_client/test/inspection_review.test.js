@@ -1,8 +1,8 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { InspectionModel } from '../src/inspection_model.js';
-import { InspectionReview, nextName, targetName } from '../src/inspection_review.js';
+import { InspectionModel, STATUS_COLOURS } from '../src/inspection_model.js';
+import { FINDING_STATUSES, InspectionReview, nextName, targetName } from '../src/inspection_review.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../src/finding_card_layout.js';
 import { MenuState } from '../src/menu_state.js';
 
@@ -269,4 +269,46 @@ test('a refused live target opens nothing, and a region answered without an outl
   model.reset();
   review.sync(model);
   assert.equal(review.live, null);
+});
+
+test('a change has a colour of its own, and a false alarm is marked with a note from the list or the card', () => {
+  const colours = FINDING_STATUSES.map((s) => STATUS_COLOURS[s]);
+  assert.equal(new Set(colours).size, FINDING_STATUSES.length, 'every status its own colour');
+  assert.ok(![STATUS_COLOURS.anomaly, STATUS_COLOURS.needs_review].includes(STATUS_COLOURS.changed));
+  const model = new InspectionModel();
+  model.apply(finding({ id: 'f-9', status: 'changed', change: 0.042, baseline: 'c-1' }));
+  const review = new InspectionReview();
+  assert.deepEqual(review.falseAlarm('a shadow'), [], 'nothing open: nothing to mark');
+  review.select('f-9');
+  assert.deepEqual(review.falseAlarm('  a shadow at dusk '), [
+    { type: 'finding_update', finding: 'f-9', fields: { status: 'false_alarm', note: 'a shadow at dusk' } },
+  ]);
+  assert.deepEqual(review.falseAlarm('   '), [
+    { type: 'finding_update', finding: 'f-9', fields: { status: 'false_alarm' } },
+  ]);
+  assert.equal(
+    /** @type {any} */ (review.falseAlarm('x'.repeat(1200))[0]).fields.note.length,
+    1000,
+    "the relay's limit",
+  );
+  const size = /** @type {[number, number]} */ ([640, 480]);
+  const card = cardLayout({
+    status: 'changed',
+    proposal: false,
+    imageAction: 'region',
+    operator: true,
+    imageSize: size,
+  });
+  assert.deepEqual(
+    card.buttons.filter((b) => b.active).map((b) => b.id),
+    ['status:changed', 'image:region'],
+  );
+  for (const a of card.buttons)
+    for (const b of card.buttons)
+      if (a !== b)
+        assert.ok(a.x + a.w <= b.x || b.x + b.w <= a.x || a.y + a.h <= b.y || b.y + b.h <= a.y, `${a.id} / ${b.id}`);
+  const mark = /** @type {import('../src/finding_card_layout.js').CardButton} */ (
+    card.buttons.find((b) => b.id === 'status:false_alarm')
+  );
+  assert.deepEqual(cardHit(card, size, mark.x + mark.w / 2, mark.y + mark.h / 2), { button: 'status:false_alarm' });
 });

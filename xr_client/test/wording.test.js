@@ -1,7 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { count } from '../src/wording.js';
+import { count, statusWords } from '../src/wording.js';
 import { InspectionModel } from '../src/inspection_model.js';
 
 test('one step, two steps, no steps; an irregular plural', () => {
@@ -21,4 +21,15 @@ test('a mission of one step is done "(1 step)"', () => {
     notices.map((n) => n.text),
     ["robot1's mission done (1 step)"],
   );
+});
+
+test("a finding's status in words, as the report has them; a status a newer relay adds reads as its code", () => {
+  assert.deepEqual(['ok', 'anomaly', 'needs_review', 'changed', 'false_alarm'].map(statusWords), [
+    'OK',
+    'Anomaly',
+    'Needs review',
+    'Changed since last round',
+    'False alarm',
+  ]);
+  assert.equal(statusWords('out_of_reach'), 'out of reach');
 });

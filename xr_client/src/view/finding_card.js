@@ -11,6 +11,7 @@ import { CanvasPlane } from './canvas_plane.js';
 import { fillRounded, fitText, font } from './canvas_text.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../finding_card_layout.js';
 import { STATUS_COLOURS } from '../inspection_model.js';
+import { statusWords } from '../wording.js';
 
 /** @type {[number, number]} */
 const CARD_M = [0.64, 0.4];
@@ -99,7 +100,7 @@ export class FindingCard {
     ctx.fillStyle = '#fff';
     fitText(
       ctx,
-      `${finding.target ?? 'finding'} · ${finding.robot} · ${finding.status.replace('_', ' ')}`,
+      `${finding.target ?? 'finding'} · ${finding.robot} · ${statusWords(finding.status)}`,
       64,
       34,
       w - 100,

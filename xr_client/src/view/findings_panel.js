@@ -2,7 +2,8 @@
 /**
  * The alerts to acknowledge on the desktop (a count badge, each with its Acknowledge button; an alert another operator
  * acknowledged leaves the list), then the findings: a list with a status filter, and the selected finding's image
- * with its region, readings and note. The operator sets its status, and marks a region: a click on the image asks
+ * with its region, readings and note. The operator sets its status (a false alarm with a note saying why), and marks
+ * a region: a click on the image asks
  * the relay to segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it
  * (Redo: click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
@@ -10,9 +11,10 @@ import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { reportLinks } from '../report_links.js';
 import { scheduleRows } from '../schedule_list.js';
+import { statusWords } from '../wording.js';
 
 export class FindingsPanel {
-  /** @type {'anomaly' | 'needs_review' | 'ok' | ''} */
+  /** @type {import('../protocol.js').FindingStatus | ''} */
   filter = '';
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
@@ -46,7 +48,8 @@ export class FindingsPanel {
       true,
     );
     root.addEventListener('change', (event) => {
-      this.filter = /** @type {any} */ (/** @type {HTMLSelectElement} */ (event.target).value);
+      if (!(event.target instanceof HTMLSelectElement)) return; // the false alarm's note is read when sent
+      this.filter = /** @type {any} */ (event.target.value);
       this.render();
     });
   }
@@ -60,17 +63,14 @@ export class FindingsPanel {
       this.model.schedules.length === 0;
     const selected = this.review.selected;
     const options = ['', ...FINDING_STATUSES]
-      .map(
-        (s) =>
-          `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? s.replace('_', ' ') : 'all'}</option>`,
-      )
+      .map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? statusWords(s) : 'all'}</option>`)
       .join('');
     const items = findings
       .map(
         (f) =>
           `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}">` +
           `<span class="dot" data-status="${esc(f.status)}"></span>` +
-          `${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(f.status.replace('_', ' '))}` +
+          `${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(statusWords(f.status))}` +
           `<br><small>${esc(f.note)}</small></li>`,
       )
       .join('');
@@ -79,11 +79,18 @@ export class FindingsPanel {
     const links = reportLinks(about?.mission, this.token)
       .map((l) => `<a href="${esc(l.href)}" title="${esc(l.title)}" target="_blank" rel="noopener">${esc(l.text)}</a>`)
       .join('');
+    // A redraw (any finding or alert that arrives) must not lose a false alarm's note being typed.
+    const typing = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
+    const note = typing?.value ?? '';
+    const focused = typing !== null && typing === document.activeElement;
     this.root.innerHTML =
       `${this.#alerts()}${this.#schedules()}${this.#targets()}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
+    const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
+    if (input && note) input.value = note;
+    if (input && focused) input.focus();
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);
@@ -166,10 +173,17 @@ export class FindingsPanel {
     const readings = Object.entries(f.readings)
       .map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`)
       .join(' · ');
-    const buttons = FINDING_STATUSES.map((s) => {
-      const active = s === f.status ? ' class="active"' : '';
-      return `<button type="button" data-status="${s}"${active}>${s.replace('_', ' ')}</button>`;
-    }).join('');
+    const buttons = FINDING_STATUSES.filter((s) => s !== 'false_alarm')
+      .map((s) => {
+        const active = s === f.status ? ' class="active"' : '';
+        return `<button type="button" data-status="${s}"${active}>${statusWords(s)}</button>`;
+      })
+      .join('');
+    const marked = f.status === 'false_alarm' ? ' class="active"' : '';
+    const falseAlarm =
+      '<input type="text" data-note maxlength="1000" aria-label="why it is a false alarm" ' +
+      'placeholder="why it is a false alarm (a shadow, a passer-by)">' +
+      `<button type="button" data-false-alarm${marked}>False alarm</button>`;
     const mark = 'click the image to mark a region; shift-click: a new target there';
     const regionButtons = review.proposal
       ? '<button type="button" data-region="accept">Accept region</button>' +
@@ -177,7 +191,7 @@ export class FindingsPanel {
       : `<small>${review.pending ? review.hint() : mark}</small>`;
     return (
       `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p>` +
-      `<p>${buttons}</p><p>${regionButtons}</p></section>`
+      `<p>${buttons}</p><p class="false-alarm">${falseAlarm}</p><p>${regionButtons}</p></section>`
     );
   }
 
@@ -192,7 +206,11 @@ export class FindingsPanel {
     else if (target.dataset.older) this.run([{ type: 'findings_page', before: this.model.oldest() }]);
     else if (item) review.select(item.getAttribute('data-finding'));
     else if (target.dataset.status) this.run(review.setStatus(/** @type {any} */ (target.dataset.status)));
-    else if (target.dataset.region === 'accept') this.run(review.accept());
+    else if (target.dataset.falseAlarm !== undefined) {
+      const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
+      this.run(review.falseAlarm(input?.value ?? ''));
+      if (input) input.value = '';
+    } else if (target.dataset.region === 'accept') this.run(review.accept());
     else if (target.dataset.region === 'redo') review.redo();
     else if (target instanceof HTMLImageElement && target.naturalWidth) {
       const rect = target.getBoundingClientRect();
