@@ -30,6 +30,7 @@ from ..fleet.occupancy import OccupancyGrid
 from .hazards import HazardSource
 
 __all__ = [
+    "EDGE_WOBBLE",
     "Box",
     "Decal",
     "FloorPlan",
@@ -119,6 +120,13 @@ class Spawn:
     x: float
     y: float
     yaw: float
+
+
+#: The roughened edge of a decal: its outline at ellipse parameter ``t`` lies at ``1 + sum(a * sin(k * t + p))``
+#: times the nominal ellipse, for each ``(a, k, p)`` here, within +-23 % (inside the 1.25x :class:`Decal` allows).
+#: The twin's mesh (relay/twin/facility_glb.py) and the grown spill the simulator paints (relay/sim/spill.py)
+#: both follow it, so a grown spill is the twin's outline scaled.
+EDGE_WOBBLE = ((0.12, 3, 0.7), (0.07, 5, 2.1), (0.04, 8, 0.3))
 
 
 @dataclass(frozen=True)
