@@ -56,7 +56,8 @@ machine; 640 misses the budget as soon as the other core is busy. Two renders in
 times faster than one after the other (Embree's own casts: 1.65 times). The pure-Python fallback intersector
 casts only about 4000 rays per second here (48x48: 0.40-0.69 s a frame, 64x64: 0.70 s); it cannot meet the
 budget at any useful size, so :data:`FALLBACK_SIZE` is the smallest image that still shows the spill, at
-1.5 to 2.5 fps. A spill that has grown (``render``'s ``spill``, relay/sim/spill.py) costs 7-11 ms more at 480x480.
+1.5 to 2.5 fps. A spill that has grown (``render``'s ``spill``, relay/sim/spill.py) costs 10-16 ms more CPU at
+480x480 (74.5 ms median, 89-91 ms grown, measured at load average 15: wall times then meant nothing).
 """
 
 from __future__ import annotations
