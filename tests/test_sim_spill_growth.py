@@ -81,7 +81,7 @@ def test_growth_is_linear_from_one_bounded_and_monotone() -> None:
     assert growth.scale(600.0) == 2.0 and growth.scale(1e9) == 2.0 and growth.scale(math.inf) == 2.0
     scales = [growth.scale(t) for t in np.linspace(-60.0, 1200.0, 500)]
     assert all(a <= b for a, b in itertools.pairwise(scales))
-    assert SpillGrowth().scale(1e9) == 1.0  # the default: no growth
+    assert SpillGrowth().scale(1e9) == 1.0 and SpillGrowth().scale(math.inf) == 1.0  # the default: no growth
     with pytest.raises(ValueError, match="rate"):
         SpillGrowth(rate=-0.1)
     with pytest.raises(ValueError, match="limit"):

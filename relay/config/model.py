@@ -189,7 +189,7 @@ class SpillGrowth:
     def scale(self, elapsed: float) -> float:
         """The spill's size after ``elapsed`` seconds, as a multiple of its first: 1 at 0 (and before),
         growing linearly, never above ``limit``; non-decreasing in ``elapsed``."""
-        if not elapsed > 0.0:  # also NaN: a clock that has not started
+        if not elapsed > 0.0 or self.rate == 0.0:  # NaN: a clock that has not started; 0 x inf would be NaN
             return 1.0
         return min(self.limit, 1.0 + self.rate * elapsed / 60.0)
 
