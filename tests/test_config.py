@@ -11,7 +11,7 @@ import pytest
 
 from relay.backends import dds_profile
 from relay.cli.main import main
-from relay.config import load_config, parse_config
+from relay.config import SpillGrowth, load_config, parse_config
 from relay.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -296,6 +296,35 @@ def test_navigation_defaults_to_nav2_beside_the_namespace_and_every_key_can_be_s
 )
 def test_errors_name_file_line_and_field(text: str, expected: str) -> None:
     assert error_of(text).startswith(expected)
+
+
+@pytest.mark.parametrize(
+    ("growth", "expected"),
+    [
+        ("{rate: -0.1}", "robots.yaml:5: sim.spill_growth.rate: expected a number >= 0, got -0.1"),
+        ("{rate: fast}", 'robots.yaml:5: sim.spill_growth.rate: expected a number >= 0, got "fast"'),
+        ("{rate: .nan}", "robots.yaml:5: sim.spill_growth.rate: expected a number >= 0"),
+        (
+            "{limit: 0.5}",
+            "robots.yaml:5: sim.spill_growth.limit: expected a number >= 1 (times the first size), got 0.5",
+        ),
+        ("{limit: .inf}", "robots.yaml:5: sim.spill_growth.limit: expected a number"),
+        ("{speed: 1}", "robots.yaml:5: sim.spill_growth.speed: unknown field; expected one of rate, limit"),
+        ("0.1", "robots.yaml:5: sim.spill_growth: expected a mapping"),
+    ],
+)
+def test_bad_spill_growth_is_an_error_naming_the_key(tmp_path: Path, growth: str, expected: str) -> None:
+    good = MINIMAL + "sim:\n  spill_growth: {rate: 0.1, limit: 2}\n"
+    assert parse_config(good).sim.spill_growth == SpillGrowth(0.1, 2.0)
+    assert parse_config(MINIMAL).sim.spill_growth == SpillGrowth(0.0, 2.0)  # no growth unless asked
+    assert error_of(MINIMAL + f"sim:\n  spill_growth: {growth}\n").startswith(expected)
+    # Nothing changes: a relay started on the bad file exits 2 before building any world, and the file is as it was.
+    bad = tmp_path / "fleet.yaml"
+    bad.write_text(MINIMAL + f"sim:\n  spill_growth: {growth}\n")
+    before = bad.read_bytes()
+    with pytest.raises(ConfigError) as info:
+        load_config(bad)
+    assert "sim.spill_growth" in str(info.value) and bad.read_bytes() == before
 
 
 def test_unreadable_file(tmp_path: Path) -> None:

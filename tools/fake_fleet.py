@@ -188,7 +188,9 @@ class FakeFleet:
             started = time.monotonic()
             if publisher.get_subscription_count() > 0:
                 state = self.world.robots[robot].state
-                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
+                # The spill as grown by now (robots.yaml sim.spill_growth); the world's clock is a float, read whole.
+                spill = self.world.spill_at()
+                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens, spill=spill)
                 header = self._header(f"{robot}/camera_{spec.name}")
                 if spec.compressed:
                     message = CompressedImage(header=header, format="jpeg", data=rgb_to_jpeg(rgb))

@@ -244,7 +244,9 @@ class FakeZenohFleet:
             started = time.monotonic()
             if publisher.matching_status.matching:
                 state = self.world.robots[robot].state
-                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens)
+                # The spill as grown by now (robots.yaml sim.spill_growth); the world's clock is a float, read whole.
+                spill = self.world.spill_at()
+                rgb = self.camera.render(float(state.x), float(state.y), float(state.yaw), lens, spill=spill)
                 message = self.messages.image(rgb, spec.compressed, f"{robot}/camera_{spec.name}")
                 self.put(publisher, message, image_type(spec.compressed))
             time.sleep(max(0.05, period - (time.monotonic() - started)))

@@ -153,10 +153,10 @@ class SimBackend(Backend):
             return None
         # Plain floats cross to the worker thread: the world keeps moving on the loop meanwhile.
         (x, y, yaw), stamp = self._pose_of(robot), time.time()
-        render = self.camera.render
+        render, spill = self.camera.render, self.world.spill_at()  # the spill as grown at this frame's time
 
         def work() -> tuple[bytes, Any]:
-            rgb = render(x, y, yaw, lens)
+            rgb = render(x, y, yaw, lens, spill=spill)
             return rgb_to_jpeg(rgb), rgb[:, :, ::-1]  # BGR, a view: the H.264 encoder takes it as it is
 
         try:

@@ -48,6 +48,7 @@ from .model import (
     Sensor,
     Sim,
     Site,
+    SpillGrowth,
     Webhook,
     Zenoh,
 )
@@ -79,6 +80,7 @@ __all__ = [
     "Sensor",
     "Sim",
     "Site",
+    "SpillGrowth",
     "Webhook",
     "Zenoh",
     "load_config",
@@ -174,7 +176,7 @@ def _scene(reader: _Reader, node: Node) -> Scene:
 
 def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
     path = "sim"
-    keys = ("world", "physics_rate", "pose_rate", "sensor_rate", "scan_rate", "hazards", "fields")
+    keys = ("world", "physics_rate", "pose_rate", "sensor_rate", "scan_rate", "hazards", "fields", "spill_growth")
     f = reader.mapping(node, path, keys)
     world: Path | None = None
     if "world" in f and reader.value(f["world"]) is not None:
@@ -231,7 +233,18 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
         scan_rate=reader.get(f, "scan_rate", path, scan_rate, 5.0),
         hazards=tuple(hazards),
         fields=tuple(fields),
+        spill_growth=_spill_growth(reader, f["spill_growth"]) if "spill_growth" in f else SpillGrowth(),
     )
+
+
+def _spill_growth(reader: _Reader, node: Node) -> SpillGrowth:
+    path = "sim.spill_growth"
+    f = reader.mapping(node, path, ("rate", "limit"))
+    rate = reader.get(f, "rate", path, lambda n, p: reader.number(n, p, non_negative=True), SpillGrowth.rate)
+    limit = reader.get(f, "limit", path, reader.number, SpillGrowth.limit)
+    if limit < 1.0:
+        raise reader.fail(f["limit"], f"{path}.limit", f"expected a number >= 1 (times the first size), got {limit:g}")
+    return SpillGrowth(rate, limit)
 
 
 def _inspection(reader: _Reader, node: Node) -> InspectionSettings:

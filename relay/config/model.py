@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -172,6 +173,28 @@ class Field:
 
 
 @dataclass(frozen=True)
+class SpillGrowth:
+    """How the simulated chemical spill grows (relay/sim/spill.py): its radii gain ``rate`` times their first
+    size each minute of simulated time, up to ``limit`` times it. ``rate`` 0 (the default): it never grows."""
+
+    rate: float = 0.0  # per minute, >= 0
+    limit: float = 2.0  # >= 1
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate) and self.rate >= 0.0):
+            raise ValueError(f"rate must be a number >= 0, got {self.rate!r}")
+        if not (math.isfinite(self.limit) and self.limit >= 1.0):
+            raise ValueError(f"limit must be a number >= 1, got {self.limit!r}")
+
+    def scale(self, elapsed: float) -> float:
+        """The spill's size after ``elapsed`` seconds, as a multiple of its first: 1 at 0 (and before),
+        growing linearly, never above ``limit``; non-decreasing in ``elapsed``."""
+        if not elapsed > 0.0 or self.rate == 0.0:  # NaN: a clock that has not started; 0 x inf would be NaN
+            return 1.0
+        return min(self.limit, 1.0 + self.rate * elapsed / 60.0)
+
+
+@dataclass(frozen=True)
 class Sim:
     world: Path | None = None  # a facility.yaml (scene tool output): occupancy grid and hazard sources
     physics_rate: float = 50.0
@@ -180,6 +203,7 @@ class Sim:
     scan_rate: float = 5.0  # Hz, for robots with a `scan` (at most protocol.MAX_SCAN_RATE)
     hazards: tuple[Hazard, ...] = ()
     fields: tuple[Field, ...] = ()
+    spill_growth: SpillGrowth = field(default_factory=SpillGrowth)
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,8 @@ machine; 640 misses the budget as soon as the other core is busy. Two renders in
 times faster than one after the other (Embree's own casts: 1.65 times). The pure-Python fallback intersector
 casts only about 4000 rays per second here (48x48: 0.40-0.69 s a frame, 64x64: 0.70 s); it cannot meet the
 budget at any useful size, so :data:`FALLBACK_SIZE` is the smallest image that still shows the spill, at
-1.5 to 2.5 fps.
+1.5 to 2.5 fps. A spill that has grown (``render``'s ``spill``, relay/sim/spill.py) costs 10-16 ms more CPU at
+480x480 (74.5 ms median, 89-91 ms grown, measured at load average 15: wall times then meant nothing).
 """
 
 from __future__ import annotations
@@ -78,6 +79,7 @@ from ..config import Lens
 from ..media.imaging import JPEG_QUALITY, encode_jpeg
 from ..media.lens import LensModel, pixel_grid, unproject
 from .scene_parts import ScenePart, parts_from_scene
+from .spill import GrownSpill, SpillPainter
 
 __all__ = [
     "CAMERA_HEIGHT",
@@ -92,6 +94,7 @@ __all__ = [
     "camera_rotation",
     "embree_available",
     "rgb_to_jpeg",
+    "spill_mask",
 ]
 
 logger = logging.getLogger(__name__)
@@ -226,6 +229,8 @@ class SimCamera:
         self._face_table = table
         for array in (self.face_part, self.albedo, self.normals, self._face_table):
             array.setflags(write=False)
+        #: Paints the floor under a grown spill (relay/sim/spill.py) in the spill's colour.
+        self.spill_painter = SpillPainter(self.faces_under("floor"), self.faces_under("spill"), table[:, [0, 1, 2, 7]])
 
         #: The whole scene as one map-frame mesh, faces in the order of :attr:`face_part`. Read it; never modify
         #: it (the per-face tables and the ray engine are built from it once).
@@ -347,30 +352,43 @@ class SimCamera:
         return grid
 
     def trace(
-        self, x: float, y: float, yaw: float, lens: LensModel, height: float = CAMERA_HEIGHT, pitch: float = 0.0
+        self,
+        x: float,
+        y: float,
+        yaw: float,
+        lens: LensModel,
+        height: float = CAMERA_HEIGHT,
+        pitch: float = 0.0,
+        spill: GrownSpill | None = None,
     ) -> NDArray[np.int64]:
         """Index of the face each pixel sees, ``(lens.height, lens.width)``.
 
-        :data:`NO_HIT` where the ray escapes, :data:`OUTSIDE_FIELD` outside the lens's field. Pose as in
-        :meth:`render`.
+        :data:`NO_HIT` where the ray escapes, :data:`OUTSIDE_FIELD` outside the lens's field. As :meth:`render`.
         """
         grid = self.rays(lens)
-        hits, _, _ = self._cast(grid, x, y, yaw, height, pitch)
+        hits, _, _ = self._cast(grid, x, y, yaw, height, pitch, spill)
         out = np.full(grid.height * grid.width, OUTSIDE_FIELD, dtype=np.int64)
         out[grid.index] = hits
         return out.reshape(grid.height, grid.width)
 
     def render(
-        self, x: float, y: float, yaw: float, lens: LensModel, height: float = CAMERA_HEIGHT, pitch: float = 0.0
+        self,
+        x: float,
+        y: float,
+        yaw: float,
+        lens: LensModel,
+        height: float = CAMERA_HEIGHT,
+        pitch: float = 0.0,
+        spill: GrownSpill | None = None,
     ) -> NDArray[np.uint8]:
         """The image, ``(lens.height, lens.width, 3)`` uint8 RGB, of a camera on a robot at ``(x, y, yaw)``.
 
         Map frame, metres and radians; the camera is ``height`` metres above the floor, looks along the
-        robot's heading and is tilted down by ``pitch``. Deterministic: the same arguments give the same
-        bytes. Blocking (tens of milliseconds with Embree): call it from a worker thread.
+        robot's heading and is tilted down by ``pitch``. ``spill``: the spill grown (None or scale 1: the scene as
+        it is, byte for byte). Deterministic; blocking (tens of milliseconds with Embree): call it from a worker thread.
         """
         grid = self.rays(lens)
-        hits, directions, origin = self._cast(grid, x, y, yaw, height, pitch)
+        hits, directions, origin = self._cast(grid, x, y, yaw, height, pitch, spill)
         # Start from the lens's blank frame (black outside the field, void inside) and paint the hits.
         image = grid.blank.copy()
         hit = np.flatnonzero(hits >= 0)
@@ -380,9 +398,10 @@ class SimCamera:
     # -- internals --------------------------------------------------------------------------------
 
     def _cast(
-        self, grid: RayGrid, x: float, y: float, yaw: float, height: float, pitch: float
+        self, grid: RayGrid, x: float, y: float, yaw: float, height: float, pitch: float, spill: GrownSpill | None
     ) -> tuple[NDArray[np.int64], NDArray[np.float32], NDArray[np.float64]]:
-        """First face hit by every ray of ``grid`` from the pose (or NO_HIT), the map-frame rays, the origin."""
+        """First face hit by every ray of ``grid`` from the pose (or NO_HIT; the floor under ``spill`` as the spill),
+        the map-frame rays, the origin."""
         if not all(math.isfinite(v) for v in (x, y, yaw, height, pitch)):
             raise ValueError(f"camera pose must be finite, got x={x} y={y} yaw={yaw} height={height} pitch={pitch}")
         rotation = camera_rotation(yaw, pitch).astype(np.float32)
@@ -394,7 +413,7 @@ class SimCamera:
         else:
             with self._cast_lock:
                 hits = self._intersector.intersects_first(origins, directions)
-        return np.asarray(hits, dtype=np.int64), directions, origin
+        return self.spill_painter.grow(np.asarray(hits, dtype=np.int64), directions, origin, spill), directions, origin
 
     def _shade(
         self, faces: NDArray[np.int64], directions: NDArray[np.float32], origin: NDArray[np.float64]
@@ -413,6 +432,21 @@ class SimCamera:
         np.clip(codes, 0, _LUT_SIZE - 1, out=codes)
         out: NDArray[np.uint8] = _SRGB_LUT[codes]
         return out
+
+
+def spill_mask(
+    camera: SimCamera,
+    x: float,
+    y: float,
+    yaw: float,
+    lens: LensModel,
+    spill: GrownSpill,
+    height: float = CAMERA_HEIGHT,
+    pitch: float = 0.0,
+) -> NDArray[np.bool_]:
+    """The simulator's truth: True where a pixel of ``camera.render(x, y, yaw, lens, height, pitch, spill)`` sees
+    the spill (its mesh, or floor inside its grown outline), ``(lens.height, lens.width)``, from the same rays."""
+    return camera.spill_painter.covers(camera.trace(x, y, yaw, lens, height, pitch, spill))
 
 
 def rgb_to_jpeg(rgb: ArrayLike, quality: int = JPEG_QUALITY) -> bytes:

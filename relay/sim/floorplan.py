@@ -30,6 +30,8 @@ from ..fleet.occupancy import OccupancyGrid
 from .hazards import HazardSource
 
 __all__ = [
+    "EDGE_SEGMENTS",
+    "EDGE_WOBBLE",
     "Box",
     "Decal",
     "FloorPlan",
@@ -37,6 +39,7 @@ __all__ = [
     "Room",
     "Spawn",
     "demo_facility",
+    "edge_radius",
     "rasterise",
     "room_named",
     "spawn_of",
@@ -119,6 +122,23 @@ class Spawn:
     x: float
     y: float
     yaw: float
+
+
+#: The roughened edge of a decal: its outline at ellipse parameter ``t`` lies at ``1 + sum(a * sin(k * t + p))``
+#: times the nominal ellipse, for each ``(a, k, p)`` here, within +-23 % (inside the 1.25x :class:`Decal` allows).
+#: The twin's mesh (relay/twin/facility_glb.py) and the grown spill the simulator paints (relay/sim/spill.py)
+#: both follow it, so a grown spill is the twin's outline scaled.
+EDGE_WOBBLE = ((0.12, 3, 0.7), (0.07, 5, 2.1), (0.04, 8, 0.3))
+#: The twin's outline of a decal has a vertex at each of this many equal steps of ``t``, joined by straight edges.
+EDGE_SEGMENTS = 48
+
+
+def edge_radius(t: float) -> float:
+    """The roughened outline's radius at ellipse parameter ``t`` (rad), as a multiple of the nominal ellipse's."""
+    r = 1.0
+    for amplitude, k, phase in EDGE_WOBBLE:  # summed in this order, the twin's glb keeps its bytes
+        r += amplitude * math.sin(k * t + phase)
+    return r
 
 
 @dataclass(frozen=True)

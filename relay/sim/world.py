@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -28,6 +28,7 @@ from .follower import PathFollower
 from .hazards import HazardSource, SensorField
 from .kinematics import DiffDriveState, DriveLimits, step
 from .planner import NoPathError, Planner
+from .spill import GrownSpill, grow_sources
 
 logger = logging.getLogger(__name__)
 
@@ -103,7 +104,14 @@ class SimWorld:
             # No scene file: the demo facility's floor plan, rasterised here.
             self.grid = rasterise(demo_facility())
         self.planner = Planner(self.grid, PLANNING_RADIUS)
+        #: Sensor fields as they were at time 0; :meth:`readings` spreads the spill's gas as the spill grows.
         self.fields = build_fields(config, scene_hazards)
+        #: Simulated seconds since the world was built: the sum of ``step``'s dt (tests move it by hand).
+        self.time = 0.0
+        # The scene's spill is the demo facility's decal (scenes/facility.yaml is generated from that floor plan
+        # and carries no decals of its own).
+        self._spill = next((d for d in demo_facility().decals if d.kind == "spill"), None)
+        self._grown_fields: tuple[float, dict[str, SensorField]] = (1.0, self.fields)
         self._on_nav = on_nav
         self.robots: dict[str, SimRobot] = {}
         for index, spec in enumerate(config.robots):
@@ -176,7 +184,26 @@ class SimWorld:
 
     # -- time -------------------------------------------------------------------------------------
 
+    def spill_at(self, elapsed: float | None = None) -> GrownSpill | None:
+        """The spill as it has grown after ``elapsed`` simulated seconds (default: now), or None without one."""
+        if self._spill is None:
+            return None
+        scale = self.config.sim.spill_growth.scale(self.time if elapsed is None else elapsed)
+        return GrownSpill(self._spill, scale)
+
+    def fields_now(self) -> dict[str, SensorField]:
+        """The sensor fields at :attr:`time`: the spill's gas spread as far as the spill has grown."""
+        spill = self.spill_at()
+        if spill is None or spill.scale == 1.0:
+            return self.fields
+        scale, fields = self._grown_fields
+        if scale != spill.scale:  # rebuilt when the spill has grown since: at most once a physics step
+            fields = {k: replace(f, sources=grow_sources(f.sources, spill)) for k, f in self.fields.items()}
+            self._grown_fields = (spill.scale, fields)
+        return fields
+
     def step(self, dt: float) -> None:
+        self.time += dt
         for sim in self.robots.values():
             linear, angular = sim.command
             if sim.follower is not None:
@@ -190,9 +217,10 @@ class SimWorld:
     def readings(self, robot: str) -> list[tuple[str, float]]:
         """(sensor name, value) for each sensor of the robot that has a field."""
         sim = self.robots[robot]
+        fields = self.fields_now()
         out = []
         for sensor in sim.spec.sensors:
-            field = self.fields.get(sensor.hazard)
+            field = fields.get(sensor.hazard)
             if field is not None:
                 out.append((sensor.name, field.value(sim.state.x, sim.state.y, sim.rng)))
         return out

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..fleet.geometry import yaw_to_quaternion
-from ..sim.floorplan import Box, Decal, FloorPlan, Pipe
+from ..sim.floorplan import EDGE_SEGMENTS, Box, Decal, FloorPlan, Pipe, edge_radius
 from .gltf import Geometry, Material, Mesh, Node, Primitive, build_glb, merge
 from .shapes import box, cylinder, polygon, sphere
 
@@ -38,7 +38,7 @@ _DECAL_Z = 0.004
 _BARREL_SEGMENTS = 24
 
 
-def _blob(decal: Decal, segments: int = 48) -> NDArray[np.float64]:
+def _blob(decal: Decal, segments: int = EDGE_SEGMENTS) -> NDArray[np.float64]:
     """Outline of a decal relative to its centre: the ellipse with a roughened (liquid-looking) edge.
 
     The wobble is a fixed sum of sines (no randomness) bounded by +-23 %, inside the 1.25x the floor plan
@@ -48,7 +48,7 @@ def _blob(decal: Decal, segments: int = 48) -> NDArray[np.float64]:
     points = []
     for i in range(segments):
         t = math.tau * i / segments
-        r = 1.0 + 0.12 * math.sin(3 * t + 0.7) + 0.07 * math.sin(5 * t + 2.1) + 0.04 * math.sin(8 * t + 0.3)
+        r = edge_radius(t)
         u, v = decal.radius_x * r * math.cos(t), decal.radius_y * r * math.sin(t)
         points.append((c * u - s * v, s * u + c * v))
     return np.array(points)
