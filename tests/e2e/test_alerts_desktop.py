@@ -3,11 +3,8 @@ badge, and its Acknowledge button sends alert/ack under the page's operator name
 
 from __future__ import annotations
 
-import asyncio
-
-from relay.inspection.records import AlertRecord
-from relay.inspection.store import Store
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
+from tests.helpers.inspection import stored_alert
 
 
 async def test_an_alert_is_acknowledged_from_the_desktop_list(station: Station, open_client: OpenClient) -> None:
@@ -25,12 +22,5 @@ async def test_an_alert_is_acknowledged_from_the_desktop_list(station: Station, 
     await page.click(f"#findings button[data-ack='{alert.id}']")
     await page.wait_for_selector(item, state="detached", timeout=30_000)
     assert await page.locator("#findings .badge").count() == 0
-    store = inspection.store
-    assert store is not None
-
-    def stored() -> AlertRecord | None:  # on a connection of the test's own: the relay's is its store thread's
-        with Store.open(store.name, store.images) as own:
-            return own.alert(alert.id)
-
-    acknowledged = await asyncio.to_thread(stored)
+    acknowledged = await stored_alert(station.running, alert.id)
     assert acknowledged is not None and acknowledged.acked_by == "Tess"

@@ -4,11 +4,8 @@ desktop page's list too."""
 
 from __future__ import annotations
 
-import asyncio
-
-from relay.inspection.records import AlertRecord
-from relay.inspection.store import Store
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
+from tests.helpers.inspection import stored_alert
 from tests.helpers.xr import enter_vr, press_menu_button, set_menu
 
 
@@ -35,13 +32,6 @@ async def test_an_alert_is_a_row_of_the_vr_menu_and_acknowledged_by_pointing(
     await client.wait(f"{row} === arg", 30, f"alert:{older.id}")
     await desktop.page.wait_for_selector(item, state="detached", timeout=30_000)
     assert await desktop.page.locator(f"#findings li[data-alert='{older.id}']").count() == 1
-    store = inspection.store
-    assert store is not None
-
-    def stored() -> AlertRecord | None:  # on a connection of the test's own: the relay's is its store thread's
-        with Store.open(store.name, store.images) as own:
-            return own.alert(alert.id)
-
-    acknowledged = await asyncio.to_thread(stored)
+    acknowledged = await stored_alert(station.running, alert.id)
     assert acknowledged is not None and acknowledged.acked_by == "Tess"
     assert client.errors == [] and desktop.errors == [], (client.errors, desktop.errors)

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import asyncio
 from pathlib import Path
 from typing import Any
 
 from relay.cli.options import Options
 from relay.config import FleetConfig
+from relay.inspection.records import AlertRecord
+from relay.inspection.store import Store
 from tests.conftest import RunningRelay, start_relay
 from tests.wsclient import TestClient
 
@@ -33,3 +36,16 @@ def missions(client: TestClient) -> dict[str, dict[str, Any]]:
         if message["identifier"] == "mission":
             latest[message["id"]] = message
     return latest
+
+
+async def stored_alert(running: RunningRelay, alert_id: str) -> AlertRecord | None:
+    """An alert as the relay's database holds it, read on a connection of the test's own (the relay's connection
+    is its store thread's)."""
+    store = running.relay.inspection.store
+    assert store is not None, "the relay has no database"
+
+    def read() -> AlertRecord | None:
+        with Store.open(store.name, store.images) as own:
+            return own.alert(alert_id)
+
+    return await asyncio.to_thread(read)
