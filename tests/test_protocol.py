@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -365,7 +366,15 @@ def test_inspection_messages_are_pinned() -> None:
     assert encode(finding_message(finding, "ab" * 32, {"gas": 698.2})) == (
         b'{"identifier":"finding","id":"f-1","capture":"c-1","mission":"m-1.robot1","target":"spill","robot":"robot1",'
         b'"x":1.8,"y":8.2,"status":"anomaly","note":"gas","source":"rule","region":[[1,2],[3,4],[5,6]],'
-        b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{"gas":698.2},"created":3.0,"updated":3.0}'
+        b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{"gas":698.2},"created":3.0,"updated":3.0,'
+        b'"change":null,"baseline":null}'
+    )
+    # A change since the last round: its score and the capture it was compared with.
+    changed = dataclasses.replace(finding, status="changed", note="2.8 %", change=0.0282, baseline="c-0")
+    assert encode(finding_message(changed, "ab" * 32, {})).endswith(
+        b'"status":"changed","note":"2.8 %","source":"rule","region":[[1,2],[3,4],[5,6]],'
+        b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{},"created":3.0,"updated":3.0,'
+        b'"change":0.0282,"baseline":"c-0"}'
     )
     assert encode(region_message("r7", "c-1", ((1, 2), (3, 4), (5, 6)))) == (
         b'{"identifier":"region","id":"r7","capture":"c-1","outline":[[1,2],[3,4],[5,6]]}'
