@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import aiohttp
 import cv2
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from relay.inspection.change_watch import ChangeWatch
 from relay.inspection.records import CaptureRecord
 from relay.inspection.store import Store
 from tests.conftest import LOAD_SLACK, SHARED_DATA
-from tests.helpers.inspection import operator, relay_with_database
+from tests.helpers.inspection import TOKEN, operator, relay_with_database
 
 FISHEYE = SHARED_DATA / "fisheye" / "surroundvision_jeyp4"
 
@@ -118,7 +119,8 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
     """Three rounds of a one-target mission, the camera showing a real photograph: the spill there grows between the
     first and the second round (seen from a pose a little off), not between the second and the third. The second
     round's capture gets a ``changed`` finding, outlining the grown spill on its image, with its score and the first
-    round's capture as its baseline; the third gets none."""
+    round's capture as its baseline, whose image is its ``before`` (served over HTTP); the third gets none. A relay
+    restarted on the same database sends it with the same ``before``."""
     base = photo("front")
     centre = (0.55, 0.7)
     rounds = [
@@ -162,6 +164,13 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
         )
         first = next(f for _, f in client.messages if f["identifier"] == "finding" and f["target"] == "drum")
         assert finding["baseline"] == first["capture"] != finding["capture"]
+        assert finding["before"] == first["image"] != finding["image"] and first["image"].startswith("/captures/")
+        async with (
+            aiohttp.ClientSession() as http,
+            http.get(f"{running.url}{finding['before']}?token={TOKEN}") as response,
+        ):
+            assert response.status == 200 and await response.read() == pictures[0]
+        assert all(f["before"] is None for f in changed[0] + [first])
         alert = await client.wait_for(lambda m: m["identifier"] == "alert" and m["subject"] == finding["id"], 30)
         assert (alert["kind"], alert["severity"]) == ("changed", "warning") and alert["text"].startswith(
             "Changed at Drum"
@@ -171,6 +180,19 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
         u1, v1 = outline.max(axis=0)
         assert u0 < centre[0] * w < u1 and v0 < centre[1] * h < v1, (u0, v0, u1, v1)
         assert (u1 - u0) < 0.5 * w and (v1 - v0) < 0.5 * h  # the spill, not the view
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        await client.wait_for(lambda m: m["identifier"] == "finding" and m["id"] == finding["id"])
+        again = [m for _, m in client.messages if m["identifier"] == "finding" and m["id"] == finding["id"]]
+        reply = await client.request({"identifier": "findings/page", "limit": 50})
+        page = next(m for _, m in client.messages if m["identifier"] == "findings" and m["id"] == reply["id"])
+        paged = [f for f in page["findings"] if f["id"] == finding["id"]]
+        assert again == paged == [finding], (again, paged)
         await client.close()
     finally:
         await running.runner.cleanup()

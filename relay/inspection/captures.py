@@ -160,7 +160,12 @@ class Captures:
         return capture, frame.jpeg if frame else None, sensors
 
     async def _announce(self, finding: FindingRecord, capture: CaptureRecord) -> None:
-        message = finding_message(finding, capture.image, capture.readings)
+        before = None
+        baseline = finding.baseline
+        if baseline is not None:  # a change finding: its before image is the baseline capture's (off the loop)
+            compared: CaptureRecord | None = await self._store(lambda s: s.capture(baseline))
+            before = None if compared is None else compared.image
+        message = finding_message(finding, capture.image, capture.readings, before)
         kept = [m for m in self.recent if m["id"] != finding.id][-FINDINGS_ON_CONNECT:]
         self.recent = [*kept, message]
         self._outbox.broadcast(message)

@@ -99,6 +99,7 @@ class FindingMessage(TypedDict):
     updated: float
     change: float | None  # a change finding's score (the changed share of the view, 0-1); None for the others
     baseline: str | None  # the capture a change finding was compared with (its before image); None for the others
+    before: str | None  # URL of the baseline's JPEG (/captures/<sha256>.jpg); None: no baseline, or it has no image
 
 
 class FindingsMessage(TypedDict):
@@ -169,7 +170,10 @@ def mission_message(record: MissionRecord) -> MissionMessage:
     }
 
 
-def finding_message(finding: FindingRecord, image: str | None, readings: dict[str, float]) -> FindingMessage:
+def finding_message(
+    finding: FindingRecord, image: str | None, readings: dict[str, float], before: str | None = None
+) -> FindingMessage:
+    """``image`` and ``before``: the SHA-256 of the capture's JPEG and of the baseline capture's, or None."""
     return {
         "identifier": "finding",
         "id": finding.id,
@@ -189,6 +193,7 @@ def finding_message(finding: FindingRecord, image: str | None, readings: dict[st
         "updated": round(finding.updated, 3),
         "change": finding.change,
         "baseline": finding.baseline,
+        "before": None if before is None or finding.baseline is None else f"/captures/{before}.jpg",
     }
 
 

@@ -168,7 +168,7 @@ class Inspection:
         """What clients saw before the restart: the newest findings and missions. A mission that was running or
         pending is paused ("the relay restarted"): an operator resumes it from its step, or aborts it."""
         found = await self._storage.run(lambda: store.recent_findings(FINDINGS_ON_CONNECT))
-        self.captures.recent = [finding_message(f, c.image, c.readings) for f, c in reversed(found)]
+        self.captures.recent = [finding_message(f, c.image, c.readings, b) for f, c, b in reversed(found)]
         for record in reversed(await self._storage.run(lambda: store.missions(MISSIONS_ON_CONNECT))):
             if record.state in ("running", "pending"):
                 record = replace(record, state="paused", reason="the relay restarted", updated=self.wall())
@@ -261,7 +261,7 @@ class Inspection:
         rows = []
         if store is not None:
             rows = await self._storage.run(lambda: store.recent_findings(limit + 1, command.before))
-        page = [finding_message(f, c.image, c.readings) for f, c in rows[:limit]]
+        page = [finding_message(f, c.image, c.readings, b) for f, c, b in rows[:limit]]
         self.outbox.to(client, findings_message(command.id, page, more=len(rows) > limit))
 
     # -- mission records --------------------------------------------------------------------------

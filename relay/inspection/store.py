@@ -196,20 +196,23 @@ class Store(ScheduleTables):
         sql = f"SELECT {_FINDING} FROM findings {'WHERE ' + where if where else ''} ORDER BY created, id"
         return [record_of(FindingRecord, r) for r in self._read(sql, [v for _, v in conditions])]
 
-    def recent_findings(self, limit: int, before: float | None = None) -> list[tuple[FindingRecord, CaptureRecord]]:
+    def recent_findings(
+        self, limit: int, before: float | None = None
+    ) -> list[tuple[FindingRecord, CaptureRecord, str | None]]:
         """The newest ``limit`` findings (created before ``before`` when given), newest first, each with its
-        capture: a page of the findings list."""
+        capture and the SHA-256 of its baseline capture's image (None: no baseline, or no image): a page of the
+        findings list, in one query."""
         names = (
             ", ".join(f"f.{c}" for c in _FINDING.split(", ")) + ", " + ", ".join(f"c.{c}" for c in _CAPTURE.split(", "))
         )
         where, args = ("WHERE f.created < ?", [before]) if before is not None else ("", [])
         rows = self._read(
-            f"SELECT {names} FROM findings f JOIN captures c ON c.id = f.capture {where} "
-            "ORDER BY f.created DESC, f.id DESC LIMIT ?",
+            f"SELECT {names}, b.image FROM findings f JOIN captures c ON c.id = f.capture "
+            f"LEFT JOIN captures b ON b.id = f.baseline {where} ORDER BY f.created DESC, f.id DESC LIMIT ?",
             [*args, limit],
         )
         split = len(fields(FindingRecord))
-        return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:])) for r in rows]
+        return [(record_of(FindingRecord, r[:split]), record_of(CaptureRecord, r[split:-1]), r[-1]) for r in rows]
 
     def findings_between(self, start: float, end: float, limit: int) -> list[tuple[FindingRecord, CaptureRecord]]:
         """At most ``limit`` findings whose capture was taken in ``[start, end)`` (Unix seconds), oldest capture

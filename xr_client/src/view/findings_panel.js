@@ -9,6 +9,7 @@
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
+import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
 import { reportLinks } from '../report_links.js';
 import { scheduleRows } from '../schedule_list.js';
 import { statusWords } from '../wording.js';
@@ -16,6 +17,8 @@ import { statusWords } from '../wording.js';
 export class FindingsPanel {
   /** @type {import('../protocol.js').FindingStatus | ''} */
   filter = '';
+  /** The before/after slider's position (0-100): how much of the after image shows, from the left. */
+  wipe = WIPE_START;
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
 
@@ -42,11 +45,20 @@ export class FindingsPanel {
       'load',
       (event) => {
         const img = event.target;
-        if (img instanceof HTMLImageElement)
-          img.nextElementSibling?.setAttribute('viewBox', `0 0 ${img.naturalWidth} ${img.naturalHeight}`);
+        if (!(img instanceof HTMLImageElement)) return;
+        const overlay = img.nextElementSibling; // none for the before image: its sibling is the after one
+        if (overlay instanceof SVGElement)
+          overlay.setAttribute('viewBox', `0 0 ${img.naturalWidth} ${img.naturalHeight}`);
       },
       true,
     );
+    // The slider moves the wipe in place: a render per step would reload the images.
+    root.addEventListener('input', (event) => {
+      const slider = event.target;
+      if (!(slider instanceof HTMLInputElement) || slider.dataset.wipe === undefined) return;
+      this.wipe = wipeAt(slider.value);
+      this.#clip();
+    });
     root.addEventListener('change', (event) => {
       if (!(event.target instanceof HTMLSelectElement)) return; // the false alarm's note is read when sent
       this.filter = /** @type {any} */ (event.target.value);
@@ -96,6 +108,7 @@ export class FindingsPanel {
       const span = /** @type {HTMLElement} */ (dot);
       span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
     }
+    this.#clip();
   }
 
   /** The alerts nobody acknowledged, newest first, with their count and an Acknowledge button each. */
@@ -166,10 +179,14 @@ export class FindingsPanel {
     const outline = region
       ? `<polygon points="${region.map((p) => p.join(',')).join(' ')}" class="${review.proposal ? 'proposal' : ''}"/>`
       : '';
-    const picture = src
-      ? `<div class="capture"><img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" ` +
-        `data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg></div>`
-      : '<p>no image</p>';
+    const after =
+      `<img src="${esc(src)}" alt="capture of ${esc(f.target ?? f.robot)}" ` +
+      `data-capture="${esc(f.capture)}"><svg viewBox="0 0 1 1" preserveAspectRatio="none">${outline}</svg>`;
+    const picture = !src
+      ? '<p>no image</p>'
+      : f.before
+        ? beforeAfter(f, after, this.wipe, this.token, this.model.findings.values())
+        : `<div class="capture">${after}</div>`;
     const readings = Object.entries(f.readings)
       .map(([k, v]) => `${esc(k)} ${v.toFixed(1)}`)
       .join(' · ');
@@ -195,6 +212,12 @@ export class FindingsPanel {
     );
   }
 
+  /** The after image's share of the wipe (through CSSOM, as the dots' colours). */
+  #clip() {
+    const after = /** @type {HTMLElement | null} */ (this.root.querySelector('.wipe .after'));
+    if (after) after.style.clipPath = afterClip(this.wipe);
+  }
+
   /** @param {HTMLElement} target @param {MouseEvent} event */
   #click(target, event) {
     const review = this.review;
@@ -212,7 +235,7 @@ export class FindingsPanel {
       if (input) input.value = '';
     } else if (target.dataset.region === 'accept') this.run(review.accept());
     else if (target.dataset.region === 'redo') review.redo();
-    else if (target instanceof HTMLImageElement && target.naturalWidth) {
+    else if (target instanceof HTMLImageElement && target.dataset.capture && target.naturalWidth) {
       const rect = target.getBoundingClientRect();
       const u = ((event.clientX - rect.left) / rect.width) * target.naturalWidth;
       const v = ((event.clientY - rect.top) / rect.height) * target.naturalHeight;
@@ -242,4 +265,22 @@ export class FindingsPanel {
 /** @param {string} text */
 function esc(text) {
   return text.replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
+}
+
+/**
+ * A change finding's images stacked: the before (the baseline capture's) under the after, which the slider wipes
+ * from the left; the change's outline stays over the after image.
+ * @param {import('../inspection_model.js').Finding} f @param {string} after the after image and its overlay
+ * @param {number} wipe the slider's position @param {string | null} token
+ * @param {Iterable<import('../inspection_model.js').Finding>} findings those at hand, for the before's time
+ */
+function beforeAfter(f, after, wipe, token, findings) {
+  const query = token ? `?token=${encodeURIComponent(token)}` : '';
+  const labels = wipeLabels(f, findings);
+  return (
+    `<div class="capture wipe"><img class="before" src="${esc(`${f.before}${query}`)}" alt="before">` +
+    `<div class="after">${after}</div></div>` +
+    `<input type="range" data-wipe min="0" max="100" value="${wipe}" aria-label="before / after">` +
+    `<p class="wipe-labels"><small>${esc(labels.before)}</small><small>${esc(labels.after)}</small></p>`
+  );
 }

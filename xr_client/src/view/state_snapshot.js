@@ -34,6 +34,7 @@ export function snapshotState(app) {
         visible: app.views.findingCard.mesh.visible,
         image: app.views.findingCard.imageSize,
         draws: app.views.findingCard.draws,
+        wipe: app.views.inspectionUi.panel?.wipe ?? null, // the desktop card's before/after slider (0-100)
       },
     },
     clientId: app.fleet.clientId,

@@ -1,0 +1,50 @@
+// @ts-check
+/**
+ * A change finding's before/after view on the desktop card: the baseline capture's image under the finding's, the
+ * finding's clipped to the wipe's share from the left (0-100), and the labels of both. Pure: the panel renders it.
+ */
+
+/** Where the wipe starts: half of each image. */
+export const WIPE_START = 50;
+
+/**
+ * The wipe's position from an input's value: a whole number in 0-100 (a bad value: the start).
+ * @param {string | number} value
+ */
+export function wipeAt(value) {
+  const n = Number(value);
+  return Number.isFinite(n) ? Math.round(Math.min(100, Math.max(0, n))) : WIPE_START;
+}
+
+/**
+ * The CSS clip-path that shows the left ``position`` percent of the after image.
+ * @param {number} position 0-100
+ */
+export function afterClip(position) {
+  return `inset(0 ${100 - wipeAt(position)}% 0 0)`;
+}
+
+/**
+ * "before (time)" / "after (time)": the after image's time is the finding's; the before's, that of a finding about
+ * the baseline capture when one is at hand (else only "before").
+ * @param {{baseline: string | null, created: number}} finding
+ * @param {Iterable<{capture: string, created: number}>} findings those the client holds
+ * @param {(seconds: number) => string} [time] how a Unix time is shown
+ * @returns {{before: string, after: string}}
+ */
+export function wipeLabels(finding, findings, time = clockTime) {
+  let before = null;
+  for (const f of findings) {
+    if (f.capture === finding.baseline && (before === null || f.created < before)) before = f.created;
+  }
+  return {
+    before: before === null ? 'before' : `before (${time(before)})`,
+    after: finding.created ? `after (${time(finding.created)})` : 'after',
+  };
+}
+
+/** @param {number} seconds */
+function clockTime(seconds) {
+  const d = new Date(seconds * 1000);
+  return `${d.toISOString().slice(0, 10)} ${d.toTimeString().slice(0, 5)}`;
+}
