@@ -367,14 +367,14 @@ def test_inspection_messages_are_pinned() -> None:
         b'{"identifier":"finding","id":"f-1","capture":"c-1","mission":"m-1.robot1","target":"spill","robot":"robot1",'
         b'"x":1.8,"y":8.2,"status":"anomaly","note":"gas","source":"rule","region":[[1,2],[3,4],[5,6]],'
         b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{"gas":698.2},"created":3.0,"updated":3.0,'
-        b'"change":null,"baseline":null}'
+        b'"change":null,"baseline":null,"before":null}'
     )
-    # A change since the last round: its score and the capture it was compared with.
+    # A change since the last round: its score, the capture it was compared with and that capture's image.
     changed = dataclasses.replace(finding, status="changed", note="2.8 %", change=0.0282, baseline="c-0")
-    assert encode(finding_message(changed, "ab" * 32, {})).endswith(
+    assert encode(finding_message(changed, "ab" * 32, {}, before="cd" * 32)).endswith(
         b'"status":"changed","note":"2.8 %","source":"rule","region":[[1,2],[3,4],[5,6]],'
         b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{},"created":3.0,"updated":3.0,'
-        b'"change":0.0282,"baseline":"c-0"}'
+        b'"change":0.0282,"baseline":"c-0","before":"/captures/' + b"cd" * 32 + b'.jpg"}'
     )
     assert encode(region_message("r7", "c-1", ((1, 2), (3, 4), (5, 6)))) == (
         b'{"identifier":"region","id":"r7","capture":"c-1","outline":[[1,2],[3,4],[5,6]]}'
