@@ -80,6 +80,10 @@ class Navigator:
         self.statuses: dict[bytes, int] = {}
         self.result = (6, 208, "no valid path to the goal")
         self._lock = threading.Lock()
+        # The status publisher is put to from zenoh's callback threads (a cancel answered) and undeclared by the
+        # test's: one at a time (zenoh-python raised "Already borrowed" on an undeclare during a put), none after.
+        self._publishing = threading.Lock()
+        self._closed = False
         action = "0/alpha/navigate_to_pose/_action"
         self.status_pub = ext.declare_advanced_publisher(
             session,
@@ -168,9 +172,10 @@ class Navigator:
                 for i, (g, s) in enumerate(statuses)
             ]
         )
-        self.status_pub.put(
-            bytes(STORE.serialize_cdr(array, "action_msgs/msg/GoalStatusArray")), attachment=attachment(1)
-        )
+        data = bytes(STORE.serialize_cdr(array, "action_msgs/msg/GoalStatusArray"))
+        with self._publishing:
+            if not self._closed:
+                self.status_pub.put(data, attachment=attachment(1))
 
     def feedback(self, goal: bytes, distance: float, eta: float, recoveries: int, spent: float) -> None:
         duration = T["builtin_interfaces/msg/Duration"]
@@ -196,7 +201,9 @@ class Navigator:
     def close(self) -> None:
         for entity in self.entities:
             entity.undeclare()
-        self.status_pub.undeclare()
+        with self._publishing:
+            self._closed = True
+            self.status_pub.undeclare()
 
 
 @pytest.fixture

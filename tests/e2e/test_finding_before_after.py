@@ -5,43 +5,60 @@ from __future__ import annotations
 
 import asyncio
 import io
+import math
 import time
 from typing import Any
 
-import cv2
-import numpy as np
+import pytest
 from PIL import Image, ImageChops
 
+from relay.config import Lens
+from relay.inspection.change import SCORE_THRESHOLD, compare, decode
 from relay.inspection.records import CaptureRecord, FindingRecord
+from relay.inspection.segment import outline_of
+from relay.sim.camera import SimCamera, embree_available, rgb_to_jpeg
+from relay.sim.floorplan import demo_facility
+from relay.sim.spill import GrownSpill
+from tests.conftest import ROOT
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
 
+#: The spill's standoff, facing north (the demo round's view of it), and the simulated camera's lens.
+SPILL_VIEW = (1.8, 7.4, math.pi / 2)
+SIZE = 320
 
-def _scene(spill: int) -> bytes:
-    """A textured floor with a dark spill of that radius (pixels) near its middle, as a JPEG."""
-    rng = np.random.default_rng(7)
-    image = (rng.integers(90, 200, (48, 64, 3), dtype=np.uint8)).repeat(10, 0).repeat(10, 1)
-    cv2.circle(image, (320, 300), spill, (30, 40, 20), -1)
-    return cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+
+def _rounds() -> tuple[bytes, bytes, float, tuple[tuple[int, int], ...] | None]:
+    """Two rounds' pictures of the spill as the simulator renders them (scenes/facility.glb through the demo's
+    fisheye), the spill as it was and grown twice its size, and what the relay's comparison makes of them: the
+    change score and the outline of what changed, as relay/inspection/change_watch.py computes them."""
+    camera = SimCamera.load(ROOT / "scenes" / "facility.glb")
+    lens = camera.fit_lens(Lens("equidistant", 180.0), SIZE, SIZE)
+    decal = next(d for d in demo_facility().decals if d.kind == "spill")
+    first, later = (rgb_to_jpeg(camera.render(*SPILL_VIEW, lens, spill=GrownSpill(decal, k))) for k in (1.0, 2.0))
+    change = compare(decode(first, "the first round"), decode(later, "the second round"))
+    return first, later, change.score, outline_of(change.mask, SIZE, SIZE)
 
 
 async def _changed_finding(station: Station) -> FindingRecord:
-    """Two captures of one place, the spill grown between them, and the ``changed`` finding comparing them, made
-    and announced through the relay's own capture path (what a mission's second round does)."""
+    """Two captures of the spill, grown between them, and the ``changed`` finding comparing them, made and announced
+    through the relay's own capture path (what a mission's second round does)."""
+    if not embree_available():
+        pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
     captures: Any = station.running.relay.inspection.captures
+    first, later, score, outline = await asyncio.to_thread(_rounds)
+    assert score > SCORE_THRESHOLD and outline is not None, score
     now = time.time()
     stored = []
-    for index, radius in enumerate((40, 110)):
-        record = CaptureRecord(f"c-wipe-{index}", "robot1", now - 60 + 60 * index, 3.0, 3.0, 0.0, {}, None, "drum",
-                               None, 640, 480)  # fmt: skip
-        jpeg = await asyncio.to_thread(_scene, radius)
+    for index, jpeg in enumerate((first, later)):
+        record = CaptureRecord(f"c-wipe-{index}", "robot1", now - 60 + 60 * index, *SPILL_VIEW, {}, None, "spill",
+                               None, SIZE, SIZE)  # fmt: skip
         stored.append(await captures._store(lambda s, r=record, j=jpeg: s.add_capture(r, j)))
     before, after = stored
-    first = FindingRecord("f-wipe-0", before.id, "robot1", 3.0, 3.0, "ok", "within thresholds", "rule",
-                          before.t, before.t, None, "drum")  # fmt: skip
-    outline = ((210, 190), (430, 190), (430, 410), (210, 410))
-    changed = FindingRecord("f-wipe-1", after.id, "robot1", 3.0, 3.0, "changed", "changed since the last round",
-                            "rule", after.t, after.t, None, "drum", outline, 0.2, before.id)  # fmt: skip
-    for finding, capture in ((first, before), (changed, after)):
+    first_finding = FindingRecord("f-wipe-0", before.id, "robot1", 1.8, 8.2, "ok", "within thresholds", "rule",
+                                  before.t, before.t, None, "spill")  # fmt: skip
+    changed = FindingRecord("f-wipe-1", after.id, "robot1", 1.8, 8.2, "changed", "changed since the last round",
+                            "rule", after.t, after.t, None, "spill", outline, round(score, 4), before.id)  # fmt: skip
+    for finding, capture in ((first_finding, before), (changed, after)):
         await captures._announce(await captures._store(lambda s, f=finding: s.add_finding(f)), capture)
     return changed
 
