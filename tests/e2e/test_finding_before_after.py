@@ -89,7 +89,7 @@ async def test_a_change_finding_wipes_between_before_and_after(station: Station,
         shots[position] = _crop(await box.screenshot())
     assert ImageChops.difference(shots[10], shots[90]).getbbox() is not None
     # The outline is the after image's: a click on what the slider shows of it still marks a region there.
-    await slider.fill("90")
+    await slider.fill("10")  # after, right of the divide: nine tenths of it
     after = page.locator("#findings .wipe .after img")
     area = await after.bounding_box()
     assert area is not None

@@ -1,7 +1,8 @@
 // @ts-check
 /**
- * A change finding's before/after view on the desktop card: the baseline capture's image under the finding's, the
- * finding's clipped to the wipe's share from the left (0-100), and the labels of both. Pure: the panel renders it.
+ * A change finding's before/after view on the desktop card: the baseline capture's image under the finding's, and
+ * the labels of both. The wipe (0-100) is where the divide between them is: before on its left, after on its right,
+ * as the labels under the slider read. Pure: the panel renders it.
  */
 
 /** Where the wipe starts: half of each image. */
@@ -17,11 +18,11 @@ export function wipeAt(value) {
 }
 
 /**
- * The CSS clip-path that shows the left ``position`` percent of the after image.
+ * The CSS clip-path that shows the after image right of the divide at ``position`` percent of its width.
  * @param {number} position 0-100
  */
 export function afterClip(position) {
-  return `inset(0 ${100 - wipeAt(position)}% 0 0)`;
+  return `inset(0 0 0 ${wipeAt(position)}%)`;
 }
 
 /**

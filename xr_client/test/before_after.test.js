@@ -7,9 +7,9 @@ test("the wipe's position is a whole share of 0-100, a bad value the start", () 
   assert.deepEqual(['10', 90, '-5', 130, '33.6', 'x', ''].map(wipeAt), [10, 90, 0, 100, 34, WIPE_START, 0]);
 });
 
-test('the after image shows the left share of the wipe', () => {
-  assert.equal(afterClip(10), 'inset(0 90% 0 0)');
-  assert.equal(afterClip(100), 'inset(0 0% 0 0)');
+test('before is left of the divide, after right of it: as the labels under the slider read', () => {
+  assert.equal(afterClip(10), 'inset(0 0 0 10%)');
+  assert.equal(afterClip(100), 'inset(0 0 0 100%)');
 });
 
 test("the labels carry the times at hand: the before's from a finding about the baseline capture", () => {
