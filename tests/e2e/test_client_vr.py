@@ -103,8 +103,10 @@ async def test_vr_goal_and_teleop(station: Station, open_client: OpenClient) -> 
     rate = await measure_rate(station, "robot2", 2.0)
     record_timing("vr_teleop_cmd_vel_per_s", {"rate": rate})
     # The exact 20 Hz cadence is pinned by xr_client/test/teleop.test.js and teleop_hold.test.js, and at slow
-    # frames by tests/e2e/test_teleop_rate.py; here commands must keep coming faster than the deadman (0.5 s).
-    assert 2 <= rate <= 24, f"{rate:.1f} cmd_vel per second; the client sends at 20 Hz"
+    # frames by tests/e2e/test_teleop_rate.py; here commands must keep coming faster than the deadman (0.5 s), and
+    # not by the frame. A loaded relay reads the commands a stall held back all at once (24.5 in a 2 s window, in a
+    # fresh clone's run): twice the cadence is the bound.
+    assert 2 <= rate <= 40, f"{rate:.1f} cmd_vel per second; the client sends at 20 Hz"
     assert all(
         abs(lin) <= 0.6 + 1e-9 and abs(ang) <= 1.8 + 1e-9 for _, lin, ang in station.velocities_of("robot2", pushed)
     )
