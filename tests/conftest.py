@@ -22,7 +22,7 @@ import weakref
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import hypothesis  # noqa: F401 - imported up front: its plugin's lazy import at session end trips CPython 3.11.7
 import pytest
@@ -294,12 +294,17 @@ def _domains() -> Iterator[int]:
     return itertools.cycle(own)
 
 
-_DOMAINS = _domains()
+#: Drawn on first use: at import this conftest runs before pytest_configure has chosen the run's offset, and a run
+#: without workers then always began at domain 1 (two such runs at once shared it, and each other's robots).
+_DOMAINS: Iterator[int] | None = None
 
 
 @pytest.fixture
 def ros_domain(monkeypatch: pytest.MonkeyPatch) -> int:
     """A ROS_DOMAIN_ID of this test's own, discovery on this machine only: runs never see each other."""
+    global _DOMAINS
+    if _DOMAINS is None:
+        _DOMAINS = _domains()
     domain = next(_DOMAINS)
     monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -332,7 +337,7 @@ def own_files(*args: str) -> tuple[str, ...]:
 
 
 async def relay_process(
-    *args: str, stderr: int = asyncio.subprocess.DEVNULL, port: int = 0, **options: Any
+    *args: str, stderr: int | IO[bytes] = asyncio.subprocess.DEVNULL, port: int = 0, **options: Any
 ) -> tuple[asyncio.subprocess.Process, str]:
     """``python -m relay ARGS --port PORT`` (default 0: any free one) in a process of its own (this environment, so
     this test's ROS domain); returns it and the base URL it printed (``http://127.0.0.1:P``). ``options`` go to

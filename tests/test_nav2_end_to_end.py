@@ -39,12 +39,13 @@ def free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-async def start(*args: str) -> asyncio.subprocess.Process:
-    """A process of this test's environment (its ROS domain) that says it is ready on its first line."""
-    process = await asyncio.create_subprocess_exec(
-        sys.executable, *args, cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
-        env=dict(os.environ),
-    )  # fmt: skip
+async def start(*args: str, log: Path) -> asyncio.subprocess.Process:
+    """A process of this test's environment (its ROS domain) that says it is ready on its first line; its log to
+    ``log``."""
+    with log.open("ab") as sink:
+        process = await asyncio.create_subprocess_exec(
+            sys.executable, *args, cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=sink, env=dict(os.environ)
+        )
     assert process.stdout is not None
     line = await asyncio.wait_for(process.stdout.readline(), 60)
     assert line, f"{args[0]} exited before it was ready"
@@ -78,12 +79,25 @@ def moved(samples: list[tuple[float, float, float]]) -> float:
     return max((math.hypot(x - samples[0][1], y - samples[0][2]) for _, x, y in samples), default=0.0)
 
 
-async def drive_then_estop(driver: TestClient, stopper: TestClient, robot: str) -> None:
-    """``driver`` sends ``robot`` to (9, 6) and, once it rolls, ``stopper`` presses E-STOP; then the checks."""
+def tails(logs: Path) -> str:
+    """The last lines of every process's log in ``logs``, for a failure's message."""
+    return "\n".join(
+        f"--- {log.name}:\n" + "\n".join(log.read_text(errors="replace").splitlines()[-15:])
+        for log in sorted(logs.glob("*.log"))
+    )
+
+
+async def drive_then_estop(driver: TestClient, stopper: TestClient, robot: str, logs: Path) -> None:
+    """``driver`` sends ``robot`` to (9, 6) and, once it rolls, ``stopper`` presses E-STOP; then the checks. ``logs``
+    holds the processes' logs, quoted when the robot does not roll."""
     start_pose = await driver.wait_for(lambda m: m["identifier"] == f"{robot}/pose", timeout=60)
     goal = await driver.request({"identifier": f"{robot}/goal_pose", "x": 9.0, "y": 6.0}, timeout=30)
     assert goal["identifier"] == "ack", goal
-    await driver.wait_pose_near(robot, start_pose["x"], start_pose["y"] + 0.6, 0.35, timeout=60)  # rolling
+    try:
+        await driver.wait_pose_near(robot, start_pose["x"], start_pose["y"] + 0.6, 0.35, timeout=60)  # rolling
+    except TimeoutError:
+        heard = [m for _, m in driver.messages if m["identifier"] == f"{robot}/nav" or m["identifier"] == "error"]
+        raise AssertionError(f"{robot} never rolled; the relay said: {heard[-6:]}\n{tails(logs)}") from None
 
     # Nav2's feedback while it drives: the distance left shrinks (decoded from Nav2's own definition).
     def feedback(m: dict[str, Any], below: float = math.inf) -> bool:
@@ -149,11 +163,13 @@ async def test_over_dds_an_estop_stops_a_robot_that_nav2_drives(ros_domain: int,
         "--database", str(tmp_path / "i.sqlite"),
     )  # fmt: skip
     try:
-        processes.append(await start(str(ROOT / "tools" / "fake_fleet.py"), "--nav2", "--log-level", "warning"))
-        relay, base = await relay_process(*relay_args)
+        fleet = str(ROOT / "tools" / "fake_fleet.py")
+        processes.append(await start(fleet, "--nav2", "--log-level", "info", log=tmp_path / "fleet.log"))
+        with (tmp_path / "relay.log").open("ab") as log:
+            relay, base = await relay_process(*relay_args, stderr=log)
         processes.append(relay)
         client = await operator(base, token)
-        await drive_then_estop(client, client, "robot2")
+        await drive_then_estop(client, client, "robot2", tmp_path)
         # Released, a goal in a wall: Nav2's abort with its error code (after the drive: the relay's GetResult client
         # has matched Nav2's server by then; a relay just started waits 0.5 s for it, then reports no code).
         assert (await client.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"
@@ -187,17 +203,22 @@ async def test_over_zenoh_an_estop_stops_a_robot_that_nav2_drives(relays: int, t
     processes: list[asyncio.subprocess.Process | None] = []
     try:
         fleet = str(ROOT / "tools" / "fake_fleet.py")
-        processes.append(await start(fleet, "--zenoh", "--nav2", "--listen", endpoint, "--log-level", "warning"))
+        processes.append(
+            await start(
+                fleet, "--zenoh", "--nav2", "--listen", endpoint, "--log-level", "info", log=tmp_path / "fleet.log"
+            )
+        )
         clients = []
         for index in range(relays):
-            relay, base = await relay_process(
-                "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
-                "--relay-id", f"R{index}", f"--token={token}", "--audit-log", "",
-                "--database", str(tmp_path / f"{index}.sqlite"),
-            )  # fmt: skip
+            with (tmp_path / f"relay{index}.log").open("ab") as log:
+                relay, base = await relay_process(
+                    "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
+                    "--relay-id", f"R{index}", f"--token={token}", "--audit-log", "",
+                    "--database", str(tmp_path / f"{index}.sqlite"), stderr=log,
+                )  # fmt: skip
             processes.append(relay)
             clients.append(await operator(base, token))
-        await drive_then_estop(clients[0], clients[-1], "robot2")
+        await drive_then_estop(clients[0], clients[-1], "robot2", tmp_path)
         for client in clients:
             await client.close()
     finally:

@@ -27,7 +27,6 @@ from relay.config import FleetConfig, load_config, parse_config
 from tests.conftest import ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
 from tests.gltf_validate import validate_glb
 from tests.helpers.ros import Peer, start_peer
-from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -136,13 +135,12 @@ async def test_goal_arrives_as_pose_stamped_and_cmd_vel_clamped(ros_relay: Runni
     client = await connected(ros_relay)
     try:
         await client.wait_for(lambda m: m["identifier"] == "alpha/pose", timeout=20)
-        # A goal is one message on a volatile topic: it reaches only subscribers DDS has matched. The peer's poses
-        # reaching the relay says nothing of the other direction; under a loaded suite (4 workers on 2 cores) the
-        # peer's goal subscription was once matched only after the goal was sent, and the goal never arrived.
-        publisher = ros_relay.relay.backend._goal_pubs["alpha"]  # type: ignore[attr-defined]
-        await wait_until(lambda: publisher.get_subscription_count() > 0, 20, "the peer's goal subscription matched")
-        reply = await client.request({"identifier": "alpha/goal_pose", "x": 2.0, "y": 3.0, "yaw": 1.0})
-        assert reply["identifier"] == "ack"
+        # A goal is one message on a volatile topic: it reaches only subscribers DDS has matched, and the peer's
+        # poses reaching the relay say nothing of the other direction (under a loaded suite the peer's goal
+        # subscription was once matched after the goal was sent, and the goal was lost). The relay waits for a
+        # subscriber before it sends: sent at once, the goal arrives.
+        reply = await client.request({"identifier": "alpha/goal_pose", "x": 2.0, "y": 3.0, "yaw": 1.0}, timeout=10)
+        assert reply["identifier"] == "ack", reply
         goal = await peer.wait_for(lambda line: line.get("topic") == "/alpha/goal_pose")
         assert (goal["x"], goal["y"], goal["frame"]) == (2.0, 3.0, "map")
         q = goal["q"]
@@ -151,6 +149,23 @@ async def test_goal_arrives_as_pose_stamped_and_cmd_vel_clamped(ros_relay: Runni
         # cmd_vel far beyond alpha's limits (0.5 m/s, 1.0 rad/s) arrives clamped.
         twist = await drive_until_echoed(client, peer, 3.0, -9.0)
         assert (twist["linear"], twist["angular"]) == (0.5, -1.0)
+    finally:
+        await client.close()
+        await peer.stop()
+
+
+async def test_a_goal_nothing_subscribes_to_is_refused_naming_it(ros_relay: RunningRelay, tmp_path: Path) -> None:
+    """beta is online (its amcl_pose arrives) but runs no navigator: its goal would vanish in DDS. The relay waits
+    for a subscriber of /beta/goal_pose, then refuses with the topic named; nothing reached the robot."""
+    peer = await start_peer(POSES, tmp_path)
+    client = await connected(ros_relay)
+    try:
+        await client.wait_for(lambda m: m["identifier"] == "beta/status" and m["online"], timeout=20)
+        reply = await client.request({"identifier": "beta/goal_pose", "x": 1.0, "y": 1.0}, timeout=15)
+        assert reply["identifier"] == "error" and reply["code"] == "unreachable", reply
+        assert "/beta/goal_pose" in reply["message"] and "navigator" in reply["message"], reply
+        status = client.latest["beta/status"]
+        assert status["goal"] is None and status["mode"] == "idle", status
     finally:
         await client.close()
         await peer.stop()

@@ -22,12 +22,13 @@ from collections.abc import Callable, Coroutine
 from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
+from ..errors import CommandRejected
 from ..fleet.events import Event, EventSink, FrameEvent, PoseEvent
 from ..fleet.scan import RateCap
 from ..ros.maps import map_event
 from ..ros.rosmsg import header_stamp
 from ..ros.tf import TfPose
-from ..session.protocol import MAX_SCAN_RATE
+from ..session.protocol import MAX_SCAN_RATE, ErrorCode
 from .base import Backend
 from .cameras import OnDemandCameras
 from .ingest import Inbox, RawDecoder, pose_reader
@@ -37,6 +38,12 @@ from .raw_readers import Warn, read_scan, read_tf
 #: Seconds between heartbeats (std_msgs/Header on ``ros.heartbeat_topic``) while the event loop runs; the
 #: watchdog's timeout (the deadman's, 0.5 s by default) spans five of them.
 HEARTBEAT_PERIOD = 0.1
+#: Seconds a goal waits for its robot's goal topic to have a subscriber (Nav2's bt_navigator), then is refused. DDS
+#: delivers a volatile topic's message only to readers it has matched: a fresh clone's run lost the goal a relay
+#: sent 0.4 s after it started (the navigator's subscription was matched later), and the robot never moved. Goals run
+#: apart from their client's other commands (relay/session/commands.py): the wait holds no estop.
+GOAL_LISTENER_WAIT = 5.0
+GOAL_LISTENER_POLL = 0.05
 
 
 class LiveBackend(Backend):
@@ -87,6 +94,10 @@ class LiveBackend(Backend):
     @abc.abstractmethod
     def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         """Publish a PoseStamped on the robot's goal topic (no yaw: facing +x)."""
+
+    @abc.abstractmethod
+    def _goal_listened(self, spec: Robot) -> bool | None:
+        """Whether something subscribes to the robot's goal topic now (None: the transport cannot tell)."""
 
     @abc.abstractmethod
     def _subscribe_image(self, camera: Camera, callback: Callable[[Any], None]) -> Any:
@@ -223,10 +234,27 @@ class LiveBackend(Backend):
     ) -> None:
         spec = self._robot(robot)
         await self._nav.before_goal(robot)  # a cancel still in flight would cancel this goal too
-        if not current():
+        if not await self._goal_listener(spec, current) or not current():
             return
         self._publish_goal(spec, x, y, yaw)
         self._nav.sent(robot, (x, y, yaw))
+
+    async def _goal_listener(self, spec: Robot, current: Callable[[], bool]) -> bool:
+        """Wait until the robot's goal topic has a subscriber; False when the goal was overtaken meanwhile, refused
+        when none came within GOAL_LISTENER_WAIT."""
+        waited = 0.0
+        while self._goal_listened(spec) is False:
+            if not current():
+                return False
+            if waited >= GOAL_LISTENER_WAIT:
+                raise CommandRejected(
+                    ErrorCode.UNREACHABLE,
+                    f"{spec.name}/goal_pose: nothing subscribes to {spec.goal_topic} (waited {GOAL_LISTENER_WAIT:g} s):"
+                    " is the robot's navigator (Nav2's bt_navigator) running, in this ROS domain?",
+                )
+            await asyncio.sleep(GOAL_LISTENER_POLL)
+            waited += GOAL_LISTENER_POLL
+        return True
 
     async def cancel(self, robot: str) -> None:
         # Nav2's goals are cancelled (the request sent, not awaited) and the watchdog holds autonomy; then zero.

@@ -267,6 +267,10 @@ class RosBackend(LiveBackend):
     def _map_message(self, data: Any) -> Any:
         return data  # rclpy's message
 
+    def _goal_listened(self, spec: Robot) -> bool | None:
+        publisher = self._goal_pubs.get(spec.name)
+        return None if publisher is None else publisher.get_subscription_count() > 0
+
     # -- commands (loop thread) -------------------------------------------------------------------
 
     def _publish_velocity(self, spec: Robot, linear: float, angular: float, *, stamped: bool, stamp: float) -> None:

@@ -268,6 +268,10 @@ class ZenohBackend(LiveBackend):
     def _map_message(self, data: Any) -> Any:
         return self._decode_raw(data, MAP_TYPE)
 
+    def _goal_listened(self, spec: Robot) -> bool | None:
+        publisher = self._goal.get(spec.name)
+        return None if publisher is None else publisher.matched()
+
     # -- commands (loop thread) -------------------------------------------------------------------
 
     def _send(self, publishers: dict[str, ZenohPublisher], robot: str, payload: bytes) -> None:

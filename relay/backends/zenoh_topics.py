@@ -60,6 +60,13 @@ class ZenohPublisher:
         attachment = Attachment(self._sequence, time.time_ns(), self._gid).encode() if self._attach else None
         self._publisher.put(payload, attachment=attachment)
 
+    def matched(self) -> bool | None:
+        """Whether a subscriber of this key is known to the session (None when Zenoh cannot tell)."""
+        try:
+            return bool(self._publisher.matching_status.matching)
+        except Exception:  # an advanced publisher, a closed session
+            return None
+
     def undeclare(self) -> None:
         with contextlib.suppress(Exception):  # the session may already be closed
             self._publisher.undeclare()

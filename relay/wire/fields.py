@@ -46,6 +46,7 @@ class ErrorCode:
     STALE: Final = "stale"  # a motion command older than the deadman timeout when the relay got to it: dropped
     BUSY: Final = "busy"  # the snapshot budget or a work pool (planning, rendering) is full: try again shortly
     OCCUPIED: Final = "occupied"  # a goal on or next to another robot (safety.GOAL_CLEARANCE)
+    UNREACHABLE: Final = "unreachable"  # nothing on the robot's side subscribes to the command's topic
 
     ALL: Final = (
         BAD_REQUEST,
@@ -67,6 +68,7 @@ class ErrorCode:
         STALE,
         BUSY,
         OCCUPIED,
+        UNREACHABLE,
     )
 
 

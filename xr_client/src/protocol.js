@@ -8,13 +8,13 @@ export const MAX_STREAM_FPS = 60.0;
 export const MAX_SCAN_POINTS = 360;
 export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
-export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNSUPPORTED": "unsupported"});
+export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNREACHABLE": "unreachable", "UNSUPPORTED": "unsupported"});
 export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack", "schedule/add", "schedule/update", "schedule/remove"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
 export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert", "schedules"]);
 
-/** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unsupported'} ErrorCodeValue */
+/** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unreachable' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
 /** @typedef {'operator' | 'viewer'} Role */
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
