@@ -326,13 +326,15 @@ _RELAY_PROCESSES = itertools.count()
 
 
 def own_files(*args: str) -> tuple[str, ...]:
-    """A relay command line's ARGS with an inspection database and an audit log of its own (in a temporary
+    """A relay command line's ARGS with an inspection database, an audit log and accounts of its own (in a temporary
     directory) unless ARGS name theirs: relays of tests that run in parallel do not share the checkout's defaults."""
     n = next(_RELAY_PROCESSES)
     if "--database" not in args:
         args = (*args, "--database", str(_scratch() / f"inspection-{n}.sqlite"))
     if "--audit-log" not in args:
         args = (*args, "--audit-log", str(_scratch() / f"audit-{n}.jsonl"))
+    if "--users" not in args:
+        args = (*args, "--users", str(_scratch() / f"users-{n}.sqlite"))
     return args
 
 

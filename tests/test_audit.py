@@ -140,7 +140,9 @@ def test_a_hostile_frame_makes_a_record_under_700_characters(tmp_path: Path) -> 
     now = [0.0]
     audit = CommandAudit(AuditLog(path), clock=lambda: now[0])
     name = "Ana Maria de la Cruz Fernandes-Oliveira"  # 40 characters: the longest name a client may give
-    client = type("Client", (), {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1", "name": name})()
+    # Not signed in (user None): a signed-in client's record carries its account instead, of at most 32 characters.
+    fields = {"client_id": "c7-0123ab", "role": "operator", "address": "127.0.0.1", "name": name, "user": None}
+    client = type("Client", (), fields)()
     hostile = '"\\\x01' * 200
     audit.frame(client, "target/add", hostile[:128], {"name": hostile, "note": hostile}, None)
     refused = CommandRejected("bad_request", "target/add: field 'name' " + hostile[:375])

@@ -229,7 +229,12 @@ async def test_a_flood_of_targets_neither_delays_an_estop_nor_grows_without_boun
         assert still and moved and math.hypot(moved["x"] - still["x"], moved["y"] - still["y"]) < 0.05, (still, moved)
         await floods
         # The adds sent again after a full pool are answered.
-        await wait_until(lambda: len(refusals) + len(victim.targets()) >= 3000 + 3, 120, "every add answered")
+        # Minutes on a loaded machine: a fresh clone's run beside other work had not answered them all in 120 s.
+        try:
+            await wait_until(lambda: len(refusals) + len(victim.targets()) >= 3000 + 3, 240, "every add answered")
+        except AssertionError as exc:
+            counts = f"{len(refusals)} refused, {len(victim.targets())} targets, {len(retried)} sent again"
+            raise AssertionError(f"{exc}: {counts}") from None
         await asyncio.sleep(0.5)
         targets = victim.targets()
         assert len(targets) == 2000, len(targets)  # the cap; the deltas add up to what the relay holds

@@ -23,7 +23,7 @@ import pytest
 
 from relay.config import FleetConfig, load_config
 from relay.sim import navigator as nav
-from tests.conftest import ROOT
+from tests.conftest import LOAD_SLACK, ROOT
 from tests.helpers.nav2 import JAZZY_ACTION
 
 FLEET = textwrap.dedent(
@@ -279,8 +279,11 @@ def test_when_the_relays_heartbeat_stops_autonomy_holds_or_continues_per_robot(
         wait_until(lambda r=robot: distance(relay.pose(r), starts[r]) > 0.2, 20, f"{robot} driving")  # type: ignore[misc]
     relay.heartbeat_on = False
     lost = time.monotonic()
-    time.sleep(2.5)
-    settled = lost + 0.5 + 0.3  # the timeout, then the base's braking
+    # The timeout, the base's braking, and what a loaded machine adds to the poses' way here (a fresh clone's run
+    # beside other work saw alpha 0.17 m on from 0.8 s, its commands already zero from 0.55 s): the commands are
+    # the tight check, the pose the proof it stopped.
+    settled = lost + 0.5 + 0.3 + LOAD_SLACK
+    time.sleep(settled - lost + 1.2)
     assert not moving(relay.since(relay.cmd_vel["alpha"], lost + 0.5 + 0.05)), "on_relay_lost hold: alpha is held"
     assert distance(relay.pose("alpha"), relay.pose_at("alpha", settled)) <= 0.05
     assert moving(relay.since(relay.cmd_vel["beta"], settled)), "on_relay_lost continue: beta's autonomy goes on"

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from .. import __version__
+from ..accounts.users import UserBook
 from ..backends import BACKENDS
 from ..config import load_config
 from ..errors import AuditLogUnavailable, BackendUnavailable, ConfigError
@@ -99,6 +100,13 @@ def _add_access_options(access: argparse._ArgumentGroup) -> None:
         help="the operator token (default: $XR_RELAY_TOKEN, else a new random one each start), of at least "
         f"{MIN_TOKEN_BITS} bits of entropy (e.g. python3 -c 'import secrets; print(secrets.token_urlsafe(32))'); "
         "the relay prints its URL as http://HOST:PORT/#token=TOKEN, and clients pass it as /ws?token=TOKEN",
+    )
+    access.add_argument(
+        "--users",
+        default="xr-relay-users.sqlite",
+        metavar="FILE",
+        help="the accounts file (default ./xr-relay-users.sqlite; made by xr-relay users add): when it holds anyone, "
+        "people sign in, and the operator token is off unless --token or $XR_RELAY_TOKEN gives one",
     )
     access.add_argument(
         "--allow-weak-token",
@@ -215,6 +223,11 @@ def main(argv: list[str] | None = None) -> int:
         from ..inspection.schedule_cli import main as schedule_main
 
         return schedule_main(argv[1:])
+    if argv and argv[0] == "users":
+        # `xr-relay users add|passwd|role|remove|list`: the accounts people sign in with (relay/accounts/cli.py).
+        from ..accounts.cli import main as users_main
+
+        return users_main(argv[1:])
     if argv and argv[0] == "watchdog":
         # `xr-relay watchdog`: the robot-side stop (relay/watchdog/node.py), run on or next to the robots.
         from ..watchdog.node import main as watchdog_main
@@ -243,6 +256,9 @@ def main(argv: list[str] | None = None) -> int:
             "relay may guess it and command the robots: use it on a closed test network only",
             source, why,
         )  # fmt: skip
+    accounts = bool(args.users) and bool(UserBook(args.users).users())
+    if accounts:
+        log.info("accounts: %s; people sign in%s", args.users, " (and the operator token works)" if token else "")
     try:
         config = load_config(args.config)
     except ConfigError as exc:
@@ -266,7 +282,8 @@ def main(argv: list[str] | None = None) -> int:
             backend=args.backend,
             host=args.host,
             port=port,
-            token=token or secrets.token_urlsafe(24),
+            token=token or (None if accounts else secrets.token_urlsafe(24)),
+            users=args.users or None,
             allow_viewers=args.allow_viewers,
             allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
             allowed_hosts=tuple(args.allow_host),

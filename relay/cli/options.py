@@ -41,6 +41,8 @@ class Options:
     #: The operator token; None: no token needed (library use and tests; the command line always sets one).
     token: str | None = None
     allow_viewers: bool = False
+    #: The accounts file (relay/accounts/users.py); None: no accounts. People sign in when it holds any user.
+    users: str | None = None
     #: Origins allowed besides the relay's own, e.g. ("https://ops.example.org",).
     allowed_origins: tuple[str, ...] = ()
     #: Host names (of the Host header) allowed besides IP addresses, localhost and this machine's names.

@@ -221,7 +221,7 @@ class Control:
     async def lease(self, client: Client, command: Lease, now: float) -> None:
         """``<robot>/lease``: acquire, release, or take over with ``force``; raises when refused."""
         identifier = robot_identifier(command.robot, "lease")
-        self.gate.require_operator(client, identifier, command.id)
+        self.gate.require(client, "drive", identifier, command.id)
         robot, holder = command.robot, self.leases.holder(command.robot)
         if command.action == "release":
             if holder != client.client_id:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Protocol
 
+from ..accounts.roles import WHAT, Permission, may
 from ..backends.base import Backend
 from ..errors import CommandRejected, ProtocolError
 from ..session.clients import Actor, Client
@@ -58,7 +59,7 @@ class MotionGate:
         to it (``stale``: a frozen or starved relay must not replay what the deadman already stopped); while the
         relay cannot keep its record (``audit_unavailable``); for a recording; while an estop is latched; while
         another operator holds the robot's lease (a free lease is taken)."""
-        self.require_operator(client, identifier, request_id)  # a viewer hears "forbidden", nothing else
+        self.require(client, "drive", identifier, request_id)  # a viewer hears "forbidden", nothing else
         timeout = self.deadman.timeout
         if age > timeout:
             raise CommandRejected(
@@ -79,9 +80,13 @@ class MotionGate:
     # -- its parts ---------------------------------------------------------------------------------
 
     @staticmethod
-    def require_operator(client: Actor, identifier: str, request_id: RequestId | None) -> None:
-        if client.role != "operator":
-            raise ProtocolError(ErrorCode.FORBIDDEN, f"{identifier}: viewers cannot command robots", request_id)
+    def require(client: Actor, permission: Permission, identifier: str, request_id: RequestId | None) -> None:
+        """Refuse with ``forbidden`` what the client's role may not do (relay/accounts/roles.py)."""
+        if not may(client.role, permission):
+            article = "an" if client.role[0] in "aeiou" else "a"
+            raise ProtocolError(
+                ErrorCode.FORBIDDEN, f"{identifier}: {article} {client.role} cannot {WHAT[permission]}", request_id
+            )
 
     def require_commandable(
         self,
@@ -92,10 +97,11 @@ class MotionGate:
         now: float,
         *,
         moves: bool = False,
+        permission: Permission = "drive",
     ) -> None:
-        """Operator role, a robot that is not a recording, no latched estop when the command ``moves`` the robot,
-        and the robot's lease (taken when free)."""
-        self.require_movable(client, robot, identifier, request_id, moves=moves)
+        """The role's ``permission`` (an inspector's missions: ``inspect``), a robot that is not a recording, no
+        latched estop when the command ``moves`` the robot, and the robot's lease (taken when free)."""
+        self.require_movable(client, robot, identifier, request_id, moves=moves, permission=permission)
         self.refuse_if_held_elsewhere(robot, identifier, request_id)
         allowed, before = self.leases.use(robot, client.client_id, now)
         if not allowed:
@@ -108,11 +114,18 @@ class MotionGate:
             self.acquired(robot, client.client_id, None, "acquired", now)
 
     def require_movable(
-        self, client: Actor, robot: str, identifier: str, request_id: RequestId | None, *, moves: bool = True
+        self,
+        client: Actor,
+        robot: str,
+        identifier: str,
+        request_id: RequestId | None,
+        *,
+        moves: bool = True,
+        permission: Permission = "drive",
     ) -> None:
         """Every rule of :meth:`require_commandable` but the lease: for what acts through a lease it does not hold
         (an operator resuming a mission that holds the robot)."""
-        self.require_operator(client, identifier, request_id)
+        self.require(client, permission, identifier, request_id)
         refusal = self.backend.command_refusal(robot)
         if refusal is not None:
             raise CommandRejected(ErrorCode.RECORDING, f"{identifier}: {refusal}", request_id)

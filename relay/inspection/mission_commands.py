@@ -89,7 +89,9 @@ class MissionCommands:
         for robot in robots:
             if robot not in self._robots:
                 raise CommandRejected(ErrorCode.UNKNOWN_ROBOT, f"mission/start: unknown robot {robot!r}", command.id)
-            self._control.gate.require_commandable(client, robot, f"mission/start {robot}", command.id, now, moves=True)
+            self._control.gate.require_commandable(
+                client, robot, f"mission/start {robot}", command.id, now, moves=True, permission="inspect"
+            )
             if self.runner.active(robot) is not None:
                 raise CommandRejected(
                     ErrorCode.BAD_REQUEST, f"mission/start: {robot} is on a mission already", command.id
@@ -176,9 +178,11 @@ class MissionCommands:
         revive = None
         if command.action == "resume":
             if lease == holder(run.record.id):  # held by the mission itself (an estop held it): the other rules
-                self._control.gate.require_movable(client, robot, "mission/resume", command.id)
+                self._control.gate.require_movable(client, robot, "mission/resume", command.id, permission="inspect")
             else:
-                self._control.gate.require_commandable(client, robot, "mission/resume", command.id, now, moves=True)
+                self._control.gate.require_commandable(
+                    client, robot, "mission/resume", command.id, now, moves=True, permission="inspect"
+                )
             if self.runner.needs_task(run):  # restored: the rest is planned again from where the robot stands
                 rest = {robot: run.record.steps}
                 revive = (await self._planning.check(rest, self._starts(rest), "mission/resume", command.id))[robot]

@@ -237,7 +237,7 @@ class Inspection:
         if isinstance(command, FindingsPage):
             await self._page(client, command)  # what a viewer sees already, further back
             return
-        self.control.gate.require_operator(client, inspection_identifier(command), command.id)
+        self.control.gate.require(client, "inspect", inspection_identifier(command), command.id)
         if isinstance(command, MissionStart):
             await self.missions.start(client, command, now)
         elif isinstance(command, MissionControl):

@@ -68,12 +68,14 @@ class Refused(Exception):
 
 @dataclass
 class Access:
-    token: str | None  # None: no token needed (library use and tests); the command line always sets one
+    token: str | None  # None: no token needed (library use and tests), unless ``accounts``
     allow_viewers: bool = False
     allowed_origins: tuple[str, ...] = ()
     window: float = 60.0  # wrong tokens older than this (s) no longer slow an address
     #: Names the Host header may carry besides IP addresses (lower case): see ``check_host``.
     allowed_hosts: frozenset[str] = frozenset({"localhost"})
+    #: People sign in (relay/net/sign_in.py): without a token, a handshake without a session is a viewer at most.
+    accounts: bool = False
     _failures: dict[str, _Guesses] = field(default_factory=dict)
 
     def check_host(self, host: str | None) -> None:
@@ -124,22 +126,28 @@ class Access:
     def admit(self, presented: str | None, address: str, now: float) -> tuple[Role, float]:
         """The role of a handshake presenting ``presented`` from ``address`` and how long (s) to wait before
         answering it; or Refused (with its own delay)."""
-        if self.token is None:
+        if self.token is None and not self.accounts:
             return "operator", 0.0
-        if presented is not None and hmac.compare_digest(presented.encode(), self.token.encode()):
+        if (
+            presented is not None
+            and self.token is not None
+            and hmac.compare_digest(presented.encode(), self.token.encode())
+        ):
             return "operator", 0.0  # whatever wrong tokens came from this address before
         delay = 0.0
         if presented is not None:
-            delay = self._failed(address, now)
+            delay = self.slow(address, now)
         if self.allow_viewers:
             return "viewer", delay
         if presented is None:
+            if self.token is None:
+                raise Refused(401, "sign in: this relay has accounts (open its page and sign in)")
             raise Refused(401, "an operator token is required: open the URL the relay printed (it ends in #token=...)")
         raise Refused(401, "wrong operator token", delay)
 
-    def _failed(self, address: str, now: float) -> float:
-        """Count a wrong token; the delay its answer waits: the spacing its count calls for, after the answer
-        to the previous wrong token from this address (however many are waiting at once)."""
+    def slow(self, address: str, now: float) -> float:
+        """Count a wrong token (or password, or pairing code); the delay its answer waits: the spacing its count
+        calls for, after the answer to the previous wrong one from this address (however many are waiting at once)."""
         guesses = self._failures.setdefault(_guesser(address), _Guesses())
         times = guesses.times
         while times and now - times[0] > self.window:

@@ -20,6 +20,7 @@ from urllib.parse import urlsplit
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from .. import __version__
+from ..accounts.users import UserBook
 from ..cli.options import Options
 from ..config import FleetConfig
 from ..session.clients import Client
@@ -31,8 +32,11 @@ from .inspection_routes import capture_image, report, webhook_deliveries
 from .keys import ACCESS_KEY as ACCESS_KEY
 from .keys import GUARD_KEY as GUARD_KEY
 from .keys import RELAY_KEY as RELAY_KEY
+from .keys import SIGN_IN_KEY as SIGN_IN_KEY
 from .keys import SOCKETS_KEY as SOCKETS_KEY
 from .loop_lag import ArrivalDates, date_reads, unread_bytes
+from .sign_in import SignIn
+from .sign_in import add_routes as add_sign_in_routes
 from .tls import fingerprint, server_context
 
 logger = logging.getLogger(__name__)
@@ -171,7 +175,11 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
             # Browsers always send Origin with a WebSocket handshake; a browser request without one is forged.
             raise Refused(403, "a browser handshake without an Origin header")
         access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
-        role, delay = access.admit(request.query.get("token"), address, time.monotonic())
+        session = request.app[SIGN_IN_KEY].session_of(request)
+        if session is not None:
+            role, delay, user = session.role, 0.0, session.user
+        else:
+            (role, delay), user = access.admit(request.query.get("token"), address, time.monotonic()), None
     except Refused as exc:
         # Never log the query string: it carries the token.
         logger.warning("refused a connection from %s: %s", address, exc.reason)
@@ -188,7 +196,7 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)
     batch = request.query.get("batch") == "1"  # the client reads JSON arrays of state messages (relay.station.hub)
-    client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch)
+    client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch, user=user)
     # Each frame is dated by the read that brought it, a read after a stall of the loop to the stall's start: a
     # motion command that waited longer than the deadman's timeout, in a frozen relay's socket buffer or before the
     # relay got to it, is dropped (relay.session.commands), stamped by its client or not (relay.net.loop_lag).
@@ -391,9 +399,14 @@ def create_app(
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
     app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory, wall_clock=wall_clock)
+    book = UserBook(options.users) if options.users else None
+    accounts = book is not None and bool(book.users())  # a few milliseconds, before the relay serves anything
     app[ACCESS_KEY] = Access(
-        options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options)
-    )
+        options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options),
+        accounts=accounts,
+    )  # fmt: skip
+    app[SIGN_IN_KEY] = SignIn(book if accounts else None, app[ACCESS_KEY], secure=bool(options.tls_cert))
+    add_sign_in_routes(app, app[SIGN_IN_KEY])
     app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
     # Every response, errors included: the CSP the client and the report pass, nosniff, no referrer, no framing.
     headers = SecurityHeaders.for_pages(CLIENT_DIR, own_host=app[ACCESS_KEY].is_own_host)

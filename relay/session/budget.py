@@ -17,9 +17,11 @@ from __future__ import annotations
 
 from .protocol import Role
 
-IN_FLIGHT: dict[Role, int] = {"operator": 2, "viewer": 1}
-INTERVAL: dict[Role, float] = {"operator": 0.0, "viewer": 1.0}  # an operator may ask for several cameras at once
-ARTICLE: dict[Role, str] = {"operator": "an", "viewer": "a"}
+# Every role that works with the robots (relay/accounts/roles.py) is budgeted as an operator; a viewer watches.
+IN_FLIGHT: dict[Role, int] = {"admin": 2, "operator": 2, "inspector": 2, "viewer": 1}
+# An operator may ask for several cameras at once.
+INTERVAL: dict[Role, float] = {"admin": 0.0, "operator": 0.0, "inspector": 0.0, "viewer": 1.0}
+ARTICLE: dict[Role, str] = {"admin": "an", "operator": "an", "inspector": "an", "viewer": "a"}
 TOTAL = 4
 OPERATOR_RESERVE = 2
 

@@ -43,11 +43,14 @@ class Client:
     allowance: TokenBucket
     address: str | None = None
     #: The name the client gave (``name``), shown to other operators instead of its id; None until it gives one.
+    #: A signed-in client's is its account's, and it cannot give another.
     name: str | None = None
     #: Commands that outlive their frame (snapshots), cancelled when the client goes.
     tasks: set[asyncio.Task[None]] = field(default_factory=set)
     #: The client's clock as its ``cmd_vel.t`` stamps show it: how long each command took to reach the relay.
     sender_clock: SenderClock = field(default_factory=SenderClock)
+    #: The account it signed in with (relay/accounts); None: the token's operator, or a tokenless viewer.
+    user: str | None = None
 
     def spawn(self, coro: Awaitable[None]) -> None:
         """Run ``coro`` beside the client's later frames, and cancel it if the client disconnects first."""

@@ -186,7 +186,7 @@ class CommandHandler:
             await self.backend.cancel(command.robot)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Playback):
-            self.control.gate.require_operator(client, f"playback/{command.action}", command.id)
+            self.control.gate.require(client, "drive", f"playback/{command.action}", command.id)
             await self.backend.playback(command.action, command.value)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Stream):
@@ -196,6 +196,10 @@ class CommandHandler:
             await self.control.lease(client, command, now)
             self.outbox.ack(client, command.id)
         elif isinstance(command, Name):
+            if client.user is not None:
+                raise ProtocolError(
+                    ErrorCode.FORBIDDEN, f"name: signed in as {client.user}, the account's name is yours", command.id
+                )
             client.name = command.name
             self.outbox.ack(client, command.id)
             self.outbox.operators(self.roster())
@@ -208,8 +212,9 @@ class CommandHandler:
         return {cid: c.name for cid, c in self.clients.items() if c.name is not None}
 
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
-        self.control.gate.require_operator(client, "estop", command.id)
-        if command.action == "reset":
+        resets = command.action == "reset"
+        self.control.gate.require(client, "reset" if resets else "stop", "estop", command.id)
+        if resets:
             self.control.reset_estop(command.robot, client.client_id, now)
             self.outbox.ack(client, command.id)
             return

@@ -21,7 +21,8 @@ A record (docs/security.md lists the fields):
      "values": {"x": 3.0, "y": 6.0, "yaw": null}, "outcome": "accepted", "code": null, "message": null}
 
 ``name``, only in the records of a client that gave one (``name``), is that name: who acknowledged an alert, who sent
-a goal.
+a goal. A signed-in client's records (relay/accounts) carry ``user`` instead: its account, the person, not a name
+anyone could type.
 ``outcome`` is ``accepted`` or ``refused`` (then ``code`` and ``message`` say why, as the client was told: its
 first 120 characters).
 The first record of each run is the relay's own (``client`` and ``role`` ``relay``, ``identifier`` ``relay/start``,
@@ -90,9 +91,11 @@ class AuditLog:
         code: str | None = None,
         message: str | None = None,
         name: str | None = None,
+        user: str | None = None,
     ) -> None:
         now = dt.datetime.now(dt.UTC)
-        named = {"name": name} if name is not None else {}
+        # A signed-in client's name is its account's: the record says ``user`` alone.
+        named = {"user": user} if user is not None else {"name": name} if name is not None else {}
         line = orjson.dumps(
             {
                 "time": now.isoformat(),
@@ -182,7 +185,7 @@ class CommandAudit:
         if self.log is None:
             return
         message = fit(error.message, MAX_MESSAGE) if error else None  # clipped before the note, which must be read
-        if error is not None or client.role != "operator":
+        if error is not None or client.role == "viewer":
             # Refusals and viewers' records are budgeted per client (module docstring): a flood cannot rotate
             # the operators' records away, and what was not written is counted in the next record.
             now = self._clock()
@@ -205,6 +208,7 @@ class CommandAudit:
             code=error.code if error else None,
             message=message,
             name=client.name,
+            user=client.user,
         )
 
     def forget(self, client_id: str) -> None:

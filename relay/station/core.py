@@ -193,18 +193,25 @@ class Relay:
     # -- connections ------------------------------------------------------------------------------
 
     def connect(
-        self, transport: Transport, role: Role = "operator", address: str | None = None, *, batch: bool = False
+        self,
+        transport: Transport,
+        role: Role = "operator",
+        address: str | None = None,
+        *,
+        batch: bool = False,
+        user: str | None = None,
     ) -> Client:
-        """``batch``: the client takes state messages in batches (``/ws?batch=1``, relay.station.hub)."""
+        """``batch``: the client takes state messages in batches (``/ws?batch=1``, relay.station.hub); ``user``: the
+        account it signed in with (relay/net/sign_in.py), its name everywhere."""
         client_id = new_client_id()
         channel = self.hub.add(client_id, transport, batch=batch)
         allowance = TokenBucket.full(self.options.max_message_rate, self.clock())
-        client = Client(client_id, role, channel, allowance, address)
+        client = Client(client_id, role, channel, allowance, address, name=user, user=user)
         self._clients[client_id] = client
         self.outbox.to(client, self.hello(client))
         self.outbox.to(client, operators_message(self.commands.roster()))
         self.inspection.on_connect(client)
-        logger.info("client %s connected as %s", client_id, role)
+        logger.info("client %s connected as %s%s", client_id, role, f" ({user})" if user else "")
         return client
 
     async def disconnect(self, client: Client) -> None:

@@ -26,7 +26,8 @@ from .descriptions import (
 from .fields import RequestId
 from .identifiers import robot_identifier, sensor_key
 
-Role = Literal["operator", "viewer"]
+#: What a client may do (relay/accounts/roles.py): an account's role, or the token's operator and a tokenless viewer.
+Role = Literal["admin", "operator", "inspector", "viewer"]
 Mode = Literal["idle", "teleop", "navigating"]
 
 

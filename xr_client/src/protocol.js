@@ -16,7 +16,7 @@ export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unreachable' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
-/** @typedef {'operator' | 'viewer'} Role */
+/** @typedef {'admin' | 'operator' | 'inspector' | 'viewer'} Role */
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
 /** @typedef {'acquired' | 'released' | 'taken_over' | 'expired' | 'disconnected'} LeaseReason */
 /** @typedef {'pending' | 'running' | 'paused' | 'done' | 'aborted'} MissionState */

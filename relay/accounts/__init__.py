@@ -1,0 +1,1 @@
+"""People and what they may do: accounts with roles, password hashes, sign-in sessions and headset pairing."""

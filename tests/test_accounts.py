@@ -1,0 +1,259 @@
+"""Accounts and roles (issue #31): people sign in, and the relay knows who did what.
+
+The rules without sockets (roles, sessions and pairing codes with a clock moved by hand, the users file), then a real
+relay on a loopback port with a real users file: sign-in over HTTP, the session cookie on a real WebSocket, and
+what each role may do, read back from the other pages and the audit log.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+import orjson
+import pytest
+from yarl import URL
+
+from relay.accounts.passwords import verify
+from relay.accounts.roles import ROLES, may
+from relay.accounts.sessions import CODE_LIFETIME, IDLE, LIFETIME, MAX_SESSIONS, Sessions
+from relay.accounts.users import AccountError, UserBook
+from relay.cli.options import Options
+from relay.config import FleetConfig
+from relay.net.access import FREE_FAILURES
+from relay.net.sign_in import COOKIE, CSRF_HEADER
+from tests.conftest import RunningRelay, start_relay
+from tests.wsclient import TestClient
+
+PASSWORDS = {
+    "Ana": "ana-correct-horse",
+    "Ben": "ben-battery-staple",
+    "Ida": "ida-inspects-tanks",
+    "Root": "root-admin-pw",
+}
+ROLE_OF = {"Ana": "operator", "Ben": "viewer", "Ida": "inspector", "Root": "admin"}
+
+
+# -- the rules ----------------------------------------------------------------------------------------
+
+
+def test_each_role_may_what_the_issue_lists_and_nothing_more() -> None:
+    table = {role: {p for p in ("drive", "stop", "reset", "inspect", "users") if may(role, p)} for role in ROLES}
+    assert table == {
+        "admin": {"drive", "stop", "reset", "inspect", "users"},
+        "operator": {"drive", "stop", "reset", "inspect"},
+        "inspector": {"stop", "inspect"},
+        "viewer": set(),
+    }
+
+
+def test_sessions_end_when_idle_or_old_and_stay_bounded() -> None:
+    sessions = Sessions()
+    ana = sessions.open("Ana", "operator", 0.0)
+    assert sessions.get(ana.id, IDLE - 1) is not None  # in use: its idle time restarts
+    assert sessions.get(ana.id, 2 * IDLE - 2) is not None
+    assert sessions.get(ana.id, LIFETIME + 1) is None  # a day after sign-in, whatever its use
+    ben = sessions.open("Ben", "viewer", 0.0)
+    assert sessions.get(ben.id, IDLE + 1) is None
+    assert sessions.get("made-up", 0.0) is None and sessions.get(None, 0.0) is None
+    first = sessions.open("Cy", "viewer", 0.0)
+    for _ in range(MAX_SESSIONS):
+        sessions.open("Cy", "viewer", 1.0)
+    assert sessions.get(first.id, 2.0) is None  # the least recently used went
+
+
+def test_a_pairing_code_gives_the_desktops_person_once_and_expires() -> None:
+    sessions = Sessions()
+    ana = sessions.open("Ana", "operator", 0.0)
+    code = sessions.pairing_code(ana, 10.0)
+    assert len(code) == 6 and code.isalnum()
+    headset = sessions.claim(code.lower(), 20.0)  # typed in lower case on a headset's keyboard
+    assert headset is not None and (headset.user, headset.role, headset.via) == ("Ana", "operator", "paired")
+    assert headset.id != ana.id and headset.csrf != ana.csrf
+    assert sessions.claim(code, 21.0) is None  # used up
+    late = sessions.pairing_code(ana, 30.0)
+    assert sessions.claim(late, 30.0 + CODE_LIFETIME + 1) is None
+    replaced = sessions.pairing_code(ana, 40.0)
+    newer = sessions.pairing_code(ana, 41.0)
+    assert sessions.claim(replaced, 42.0) is None and sessions.claim(newer, 42.0) is not None
+    signed_out = sessions.pairing_code(ana, 50.0)
+    sessions.close(ana.id)
+    assert sessions.claim(signed_out, 51.0) is None
+
+
+def test_the_users_file_checks_names_passwords_and_keeps_an_admin(tmp_path: Path) -> None:
+    book = UserBook(tmp_path / "users.sqlite")
+    assert book.users() == [] and not (tmp_path / "users.sqlite").exists()  # reading makes no file
+    book.add("Root", "admin", PASSWORDS["Root"])
+    book.add("Ana", "operator", PASSWORDS["Ana"])
+    with pytest.raises(AccountError, match="exists already"):
+        book.add("ana", "viewer", "another-password")  # one account, whatever the case
+    with pytest.raises(AccountError, match="at least 10 characters"):
+        book.add("Cy", "viewer", "short")
+    with pytest.raises(AccountError, match="user name"):
+        book.add("<script>", "viewer", "long-enough-password")
+    with pytest.raises(AccountError, match="none of admin, operator, inspector, viewer"):
+        book.add("Cy", "superuser", "long-enough-password")
+    with pytest.raises(AccountError, match="last admin"):
+        book.remove("Root")
+    with pytest.raises(AccountError, match="last admin"):
+        book.set_role("root", "operator")
+    assert [(u.name, u.role) for u in book.users()] == [("Ana", "operator"), ("Root", "admin")]
+    found = book.hash_of("ANA")
+    assert found is not None and found[0].name == "Ana" and found[1].startswith("$argon2id$")
+    assert verify(found[1], PASSWORDS["Ana"]) and not verify(found[1], PASSWORDS["Ana"] + "x")
+    assert not verify(None, PASSWORDS["Ana"])  # an unknown user: the dummy hash, never a match
+    book.set_password("Ana", "a-new-password-1")
+    again = book.hash_of("Ana")
+    assert again is not None and verify(again[1], "a-new-password-1")
+
+
+# -- a relay with accounts ----------------------------------------------------------------------------
+
+
+@pytest.fixture
+async def site(fleet_config: FleetConfig, tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
+    book = UserBook(tmp_path / "users.sqlite")
+    for name, password in PASSWORDS.items():
+        await asyncio.to_thread(book.add, name, ROLE_OF[name], password)
+    audit = tmp_path / "audit.jsonl"
+    options = Options(users=str(book.path), audit_log=str(audit), database=str(tmp_path / "i.sqlite"))
+    running = await start_relay(fleet_config, options=options)
+    try:
+        yield running, audit
+    finally:
+        await running.runner.cleanup()
+
+
+class Person:
+    """A browser of one person: its cookie jar and, once signed in, the CSRF token its page read."""
+
+    def __init__(self, relay: RunningRelay) -> None:
+        self.relay = relay
+        self.http = aiohttp.ClientSession(cookie_jar=aiohttp.CookieJar(unsafe=True))  # unsafe: 127.0.0.1 cookies
+        self.csrf = ""
+
+    async def post(self, path: str, body: dict[str, Any] | None = None, *, csrf: bool = True) -> tuple[int, Any]:
+        headers = {"Origin": self.relay.url}
+        if csrf and self.csrf:
+            headers[CSRF_HEADER] = self.csrf
+        async with self.http.post(self.relay.url + path, data=orjson.dumps(body or {}), headers=headers) as response:
+            text = await response.text()
+            return response.status, (orjson.loads(text) if response.content_type == "application/json" else text)
+
+    async def sign_in(self, user: str, password: str | None = None) -> dict[str, Any]:
+        status, body = await self.post("/signin", {"user": user, "password": password or PASSWORDS[user]})
+        assert status == 200, body
+        self.csrf = body["csrf"]
+        return dict(body)
+
+    async def page(self) -> TestClient:
+        cookie = self.http.cookie_jar.filter_cookies(URL(self.relay.url)).get(COOKIE)
+        headers = {"Origin": self.relay.url, **({"Cookie": f"{COOKIE}={cookie.value}"} if cookie else {})}
+        client = await TestClient.open(self.relay.ws_url, additional_headers=headers)
+        await client.hello()
+        return client
+
+    async def close(self) -> None:
+        await self.http.close()
+
+
+@pytest.fixture
+async def people(site: tuple[RunningRelay, Path]) -> AsyncIterator[dict[str, Person]]:
+    made = {name: Person(site[0]) for name in (*PASSWORDS, "Eve")}
+    try:
+        yield made
+    finally:
+        for person in made.values():
+            await person.close()
+
+
+async def test_who_pressed_estop_is_the_person_on_every_page_and_in_the_audit_log(
+    site: tuple[RunningRelay, Path], people: dict[str, Person]
+) -> None:
+    _, audit = site
+    assert (await people["Ana"].sign_in("ana", PASSWORDS["Ana"]))["user"] == "Ana"  # the account's own spelling
+    await people["Ben"].sign_in("Ben")
+    ana, ben = await people["Ana"].page(), await people["Ben"].page()
+    assert ana.latest["hello"]["role"] == "operator" and ben.latest["hello"]["role"] == "viewer"
+    reply = await ana.request({"identifier": "estop"})
+    assert reply["identifier"] == "ack", reply
+    latched = await ben.wait_for(lambda m: m["identifier"] == "estop" and m["latched"])
+    roster = await ben.wait_for(lambda m: m["identifier"] == "operators" and latched["by"] in m["names"])
+    assert roster["names"][latched["by"]] == "Ana"
+    # A signed-in person cannot call themselves anything else.
+    renamed = await ana.request({"identifier": "name", "name": "Ben"})
+    assert renamed["code"] == "forbidden" and "signed in as Ana" in renamed["message"], renamed
+    # Ben watches: he can neither stop nor reset, and says so in words.
+    for action in ("press", "reset"):
+        refused = await ben.request({"identifier": "estop", **({"action": "reset"} if action == "reset" else {})})
+        assert refused["code"] == "forbidden" and "a viewer cannot" in refused["message"], refused
+    records = [orjson.loads(line) for line in (await asyncio.to_thread(audit.read_text)).splitlines()]
+    pressed = next(r for r in records if r["identifier"] == "estop" and r["outcome"] == "accepted")
+    assert (pressed["user"], pressed["role"]) == ("Ana", "operator") and "name" not in pressed
+    assert any(r.get("user") == "Ben" and r["outcome"] == "refused" for r in records)
+    await ana.close()
+    await ben.close()
+
+
+async def test_an_inspector_stops_and_runs_inspection_but_neither_drives_nor_resets(
+    site: tuple[RunningRelay, Path], people: dict[str, Person]
+) -> None:
+    await people["Ida"].sign_in("Ida")
+    ida = await people["Ida"].page()
+    robot = ida.latest["hello"]["robots"][0]["name"]
+    drive = await ida.request({"identifier": f"{robot}/cmd_vel", "linear": 0.2, "angular": 0.0})
+    assert drive["code"] == "forbidden" and "an inspector cannot command robots" in drive["message"], drive
+    assert (await ida.request({"identifier": "estop"}))["identifier"] == "ack"
+    reset = await ida.request({"identifier": "estop", "action": "reset"})
+    assert reset["code"] == "forbidden" and "reset an E-STOP" in reset["message"], reset
+    added = await ida.request({"identifier": "target/add", "target": "valve-7", "x": 2.0, "y": 2.0})
+    assert added["identifier"] == "ack", added
+    await ida.close()
+
+
+async def test_wrong_passwords_are_slowed_and_never_say_which_part_was_wrong(
+    site: tuple[RunningRelay, Path], people: dict[str, Person]
+) -> None:
+    eve = people["Eve"]
+    unknown = await eve.post("/signin", {"user": "Nobody", "password": PASSWORDS["Ana"]})
+    wrong = await eve.post("/signin", {"user": "Ana", "password": "not-her-password"})
+    assert unknown == wrong == (401, "wrong user name or password\n")
+    for _ in range(FREE_FAILURES):
+        await eve.post("/signin", {"user": "Ana", "password": "still-wrong-pw"})
+    started = time.monotonic()
+    assert (await eve.post("/signin", {"user": "Ana", "password": "wrong-again"}))[0] == 401
+    assert time.monotonic() - started >= 0.1  # past the free failures, each answer waits (relay/net/access.py)
+    # No cookie, no token: the handshake asks to sign in.
+    with pytest.raises(Exception, match="401"):
+        await eve.page()
+    # Another site's page cannot sign in through the operator's browser.
+    async with eve.http.post(
+        site[0].url + "/signin", data=b'{"user":"Ana","password":"x"}', headers={"Origin": "https://evil.example"}
+    ) as response:
+        assert response.status == 403
+
+
+async def test_a_headset_paired_by_code_is_the_same_person_and_the_code_needs_the_csrf_token(
+    site: tuple[RunningRelay, Path], people: dict[str, Person]
+) -> None:
+    ana, headset = people["Ana"], people["Eve"]
+    await ana.sign_in("Ana")
+    assert (await ana.post("/pair", csrf=False))[0] == 403  # a page of another site has the cookie, not the token
+    status, body = await ana.post("/pair")
+    assert status == 200 and len(body["code"]) == 6, body
+    status, claimed = await headset.post("/pair/claim", {"code": body["code"]})
+    assert status == 200 and (claimed["user"], claimed["role"]) == ("Ana", "operator"), claimed
+    page = await headset.page()
+    assert page.latest["hello"]["role"] == "operator"
+    assert (await page.request({"identifier": "estop"}))["identifier"] == "ack"
+    assert (await people["Ben"].post("/pair/claim", {"code": body["code"]}))[0] == 401  # once
+    await page.close()
+    # Signed out, the cookie no longer opens anything.
+    assert (await ana.post("/signout"))[0] == 200
+    async with ana.http.get(site[0].url + "/whoami") as response:
+        assert response.status == 401
