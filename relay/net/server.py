@@ -240,7 +240,8 @@ async def check_token(request: web.Request) -> web.Response:
             raise Refused(400, "a token is shorter than that")
         access.check_origin(request.headers.get("Origin"), f"{request.scheme}://{request.host}")
         token = body.decode("utf-8", errors="replace").strip() or None
-        role, delay = access.admit(token, address, time.monotonic())
+        session = request.app[SIGN_IN_KEY].session_of(request)
+        role, delay = (session.role, 0.0) if session is not None else access.admit(token, address, time.monotonic())
     except Refused as exc:
         await asyncio.sleep(exc.delay)
         return web.Response(status=exc.status, text=exc.reason + "\n")

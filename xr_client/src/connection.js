@@ -184,6 +184,14 @@ export class RelayConnection extends EventTarget {
     this.dispatchEvent(new CustomEvent('status', { detail: this.policy }));
   }
 
+  /** Connect now after a refusal the page has since answered (it signed in: account_flow.js). */
+  retry() {
+    if (this.disposed || this.socket !== null) return;
+    clearTimeout(this.retryTimer);
+    this.policy.retry();
+    this.connect();
+  }
+
   /**
    * Send one message; returns its id (or '' without one), or null when disconnected: nothing is queued.
    * @param {Record<string, unknown>} message

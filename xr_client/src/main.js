@@ -48,6 +48,17 @@ const app = new App(container, {
   detailedMax: quality.detailedMax,
 });
 app.start();
+const { AccountFlow } = await import('./station/account_flow.js');
+const accounts = new AccountFlow(
+  {
+    connection: app.connection,
+    operatorUi: app.views.operatorUi,
+    notify: (/** @type {string} */ text) => app.views.notify(text, 'error'),
+  },
+  document,
+  window.location.origin,
+);
+void accounts.start();
 if (quality.reason) {
   console.info(quality.reason);
   app.views.overlay.say(quality.reason, 'info', 8000);

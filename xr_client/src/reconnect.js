@@ -46,6 +46,14 @@ export class ReconnectPolicy {
     this.retryAt = null;
   }
 
+  /** The refusal was answered (the page signed in): connect again from the start. */
+  retry() {
+    this.state = 'connecting';
+    this.refusal = '';
+    this.attempts = 0;
+    this.delay = this.first;
+  }
+
   /** A socket is being opened. @param {number} now */
   connecting(now) {
     this.attempts++;
@@ -94,6 +102,7 @@ export class ReconnectPolicy {
 
   /** The status line: "connected · 12 ms", "reconnecting in 3 s", "connecting…". @param {number} now */
   describe(now) {
+    if (this.state === 'refused' && this.refusal.startsWith('sign in')) return 'sign in to connect';
     if (this.state === 'refused')
       return `refused: ${this.refusal} · open the address the relay printed (…/#token=…) and reload`;
     if (this.state === 'connected')

@@ -22,6 +22,16 @@ test('one robot stopped names it and who stopped it; a viewer is told an operato
   assert.equal(banner?.fleet, false);
   assert.equal(banner?.text, 'E-STOPPED: robot2 · by c7-ab');
   assert.equal(banner?.hint, 'stopped and held until an operator resets it');
+  // The presser by the name the relay gives (an account's, or the one they typed), never an id when one is known.
+  const named = estopBanner(
+    ['robot2'],
+    FLEET,
+    new Map([['robot2', 'c7-ab']]),
+    'c1',
+    false,
+    new Map([['c7-ab', 'Ana']]),
+  );
+  assert.equal(named?.text, 'E-STOPPED: robot2 · by Ana');
 });
 
 test('robots stopped by different operators, or by whom nobody said (a reconnect), name no one', () => {

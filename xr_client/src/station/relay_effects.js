@@ -92,7 +92,7 @@ export class RelayEffects {
         const robots = [...fleet.robots.keys()];
         const operator = fleet.role === 'operator';
         views.overlay.setBanner(
-          estopBanner(effect.latched, robots, this.host.router.estopBy, fleet.clientId, operator),
+          estopBanner(effect.latched, robots, this.host.router.estopBy, fleet.clientId, operator, fleet.names),
         );
         views.hud.estop.show(views.overlay.banner, stage.presenting);
         break;

@@ -26,6 +26,8 @@ export class OperatorUi {
     if (fromUrl) host.storage?.setItem(NAME_KEY, fromUrl);
     /** @type {string | null} */
     this.name = cleanName(host.storage?.getItem(NAME_KEY) ?? '');
+    /** The account this page signed in with, whose name the relay gives it (null: none). @type {string | null} */
+    this.account = null;
     this.nameDialog?.addEventListener('submit', (event) => {
       // Later: asked again next visit.
       if (/** @type {SubmitEvent} */ (event).submitter?.getAttribute('value') === 'later') return;
@@ -51,6 +53,15 @@ export class OperatorUi {
     });
   }
 
+  /**
+   * Signed in (account_flow.js): the account's name is this operator's, given by the relay; nothing is asked or
+   * sent. @param {string} user
+   */
+  signedIn(user) {
+    this.account = user;
+    if (this.nameDialog?.open) this.nameDialog.close('later');
+  }
+
   /** @param {string} name */
   setName(name) {
     this.name = name;
@@ -62,6 +73,7 @@ export class OperatorUi {
    * A hello: an operator without a name is asked once; a known name goes to the (new) relay. @param {boolean} operator
    */
   hello(operator) {
+    if (this.account) return;
     if (this.name) this.host.sender.name(this.name);
     // Not modal: the station stays usable (and its E-STOP reachable) while the operator has not answered.
     else if (operator && !this.host.presenting() && this.nameDialog && !this.nameDialog.open) this.nameDialog.show();
