@@ -50,7 +50,8 @@ export class InspectionModel {
   awaiting = new Set();
   /** How each awaited request ended (true: ack), the newest few. @type {Map<string, boolean>} */
   settled = new Map();
-  /** The relay's message for each awaited request it refused (the schedule form shows it). @type {Map<string, string>} */
+  /** The relay's message for each awaited request it refused (the schedule form shows it). */
+  /** @type {Map<string, string>} */
   refusals = new Map();
   /** Bumped on every change, so views redraw only when something changed. */
   version = 0;

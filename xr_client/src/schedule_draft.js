@@ -30,8 +30,8 @@
 /** What the page cannot send, by the field it is about. @typedef {{field: string, text: string}} Problem */
 /**
  * The fields of `schedule/add` (all) or `schedule/update` (those changed), without the id the connection gives.
- * @typedef {Omit<import('./protocol.js').ScheduleAddCommand, 'id'> | Omit<import('./protocol.js').ScheduleUpdateCommand,
- *   'id'>} ScheduleCommand
+ * @typedef {Omit<import('./protocol.js').ScheduleAddCommand, 'id'>
+ *   | Omit<import('./protocol.js').ScheduleUpdateCommand, 'id'>} ScheduleCommand
  */
 
 export const WEEKDAYS = Object.freeze(['mon', 'tue', 'wed', 'thu', 'fri', 'sat', 'sun']);
@@ -253,12 +253,13 @@ export function fieldOf(message) {
  */
 
 /**
- * The form's state: the draft, the schedule it changes (Edit) or none (a new one), the command awaiting its answer,
- * and the relay's refusal with the field it names. An `ack` clears the form: the list shows the schedule when the
- * relay's `schedules` message says so (it comes before the `ack`), never before.
+ * The form's state: open or not, the draft, the schedule it changes (Edit) or none (a new one), the command awaiting
+ * its answer, and the relay's refusal with the field it names. An `ack` clears and closes the form: the list shows the
+ * schedule when the relay's `schedules` message says so (it comes before the `ack`), never before.
  */
 export class ScheduleEditor {
-  /** The schedule being changed, as the relay listed it when Edit was pressed; null: a new one. @type {Schedule | null} */
+  /** The schedule being changed, as the relay listed it when Edit was pressed; null: a new one. */
+  /** @type {Schedule | null} */
   before = null;
   /** @type {Pending | null} */
   pending = null;
@@ -266,6 +267,8 @@ export class ScheduleEditor {
   error = '';
   /** The field `error` is about ('' when none). */
   field = '';
+  /** Whether the form is open (New schedule, or Edit); closed, the panel shows its list and one button. */
+  open = false;
   /** Bumped on every change the form must draw (the view keeps what is typed between). */
   version = 0;
 
@@ -275,17 +278,30 @@ export class ScheduleEditor {
     this.draft = newDraft(now);
   }
 
+  /**
+   * Open the form for a new schedule, its first run a minute after `now` (not after the page was opened).
+   * @param {number} now
+   */
+  start(now) {
+    this.draft = newDraft(now);
+    this.before = null;
+    this.open = true;
+    this.#say('', '');
+  }
+
   /** Fill the form with a listed schedule, to change it. @param {Schedule} schedule */
   edit(schedule) {
     this.draft = draftOf(schedule);
     this.before = schedule;
+    this.open = true;
     this.#say('', '');
   }
 
-  /** An empty form again (a new schedule). @param {number} now */
-  clear(now) {
+  /** Empty the form (a new schedule's, from a minute after `now`) and close it. @param {number} now */
+  close(now) {
     this.draft = newDraft(now);
     this.before = null;
+    this.open = false;
     this.#say('', '');
   }
 
@@ -308,8 +324,8 @@ export class ScheduleEditor {
   }
 
   /**
-   * The answer to the pending command, if it came: an `ack` clears the form (a removal, when it was the one being
-   * changed), an `error` is kept with the field it names. Returns whether anything changed.
+   * The answer to the pending command, if it came: an `ack` clears and closes the form (a removal, when it was the
+   * one being changed), an `error` is kept with the field it names. Returns whether anything changed.
    * @param {Map<string, boolean>} settled how requests ended (InspectionModel.settled)
    * @param {Map<string, string>} refusals the relay's messages of those refused (InspectionModel.refusals)
    * @param {number} now
@@ -322,7 +338,7 @@ export class ScheduleEditor {
     if (!ok) {
       const message = refusals.get(pending.request) ?? 'refused';
       this.#say(message, fieldOf(message));
-    } else if (pending.kind === 'change' || this.before?.schedule === pending.schedule) this.clear(now);
+    } else if (pending.kind === 'change' || this.before?.schedule === pending.schedule) this.close(now);
     else this.version++;
     return true;
   }

@@ -172,6 +172,10 @@ test('the editor: an error is kept with its field, an ack clears the form, a rem
     inspection: model,
   });
   const editor = new ScheduleEditor(MONDAY_8);
+  assert.equal(editor.open, false, 'closed until New schedule or Edit');
+  editor.start(MONDAY_8 + 600);
+  assert.equal(editor.open, true);
+  assert.equal(parseLocal(editor.draft.start), MONDAY_8 + 600 + START_AHEAD, 'a minute from when it was opened');
   editor.draft = { ...editor.draft, name: 'quick', targets: ['spill'], repeat: '0.5' };
   const command = editor.submit();
   assert.ok(command);
@@ -184,6 +188,7 @@ test('the editor: an error is kept with its field, an ack clears the form, a rem
   assert.equal(editor.settle(model.settled, model.refusals, MONDAY_8), true);
   assert.deepEqual([editor.error, editor.field, editor.pending], [message, 'repeat', null]);
   assert.equal(editor.draft.name, 'quick', 'what was typed stays, to be corrected');
+  assert.equal(editor.open, true);
 
   editor.draft.repeat = '1';
   assert.ok(editor.submit());
@@ -192,7 +197,7 @@ test('the editor: an error is kept with its field, an ack clears the form, a rem
   assert.equal(editor.error, '');
   router.route({ identifier: 'ack', id: 's-2' }, 0);
   editor.settle(model.settled, model.refusals, MONDAY_8 + 5);
-  assert.equal(editor.draft.name, '', 'cleared');
+  assert.deepEqual([editor.draft.name, editor.open], ['', false], 'cleared and closed');
   assert.equal(parseLocal(editor.draft.start), MONDAY_8 + 5 + START_AHEAD);
 
   const rounds = listed({});
