@@ -170,16 +170,22 @@ export class ScheduleForm {
     const key = JSON.stringify([this.editor.version, this.visible, this.robots, targets, this.editor.pending]);
     if (key === this.#drawn && !force) return;
     this.#drawn = key;
+    // The field with the focus keeps it (a tick box by its value too: the targets' and the days' share a name).
     const active = document.activeElement;
-    const focused = active instanceof HTMLInputElement && this.element.contains(active) ? active.name : null;
+    const field = active instanceof HTMLInputElement || active instanceof HTMLSelectElement ? active : null;
+    const shared = field?.type === 'checkbox' || field?.type === 'radio';
+    const value = field && shared ? `[value="${CSS.escape(field.value)}"]` : '';
+    const focused = field && this.element.contains(field) ? `[name="${CSS.escape(field.name)}"]${value}` : null;
     this.element.hidden = !this.visible;
     this.element.classList.toggle('open', this.editor.open);
+    // Closed, a refused removal's error still shows under the button.
+    const refused = this.editor.error ? `<p class="error" role="alert">${esc(this.editor.error)}</p>` : '';
     this.element.innerHTML = this.editor.open
       ? this.#html(new Map(/** @type {[string, string][]} */ (targets)))
-      : '<button type="button" data-act="open">New schedule</button>';
+      : `<button type="button" data-act="open">New schedule</button>${refused}`;
     const error = this.editor.field;
     if (error) this.element.querySelector(`[data-field="${error}"]`)?.classList.add('invalid');
-    if (focused) /** @type {HTMLElement | null} */ (this.element.querySelector(`[name="${focused}"]`))?.focus();
+    if (focused) /** @type {HTMLElement | null} */ (this.element.querySelector(focused))?.focus();
   }
 
   /** @param {Map<string, string>} known the targets the page knows: id, name */
