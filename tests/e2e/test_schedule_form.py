@@ -56,7 +56,7 @@ async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
 
     schedules.change = spy  # type: ignore[method-assign,assignment]
     await client.wait("s.inspection.targets >= 3 && s.inspection.scheduleForm.visible")
-    await page.click(f"{FORM} button[data-act='open']")
+    await page.click("#findings button[data-schedule-new]")
 
     # The demo's targets, in order, on robot1, every minute from 3 s from now: listed once the relay says so, and the
     # form is cleared and closed.
@@ -69,7 +69,7 @@ async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
     await page.click(f"{FORM} button[data-act='save']")
     await page.wait_for_selector(ROW)
     await client.wait("!s.inspection.scheduleForm.pending && !s.inspection.scheduleForm.open")
-    assert await page.locator(f"{FORM} button[data-act='open']").count() == 1, "closed"
+    assert not await page.locator(f"{FORM} input").count(), "closed"
     record = scheduler.get("rounds")
     assert record is not None and record.repeat == 60.0 and record.on_busy == "wait"
     assert record.mission == {"robot": "robot1", "steps": [{"inspect": t} for t in DEMO_TARGETS]}
@@ -102,7 +102,7 @@ async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
 
     # Bad input: a new schedule every half minute, then with a window of no day. Each gets the relay's error beside
     # the form, its field marked, and nothing is added.
-    await page.click(f"{FORM} button[data-act='open']")
+    await page.click("#findings button[data-schedule-new]")
     await page.fill(f"{FORM} input[name='schedule']", "quick")
     await page.check(f"{FORM} input[name='target'][value='spill']")
     await page.fill(f"{FORM} input[name='repeat']", "0.5")

@@ -215,6 +215,7 @@ export class FindingsPanel {
     const item = target.closest('[data-finding]');
     const pick = target.closest('[data-target]');
     if (target.dataset.ack) this.run([{ type: 'alert_ack', alert: target.dataset.ack }]);
+    else if (target.dataset.scheduleNew !== undefined) this.schedules?.start();
     else if (target.dataset.scheduleEdit) this.schedules?.edit(target.dataset.scheduleEdit);
     else if (target.dataset.scheduleRemove) this.schedules?.remove(target.dataset.scheduleRemove);
     else if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
@@ -275,8 +276,10 @@ function scheduleList(schedules, form) {
         `${buttons(r.name)}<br><small>next ${esc(r.next)} · last ${esc(r.last)} · ${esc(r.state)}</small></li>`,
     )
     .join('');
+  // New schedule in the list's head: an operator's panel grows by one line for schedules until the form is opened.
+  const add = form ? '<button type="button" data-schedule-new>New schedule</button>' : '';
   return (
-    `<div class="head"><b>Schedules (${rows.length})</b></div><ol class="schedules">${items}</ol>` +
+    `<div class="head"><b>Schedules (${rows.length})</b>${add}</div><ol class="schedules">${items}</ol>` +
     (form ? '<div class="schedule-form-slot"></div>' : '')
   );
 }

@@ -1,10 +1,10 @@
 // @ts-check
 /**
  * The desktop's schedule form, under the schedule list (view/findings_panel.js draws the list, with Edit and Remove
- * on each row, and places this form under it), closed to a New schedule button until that or an Edit opens it: a
+ * on each row and New schedule in its head, and places this form under it), closed until one of those opens it: a
  * name; what its runs start (targets picked from those the page knows, for a robot or the fleet, or a mission file);
- * the first run; the minutes between runs; launch windows (weekdays and
- * hours of the relay's clock) and blackouts; a priority; and what a run does when its robot is busy. It sends
+ * the first run; the minutes between runs; launch windows (weekdays and hours of the relay's clock) and blackouts; a
+ * priority; and what a run does when its robot is busy. It sends
  * `schedule/add`, or `schedule/update` with the fields changed; a removal is confirmed in the page first.
  *
  * Nothing is shown before the relay says so: an `ack` clears the form and the list is the relay's `schedules`
@@ -80,6 +80,13 @@ export class ScheduleForm {
     if (inside && from !== null) inside.setSelectionRange(from, to);
   }
 
+  /** Open the form for a new schedule (the list's New schedule). */
+  start() {
+    if (!this.visible) return;
+    this.editor.start(this.wall());
+    this.#draw();
+  }
+
   /** Fill the form with a listed schedule to change it (its row's Edit). @param {string} name */
   edit(name) {
     const schedule = this.model.schedules.find((s) => s.schedule === name);
@@ -124,7 +131,6 @@ export class ScheduleForm {
       const from = this.wall() + 3600;
       draft.blackouts.push({ start: localTime(from), end: localTime(from + 3600) });
     } else if (b.dataset.act === 'drop-blackout') draft.blackouts.splice(n, 1);
-    else if (b.dataset.act === 'open') this.editor.start(this.wall());
     else if (b.dataset.act === 'cancel') this.editor.close(this.wall());
     this.#draw(true);
   }
@@ -178,11 +184,11 @@ export class ScheduleForm {
     const focused = field && this.element.contains(field) ? `[name="${CSS.escape(field.name)}"]${value}` : null;
     this.element.hidden = !this.visible;
     this.element.classList.toggle('open', this.editor.open);
-    // Closed, a refused removal's error still shows under the button.
+    // Closed, the form is nothing but a refused removal's error.
     const refused = this.editor.error ? `<p class="error" role="alert">${esc(this.editor.error)}</p>` : '';
     this.element.innerHTML = this.editor.open
       ? this.#html(new Map(/** @type {[string, string][]} */ (targets)))
-      : `<button type="button" data-act="open">New schedule</button>${refused}`;
+      : refused;
     const error = this.editor.field;
     if (error) this.element.querySelector(`[data-field="${error}"]`)?.classList.add('invalid');
     if (focused) /** @type {HTMLElement | null} */ (this.element.querySelector(focused))?.focus();
@@ -212,17 +218,7 @@ export class ScheduleForm {
         `${esc(missionWords(draft.kept))}</label>`
       : '';
     const windows = draft.windows.map((w, n) => windowRow(w, n, draft.windows.length > 1)).join('');
-    const blackouts = draft.blackouts
-      .map(
-        (b, n) =>
-          `<div class="row">from <input type="datetime-local" step="1" name="from-${n}" value="${esc(b.start)}" ` +
-          `aria-label="blackout ${n + 1} from"> to <input type="datetime-local" step="1" name="to-${n}" ` +
-          `value="${esc(b.end)}" aria-label="blackout ${n + 1} to"> ` +
-          `<button type="button" data-act="drop-blackout" data-n="${n}" ` +
-          `aria-label="drop blackout ${n + 1}">×</button>` +
-          '</div>',
-      )
-      .join('');
+    const blackouts = draft.blackouts.map(blackoutRow).join('');
     const busy = /** @type {const} */ ([
       ['wait', 'wait for it, until the run’s deadline'],
       ['skip', 'skip the run'],
@@ -280,6 +276,19 @@ function windowRow(w, n, droppable) {
     `max="24" step="1" value="${esc(w.first)}" aria-label="window ${n + 1} first hour"> to ` +
     `<input type="number" name="last-${n}" min="0" max="24" step="1" value="${esc(w.last)}" ` +
     `aria-label="window ${n + 1} last hour"> h</span>${drop}</div>`
+  );
+}
+
+/**
+ * One blackout: the local times it runs from and to.
+ * @param {import('../schedule_draft.js').BlackoutRow} b @param {number} n
+ */
+function blackoutRow(b, n) {
+  return (
+    `<div class="row">from <input type="datetime-local" step="1" name="from-${n}" value="${esc(b.start)}" ` +
+    `aria-label="blackout ${n + 1} from"> to <input type="datetime-local" step="1" name="to-${n}" ` +
+    `value="${esc(b.end)}" aria-label="blackout ${n + 1} to"> ` +
+    `<button type="button" data-act="drop-blackout" data-n="${n}" aria-label="drop blackout ${n + 1}">×</button></div>`
   );
 }
 
