@@ -236,6 +236,20 @@ export class CommandSender {
     return this.#send({ identifier: 'alert/ack', alert, ...(note ? { note } : {}) });
   }
 
+  /**
+   * Make a schedule (`schedule/add`) or change one (`schedule/update`, the fields changed): schedule_draft.js builds
+   * it. The relay answers with `schedules` to every client, then the `ack`.
+   * @param {import('./schedule_draft.js').ScheduleCommand} command
+   */
+  schedule(command) {
+    return this.#send(command);
+  }
+
+  /** Remove a schedule (its missions stay). @param {string} schedule */
+  scheduleRemove(schedule) {
+    return this.#send({ identifier: 'schedule/remove', schedule });
+  }
+
   /** An `ack` arrived. @param {import('./protocol.js').RequestId} id */
   acked(id) {
     if (this.pendingSnapshots.delete(String(id))) this.snapshots.acked++;

@@ -50,6 +50,9 @@ export class InspectionModel {
   awaiting = new Set();
   /** How each awaited request ended (true: ack), the newest few. @type {Map<string, boolean>} */
   settled = new Map();
+  /** The relay's message for each awaited request it refused (the schedule form shows it). */
+  /** @type {Map<string, string>} */
+  refusals = new Map();
   /** Bumped on every change, so views redraw only when something changed. */
   version = 0;
   /**
@@ -188,13 +191,15 @@ export class InspectionModel {
   }
 
   /**
-   * An `ack` (ok) or `error` arrived: whether it answered a request the review waits on (then views update).
-   * @param {string} request @param {boolean} ok
+   * An `ack` (ok) or `error` arrived: whether it answered a request a view waits on (then views update).
+   * @param {string} request @param {boolean} ok @param {string} [message] the error's, naming what was wrong
    */
-  settle(request, ok) {
+  settle(request, ok, message = '') {
     if (!this.awaiting.delete(request)) return false;
     this.settled.set(request, ok);
+    if (!ok) this.refusals.set(request, message);
     for (const old of this.settled.keys()) if (this.settled.size > 16) this.settled.delete(old);
+    for (const old of this.refusals.keys()) if (!this.settled.has(old)) this.refusals.delete(old);
     this.version++;
     return true;
   }
@@ -203,6 +208,7 @@ export class InspectionModel {
   reset() {
     this.awaiting.clear();
     this.settled.clear();
+    this.refusals.clear();
     this.targets.clear();
     this.missions.clear();
     this.findings.clear();

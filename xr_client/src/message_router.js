@@ -241,7 +241,8 @@ export class MessageRouter {
     /** @type {RouterEffect[]} */
     const effects = this.control.refused(error);
     this.commands.failed(error);
-    if (error.id !== null && this.inspection.settle(String(error.id), false)) effects.push({ type: 'inspection' });
+    if (error.id !== null && this.inspection.settle(String(error.id), false, error.message))
+      effects.push({ type: 'inspection' });
     const shownAtMarker = this.goals.failed(
       error.id === null ? null : String(error.id),
       error.code,

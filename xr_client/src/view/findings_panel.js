@@ -29,10 +29,12 @@ export class FindingsPanel {
    * @param {(commands: import('../inspection_review.js').ReviewCommand[]) => void} run sends the review's commands
    * @param {string | null} token the operator token, for the capture images
    * @param {import('./target_dialog.js').TargetDialog} names names a new target in the page
+   * @param {import('./schedule_form.js').ScheduleForm | null} [schedules] makes and changes schedules, under their list
    */
-  constructor(root, model, review, run, token, names) {
+  constructor(root, model, review, run, token, names, schedules = null) {
     this.root = root;
     this.names = names;
+    this.schedules = schedules;
     this.model = model;
     this.review = review;
     this.run = run;
@@ -60,7 +62,8 @@ export class FindingsPanel {
       this.#clip();
     });
     root.addEventListener('change', (event) => {
-      if (!(event.target instanceof HTMLSelectElement)) return; // the false alarm's note is read when sent
+      // The status filter alone: the false alarm's note is read when sent, the schedule form reads its own.
+      if (!(event.target instanceof HTMLSelectElement) || event.target.closest('.schedule-form')) return;
       this.filter = /** @type {any} */ (event.target.value);
       this.render();
     });
@@ -72,7 +75,8 @@ export class FindingsPanel {
       this.model.findings.size === 0 &&
       this.model.targets.size === 0 &&
       this.model.alerts.size === 0 &&
-      this.model.schedules.length === 0;
+      this.model.schedules.length === 0 &&
+      !this.schedules?.visible;
     const selected = this.review.selected;
     const options = ['', ...FINDING_STATUSES]
       .map((s) => `<option value="${s}"${s === this.filter ? ' selected' : ''}>${s ? statusWords(s) : 'all'}</option>`)
@@ -96,7 +100,7 @@ export class FindingsPanel {
     const note = typing?.value ?? '';
     const focused = typing !== null && typing === document.activeElement;
     this.root.innerHTML =
-      `${this.#alerts()}${this.#schedules()}${this.#targets()}` +
+      `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${this.#targets()}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
@@ -108,6 +112,7 @@ export class FindingsPanel {
       const span = /** @type {HTMLElement} */ (dot);
       span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
     }
+    this.schedules?.mount(this.root.querySelector('.schedule-form-slot'));
     this.#clip();
   }
 
@@ -127,20 +132,6 @@ export class FindingsPanel {
       `<div class="head"><b>Alerts <span class="badge" title="alerts to acknowledge">${alerts.length}</span></b>` +
       `</div><ol class="alerts">${rows}</ol>`
     );
-  }
-
-  /** The schedules: what each runs, its next run, what became of its last run, its state (docs/inspection.md). */
-  #schedules() {
-    const rows = scheduleRows(this.model.schedules);
-    if (!rows.length) return '';
-    const items = rows
-      .map(
-        (r) =>
-          `<li data-schedule="${esc(r.name)}" class="schedule ${r.tone}"><b>${esc(r.name)}</b> · ${esc(r.what)}` +
-          `<br><small>next ${esc(r.next)} · last ${esc(r.last)} · ${esc(r.state)}</small></li>`,
-      )
-      .join('');
-    return `<div class="head"><b>Schedules (${rows.length})</b></div><ol class="schedules">${items}</ol>`;
   }
 
   /** Older findings from the relay's database, a page at a time, until the oldest is here. */
@@ -224,6 +215,9 @@ export class FindingsPanel {
     const item = target.closest('[data-finding]');
     const pick = target.closest('[data-target]');
     if (target.dataset.ack) this.run([{ type: 'alert_ack', alert: target.dataset.ack }]);
+    else if (target.dataset.scheduleNew !== undefined) this.schedules?.start();
+    else if (target.dataset.scheduleEdit) this.schedules?.edit(target.dataset.scheduleEdit);
+    else if (target.dataset.scheduleRemove) this.schedules?.remove(target.dataset.scheduleRemove);
     else if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
     else if (target.dataset.mission === 'start') this.run(review.startPicked(this.robot));
     else if (target.dataset.older) this.run([{ type: 'findings_page', before: this.model.oldest() }]);
@@ -260,6 +254,34 @@ export class FindingsPanel {
     this.run(this.review.imageClick(this.model, u, v, { target: true, name }));
     this.render();
   }
+}
+
+/**
+ * The schedules: what each runs, its next run, what became of its last run, its state (docs/inspection.md); for an
+ * operator, Edit and Remove on each, and room for the form that makes and changes them (schedule_form.js).
+ * @param {import('../protocol.js').ScheduleDescription[]} schedules @param {boolean} form whether this client has it
+ */
+function scheduleList(schedules, form) {
+  const rows = scheduleRows(schedules);
+  if (!rows.length && !form) return '';
+  const buttons = (/** @type {string} */ name) =>
+    form
+      ? `<span class="row-buttons"><button type="button" data-schedule-edit="${esc(name)}">Edit</button>` +
+        `<button type="button" data-schedule-remove="${esc(name)}">Remove</button></span>`
+      : '';
+  const items = rows
+    .map(
+      (r) =>
+        `<li data-schedule="${esc(r.name)}" class="schedule ${r.tone}"><b>${esc(r.name)}</b> · ${esc(r.what)}` +
+        `${buttons(r.name)}<br><small>next ${esc(r.next)} · last ${esc(r.last)} · ${esc(r.state)}</small></li>`,
+    )
+    .join('');
+  // New schedule in the list's head: an operator's panel grows by one line for schedules until the form is opened.
+  const add = form ? '<button type="button" data-schedule-new>New schedule</button>' : '';
+  return (
+    `<div class="head"><b>Schedules (${rows.length})</b>${add}</div><ol class="schedules">${items}</ol>` +
+    (form ? '<div class="schedule-form-slot"></div>' : '')
+  );
 }
 
 /** @param {string} text */

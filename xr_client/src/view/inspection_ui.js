@@ -8,6 +8,8 @@
 import { InspectionView } from './inspection_view.js';
 import { FindingsPanel } from './findings_panel.js';
 import { TargetDialog } from './target_dialog.js';
+import { ConfirmDialog } from './confirm_dialog.js';
+import { ScheduleForm } from './schedule_form.js';
 import { InspectionReview, nextName } from '../inspection_review.js';
 
 export class InspectionUi {
@@ -24,6 +26,11 @@ export class InspectionUi {
     this.view = new InspectionView(parts.world);
     /** Names a new target in the page (never window.prompt: it held the page, and E-STOP's keys with it). */
     this.names = new TargetDialog(/** @type {HTMLDialogElement | null} */ (document.getElementById('target-dialog')));
+    /** Asks before a schedule is removed (never window.confirm, for the same reason). */
+    this.confirm = new ConfirmDialog(
+      /** @type {HTMLDialogElement | null} */ (document.getElementById('confirm-dialog')),
+    );
+    this.scheduleForm = parts.panel ? new ScheduleForm(parts.model, parts.sender, this.confirm) : null;
     this.panel = parts.panel
       ? new FindingsPanel(
           parts.panel,
@@ -32,6 +39,7 @@ export class InspectionUi {
           (commands) => this.run(commands),
           parts.token,
           this.names,
+          this.scheduleForm,
         )
       : null;
   }
@@ -76,6 +84,7 @@ export class InspectionUi {
     this.review.sync(this.model);
     this.view.update(this.model, this.review, this.transform());
     if (this.panel) this.panel.robot = menu.selected;
+    this.scheduleForm?.update(menu);
     this.panel?.render();
     const mission = menu.selected ? this.model.active(menu.selected) : null;
     menu.show('mission', mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
@@ -128,6 +137,7 @@ export class InspectionUi {
 
   dispose() {
     this.names.dispose();
+    this.confirm.dispose();
     this.view.dispose();
   }
 }

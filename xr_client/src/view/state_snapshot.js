@@ -22,6 +22,23 @@ export function snapshotState(app) {
       findings: app.views.inspectionUi.model
         .list()
         .map((f) => ({ id: f.id, target: f.target, status: f.status, region: f.region !== null, x: f.x, y: f.y })),
+      owners: Object.fromEntries([...app.views.inspectionUi.model.missions.values()].map((m) => [m.id, m.owner])),
+      schedules: app.views.inspectionUi.model.schedules.map((s) => ({
+        schedule: s.schedule,
+        repeat: s.repeat,
+        last: s.last_run?.outcome ?? null,
+        mission: s.last_run?.mission ?? null,
+      })),
+      scheduleForm: app.views.inspectionUi.scheduleForm
+        ? {
+            visible: app.views.inspectionUi.scheduleForm.visible,
+            open: app.views.inspectionUi.scheduleForm.editor.open,
+            editing: app.views.inspectionUi.scheduleForm.editor.before?.schedule ?? null,
+            pending: app.views.inspectionUi.scheduleForm.editor.pending !== null,
+            error: app.views.inspectionUi.scheduleForm.editor.error,
+            field: app.views.inspectionUi.scheduleForm.editor.field,
+          }
+        : null,
       pins: app.views.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
       picked: [...app.views.inspectionUi.review.picked],
       review: {
