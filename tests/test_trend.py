@@ -16,6 +16,7 @@ from relay.config import load_config
 from relay.inspection.change_watch import ChangeWatch
 from relay.inspection.records import CaptureRecord, ReadingTrend
 from relay.inspection.report_rows import Limit
+from relay.inspection.sparkline import SPARK_BOX, Box, label_y, polyline, sparkline
 from relay.inspection.store import Store
 from relay.inspection.trend import HORIZON_ROUNDS, TREND_ROUNDS, Point, concern, fit, series_of, trend_of
 from relay.sim.world import SimWorld
@@ -137,3 +138,24 @@ async def test_three_rounds_of_the_sims_rising_gas_make_one_trend_finding_in_the
             assert store.add_finding(finding) == finding and store.finding(finding.id) == finding
         finally:
             watch.close()
+
+
+def test_the_reports_sparkline_is_the_cards_geometry() -> None:
+    """The same cases as the client's (xr_client/test/sparkline.test.js), worked out by hand there: 200, 280, 360
+    ppm against 400 in a 100 x 50 box padded 5 take the range 180-420."""
+    box = Box(100.0, 50.0, 5.0)
+    line = sparkline([(1000.0, 200.0), (1060.0, 280.0), (1120.0, 360.0)], 400.0, box)
+    assert (line.low, line.high) == (180.0, 420.0)
+    assert [v for xy in line.points for v in xy] == pytest.approx(
+        [5.0, 5 + 220 / 240 * 40, 50.0, 5 + 140 / 240 * 40, 95.0, 5 + 60 / 240 * 40]
+    )
+    assert line.limit == pytest.approx(5 + 20 / 240 * 40)
+    assert polyline(line.points) == "5,41.7 50,28.3 95,15"
+    spaced = sparkline([(0.0, 20.9), (60.0, 20.5), (180.0, 20.1)], 19.5, box)
+    assert [x for x, _ in spaced.points] == pytest.approx([5.0, 35.0, 95.0])
+    assert spaced.limit is not None and spaced.points[2][1] < spaced.limit <= 45.0
+    one = sparkline([(5.0, 300.0)], None, box)
+    assert (one.points, one.limit, one.low, one.high) == (((50.0, 25.0),), None, 285.0, 315.0)
+    assert (sparkline([(0.0, 0.0), (1.0, 0.0)], None, box).low, sparkline([], None).points) == (-1.0, ())
+    assert sparkline([], 400.0, SPARK_BOX).limit == SPARK_BOX.height / 2
+    assert (label_y(6.0), label_y(30.0)) == (15.0, 28.0)

@@ -52,6 +52,16 @@ export function sparkline(points, threshold, box = SPARK_BOX) {
 }
 
 /**
+ * Where the threshold's label stands: above its line, or under it when the line runs in the upper half (a label
+ * above would leave the box).
+ * @param {number} limit the threshold's y
+ * @param {{height: number}} [box]
+ */
+export function labelY(limit, box = SPARK_BOX) {
+  return limit < box.height / 2 ? limit + 9 : limit - 2;
+}
+
+/**
  * An SVG ``points`` attribute of the line through them, to 0.1 unit.
  * @param {{x: number, y: number}[]} points
  */

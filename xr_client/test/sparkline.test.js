@@ -1,7 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { SPARK_BOX, polyline, sparkline } from '../src/sparkline.js';
+import { SPARK_BOX, labelY, polyline, sparkline } from '../src/sparkline.js';
 
 const BOX = { width: 100, height: 50, pad: 5 };
 
@@ -62,4 +62,9 @@ test('one reading sits in the middle; a flat series and no threshold get a band;
   assert.deepEqual([zero.low, zero.high], [-1, 1]);
   assert.deepEqual(sparkline([], null), { points: [], limit: null, low: 0, high: 0 });
   assert.equal(sparkline([], 400, SPARK_BOX).limit, SPARK_BOX.height / 2);
+});
+
+test("the threshold's label stays in the box: under a line in the upper half, above one in the lower", () => {
+  assert.equal(labelY(6), 15);
+  assert.equal(labelY(30), 28);
 });

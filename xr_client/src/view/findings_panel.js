@@ -12,7 +12,7 @@ import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
 import { reportLinks } from '../report_links.js';
 import { scheduleRows } from '../schedule_list.js';
-import { SPARK_BOX, polyline, sparkline } from '../sparkline.js';
+import { SPARK_BOX, labelY, polyline, sparkline } from '../sparkline.js';
 import { statusWords } from '../wording.js';
 
 export class FindingsPanel {
@@ -302,7 +302,7 @@ function trendFigure(f) {
     line.limit === null || trend.threshold === null
       ? ''
       : `<line class="limit" x1="${pad}" x2="${width - pad}" y1="${line.limit}" y2="${line.limit}"/>` +
-        `<text x="${pad}" y="${line.limit - 2}">${esc(`${trend.threshold}${unit}`)}</text>`;
+        `<text x="${pad}" y="${labelY(line.limit)}">${esc(`${trend.threshold}${unit}`)}</text>`;
   const dots = line.points
     .map(
       (p) =>
