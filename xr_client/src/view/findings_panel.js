@@ -2,10 +2,10 @@
 /**
  * The alerts to acknowledge on the desktop (a count badge, each with its Acknowledge button; an alert another operator
  * acknowledged leaves the list), then the findings: a list with a status filter, and the selected finding's image
- * with its region, readings, the trend of its reading over the last rounds (a sparkline) and note. The operator sets its status (a false alarm with a note saying why), and marks
- * a region: a click on the image asks
- * the relay to segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it
- * (Redo: click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
+ * with its region, readings, the trend of its reading over the last rounds (a sparkline) and note. The operator
+ * sets its status (a false alarm with a note saying why), and marks a region: a click on the image asks the relay to
+ * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo: click
+ * again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
