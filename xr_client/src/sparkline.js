@@ -2,7 +2,9 @@
 /**
  * A reading's trend as a sparkline: its last rounds' values scaled into a small box, with its threshold as a level
  * across it. Pure geometry (numbers in, SVG coordinates out); the desktop finding card draws it
- * (view/findings_panel.js), and the report draws the same in Python (relay/inspection/sparkline.py).
+ * (view/findings_panel.js) and the VR card (view/finding_card.js), and the report draws the same in Python
+ * (relay/inspection/sparkline.py). The sensor panel's live sparkline is SensorHistory.sparkline's: a window of the
+ * last minute sliding with the clock, where these are a finding's fixed rounds, spaced by their own times.
  */
 
 /** The box a sparkline is drawn in, SVG user units: wide enough for ten rounds, as tall as two lines of text. */
