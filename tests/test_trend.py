@@ -90,7 +90,7 @@ def test_the_series_is_the_last_rounds_of_that_sensor_oldest_first() -> None:
     near = trend_of("humidity", points(60.0, 60.0, 60.0), Limit("%", warn_above=70.0))
     rising = trend_of("gas", points(200.0, 280.0, 360.0), GAS)
     assert concern([near, rising]) is rising and concern([near, trend_of("gas", points(1.0), GAS)]) is near
-    assert concern([]) is None
+    assert concern([]) is None and concern([trend_of("gas", [], GAS), near]) is near  # no readings: no concern
 
 
 async def test_three_rounds_of_the_sims_rising_gas_make_one_trend_finding_in_the_third(tmp_path: Path) -> None:

@@ -79,7 +79,7 @@ class Trend:
         return ReadingTrend(self.sensor, self.unit, self.limit, tuple((p.t, p.value) for p in self.points))
 
     def words(self) -> str:
-        """``gas 199.4, 279.1, 365.8 ppm over the last 3 rounds (+83.2 ppm a round): at that rate over its 400 ppm
+        """``gas 204.5, 284.2, 370.9 ppm over the last 3 rounds (+83.2 ppm a round): at that rate over its 400 ppm
         limit within 1 round``: the note of the finding a trend makes."""
         unit = f" {self.unit}" if self.unit else ""
         values = ", ".join(f"{p.value:.1f}" for p in self.points)
@@ -153,7 +153,7 @@ def concern(trends: Sequence[Trend]) -> Trend | None:
         return None
 
     def nearness(trend: Trend) -> float:
-        if trend.limit is None or trend.limit == 0 or trend.latest == 0:
+        if not trend.points or trend.limit is None or trend.limit == 0 or trend.latest == 0:
             return -math.inf
         return trend.latest / trend.limit if trend.side == "above" else trend.limit / trend.latest
 

@@ -2,8 +2,8 @@
 /**
  * Where things sit on the VR finding card's canvas, in pixels (y down), and what a ray's hit on it means: the
  * capture's image on the left (fitted, its aspect kept, so a hit maps back to the capture's own pixels), the
- * buttons on the right, the reading's trend between the buttons and Close. Pure: view/finding_card.js draws these rectangles and test/finding_card.test.js pins
- * the mapping both ways.
+ * buttons on the right, the reading's trend between the buttons and Close. Pure: view/finding_card.js draws these
+ * rectangles and test/inspection_review.test.js pins the mapping both ways.
  */
 
 /** The card's canvas, pixels; the plane is 0.64 m wide (the menu's width). */

@@ -1,8 +1,9 @@
 // @ts-check
 /**
  * The finding card in VR: the open finding's capture with its region (or the outline the relay proposes), its
- * note and readings, its reading's trend over the last rounds (a sparkline, the threshold dashed), and buttons to set its status, mark a region (select a point of the image), make a target
- * where a pixel looks, accept or redo a region, and close. A canvas-textured plane placed in front of the
+ * note and readings, its reading's trend over the last rounds (a sparkline, the threshold dashed), and buttons to
+ * set its status, mark a region (select a point of the image), make a target where a pixel looks, accept or redo a
+ * region, and close. A canvas-textured plane placed in front of the
  * operator when a pin is selected; it redraws only when the review, the finding, the hover or the image
  * changed. Where things sit and what a hit means is finding_card_layout.js (pure, tested in node).
  */

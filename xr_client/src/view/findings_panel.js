@@ -311,7 +311,8 @@ function trendFigure(f) {
     )
     .join('');
   const rounds = trend.points.length;
-  const said = `${trend.sensor}${trend.unit ? ` (${trend.unit})` : ''} over the last ${rounds} round${rounds === 1 ? '' : 's'}`;
+  const named = trend.unit ? `${trend.sensor} (${trend.unit})` : trend.sensor;
+  const said = `${named} over the last ${rounds} round${rounds === 1 ? '' : 's'}`;
   return (
     `<figure class="trend"><svg viewBox="0 0 ${width} ${height}" width="${width}" height="${height}" role="img" ` +
     `aria-label="${esc(said)}">${limit}<polyline points="${polyline(line.points)}"/>${dots}</svg>` +
