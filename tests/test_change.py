@@ -171,6 +171,14 @@ async def test_a_target_that_changed_since_the_last_round_gets_a_finding_outlini
         ):
             assert response.status == 200 and await response.read() == pictures[0]
         assert all(f["before"] is None for f in changed[0] + [first])
+        # The card's trend: the reading nearest its limit over the target's two rounds so far, this one's last.
+        trend = finding["trend"]
+        assert (
+            trend is not None
+            and len(trend["points"]) == 2
+            and trend["points"][-1][1] == finding["readings"][trend["sensor"]]
+        )
+        assert trend["unit"] == next(s.unit for s in fleet_config.robots[0].sensors if s.name == trend["sensor"])
         alert = await client.wait_for(lambda m: m["identifier"] == "alert" and m["subject"] == finding["id"], 30)
         assert (alert["kind"], alert["severity"]) == ("changed", "warning") and alert["text"].startswith(
             "Changed at Drum"

@@ -346,7 +346,7 @@ def test_inspection_messages_are_pinned() -> None:
         targets_changed_message,
         targets_message,
     )
-    from relay.inspection.records import FindingRecord, MissionRecord, Step, Target
+    from relay.inspection.records import FindingRecord, MissionRecord, ReadingTrend, Step, Target
 
     assert encode(targets_message([Target("spill", "Spill", "gas", 1.8, 8.2)])) == (
         b'{"identifier":"targets","targets":[{"id":"spill","name":"Spill","kind":"gas","x":1.8,"y":8.2,"facing":null}]}'
@@ -367,14 +367,24 @@ def test_inspection_messages_are_pinned() -> None:
         b'{"identifier":"finding","id":"f-1","capture":"c-1","mission":"m-1.robot1","target":"spill","robot":"robot1",'
         b'"x":1.8,"y":8.2,"status":"anomaly","note":"gas","source":"rule","region":[[1,2],[3,4],[5,6]],'
         b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{"gas":698.2},"created":3.0,"updated":3.0,'
-        b'"change":null,"baseline":null,"before":null}'
+        b'"change":null,"baseline":null,"before":null,"trend":null}'
     )
     # A change since the last round: its score, the capture it was compared with and that capture's image.
     changed = dataclasses.replace(finding, status="changed", note="2.8 %", change=0.0282, baseline="c-0")
     assert encode(finding_message(changed, "ab" * 32, {}, before="cd" * 32)).endswith(
         b'"status":"changed","note":"2.8 %","source":"rule","region":[[1,2],[3,4],[5,6]],'
         b'"image":"/captures/' + b"ab" * 32 + b'.jpg","readings":{},"created":3.0,"updated":3.0,'
-        b'"change":0.0282,"baseline":"c-0","before":"/captures/' + b"cd" * 32 + b'.jpg"}'
+        b'"change":0.0282,"baseline":"c-0","before":"/captures/' + b"cd" * 32 + b'.jpg","trend":null}'
+    )
+    # A reading heading for its limit: its last rounds as [time, value], its threshold and unit.
+    trending = dataclasses.replace(
+        finding,
+        status="changed",
+        trend=ReadingTrend("gas", "ppm", 400.0, ((1795388500.25, 204.5), (1795388560.0, 284.2))),
+    )
+    assert encode(finding_message(trending, None, {"gas": 284.2})).endswith(
+        b'"change":null,"baseline":null,"before":null,"trend":{"sensor":"gas","unit":"ppm","threshold":400.0,'
+        b'"points":[[1795388500.25,204.5],[1795388560.0,284.2]]}}'
     )
     assert encode(region_message("r7", "c-1", ((1, 2), (3, 4), (5, 6)))) == (
         b'{"identifier":"region","id":"r7","capture":"c-1","outline":[[1,2],[3,4],[5,6]]}'

@@ -39,6 +39,7 @@ from relay.inspection.report_rows import (
     Room,
     SiteInfo,
     iso_time,
+    number,
     parse_range,
     readable_time,
     room_at,
@@ -480,3 +481,142 @@ def test_a_change_carries_its_score_and_baseline_into_the_csv_and_the_json() -> 
     assert [(f["status"], f["status_text"], f["change"], f["baseline"]) for f in data["findings"]] == [
         ("changed", "Changed since last round", 0.04213, "c-1"), ("ok", "OK", None, None),
     ]  # fmt: skip
+
+
+# -- what changed since the round before: three rounds of the simulator ---------------------------------------------
+
+
+def _three_rounds(database: Path) -> tuple[FleetConfig, dict[str, list[CaptureRecord]], dict[str, list[bytes]]]:
+    """Three rounds of the demo's targets a minute apart, as the relay keeps them: each target seen by the sim's
+    camera from its standoff (the spill grown as the world's clock says) with the sim's readings there, the rule's
+    finding, and what the relay's own ChangeWatch makes of it (a change since the round before, a reading heading
+    for its limit). Mission ``m-round<n>`` groups round n's robots."""
+    from relay.config import Lens, load_config
+    from relay.inspection.change_watch import ChangeWatch
+    from relay.inspection.targets import facility_targets, standoff
+    from relay.sim.camera import SimCamera, rgb_to_jpeg
+    from relay.sim.world import SimWorld
+
+    config = load_config(ROOT / "robots.yaml")
+    facility = load_facility(ROOT / "scenes" / "facility.yaml")
+    targets = {t.id: t for t in facility_targets(facility)}
+    robots = {"spill": ("robot1", (3.0, 1.5)), "panels": ("robot2", (9.0, 1.5)), "leak": ("robot3", (15.0, 1.5))}
+    poses = {name: standoff(targets[name], facility.grid, near) for name, (_, near) in robots.items()}
+    camera = SimCamera.load(ROOT / "scenes" / "facility.glb")
+    lens = camera.fit_lens(Lens("equidistant", 180.0), 480, 480)
+    world = SimWorld(config, lambda *args: None)
+    sensors = {s.name: s for s in config.robots[0].sensors}
+    start = 1795388500.0
+    captures: dict[str, list[CaptureRecord]] = {name: [] for name in robots}
+    jpegs: dict[str, list[bytes]] = {name: [] for name in robots}
+    with Store.open(str(database), database.with_name("inspection-images")) as store:
+
+        async def on_store(work: Any, request_id: Any = None) -> Any:
+            return work(store)
+
+        watch = ChangeWatch(on_store, lambda: start + world.time)
+
+        async def rounds() -> None:
+            for n in (1, 2, 3):
+                t = start + world.time
+                for name, (robot, _) in robots.items():
+                    mission = f"m-round{n}.{robot}"
+                    store.save_mission(MissionRecord(mission, f"Round {n}", robot, (Step("inspect", name),), "done", 1,
+                                                     "", t, t + 30))  # fmt: skip
+                    x, y, yaw = poses[name]
+                    jpeg = rgb_to_jpeg(camera.render(x, y, yaw, lens, spill=world.spill_at()))
+                    fields = world.fields_now()
+                    readings = {s: round(fields[spec.hazard].mean(x, y), 3) for s, spec in sensors.items()}
+                    capture = store.add_capture(
+                        CaptureRecord(f"c-{n}-{name}", robot, t, x, y, yaw, readings, mission, name, None, 480, 480),
+                        jpeg,
+                    )
+                    captures[name].append(capture)
+                    jpegs[name].append(jpeg)
+                    past = [s for s, v in readings.items() if sensors[s].is_warning(v)]
+                    store.add_finding(FindingRecord(f"f-{n}-{name}", capture.id, robot, targets[name].x,
+                                                    targets[name].y, "anomaly" if past else "ok", ", ".join(past),
+                                                    "rule", t, t, mission, name))  # fmt: skip
+                    changed = await watch.since_last_round(capture, jpeg, (targets[name].x, targets[name].y))
+                    trends = await watch.trends(capture, sensors)
+                    for made in [changed, *watch.toward_limits(capture, trends, (targets[name].x, targets[name].y))]:
+                        if made is not None:
+                            store.add_finding(made)
+                for _ in range(60):
+                    world.step(1.0)  # a minute of simulated time between rounds, stepped by hand
+
+        try:
+            asyncio.run(rounds())
+        finally:
+            watch.close()
+    return config, captures, jpegs
+
+
+@pytest.mark.skipif(not __import__("relay.sim.camera").sim.camera.embree_available(), reason="renders need Embree")
+def test_the_third_rounds_report_shows_each_target_before_and_after_and_its_readings_over_three_rounds(
+    tmp_path: Path,
+) -> None:
+    """Round 3's report: every row of a target shows round 2's capture of it beside round 3's (the images the sim's
+    camera made), and each reading's trend over the three rounds, as a sparkline with its limit and in numbers; the
+    CSV and the JSON carry the previous round's readings and each reading's least-squares slope a round."""
+    import base64
+
+    import numpy as np
+
+    from relay.inspection.trend import fit, series_of
+
+    database = tmp_path / "inspection.sqlite"
+    config, captures, jpegs = _three_rounds(database)
+    with Store.open(str(database), database.with_name("inspection-images")) as store:
+        site = report.site_of(config, store)
+        made = report.collect(store, report.Scope(mission="m-round3"), site)
+        html = report.render(made, "html", store, None, str)
+        table = report.as_csv(made, lambda sha: f"/captures/{sha}.jpg")
+        data = json.loads(report.as_json(made, lambda sha: f"/captures/{sha}.jpg"))
+    rows = re.findall(r"<tr><td>\d+</td>.*?</tr>", html, re.S)
+    cells = read_page(html).rows
+    assert len(rows) == len(cells) == len(made.rows) >= 3
+    seen = set()
+    for raw, text, row in zip(rows, cells, made.rows, strict=True):
+        target = row.finding.target
+        assert target is not None
+        seen.add(target)
+        previous, now = captures[target][1], captures[target][2]
+        assert row.capture == now and row.before == previous
+        # Before and after: round 2's image beside round 3's, the before first. (The panels' and the leak's views did
+        # not change: the sim renders them to the same bytes each round; the spill's grew each round.)
+        earlier, later = raw.split('<figure class="after">')
+        assert '<figure class="before">' in earlier and "Before: <time" in earlier
+        assert base64.b64encode(jpegs[target][1]).decode() in earlier.split('<figure class="before">')[1]
+        assert base64.b64encode(jpegs[target][2]).decode() in later and "This round: <time" in later
+        if target == "spill":
+            assert base64.b64encode(jpegs[target][0]).decode() not in raw
+        # Each reading's trend: three points on the sparkline, the three values in words, its limit dashed.
+        trend_text = text[9]
+        for sensor, spec in site.limits[row.finding.robot].items():
+            values = [c.readings[sensor] for c in captures[target]]
+            assert f"{sensor}: {', '.join(number(v) for v in values)} {spec.unit}" in trend_text, (sensor, trend_text)
+        assert raw.count('<svg class="trend"') == 3 and raw.count('<line class="limit"') == 3
+        assert all(len(re.findall(r"<circle ", svg)) == 3 for svg in re.findall(r'<svg class="trend".*?</svg>', raw))
+    assert seen == {"spill", "panels", "leak"}
+    # The spill grew between the rounds: its change was found against round 2's capture.
+    assert any(r.finding.status == "changed" and r.finding.baseline == "c-2-spill" for r in made.rows)
+
+    by_finding = {r["finding"]: r for r in csv.DictReader(io.StringIO(table, newline=""))}
+    for item in data["findings"]:
+        target, cells_of = item["target"], by_finding[item["id"]]
+        previous = captures[target][1]
+        assert item["previous_capture"] == cells_of["previous_capture"] == previous.id
+        assert item["previous_image_url"] == cells_of["previous_image"] == f"/captures/{previous.image}.jpg"
+        for reading in item["readings"]:
+            sensor = reading["sensor"]
+            values = [c.readings[sensor] for c in captures[target]]
+            assert reading["previous"] == values[1] and [r["value"] for r in reading["rounds"]] == values
+            # The slope a round: numpy's least squares over the capture times, times the minute between rounds.
+            times = [c.t for c in captures[target]]
+            per_second = np.polyfit(np.array(times) - times[-1], values, 1)[0]
+            assert reading["slope"] == pytest.approx(per_second * 60.0, abs=1e-6)
+            assert reading["slope"] == pytest.approx(fit(series_of(captures[target], sensor))[0])  # type: ignore[index]
+            unit = f" {reading['unit']}" if reading["unit"] else ""
+            assert f"{sensor} {number(values[1])}{unit}" in cells_of["previous_readings"]
+            assert f"{sensor} {reading['slope']:+.1f}{unit} a round (3 rounds)" in cells_of["trend"]

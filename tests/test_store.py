@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 
 import relay.inspection.store as store_module
-from relay.inspection.records import AlertRecord, CaptureRecord, FindingRecord, MissionRecord, Step
+from relay.inspection.records import AlertRecord, CaptureRecord, FindingRecord, MissionRecord, ReadingTrend, Step
 from relay.inspection.schema import SCHEMA_VERSION
 from relay.inspection.store import Store, StoreError, UnknownRecord
 from tests.helpers.postgres import running_postgres
@@ -114,7 +114,7 @@ def _version(url: str) -> int:
 
 
 def test_missions_round_trip_and_upsert_by_id(store: Store) -> None:
-    assert store.schema_version == SCHEMA_VERSION == 6
+    assert store.schema_version == SCHEMA_VERSION == 7
     assert store.mission("m-1.robot1") is None and store.missions() == []
     store.save_mission(_mission())
     assert store.mission("m-1.robot1") == _mission()  # steps of every kind, unicode and quotes, exact floats
@@ -148,7 +148,9 @@ def test_findings_round_trip_and_filters(store: Store) -> None:
         _finding(id="f-ok", status="ok", note="", source="operator", created=20.0, updated=20.0),
         _finding(id="f-other", robot="robot2", mission=None, target=None, status="needs_review", created=25.0),
         _finding(id="f-early", created=5.0, updated=5.0, region=()),  # an empty outline is not "no outline"
-    ]
+        _finding(id="f-trend", status="changed", created=26.0, updated=26.0, mission="m-2.robot1",
+                 trend=ReadingTrend("gas", "ppm", 400.0, ((10.0, 199.4), (70.0, 0.1 + 0.2), (130.0, 365.8)))),
+    ]  # fmt: skip
     assert [store.add_finding(f) for f in findings] == findings
     assert store.findings() == sorted(findings, key=lambda f: f.created)  # oldest first
     assert [f.id for f in store.findings(mission="m-1.robot1")] == ["f-early", "f-ok", "f-late"]
@@ -157,6 +159,18 @@ def test_findings_round_trip_and_filters(store: Store) -> None:
     assert [f.id for f in store.findings(mission="m-1.robot1", status="ok", robot="robot1")] == ["f-ok"]
     assert store.findings(mission="m-1.robot1", robot="robot2") == []
     assert store.findings(status="needs_review")[0].region is None
+    assert store.finding("f-trend") == findings[-1] and store.finding("f-ok").trend is None  # type: ignore[union-attr]
+
+
+def test_a_targets_last_rounds_are_its_mission_captures_up_to_a_time_oldest_first(store: Store) -> None:
+    """What a trend reads (relay.inspection.trend): the newest captures of the target a mission took, until then."""
+    for n, t in enumerate((10.0, 70.0, 130.0, 190.0)):
+        store.add_capture(_capture(id=f"c-{n}", t=t, readings={"gas": 200.0 + n}), None)
+    store.add_capture(_capture(id="c-gaze", t=140.0, mission=None), None)  # a gaze's capture: not a round
+    store.add_capture(_capture(id="c-panels", t=150.0, target="panels"), None)
+    assert [c.id for c in store.captures_of("spill", 130.0, 10)] == ["c-0", "c-1", "c-2"]
+    assert [c.id for c in store.captures_of("spill", 1e9, 2)] == ["c-2", "c-3"]
+    assert store.captures_of("spill", 5.0, 10) == [] and store.captures_of("leak", 1e9, 10) == []
 
 
 def test_findings_between_are_those_captured_in_the_range_oldest_capture_first(store: Store) -> None:
@@ -339,7 +353,7 @@ def test_findings_of_a_version_5_database_come_through_migration_6_without_a_cha
     raw.close()
     monkeypatch.undo()
     with Store.open(url, tmp_path / "images") as store:
-        assert store.schema_version == SCHEMA_VERSION == 6
+        assert store.schema_version == SCHEMA_VERSION == 7
         [old] = store.findings()
         assert (old.status, old.change, old.baseline) == ("needs_review", None, None)
 

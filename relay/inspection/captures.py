@@ -3,10 +3,10 @@
 A capture is the robot's first camera's image (a snapshot), its readings, its pose and the time, stored with the
 image beside the database (relay.inspection.store). At a mission's ``inspect`` step a rule makes a finding:
 ``anomaly`` naming each reading over its threshold (robots.yaml's ``warn_above``/``warn_below``), else ``ok``
-with the readings, and a ``changed`` one outlining what changed since the target's previous capture
-(relay.inspection.change_watch); a ``capture`` step makes one only for an anomaly. Operators mark and update
-findings, ask for the region around a point of an image (GrabCut, on a pool of its own), and add targets where a
-pixel looks.
+with the readings, and a ``changed`` one outlining what changed since the target's previous capture, and one for
+each reading trending toward its limit (relay.inspection.change_watch); a ``capture`` step makes one only for an
+anomaly. Operators mark and update findings, ask for the region around a point of an image (GrabCut, on a pool of
+its own), and add targets where a pixel looks.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..errors import CommandRejected
@@ -25,6 +26,7 @@ from .pixel import pixel_to_map
 from .records import AlertRecord, AlertSeverity, CaptureRecord, FindingRecord, MissionRecord, Step, Target, new_id
 from .storage import StoreRunner
 from .target_book import TargetBook
+from .trend import concern
 from .wire import FindingMark, RegionRequest, TargetAdd
 
 if TYPE_CHECKING:
@@ -38,6 +40,24 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 T = TypeVar("T")
+
+
+def past_limits(robot: Robot, warnings: list[dict[str, Any]]) -> str:
+    """``gas 698.2 ppm (over 400 ppm); ...``: each reading past its sensor's limit (robots.yaml)."""
+    specs = {s.name: s for s in robot.sensors}
+
+    def over(name: str, value: float, unit: str) -> str:
+        spec = specs.get(name)
+        limit = spec.warn_above if spec and spec.warn_above is not None and value > spec.warn_above else None
+        below = spec.warn_below if spec and limit is None else None
+        bound = f"over {limit:g}" if limit is not None else f"under {below:g}" if below is not None else "out of range"
+        return f"{name} {value:.1f} {unit} ({bound} {unit})"
+
+    return "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
+
+
+def _adding(finding: FindingRecord) -> Callable[[Store], FindingRecord]:
+    return lambda store: store.add_finding(finding)
 
 
 class RaiseAlert(Protocol):
@@ -84,40 +104,30 @@ class Captures:
         if step.kind != "inspect" and not warnings:
             return
         if warnings:
-            note = self._past_limits(robot, warnings)
+            note = past_limits(robot, warnings)
         else:
             note = "within thresholds: " + ", ".join(
                 f"{m['name']} {m['value']:.1f} {m['unit']}" for m in sensors.values()
             )
         target = self._book.targets.get(step.target or "")
+        trends = await self._changes.trends(stored, {s.name: s for s in robot.sensors})
+        shown = concern(trends)  # the reading the card's trend shows
         finding = FindingRecord(
             new_id("f"), stored.id, robot.name, target.x if target else stored.x, target.y if target else stored.y,
             "anomaly" if warnings else "ok", note, "rule", wall, wall, record.id, step.target,
+            trend=shown.record() if shown else None,
         )  # fmt: skip
         await self._announce(await self._store(lambda s: s.add_finding(finding)), stored)
         if warnings:
             self._alert_of(finding, "critical")
-        if jpeg is not None:  # and what changed there since the last round
-            changed = await self._changes.since_last_round(stored, jpeg, (finding.x, finding.y))
-            if changed is not None:
-                await self._announce(await self._store(lambda s: s.add_finding(changed)), stored)
-                self._alert_of(changed)
-
-    @staticmethod
-    def _past_limits(robot: Robot, warnings: list[dict[str, Any]]) -> str:
-        """``gas 698.2 ppm (over 400 ppm); ...``: each reading past its sensor's limit (robots.yaml)."""
-        specs = {s.name: s for s in robot.sensors}
-
-        def over(name: str, value: float, unit: str) -> str:
-            spec = specs.get(name)
-            limit = spec.warn_above if spec and spec.warn_above is not None and value > spec.warn_above else None
-            below = spec.warn_below if spec and limit is None else None
-            bound = (
-                f"over {limit:g}" if limit is not None else f"under {below:g}" if below is not None else "out of range"
-            )
-            return f"{name} {value:.1f} {unit} ({bound} {unit})"
-
-        return "; ".join(over(m["name"], m["value"], m["unit"]) for m in warnings)
+        place = (finding.x, finding.y)
+        # What changed there since the last round: the view, and readings heading for their limits.
+        changed = None if jpeg is None else await self._changes.since_last_round(stored, jpeg, place)
+        for made in [changed, *self._changes.toward_limits(stored, trends, place)]:
+            if made is not None:
+                made = made if made.trend else replace(made, trend=finding.trend)
+                await self._announce(await self._store(_adding(made)), stored)
+                self._alert_of(made)
 
     def _place(self, target: str | None, x: float, y: float) -> str:
         known = self._book.targets.get(target or "")
@@ -289,7 +299,7 @@ class Captures:
         warnings = [m for m in sensors.values() if m["warning"]]
         if warnings:  # a needs_review finding does not name them: the readings raise their own alert
             self._alert(
-                "threshold", f"Past its limit at {target.name} ({robot.name}): {self._past_limits(robot, warnings)}",
+                "threshold", f"Past its limit at {target.name} ({robot.name}): {past_limits(robot, warnings)}",
                 robot=robot.name, subject=stored.id, severity="critical",
             )  # fmt: skip
         try:

@@ -20,6 +20,7 @@ from .records import (
     FindingStatus,
     MissionRecord,
     MissionState,
+    ReadingTrend,
     ScheduleOutcome,
     ScheduleRecord,
     ScheduleRun,
@@ -80,6 +81,16 @@ class MissionMessage(TypedDict):
     updated: float
 
 
+class TrendDescription(TypedDict):
+    """A reading over the target's last rounds (relay.inspection.trend): ``points`` are ``[time, value]`` (Unix s),
+    oldest first; ``threshold`` the limit it is measured against (null: its sensor has none)."""
+
+    sensor: str
+    unit: str
+    threshold: float | None
+    points: list[list[float]]
+
+
 class FindingMessage(TypedDict):
     identifier: Literal["finding"]
     id: str
@@ -100,6 +111,7 @@ class FindingMessage(TypedDict):
     change: float | None  # a change finding's score (the changed share of the view, 0-1); None for the others
     baseline: str | None  # the capture a change finding was compared with (its before image); None for the others
     before: str | None  # URL of the baseline's JPEG (/captures/<sha256>.jpg); None: no baseline, or it has no image
+    trend: TrendDescription | None  # the reading the finding was judged on over the last rounds; None: no history
 
 
 class FindingsMessage(TypedDict):
@@ -194,6 +206,16 @@ def finding_message(
         "change": finding.change,
         "baseline": finding.baseline,
         "before": None if before is None or finding.baseline is None else f"/captures/{before}.jpg",
+        "trend": None if finding.trend is None else _trend(finding.trend),
+    }
+
+
+def _trend(trend: ReadingTrend) -> TrendDescription:
+    return {
+        "sensor": trend.sensor,
+        "unit": trend.unit,
+        "threshold": trend.threshold,
+        "points": [[round(t, 3), value] for t, value in trend.points],
     }
 
 

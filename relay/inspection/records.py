@@ -85,6 +85,17 @@ class CaptureRecord:
 
 
 @dataclass(frozen=True, slots=True)
+class ReadingTrend:
+    """A reading of a target over its last rounds, as a finding keeps it (relay.inspection.trend): ``points`` are
+    (Unix s, value), oldest first; ``threshold`` the limit they are measured against (None: the sensor has none)."""
+
+    sensor: str
+    unit: str
+    threshold: float | None
+    points: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True, slots=True)
 class FindingRecord:
     id: str
     capture: str  # the capture it is about
@@ -103,6 +114,9 @@ class FindingRecord:
     #: it was compared with, so that a card can show before and after; None for every other finding.
     change: float | None = None
     baseline: str | None = None
+    #: The readings the finding was judged on, over the target's last rounds (the trend finding's reading, else the
+    #: one nearest its limit), kept as they were then: a later round or a new limit does not rewrite the evidence.
+    trend: ReadingTrend | None = None
 
 
 @dataclass(frozen=True, slots=True)

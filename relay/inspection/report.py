@@ -34,16 +34,19 @@ from .report_rows import (
     WORK_ORDER_FIELDS,
     Limit,
     RangeError,
+    Reading,
     Room,
     Row,
     SiteInfo,
     iso_time,
+    number,
     parse_range,
     rows_of,
     work_orders,
 )
 from .report_rows import Report as Report
 from .report_rows import Scope as Scope
+from .trend import TREND_ROUNDS, Trend, series_of, trend_of
 
 if TYPE_CHECKING:
     from ..config import FleetConfig
@@ -77,6 +80,10 @@ CSV_FIELDS = (
     "image",
     "change",  # a change finding's score: the changed share of the view (0-1); empty for other findings
     "baseline",  # the capture a change finding was compared with
+    "previous_capture",  # the target's previous capture (the baseline, else the one before with an image)
+    "previous_image",
+    "previous_readings",  # each reading at the target's previous round: "gas 284.2 ppm; ..."
+    "trend",  # each reading's least-squares slope over the last rounds: "gas +83.2 ppm a round (3 rounds); ..."
 )
 #: A cell starting with one of these is read as a formula by spreadsheets (CSV injection: a note "=HYPERLINK(...)"
 #: became a live link): such a cell gets a leading single quote, as OWASP advises, and is shown as typed.
@@ -197,7 +204,7 @@ def collect(store: Store, scope: Scope, site: SiteInfo, *, now: float | None = N
         for record in missions:
             findings += store.findings(mission=record.id)
             captures.update((c.id, c) for c in store.captures(record.id))
-        return Report(scope, site, missions, rows_of(findings, captures, site), made)
+        return Report(scope, site, missions, with_history(store, rows_of(findings, captures, site), site), made)
     assert scope.start is not None and scope.end is not None
     pairs = store.findings_between(scope.start, scope.end, MAX_FINDINGS + 1)
     if len(pairs) > MAX_FINDINGS:
@@ -206,7 +213,31 @@ def collect(store: Store, scope: Scope, site: SiteInfo, *, now: float | None = N
     found = [store.mission(i) for i in ids]
     missions = sorted((m for m in found if m is not None), key=lambda m: (m.created, m.robot))
     rows = rows_of([f for f, _ in pairs], {c.id: c for _, c in pairs}, site)
-    return Report(scope, site, missions, rows, made)
+    return Report(scope, site, missions, with_history(store, rows, site), made)
+
+
+def with_history(store: Store, rows: list[Row], site: SiteInfo) -> list[Row]:
+    """``rows`` with what their targets were before: the previous capture (a change finding's baseline, else the
+    target's newest earlier capture with an image whose change nobody marked a false alarm: what the change rule
+    compares with) and each reading over the target's last ``TREND_ROUNDS`` rounds up to the row's capture. Read
+    once per capture: the findings of one capture share them."""
+    found: dict[str, tuple[CaptureRecord | None, tuple[Trend, ...]]] = {}
+    out = []
+    for row in rows:
+        capture, target = row.capture, row.finding.target
+        if capture is None or target is None:
+            out.append(row)
+            continue
+        if capture.id not in found:
+            before = store.last_capture_of(target, capture.t, capture.id)
+            rounds = store.captures_of(target, capture.t, TREND_ROUNDS)
+            trends = tuple(trend_of(r.sensor, series_of(rounds, r.sensor), r.limit) for r in row.readings)
+            found[capture.id] = before, trends
+        before, trends = found[capture.id]
+        if row.finding.baseline is not None:
+            before = store.capture(row.finding.baseline) or before
+        out.append(dataclasses.replace(row, before=before, trends=trends))
+    return out
 
 
 # -- JSON and CSV -------------------------------------------------------------------------------------------------
@@ -250,7 +281,7 @@ def _scope_json(scope: Scope, zone: tzinfo | None) -> dict[str, str]:
 
 
 def _finding_json(row: Row, zone: tzinfo | None, image_url: Callable[[str], str]) -> dict[str, Any]:
-    f, capture = row.finding, row.capture
+    f, capture, before = row.finding, row.capture, row.before
     image = capture.image if capture is not None else None
     return {
         "id": f.id, "number": row.number, "status": f.status, "status_text": row.status, "source": f.source,
@@ -258,15 +289,25 @@ def _finding_json(row: Row, zone: tzinfo | None, image_url: Callable[[str], str]
         "target_name": row.target_name, "room": row.room.name if row.room else None,
         "room_title": row.room.title if row.room else None, "x": f.x, "y": f.y, "time": iso_time(row.time, zone),
         "created": iso_time(f.created, zone), "updated": iso_time(f.updated, zone), "note": f.note,
-        "readings": [
-            {
-                "sensor": r.sensor, "value": r.value, "unit": r.limit.unit, "warn_above": r.limit.warn_above,
-                "warn_below": r.limit.warn_below, "past_limit": r.over, "text": r.text(),
-            }
-            for r in row.readings
-        ],
+        "readings": [_reading_json(r, row.trend(r.sensor), zone) for r in row.readings],
         "capture": f.capture, "image": image, "image_url": image_url(image) if image else None,
         "region": f.region, "change": f.change, "baseline": f.baseline,
+        "previous_capture": before.id if before else None,
+        "previous_time": iso_time(before.t, zone) if before else None,
+        "previous_image_url": image_url(before.image) if before and before.image else None,
+    }  # fmt: skip
+
+
+def _reading_json(r: Reading, trend: Trend | None, zone: tzinfo | None) -> dict[str, Any]:
+    """A reading with its limits, the previous round's value and its trend: the least-squares ``slope`` (unit a
+    round, null under 3 rounds) and the ``rounds`` behind it (time, value, mission), oldest first."""
+    return {
+        "sensor": r.sensor, "value": r.value, "unit": r.limit.unit, "warn_above": r.limit.warn_above,
+        "warn_below": r.limit.warn_below, "past_limit": r.over, "text": r.text(),
+        "previous": trend.previous if trend else None, "slope": trend.slope if trend else None,
+        "toward_limit": trend.toward_limit if trend else False,
+        "rounds": [{"time": iso_time(p.t, zone), "value": p.value, "mission": p.mission} for p in trend.points]
+        if trend else [],
     }  # fmt: skip
 
 
@@ -286,9 +327,25 @@ def as_csv(report: Report, image_url: Callable[[str], str]) -> str:
         writer.writerow(
             (*map(_cell, text), reviewed, *map(_cell, place), f"{f.x:.3f}", f"{f.y:.3f}", iso_time(row.time, zone),
              _cell(f.note), _cell("; ".join(r.text() for r in row.readings)), _cell(image),
-             "" if f.change is None else f"{f.change:.4f}", _cell(f.baseline or ""))
+             "" if f.change is None else f"{f.change:.4f}", _cell(f.baseline or ""), *_history_cells(row, image_url))
         )  # fmt: skip
     return out.getvalue()
+
+
+def _history_cells(row: Row, image_url: Callable[[str], str]) -> tuple[str, str, str, str]:
+    """The CSV's previous capture, its image, the previous round's readings and each reading's slope."""
+    before = row.before
+    unit = {r.sensor: f" {r.limit.unit}" if r.limit.unit else "" for r in row.readings}
+    previous = "; ".join(
+        f"{t.sensor} {number(t.previous)}{unit[t.sensor]}" for t in row.trends if t.previous is not None
+    )
+    slopes = "; ".join(
+        f"{t.sensor} {t.slope:+.1f}{unit[t.sensor]} a round ({len(t.points)} rounds)"
+        for t in row.trends
+        if t.slope is not None
+    )
+    image = image_url(before.image) if before is not None and before.image else ""
+    return _cell(before.id if before else ""), _cell(image), _cell(previous), _cell(slopes)
 
 
 def work_orders_csv(report: Report, image_url: Callable[[str], str]) -> str:

@@ -1,7 +1,9 @@
 """The report as one self-contained HTML page (relay.inspection.report): the site, what the report covers and in
 which time zone, the missions, a plan of the site with its rooms and the findings as numbered pins, and a table of
-the findings (local time, room, target, readings with units and limits, status in words, who decided it, the image
-with its region). Also the page that asks for a range (``/report/range.html`` with no range).
+the findings (local time, room, target, readings with units and limits, status in words, who decided it, each
+reading's trend over the target's last rounds as a sparkline with its limit, and the target's previous capture
+beside this one: before and after, the region drawn on the after). Also the page that asks for a range
+(``/report/range.html`` with no range).
 
 Every text from the database or a file is escaped; the page sets no ``style`` attribute (the relay's
 Content-Security-Policy allows only the embedded stylesheet, by its hash: relay.net.headers) and runs no script.
@@ -23,16 +25,18 @@ from .report_rows import (
     Row,
     iso_time,
     local_time,
+    number,
     readable_date,
     readable_time,
     zone_label,
 )
+from .sparkline import SPARK_BOX, label_y, polyline, sparkline
 
 if TYPE_CHECKING:
     from datetime import tzinfo
 
     from ..fleet.occupancy import OccupancyGrid
-    from .records import MissionRecord
+    from .records import CaptureRecord, MissionRecord
     from .store import Store
 
 #: Also in report.css and the client's inspection_model.js. A change is purple, apart from the red of an anomaly
@@ -59,7 +63,7 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
     site, zone = report.site, report.site.zone
     title = f"{site.name}: inspection report"
     rows = "".join(_row(row, zone, store) for row in report.rows)
-    empty = '<tr><td colspan="10">No findings.</td></tr>' if not report.rows else ""
+    empty = '<tr><td colspan="11">No findings.</td></tr>' if not report.rows else ""
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{esc(title)}</title><link rel="icon" href="data:,">
 <style>{STYLESHEET}</style></head><body>
@@ -70,7 +74,8 @@ def as_html(report: Report, store: Store, grid: OccupancyGrid | None) -> str:
 <h2>Plan</h2>{_plan_svg(report, grid)}
 <h2>Findings</h2>
 <table class="findings"><thead><tr><th>#</th><th>Status</th><th>Seen</th><th>Room</th><th>Target</th><th>Robot</th>
-<th>Readings</th><th>Note</th><th>Decided by</th><th>Image</th></tr></thead><tbody>{rows}{empty}</tbody></table>
+<th>Readings</th><th>Note</th><th>Decided by</th><th>Trend (last rounds)</th><th>Before / after</th></tr></thead>
+<tbody>{rows}{empty}</tbody></table>
 </body></html>
 """
 
@@ -140,7 +145,8 @@ def _row(row: Row, zone: tzinfo | None, store: Store) -> str:
         f'<tr><td>{row.number}</td><td><span class="status {_status_class(f.status)}">{esc(row.status)}</span></td>'
         f"<td>{_time(row.time, zone)}</td><td>{esc(row.location) or '<small>outside the rooms</small>'}"
         f"<br><small>({f.x:.2f}, {f.y:.2f}) m</small></td><td>{target}</td><td>{esc(f.robot)}</td>"
-        f"<td>{readings}</td><td>{esc(f.note)}</td><td>{esc(row.review(zone))}</td>{_image_cell(row, store)}</tr>"
+        f"<td>{readings}</td><td>{esc(f.note)}</td><td>{esc(row.review(zone))}</td>{_trend_cell(row)}"
+        f"{_image_cell(row, store, zone)}</tr>"
     )
 
 
@@ -194,21 +200,67 @@ def _plan_svg(report: Report, grid: OccupancyGrid | None) -> str:
     )
 
 
-def _image_cell(row: Row, store: Store) -> str:
-    capture = row.capture
+def _trend_cell(row: Row) -> str:
+    """Each reading over the target's last rounds: a sparkline (relay.inspection.sparkline) with its limit dashed,
+    and the values in words with the slope a round."""
+    parts = []
+    for trend in row.trends:
+        if not trend.points:
+            continue
+        line = sparkline([(p.t, p.value) for p in trend.points], trend.limit)
+        unit = f" {trend.unit}" if trend.unit else ""
+        limit = ""
+        if line.limit is not None and trend.limit is not None:
+            limit = (
+                f'<line class="limit" x1="{SPARK_BOX.pad:g}" x2="{SPARK_BOX.width - SPARK_BOX.pad:g}" '
+                f'y1="{line.limit:.1f}" y2="{line.limit:.1f}"/>'
+                f'<text x="{SPARK_BOX.pad:g}" y="{label_y(line.limit):.1f}">{esc(f"{trend.limit:g}{unit}")}</text>'
+            )
+        dots = "".join(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="2.5"/>' for x, y in line.points)
+        values = ", ".join(number(p.value) for p in trend.points)
+        slope = "" if trend.slope is None else f" ({trend.slope:+.1f}{unit} a round)"
+        said = f"{trend.sensor} over the last {len(trend.points)} round{'s' * (len(trend.points) != 1)}"
+        parts.append(
+            f'<div class="trend{" toward" if trend.toward_limit else ""}">'
+            f'<svg class="trend" viewBox="0 0 {SPARK_BOX.width:g} {SPARK_BOX.height:g}" width="{SPARK_BOX.width:g}" '
+            f'height="{SPARK_BOX.height:g}" role="img" aria-label="{esc(said)}">{limit}'
+            f'<polyline points="{polyline(line.points)}"/>{dots}</svg>'
+            f"<small>{esc(trend.sensor)}: {esc(values)}{esc(unit)}{esc(slope)}</small></div>"
+        )
+    return f"<td>{''.join(parts) or '<small>no rounds</small>'}</td>"
+
+
+def _image_cell(row: Row, store: Store, zone: tzinfo | None) -> str:
+    """The target's previous capture (before) beside this one (after, with the finding's region)."""
+    capture, before = row.capture, row.before
+    after = _picture(capture, store, row.finding.region, f"capture of {row.target_name or row.finding.robot}")
+    if after is None or capture is None:
+        return "<td>no image</td>"
+    earlier = _picture(before, store, None, f"previous capture of {row.target_name or row.finding.robot}")
+    then = (
+        f'<figure class="before">{earlier}<figcaption>Before: {_time(before.t, zone)}</figcaption></figure>'
+        if earlier is not None and before is not None
+        else '<figure class="before"><figcaption>No earlier capture</figcaption></figure>'
+    )
+    now = f'<figure class="after">{after}<figcaption>This round: {_time(capture.t, zone)}</figcaption></figure>'
+    return f'<td class="images">{then}{now}</td>'
+
+
+def _picture(
+    capture: CaptureRecord | None, store: Store, region: tuple[tuple[int, int], ...] | None, label: str
+) -> str | None:
     jpeg = store.image(capture.image) if capture is not None and capture.image else None
     if jpeg is None or capture is None:
-        return "<td>no image</td>"
+        return None
     data = base64.b64encode(jpeg).decode()
-    region = ""
-    if row.finding.region:
-        points = " ".join(f"{u},{v}" for u, v in row.finding.region)
-        region = f'<polygon points="{points}" fill="rgba(255,220,0,0.25)" stroke="#ffdc00" stroke-width="3"/>'
+    outline = ""
+    if region:
+        points = " ".join(f"{u},{v}" for u, v in region)
+        outline = f'<polygon points="{points}" fill="rgba(255,220,0,0.25)" stroke="#ffdc00" stroke-width="3"/>'
     return (
-        f'<td><svg viewBox="0 0 {capture.width} {capture.height}" width="320" role="img" '
-        f'aria-label="capture of {esc(row.target_name or row.finding.robot)}">'
-        f'<image href="data:image/jpeg;base64,{data}" width="{capture.width}" height="{capture.height}"/>{region}'
-        "</svg></td>"
+        f'<svg viewBox="0 0 {capture.width} {capture.height}" width="200" role="img" aria-label="{esc(label)}">'
+        f'<image href="data:image/jpeg;base64,{data}" width="{capture.width}" height="{capture.height}"/>{outline}'
+        "</svg>"
     )
 
 

@@ -18,6 +18,7 @@ from datetime import date, datetime, timedelta, tzinfo
 
 from ..sim.floorplan import Room as Room  # a named area of the site: its bounds in the map frame
 from .records import CaptureRecord, FindingRecord, MissionRecord
+from .trend import Trend
 
 #: A finding's status as people say it (the store keeps the code).
 STATUS_WORDS = {
@@ -207,7 +208,10 @@ def readings_of(capture: CaptureRecord | None, limits: Mapping[str, Limit]) -> t
 
 @dataclass(frozen=True)
 class Row:
-    """A finding as the report shows it: numbered as on the plan, with its capture, room, readings and times."""
+    """A finding as the report shows it: numbered as on the plan, with its capture, room, readings and times, and
+    what the target was before: ``before``, the previous capture compared with (a change finding's baseline, else
+    the target's previous capture with an image), and ``trends``, each reading over the target's last rounds up to
+    this capture (relay.inspection.report.with_history reads them)."""
 
     number: int
     finding: FindingRecord
@@ -215,6 +219,11 @@ class Row:
     room: Room | None
     target_name: str
     readings: tuple[Reading, ...]
+    before: CaptureRecord | None = None
+    trends: tuple[Trend, ...] = ()
+
+    def trend(self, sensor: str) -> Trend | None:
+        return next((t for t in self.trends if t.sensor == sensor), None)
 
     @property
     def time(self) -> float:

@@ -7,7 +7,16 @@ from collections.abc import Sequence
 from dataclasses import asdict, fields
 from typing import Any, TypeVar
 
-from .records import AlertRecord, CaptureRecord, DeliveryRecord, FindingRecord, MissionRecord, Step, Target
+from .records import (
+    AlertRecord,
+    CaptureRecord,
+    DeliveryRecord,
+    FindingRecord,
+    MissionRecord,
+    ReadingTrend,
+    Step,
+    Target,
+)
 
 _R = TypeVar("_R", MissionRecord, CaptureRecord, FindingRecord, Target, AlertRecord, DeliveryRecord)
 Record = MissionRecord | CaptureRecord | FindingRecord | Target | AlertRecord | DeliveryRecord
@@ -19,7 +28,7 @@ def columns(record: type[Any]) -> str:
 
 
 def row_of(record: Record) -> tuple[Any, ...]:
-    """The row of a record: its fields in order, steps, readings and region as JSON text."""
+    """The row of a record: its fields in order, steps, readings, region and trend as JSON text."""
     values: list[Any] = []
     for f in fields(record):
         value = getattr(record, f.name)
@@ -27,6 +36,8 @@ def row_of(record: Record) -> tuple[Any, ...]:
             value = json.dumps([{k: v for k, v in asdict(step).items() if v is not None} for step in value])
         elif f.name in ("readings", "region") and value is not None:
             value = json.dumps(value)
+        elif f.name == "trend" and value is not None:
+            value = json.dumps(asdict(value))
         values.append(value)
     return tuple(values)
 
@@ -40,4 +51,8 @@ def record_of(kind: type[_R], row: Sequence[Any]) -> _R:
         data["readings"] = json.loads(data["readings"])
     if data.get("region") is not None:
         data["region"] = tuple((int(u), int(v)) for u, v in json.loads(data["region"]))
+    if data.get("trend") is not None:
+        trend = json.loads(data["trend"])
+        points = tuple((float(t), float(v)) for t, v in trend["points"])
+        data["trend"] = ReadingTrend(trend["sensor"], trend["unit"], trend["threshold"], points)
     return kind(**data)

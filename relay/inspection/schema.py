@@ -52,5 +52,9 @@ MIGRATIONS: tuple[tuple[str, ...], ...] = (
         "ALTER TABLE findings ADD COLUMN change DOUBLE PRECISION",
         "ALTER TABLE findings ADD COLUMN baseline TEXT",
     ),
+    (  # 7: a finding keeps the trend of its reading (issue #30, item 3); a target's last rounds are read by index
+        "ALTER TABLE findings ADD COLUMN trend TEXT",
+        "CREATE INDEX captures_target ON captures (target, t)",
+    ),
 )
 SCHEMA_VERSION = len(MIGRATIONS)

@@ -151,6 +151,17 @@ class Store(ScheduleTables):
         )
         return record_of(CaptureRecord, rows[0]) if rows else None
 
+    def captures_of(self, target: str, until: float, limit: int) -> list[CaptureRecord]:
+        """The newest ``limit`` captures a mission took of ``target`` at or before ``until`` (Unix s), oldest first: a
+        target's last rounds (relay.inspection.trend). Captures outside a mission (a gaze's ``target/add``) are not
+        rounds: taken from wherever the robot stood, their readings are of another place."""
+        rows = self._read(
+            f"SELECT {_CAPTURE} FROM captures WHERE target = ? AND mission IS NOT NULL AND t <= ?"
+            " ORDER BY t DESC, id DESC LIMIT ?",
+            (target, until, limit),
+        )
+        return [record_of(CaptureRecord, r) for r in reversed(rows)]
+
     # -- findings ---------------------------------------------------------------------------------
 
     def add_finding(self, finding: FindingRecord) -> FindingRecord:

@@ -2,8 +2,8 @@
 /**
  * Where things sit on the VR finding card's canvas, in pixels (y down), and what a ray's hit on it means: the
  * capture's image on the left (fitted, its aspect kept, so a hit maps back to the capture's own pixels), the
- * buttons on the right. Pure: view/finding_card.js draws these rectangles and test/finding_card.test.js pins
- * the mapping both ways.
+ * buttons on the right, the reading's trend between the buttons and Close. Pure: view/finding_card.js draws these
+ * rectangles and test/inspection_review.test.js pins the mapping both ways.
  */
 
 /** The card's canvas, pixels; the plane is 0.64 m wide (the menu's width). */
@@ -24,7 +24,7 @@ const COLUMN_W = CARD_PX[0] - COLUMN_X - MARGIN;
  * The card for one finding.
  * @param {{status: string, proposal: boolean, imageAction: 'region' | 'target', operator: boolean,
  *   imageSize: [number, number] | null}} state what the buttons show, and the capture's size once it is known
- * @returns {{image: Rect | null, text: Rect, buttons: CardButton[]}}
+ * @returns {{image: Rect | null, text: Rect, trend: Rect, buttons: CardButton[]}}
  */
 export function cardLayout(state) {
   const gap = 12;
@@ -61,11 +61,14 @@ export function cardLayout(state) {
       ['image:target', 'New target', state.imageAction === 'target', op],
     ]);
   }
+  // The trend: what is left of the column between the last row and Close (no button: a ray passes through it).
+  const trend = { x: COLUMN_X, y, w: COLUMN_W, h: CARD_PX[1] - MARGIN - h - gap - y };
   y = CARD_PX[1] - MARGIN - h;
   row([['card:close', 'Close', false, true]]);
   return {
     image: state.imageSize ? fitImage(state.imageSize) : null,
     text: { x: COLUMN_X, y: HEADER, w: COLUMN_W, h: 140 },
+    trend,
     buttons,
   };
 }

@@ -170,6 +170,16 @@ test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and
   );
   assert.ok(Math.abs(wide.w / wide.h - 16 / 9) < 1e-9);
   assert.equal(cardHit(layout, null, px, py), null, 'no image loaded: the image area is nothing yet');
+  // The trend sits in the column between the last row of buttons and Close, overlapping neither, and is no button.
+  const t = layout.trend;
+  const rows = layout.buttons.filter((b) => b.id !== 'card:close');
+  const lowest = Math.max(...rows.map((b) => b.y + b.h));
+  const closing = /** @type {import('../src/finding_card_layout.js').CardButton} */ (
+    layout.buttons.find((b) => b.id === 'card:close')
+  );
+  assert.ok(t.y >= lowest && t.y + t.h <= closing.y && t.h >= 100, JSON.stringify({ t, lowest, close: closing.y }));
+  assert.ok(t.x > image.x + image.w && t.x + t.w <= CARD_PX[0]);
+  assert.equal(cardHit(layout, size, t.x + t.w / 2, t.y + t.h / 2), null);
 });
 
 test('the menu offers Inspect in free roam to viewers too, and the picked targets as a mission', () => {

@@ -1,8 +1,9 @@
 // @ts-check
 /**
  * The finding card in VR: the open finding's capture with its region (or the outline the relay proposes), its
- * note and readings, and buttons to set its status, mark a region (select a point of the image), make a target
- * where a pixel looks, accept or redo a region, and close. A canvas-textured plane placed in front of the
+ * note and readings, its reading's trend over the last rounds (a sparkline, the threshold dashed), and buttons to
+ * set its status, mark a region (select a point of the image), make a target where a pixel looks, accept or redo a
+ * region, and close. A canvas-textured plane placed in front of the
  * operator when a pin is selected; it redraws only when the review, the finding, the hover or the image
  * changed. Where things sit and what a hit means is finding_card_layout.js (pure, tested in node).
  */
@@ -10,6 +11,7 @@ import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
 import { fillRounded, fitText, font } from './canvas_text.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../finding_card_layout.js';
+import { sparkline } from '../sparkline.js';
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { statusWords } from '../wording.js';
 
@@ -135,6 +137,7 @@ export class FindingCard {
       .join(' · ');
     fitText(ctx, readings || 'no readings', text.x, text.y + 60, text.w, 22);
     fitText(ctx, hint, text.x, text.y + 100, text.w, 20);
+    if (finding.trend?.points.length) this.#trend(ctx, this.layout.trend, finding.trend);
     for (const b of this.layout.buttons) {
       const hovered = hover === b.id && b.enabled;
       ctx.globalAlpha = b.enabled ? 1 : 0.4;
@@ -171,6 +174,51 @@ export class FindingCard {
     ctx.lineWidth = 4;
     ctx.strokeStyle = '#ffc828';
     ctx.stroke();
+  }
+
+  /**
+   * The reading over its last rounds in ``box``: a line through a dot a round, the threshold dashed and labelled,
+   * and a caption (the geometry is sparkline.js, as on the desktop card).
+   * @param {CanvasRenderingContext2D} ctx @param {{x: number, y: number, w: number, h: number}} box
+   * @param {import('../protocol.js').TrendDescription} trend
+   */
+  #trend(ctx, box, trend) {
+    const caption = 26;
+    const line = sparkline(trend.points, trend.threshold, { width: box.w, height: box.h - caption, pad: 8 });
+    const unit = trend.unit ? ` ${trend.unit}` : '';
+    ctx.save();
+    ctx.translate(box.x, box.y);
+    fillRounded(ctx, [0, 0, box.w, box.h - caption], 10, 'rgba(255,255,255,0.05)');
+    if (line.limit !== null && trend.threshold !== null) {
+      ctx.strokeStyle = '#ff6b5e';
+      ctx.lineWidth = 2;
+      ctx.setLineDash([10, 7]);
+      ctx.beginPath();
+      ctx.moveTo(8, line.limit);
+      ctx.lineTo(box.w - 8, line.limit);
+      ctx.stroke();
+      ctx.setLineDash([]);
+      ctx.fillStyle = '#ff6b5e';
+      const above = line.limit > (box.h - caption) / 2;
+      fitText(ctx, `${trend.threshold}${unit}`, 12, line.limit + (above ? -12 : 14), box.w / 2, 18);
+    }
+    ctx.strokeStyle = '#8ab4ff';
+    ctx.fillStyle = '#8ab4ff';
+    ctx.lineWidth = 3;
+    ctx.beginPath();
+    line.points.forEach((p, i) => (i === 0 ? ctx.moveTo(p.x, p.y) : ctx.lineTo(p.x, p.y)));
+    ctx.stroke();
+    for (const p of line.points) {
+      ctx.beginPath();
+      ctx.arc(p.x, p.y, 5, 0, Math.PI * 2);
+      ctx.fill();
+    }
+    ctx.fillStyle = '#9aa5b8';
+    const rounds = trend.points.length;
+    const latest = trend.points[rounds - 1][1];
+    const said = `${trend.sensor} over ${rounds} round${rounds === 1 ? '' : 's'}: now ${latest.toFixed(1)}${unit}`;
+    fitText(ctx, said, 0, box.h - caption / 2, box.w, 20);
+    ctx.restore();
   }
 
   /**

@@ -2,16 +2,17 @@
 /**
  * The alerts to acknowledge on the desktop (a count badge, each with its Acknowledge button; an alert another operator
  * acknowledged leaves the list), then the findings: a list with a status filter, and the selected finding's image
- * with its region, readings and note. The operator sets its status (a false alarm with a note saying why), and marks
- * a region: a click on the image asks
- * the relay to segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it
- * (Redo: click again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
+ * with its region, readings, the trend of its reading over the last rounds (a sparkline) and note. The operator
+ * sets its status (a false alarm with a note saying why), and marks a region: a click on the image asks the relay to
+ * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo: click
+ * again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
 import { reportLinks } from '../report_links.js';
 import { scheduleRows } from '../schedule_list.js';
+import { SPARK_BOX, labelY, polyline, sparkline } from '../sparkline.js';
 import { statusWords } from '../wording.js';
 
 export class FindingsPanel {
@@ -198,7 +199,7 @@ export class FindingsPanel {
         '<button type="button" data-region="redo">Redo</button>'
       : `<small>${review.pending ? review.hint() : mark}</small>`;
     return (
-      `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p>` +
+      `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p>${trendFigure(f)}` +
       `<p>${buttons}</p><p class="false-alarm">${falseAlarm}</p><p>${regionButtons}</p></section>`
     );
   }
@@ -304,5 +305,40 @@ function beforeAfter(f, after, wipe, token, findings) {
     `<div class="after">${after}</div></div>` +
     `<input type="range" data-wipe min="0" max="100" value="${wipe}" aria-label="before / after">` +
     `<p class="wipe-labels"><small>${esc(labels.before)}</small><small>${esc(labels.after)}</small></p>`
+  );
+}
+
+/**
+ * The trend of the finding's reading over its target's last rounds: an inline SVG sparkline (the geometry is
+ * sparkline.js), the threshold a dashed line labelled with its value and unit, each round a point whose title says
+ * when and what it read; nothing when the finding has no trend.
+ * @param {import('../inspection_model.js').Finding} f
+ */
+function trendFigure(f) {
+  const trend = f.trend;
+  if (!trend || !trend.points.length) return '';
+  const { width, height, pad } = SPARK_BOX;
+  const line = sparkline(trend.points, trend.threshold);
+  const unit = trend.unit ? ` ${trend.unit}` : '';
+  const limit =
+    line.limit === null || trend.threshold === null
+      ? ''
+      : `<line class="limit" x1="${pad}" x2="${width - pad}" y1="${line.limit}" y2="${line.limit}"/>` +
+        `<text x="${pad}" y="${labelY(line.limit)}">${esc(`${trend.threshold}${unit}`)}</text>`;
+  const dots = line.points
+    .map(
+      (p) =>
+        `<circle cx="${p.x}" cy="${p.y}" r="2.5"><title>` +
+        `${esc(`${new Date(p.t * 1000).toLocaleString()}: ${p.value.toFixed(1)}${unit}`)}</title></circle>`,
+    )
+    .join('');
+  const rounds = trend.points.length;
+  const named = trend.unit ? `${trend.sensor} (${trend.unit})` : trend.sensor;
+  const said = `${named} over the last ${rounds} round${rounds === 1 ? '' : 's'}`;
+  return (
+    `<figure class="trend"><svg viewBox="0 0 ${width} ${height}" width="${width}" height="${height}" role="img" ` +
+    `aria-label="${esc(said)}">${limit}<polyline points="${polyline(line.points)}"/>${dots}</svg>` +
+    `<figcaption><small>${esc(said)}${trend.threshold === null ? '' : ', its limit dashed'}</small></figcaption>` +
+    '</figure>'
   );
 }
