@@ -6,7 +6,8 @@
   answer after the same work, slowed per address as wrong tokens are (relay/net/access.py, one count per address).
   Success sets the session cookie (HttpOnly, SameSite=Strict, Secure over TLS) and answers the user, the role and
   the CSRF token.
-- ``GET /whoami``: the signed-in user, role and CSRF token (a page reloaded keeps its cookie, not its token), or 401.
+- ``GET /whoami``: whether the relay has accounts, and the signed-in user, role and CSRF token (a page reloaded keeps
+  its cookie, not its token); ``user`` null when signed out.
 - ``POST /signout``, ``POST /pair`` (a pairing code for a headset): need the cookie and the ``X-CSRF-Token`` header.
 - ``POST /pair/claim`` ``{"code": ...}``: the headset's page takes a session of the same person; wrong codes slowed.
 
@@ -76,11 +77,13 @@ class SignIn:
         return self._with_cookie(session, {"user": name, "role": role, "csrf": session.csrf})
 
     async def whoami(self, request: web.Request) -> web.Response:
-        self._known()
+        """Always 200, so that a page's every start logs no error: whether the relay has accounts, and who this is."""
+        if self.book is None:
+            return web.json_response({"accounts": False})
         session = self.session_of(request)
         if session is None:
-            return _text(401, "not signed in")
-        return web.json_response({"user": session.user, "role": session.role, "csrf": session.csrf})
+            return web.json_response({"accounts": True, "user": None})
+        return web.json_response({"accounts": True, "user": session.user, "role": session.role, "csrf": session.csrf})
 
     async def sign_out(self, request: web.Request) -> web.Response:
         session = self._posted(request)

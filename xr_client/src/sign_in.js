@@ -22,9 +22,10 @@ export const CSRF_HEADER = 'X-CSRF-Token';
 export async function whoAmI(origin, fetcher = fetch) {
   try {
     const response = await fetcher(`${origin}/whoami`, { credentials: 'same-origin' });
-    if (response.status === 401) return null;
     if (!response.ok) return undefined;
-    return account(await response.json());
+    const body = await response.json();
+    if (body?.accounts !== true) return undefined;
+    return body.user === null ? null : account(body);
   } catch {
     return undefined;
   }

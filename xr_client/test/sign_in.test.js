@@ -24,9 +24,11 @@ const ORIGIN = 'http://127.0.0.1:8080';
 const ANA = { user: 'Ana', role: 'operator', csrf: 'tok-1' };
 
 test('a page asks who it is: an account, signed out, or a relay without accounts', async () => {
-  assert.deepEqual(await whoAmI(ORIGIN, relay({ '/whoami': [200, ANA] }).fetcher), ANA);
-  assert.equal(await whoAmI(ORIGIN, relay({ '/whoami': [401, 'not signed in'] }).fetcher), null);
-  assert.equal(await whoAmI(ORIGIN, relay({}).fetcher), undefined); // 404: the operator token, as before
+  assert.deepEqual(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: true, ...ANA }] }).fetcher), ANA);
+  assert.equal(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: true, user: null }] }).fetcher), null);
+  // No accounts: the operator token, as before (also an older relay without the route).
+  assert.equal(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: false }] }).fetcher), undefined);
+  assert.equal(await whoAmI(ORIGIN, relay({}).fetcher), undefined);
   const broken = async () => {
     throw new TypeError('network');
   };
