@@ -8,6 +8,8 @@ what each role may do, read back from the other pages and the audit log.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
+import shutil
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -23,19 +25,22 @@ from relay.accounts.roles import ROLES, may
 from relay.accounts.sessions import CODE_LIFETIME, IDLE, LIFETIME, MAX_SESSIONS, Sessions
 from relay.accounts.users import AccountError, UserBook
 from relay.cli.options import Options
-from relay.config import FleetConfig
+from relay.config import FleetConfig, parse_config
+from relay.errors import ConfigError
 from relay.net.access import FREE_FAILURES
 from relay.net.sign_in import COOKIE, CSRF_HEADER
 from tests.conftest import RunningRelay, start_relay
 from tests.wsclient import TestClient
 
+MINIMAL = "robots:\n  - name: alpha\n    limits: {linear: 0.5, angular: 1.0}\n"
 PASSWORDS = {
     "Ana": "ana-correct-horse",
     "Ben": "ben-battery-staple",
     "Ida": "ida-inspects-tanks",
+    "Max": "max-drives-robots",
     "Root": "root-admin-pw",
 }
-ROLE_OF = {"Ana": "operator", "Ben": "viewer", "Ida": "inspector", "Root": "admin"}
+ROLE_OF = {"Ana": "operator", "Ben": "viewer", "Ida": "inspector", "Max": "operator", "Root": "admin"}
 
 
 # -- the rules ----------------------------------------------------------------------------------------
@@ -115,13 +120,39 @@ def test_the_users_file_checks_names_passwords_and_keeps_an_admin(tmp_path: Path
 # -- a relay with accounts ----------------------------------------------------------------------------
 
 
+def test_who_may_reset_is_a_setting_that_names_what_it_takes() -> None:
+    config = parse_config(MINIMAL + "safety: {estop_reset: presser}\n", "robots.yaml")
+    assert config.safety.estop_reset == "presser" and parse_config(MINIMAL).safety.estop_reset == "anyone"
+    with pytest.raises(ConfigError, match=r"safety\.estop_reset"):
+        parse_config(MINIMAL + "safety: {estop_reset: sometimes}\n", "robots.yaml")
+
+
 @pytest.fixture
-async def site(fleet_config: FleetConfig, tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
-    book = UserBook(tmp_path / "users.sqlite")
+def presser_only(request: pytest.FixtureRequest) -> bool:
+    return bool(getattr(request, "param", False))
+
+
+@pytest.fixture(scope="module")
+def users_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The site's people, hashed once for the module (each Argon2id hash takes 64 MiB and up to a second here)."""
+    book = UserBook(tmp_path_factory.mktemp("accounts") / "users.sqlite")
     for name, password in PASSWORDS.items():
-        await asyncio.to_thread(book.add, name, ROLE_OF[name], password)
+        book.add(name, ROLE_OF[name], password)
+    return book.path
+
+
+@pytest.fixture
+async def site(
+    fleet_config: FleetConfig, tmp_path: Path, presser_only: bool, users_file: Path
+) -> AsyncIterator[tuple[RunningRelay, Path]]:
+    if presser_only:
+        fleet_config = dataclasses.replace(
+            fleet_config, safety=dataclasses.replace(fleet_config.safety, estop_reset="presser")
+        )
+    users = tmp_path / "users.sqlite"
+    await asyncio.to_thread(shutil.copyfile, users_file, users)
     audit = tmp_path / "audit.jsonl"
-    options = Options(users=str(book.path), audit_log=str(audit), database=str(tmp_path / "i.sqlite"))
+    options = Options(users=str(users), audit_log=str(audit), database=str(tmp_path / "i.sqlite"))
     running = await start_relay(fleet_config, options=options)
     try:
         yield running, audit
@@ -257,3 +288,20 @@ async def test_a_headset_paired_by_code_is_the_same_person_and_the_code_needs_th
     assert (await ana.post("/signout"))[0] == 200
     async with ana.http.get(site[0].url + "/whoami") as response:
         assert await response.json() == {"accounts": True, "user": None}
+
+
+@pytest.mark.parametrize("presser_only", [True], indirect=True)
+async def test_where_only_the_presser_resets_another_operator_is_told_whose_it_is(
+    site: tuple[RunningRelay, Path], people: dict[str, Person]
+) -> None:
+    for name in ("Ana", "Max", "Root"):
+        await people[name].sign_in(name)
+    ana, max_, root = [await people[name].page() for name in ("Ana", "Max", "Root")]
+    assert (await ana.request({"identifier": "estop"}))["identifier"] == "ack"
+    refused = await max_.request({"identifier": "estop", "action": "reset"})
+    assert refused["code"] == "forbidden" and "pressed by Ana: only they or an admin" in refused["message"], refused
+    assert (await root.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"  # an admin may
+    assert (await max_.request({"identifier": "estop"}))["identifier"] == "ack"
+    assert (await max_.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"  # the presser may
+    for page in (ana, max_, root):
+        await page.close()

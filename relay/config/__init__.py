@@ -270,8 +270,11 @@ def _site(reader: _Reader, node: Node) -> Site:
     return Site(name, zone)
 
 
+ESTOP_RESETS = ("anyone", "presser")
+
+
 def _safety(reader: _Reader, node: Node) -> Safety:
-    f = reader.mapping(node, "safety", ("deadman_timeout", "offline_after"))
+    f = reader.mapping(node, "safety", ("deadman_timeout", "offline_after", "estop_reset"))
 
     def positive(n: Node, p: str) -> float:
         return reader.number(n, p, positive=True)
@@ -279,6 +282,9 @@ def _safety(reader: _Reader, node: Node) -> Safety:
     return Safety(
         deadman_timeout=reader.get(f, "deadman_timeout", "safety", positive, 0.5),
         offline_after=reader.get(f, "offline_after", "safety", positive, 2.0),
+        estop_reset=reader.get(
+            f, "estop_reset", "safety", lambda n, p: reader.choice(n, p, ESTOP_RESETS), Safety.estop_reset
+        ),
     )
 
 

@@ -210,6 +210,9 @@ class Sim:
 class Safety:
     deadman_timeout: float = 0.5
     offline_after: float = 2.0
+    #: Who may reset an E-STOP: "anyone" whose role may reset (relay/accounts/roles.py), or "presser": only who
+    #: pressed it, and admins (a site where the one who stopped the fleet must agree it moves again).
+    estop_reset: str = "anyone"
 
 
 QOS_NAMES = ("pose", "sensors", "scan", "images", "commands", "map")

@@ -29,7 +29,7 @@ from ..wire.commands import Lease
 from .fleet_peer import FleetPeer
 from .leases import LeaseTable
 from .motion_gate import MotionGate, Record
-from .safety import Deadman
+from .safety import Deadman, reset_refusal
 from .stop_notices import StopNotices
 
 logger = logging.getLogger(__name__)
@@ -51,8 +51,13 @@ class Control:
         deadman_timeout: float,
         lease_timeout: float,
         clock: Callable[[], float] = time.monotonic,
+        estop_reset: str = "anyone",
     ) -> None:
         self.robots = list(robots)
+        #: robots.yaml's safety.estop_reset: "anyone" whose role may, or only the "presser" (and admins).
+        self.estop_reset = estop_reset
+        #: Who pressed each latched robot's estop: the account, or the client id of a client without one.
+        self.pressers: dict[str, str] = {}
         self.backend = backend
         self.fleet = fleet
         self.outbox = outbox
@@ -105,18 +110,21 @@ class Control:
         await self.backend.stop_robot(robot)
 
     async def estop(
-        self, robot: str | None, by: str | None, now: float, *, remote: bool = False
+        self, robot: str | None, by: str | None, now: float, *, remote: bool = False, who: str | None = None
     ) -> dict[str, BaseException]:
         """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why. Unless the
         estop came from another relay (``remote``), every other relay of the fleet is told to stop too.
 
         Every robot that can be reached is stopped even when another's stop raises: one broken robot must not
-        keep the rest of the fleet moving. The ``estop`` broadcast names the robots that were stopped.
+        keep the rest of the fleet moving. The ``estop`` broadcast names the robots that were stopped. ``who``: the
+        presser's account (default ``by``), for ``safety.estop_reset: presser``.
         """
         robots = [robot] if robot is not None else list(self.robots)
         for name in robots:
             # Latched first: a command handled while the stops are under way is already refused.
             self.latched[name] = by
+            if who or by:
+                self.pressers[name] = who or by or ""
             self.supersede(name)
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
@@ -167,11 +175,16 @@ class Control:
         self._remote_stops.add(task)
         task.add_done_callback(self._remote_stops.discard)
 
+    def reset_refusal(self, robot: str | None, who: str, admin: bool) -> str | None:
+        """Why ``who`` may not reset ``robot``'s estop (or every latched one's), or None (relay/control/safety.py)."""
+        return reset_refusal(self.estop_reset, self.pressers, self.latched, robot, who, admin)
+
     def reset_estop(self, robot: str | None, by: str | None, now: float) -> list[str]:
         """Lift the latch of ``robot`` (or of every robot); they stay stopped until commanded. Returns them."""
         released = [robot] if robot is not None else list(self.latched)
         for name in released:
             self.latched.pop(name, None)
+            self.pressers.pop(name, None)
             self.fleet.set_estopped(name, False)
             try:
                 self.backend.release_estop(name)

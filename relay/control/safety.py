@@ -7,7 +7,7 @@ sees it; each rule has tests in tests/test_safety.py and end to end through /ws 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Final
 
@@ -111,3 +111,21 @@ class Deadman:
         if not self._active:
             return None
         return min(last for _, last in self._active.values()) + self.timeout
+
+
+def reset_refusal(
+    rule: str, pressers: Mapping[str, str], latched: Iterable[str], robot: str | None, who: str, admin: bool
+) -> str | None:
+    """Why ``who`` may not reset the estop of ``robot`` (or of every ``latched`` robot) under robots.yaml's
+    ``safety.estop_reset`` ``rule``, or None. ``presser``: only who pressed it (``pressers``: robot -> account or
+    client id) and admins may; ``anyone``: whoever's role may (relay/accounts/roles.py, checked before)."""
+    if rule != "presser" or admin:
+        return None
+    latched = set(latched)
+    robots = [robot] if robot is not None else list(latched)
+    others = sorted({pressers[r] for r in robots if r in latched and r in pressers} - {who})
+    if not others:
+        return None
+    return (
+        f"pressed by {', '.join(others)}: only they or an admin may reset it (robots.yaml: safety.estop_reset: presser)"
+    )

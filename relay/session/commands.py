@@ -215,10 +215,13 @@ class CommandHandler:
         resets = command.action == "reset"
         self.control.gate.require(client, "reset" if resets else "stop", "estop", command.id)
         if resets:
+            refusal = self.control.reset_refusal(command.robot, client.user or client.client_id, client.role == "admin")
+            if refusal is not None:
+                raise ProtocolError(ErrorCode.FORBIDDEN, f"estop: {refusal}", command.id)
             self.control.reset_estop(command.robot, client.client_id, now)
             self.outbox.ack(client, command.id)
             return
-        failed = await self.control.estop(command.robot, client.client_id, now)
+        failed = await self.control.estop(command.robot, client.client_id, now, who=client.user)
         if failed:
             # The robots that could be reached are stopped; the operator must learn at once which were not.
             reasons = "; ".join(f"{robot}: {exc!r}" for robot, exc in failed.items())

@@ -99,6 +99,7 @@ class Relay:
             deadman_timeout=config.safety.deadman_timeout,
             lease_timeout=options.lease_timeout,
             clock=clock,
+            estop_reset=config.safety.estop_reset,
         )
         self.streams = CameraStreams(self.robots, self.hub, self.outbox, self.backend)
         self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)
