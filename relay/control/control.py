@@ -110,14 +110,22 @@ class Control:
         await self.backend.stop_robot(robot)
 
     async def estop(
-        self, robot: str | None, by: str | None, now: float, *, remote: bool = False, who: str | None = None
+        self,
+        robot: str | None,
+        by: str | None,
+        now: float,
+        *,
+        remote: bool = False,
+        who: str | None = None,
+        label: str | None = None,
     ) -> dict[str, BaseException]:
         """Stop ``robot`` (or every robot) at once; returns the robots whose stop failed, with why. Unless the
         estop came from another relay (``remote``), every other relay of the fleet is told to stop too.
 
         Every robot that can be reached is stopped even when another's stop raises: one broken robot must not
         keep the rest of the fleet moving. The ``estop`` broadcast names the robots that were stopped. ``who``: the
-        presser's account (default ``by``), for ``safety.estop_reset: presser``.
+        presser's account (default ``by``), for ``safety.estop_reset: presser``; ``label``: how the missions it
+        holds name the presser (their name; default ``by``).
         """
         robots = [robot] if robot is not None else list(self.robots)
         for name in robots:
@@ -129,7 +137,7 @@ class Control:
             self.fleet.set_estopped(name, True)
             self.deadman.release_robot(name)
             self.fleet.set_teleop(name, False)
-            self.stops.stopped(name, f"emergency stop by {by}", estop=True)  # returns at once (see halt)
+            self.stops.stopped(name, f"emergency stop by {label or by}", estop=True)  # returns at once (see halt)
         if self.peer is not None and not remote:
             try:
                 self.peer.estop(robot, by)

@@ -221,7 +221,7 @@ class CommandHandler:
             self.control.reset_estop(command.robot, client.client_id, now)
             self.outbox.ack(client, command.id)
             return
-        failed = await self.control.estop(command.robot, client.client_id, now, who=client.user)
+        failed = await self.control.estop(command.robot, client.client_id, now, who=client.user, label=client.name)
         if failed:
             # The robots that could be reached are stopped; the operator must learn at once which were not.
             reasons = "; ".join(f"{robot}: {exc!r}" for robot, exc in failed.items())
