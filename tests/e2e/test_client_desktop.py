@@ -202,6 +202,8 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await page.wait_for_function("() => document.querySelector('#findings .capture img').naturalWidth > 0")
     await page.click('#findings button[data-status="needs_review"]')
     await client.wait("s.inspection.findings.some((f) => f.target === 'spill' && f.status === 'needs_review')")
+    # The panel scrolls (its card holds readings, a trend, the statuses and a false-alarm note): the image in view.
+    await image.scroll_into_view_if_needed()
     box = await image.bounding_box()
     assert box is not None
     await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.55)
@@ -210,6 +212,9 @@ async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Statio
     await page.wait_for_selector("#findings polygon")
     await client.shot("02-finding-with-region", "findings.png")
     # Shift-click on the image: a new target where that pixel looks, named in the page's dialog.
+    await image.scroll_into_view_if_needed()
+    box = await image.bounding_box()
+    assert box is not None
     await page.keyboard.down("Shift")
     await page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.6)
     await page.keyboard.up("Shift")

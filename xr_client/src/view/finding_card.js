@@ -137,7 +137,8 @@ export class FindingCard {
       .join(' · ');
     fitText(ctx, readings || 'no readings', text.x, text.y + 60, text.w, 22);
     fitText(ctx, hint, text.x, text.y + 100, text.w, 20);
-    if (finding.trend?.points.length) this.#trend(ctx, this.layout.trend, finding.trend);
+    // One round is a reading, not a trend.
+    if ((finding.trend?.points.length ?? 0) >= 2 && finding.trend) this.#trend(ctx, this.layout.trend, finding.trend);
     for (const b of this.layout.buttons) {
       const hovered = hover === b.id && b.enabled;
       ctx.globalAlpha = b.enabled ? 1 : 0.4;

@@ -316,7 +316,8 @@ function beforeAfter(f, after, wipe, token, findings) {
  */
 function trendFigure(f) {
   const trend = f.trend;
-  if (!trend || !trend.points.length) return '';
+  // One round is a reading, not a trend: the card says it already.
+  if (!trend || trend.points.length < 2) return '';
   const { width, height, pad } = SPARK_BOX;
   const line = sparkline(trend.points, trend.threshold);
   const unit = trend.unit ? ` ${trend.unit}` : '';
