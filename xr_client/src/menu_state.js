@@ -13,8 +13,9 @@
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
  * - the open alerts (the newest two, and how many more) are a row of their own while there are any, each button
  *   acknowledging its alert: in VR as on the desktop, so an alert is never out of sight in the headset;
- * - `All findings` / `Changed since last round` is a pair (the second, pressed again, is the first): the pins (and the desktop's findings list) show only what changed since each
- *   target's last round (change_colour.js), the same switch as the findings panel's;
+ * - `All findings` / `Changed since last round` is a pair (the second, pressed again, is the first): with the
+ *   second, the pins (and the desktop's findings list) show only what changed since each target's last round
+ *   (change_colour.js), the same switch as the findings panel's;
  * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
  *   latched, `Reset E-STOP` sits beside them;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a

@@ -23,11 +23,8 @@ export class FindingsPanel {
   wipe = WIPE_START;
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
-  /** The "since last round" switch turned (the owner sets the model's and redraws pins, panel and menu). */
-  onSince = (/** @type {boolean} */ on) => {
-    this.model.setSinceLastRound(on);
-    this.render();
-  };
+  /** The "since last round" switch turned (InspectionUi redraws pins, panel and menu). @type {(on: boolean) => void} */
+  onSince = (on) => this.model.setSinceLastRound(on);
 
   /**
    * @param {HTMLElement} root

@@ -1,8 +1,9 @@
 // @ts-check
 /**
  * Inspection in the twin: each target as a ring on the floor with its name, each finding as a pin coloured by how
- * much its target changed since the last round, else by its status (change_colour.js) at its map position, a picked target amber with its place in the order. Redrawn
- * only when the model, the review or the twin changes (never per frame: a frame takes 100-300 ms under
+ * much its target changed since the last round, else by its status (change_colour.js), at its map position (only
+ * what changed while the model's "since last round" is on), a picked target amber with its place in the order.
+ * Redrawn only when the model, the review or the twin changes (never per frame: a frame takes 100-300 ms under
  * SwiftShader); geometries and materials are shared by all pins.
  */
 import * as THREE from 'three';
