@@ -222,6 +222,7 @@ function alertButtons(menu) {
  * modes are (viewers too: it changes only what this client shows). @param {MenuState} menu @returns {MenuButton[]}
  */
 function findingButtons(menu) {
+  if (menu.changed === 0 && !menu.sinceLastRound) return []; // nothing changed: no row to read past
   return [
     { id: 'findings:all', label: 'All findings', group: 'findings', active: !menu.sinceLastRound, enabled: true },
     {

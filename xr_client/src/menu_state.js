@@ -13,7 +13,8 @@
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
  * - the open alerts (the newest two, and how many more) are a row of their own while there are any, each button
  *   acknowledging its alert: in VR as on the desktop, so an alert is never out of sight in the headset;
- * - `All findings` / `Changed since last round` is a pair (the second, pressed again, is the first): with the
+ * - `All findings` / `Changed since last round` is a pair, a row of its own while some finding changed since its
+ *   target's last round (or the switch is on); the second, pressed again, is the first: with the
  *   second, the pins (and the desktop's findings list) show only what changed since each target's last round
  *   (change_colour.js), the same switch as the findings panel's;
  * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
@@ -83,6 +84,8 @@ export class MenuState {
     this.alerts = [];
     /** Pins show only what changed since the last round (mirrors the inspection model's switch). */
     this.sinceLastRound = false;
+    /** How many findings changed since their target's last round: the Findings row shows while there are any. */
+    this.changed = 0;
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -151,7 +154,7 @@ export class MenuState {
    * News from the relay the menu shows: whether the selected robot follows a goal (its status), its mission's state
    * (`running`, `paused` or null), how many targets are picked, the open alerts newest first (the inspection
    * model's, the same objects while unchanged). Redrawn only when it changes.
-   * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound'} key @param {any} value
+   * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound' | 'changed'} key @param {any} value
    */
   show(key, value) {
     const before = /** @type {any} */ (this)[key];

@@ -272,6 +272,8 @@ test('the findings row switches the pins between all findings and what changed s
       .buttons()
       .filter((b) => b.group === 'findings')
       .map((b) => [b.id, b.active, b.enabled]);
+  assert.deepEqual(row(), [], 'nothing changed since the last round: no row to read past');
+  m.show('changed', 2);
   assert.deepEqual(row(), [
     ['findings:all', true, true],
     ['findings:since', false, true],

@@ -11,6 +11,7 @@ import { TargetDialog } from './target_dialog.js';
 import { ConfirmDialog } from './confirm_dialog.js';
 import { ScheduleForm } from './schedule_form.js';
 import { InspectionReview, nextName } from '../inspection_review.js';
+import { sinceLastRound } from '../change_colour.js';
 
 export class InspectionUi {
   /**
@@ -106,6 +107,7 @@ export class InspectionUi {
     menu.show('picked', this.review.picked.length);
     menu.show('alerts', this.model.openAlerts());
     menu.show('sinceLastRound', this.model.sinceLastRound);
+    menu.show('changed', sinceLastRound(this.model.findings.values()).length);
   }
 
   /**
