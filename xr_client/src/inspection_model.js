@@ -6,6 +6,7 @@
  * the findings list) read it.
  */
 import { count } from './wording.js';
+import { sinceLastRound } from './change_colour.js';
 
 /**
  * @typedef {import('./protocol.js').TargetDescription} Target
@@ -61,6 +62,8 @@ export class InspectionModel {
    * @type {'unknown' | 'asked' | 'more' | 'all'}
    */
   history = 'unknown';
+  /** Show only what changed since each target's last round (change_colour.js): the pins and the panel's rows. */
+  sinceLastRound = false;
 
   /**
    * Apply one inspection message; returns what the operator should be told (nothing for most).
@@ -183,6 +186,23 @@ export class InspectionModel {
         (f) => (filter.status ? f.status === filter.status : true) && (filter.robot ? f.robot === filter.robot : true),
       )
       .sort((a, b) => b.created - a.created);
+  }
+
+  /**
+   * The findings shown (pins, the panel's rows): `list`, and only what changed since the last round while that
+   * switch is on. @param {{status?: FindingStatus | null, robot?: string | null}} [filter]
+   */
+  visible(filter = {}) {
+    if (!this.sinceLastRound) return this.list(filter);
+    const changed = new Set(sinceLastRound(this.findings.values()).map((f) => f.id));
+    return this.list(filter).filter((f) => changed.has(f.id));
+  }
+
+  /** Turn "since last round" on or off (the desktop panel's switch, the VR menu's button). @param {boolean} on */
+  setSinceLastRound(on) {
+    if (on === this.sinceLastRound) return;
+    this.sinceLastRound = on;
+    this.version++;
   }
 
   /** Wait for a request's answer (`settle`). @param {string} request */

@@ -40,6 +40,7 @@ export function menuButtons(menu) {
     ...cameraButtons(menu, context),
     ...missionButtons(menu),
     ...alertButtons(menu),
+    ...findingButtons(menu),
     ...optionButtons(menu),
     ...estopButtons(menu, context),
   ];
@@ -213,6 +214,24 @@ function alertButtons(menu) {
           },
         ]
       : []),
+  ];
+}
+
+/**
+ * The pins in the twin: all findings, or only what changed since each target's last round; a pair, as the view's
+ * modes are (viewers too: it changes only what this client shows). @param {MenuState} menu @returns {MenuButton[]}
+ */
+function findingButtons(menu) {
+  if (menu.changed === 0 && !menu.sinceLastRound) return []; // nothing changed: no row to read past
+  return [
+    { id: 'findings:all', label: 'All findings', group: 'findings', active: !menu.sinceLastRound, enabled: true },
+    {
+      id: 'findings:since',
+      label: 'Changed since last round',
+      group: 'findings',
+      active: menu.sinceLastRound,
+      enabled: true,
+    },
   ];
 }
 

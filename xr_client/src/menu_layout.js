@@ -12,6 +12,7 @@ export const MENU_ROWS = Object.freeze([
   ['camera', 'Camera'],
   ['mission', 'Mission'],
   ['alerts', 'Alerts'],
+  ['findings', 'Findings'],
   ['options', 'Options'],
   ['sound', 'Sound'],
   ['estop', ''],

@@ -13,6 +13,10 @@
  * - `Snapshot` / `Live` only in POV; `Live` is a switch;
  * - the open alerts (the newest two, and how many more) are a row of their own while there are any, each button
  *   acknowledging its alert: in VR as on the desktop, so an alert is never out of sight in the headset;
+ * - `All findings` / `Changed since last round` is a pair, a row of its own while some finding changed since its
+ *   target's last round (or the switch is on); the second, pressed again, is the first: with the
+ *   second, the pins (and the desktop's findings list) show only what changed since each target's last round
+ *   (change_colour.js), the same switch as the findings panel's;
  * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
  *   latched, `Reset E-STOP` sits beside them;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
@@ -42,7 +46,8 @@ import { MenuOptions } from './menu_options.js';
  *   | {type: 'takeover', robot: string, holder: string}
  *   | {type: 'tool', tool: Tool}
  *   | {type: 'mission', action: MissionAction, robot: string | null}
- *   | {type: 'alert_ack', alert: string}} MenuEffect
+ *   | {type: 'alert_ack', alert: string}
+ *   | {type: 'since_last_round', on: boolean}} MenuEffect
  */
 /** @typedef {{alert: string, text: string, severity: string, robot: string | null}} MenuAlert */
 
@@ -77,6 +82,10 @@ export class MenuState {
     this.picked = 0;
     /** The alerts nobody acknowledged, newest first (from the inspection model). @type {MenuAlert[]} */
     this.alerts = [];
+    /** Pins show only what changed since the last round (mirrors the inspection model's switch). */
+    this.sinceLastRound = false;
+    /** How many findings changed since their target's last round: the Findings row shows while there are any. */
+    this.changed = 0;
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
   }
@@ -145,7 +154,7 @@ export class MenuState {
    * News from the relay the menu shows: whether the selected robot follows a goal (its status), its mission's state
    * (`running`, `paused` or null), how many targets are picked, the open alerts newest first (the inspection
    * model's, the same objects while unchanged). Redrawn only when it changes.
-   * @param {'goalActive' | 'mission' | 'picked' | 'alerts'} key @param {any} value
+   * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound' | 'changed'} key @param {any} value
    */
   show(key, value) {
     const before = /** @type {any} */ (this)[key];
@@ -212,6 +221,10 @@ export class MenuState {
     else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
     else if (kind === 'mission') effects = missionEffects(arg, this);
     else if (kind === 'alert') effects = [{ type: 'alert_ack', alert: arg }];
+    else if (kind === 'findings') {
+      this.sinceLastRound = id === 'findings:since' && !this.sinceLastRound; // pressed again: all findings
+      effects = [{ type: 'since_last_round', on: this.sinceLastRound }];
+    }
     this.#changed();
     return effects;
   }

@@ -264,3 +264,28 @@ test('open alerts are a row of the menu, the newest two each acknowledged by its
       .every((b) => !b.enabled),
   );
 });
+
+test('the findings row switches the pins between all findings and what changed since the last round', () => {
+  const m = new MenuState();
+  const row = () =>
+    m
+      .buttons()
+      .filter((b) => b.group === 'findings')
+      .map((b) => [b.id, b.active, b.enabled]);
+  assert.deepEqual(row(), [], 'nothing changed since the last round: no row to read past');
+  m.show('changed', 2);
+  assert.deepEqual(row(), [
+    ['findings:all', true, true],
+    ['findings:since', false, true],
+  ]);
+  assert.deepEqual(m.press('findings:since'), [{ type: 'since_last_round', on: true }]);
+  assert.deepEqual(row(), [
+    ['findings:all', false, true],
+    ['findings:since', true, true],
+  ]);
+  assert.deepEqual(m.press('findings:since'), [{ type: 'since_last_round', on: false }], 'pressed again: all');
+  m.press('findings:since');
+  assert.deepEqual(m.press('findings:all'), [{ type: 'since_last_round', on: false }]);
+  m.show('sinceLastRound', true); // the desktop panel's switch turned it on
+  assert.equal(m.buttons().find((b) => b.id === 'findings:since')?.active, true);
+});

@@ -72,6 +72,9 @@ export class MenuEffects {
         case 'alert_ack':
           sender.alertAck(effect.alert);
           break;
+        case 'since_last_round':
+          views.inspectionUi.sinceLastRound(effect.on, menu);
+          break;
       }
     }
   }

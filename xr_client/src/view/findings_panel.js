@@ -8,6 +8,7 @@
  * again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
 import { STATUS_COLOURS } from '../inspection_model.js';
+import { changeColour } from '../change_colour.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
 import { reportLinks } from '../report_links.js';
@@ -22,6 +23,8 @@ export class FindingsPanel {
   wipe = WIPE_START;
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
+  /** The "since last round" switch turned (InspectionUi redraws pins, panel and menu). @type {(on: boolean) => void} */
+  onSince = (on) => this.model.setSinceLastRound(on);
 
   /**
    * @param {HTMLElement} root
@@ -63,6 +66,10 @@ export class FindingsPanel {
       this.#clip();
     });
     root.addEventListener('change', (event) => {
+      if (event.target instanceof HTMLInputElement && event.target.dataset.since !== undefined) {
+        this.onSince(event.target.checked);
+        return;
+      }
       // The status filter alone: the false alarm's note is read when sent, the schedule form reads its own.
       if (!(event.target instanceof HTMLSelectElement) || event.target.closest('.schedule-form')) return;
       this.filter = /** @type {any} */ (event.target.value);
@@ -71,7 +78,7 @@ export class FindingsPanel {
   }
 
   render() {
-    const findings = this.model.list({ status: this.filter || null });
+    const findings = this.model.visible({ status: this.filter || null });
     this.root.hidden =
       this.model.findings.size === 0 &&
       this.model.targets.size === 0 &&
@@ -86,7 +93,7 @@ export class FindingsPanel {
       .map(
         (f) =>
           `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}">` +
-          `<span class="dot" data-status="${esc(f.status)}"></span>` +
+          `<span class="dot" data-status="${esc(f.status)}" data-colour="${changeColour(f).colour}"></span>` +
           `${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(statusWords(f.status))}` +
           `<br><small>${esc(f.note)}</small></li>`,
       )
@@ -104,14 +111,15 @@ export class FindingsPanel {
       `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${this.#targets()}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
-      `<ol>${items}</ol>${this.#older()}${this.#detail()}`;
+      `${sinceSwitch(this.model.sinceLastRound)}<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
     if (input && note) input.value = note;
     if (input && focused) input.focus();
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);
-      span.style.background = STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
+      span.style.background =
+        span.dataset.colour ?? STATUS_COLOURS[/** @type {keyof STATUS_COLOURS} */ (span.dataset.status)] ?? '';
     }
     this.schedules?.mount(this.root.querySelector('.schedule-form-slot'));
     this.#clip();
@@ -282,6 +290,17 @@ function scheduleList(schedules, form) {
   return (
     `<div class="head"><b>Schedules (${rows.length})</b>${add}</div><ol class="schedules">${items}</ol>` +
     (form ? '<div class="schedule-form-slot"></div>' : '')
+  );
+}
+
+/**
+ * The "since last round" switch and what the pins' colours say (change_colour.js).
+ * @param {boolean} on
+ */
+function sinceSwitch(on) {
+  return (
+    `<p class="since"><label><input type="checkbox" data-since${on ? ' checked' : ''}> since last round</label> ` +
+    '<small>pins: status colour; changed orange (small) to magenta (large); false alarm grey</small></p>'
   );
 }
 

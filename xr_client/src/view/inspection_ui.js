@@ -11,6 +11,7 @@ import { TargetDialog } from './target_dialog.js';
 import { ConfirmDialog } from './confirm_dialog.js';
 import { ScheduleForm } from './schedule_form.js';
 import { InspectionReview, nextName } from '../inspection_review.js';
+import { sinceLastRound } from '../change_colour.js';
 
 export class InspectionUi {
   /**
@@ -42,6 +43,20 @@ export class InspectionUi {
           this.scheduleForm,
         )
       : null;
+    if (this.panel) this.panel.onSince = (on) => this.sinceLastRound(on, this.menu);
+  }
+
+  /** @type {import('../menu_state.js').MenuState | null} the menu last updated: the panel's switch tells it too */
+  menu = null;
+
+  /**
+   * Show only what changed since the last round (the menu's button, the panel's switch), or everything again.
+   * @param {boolean} on @param {import('../menu_state.js').MenuState | null} menu
+   */
+  sinceLastRound(on, menu) {
+    this.model.setSinceLastRound(on);
+    if (menu) this.update(menu);
+    else this.panel?.render();
   }
 
   /**
@@ -81,6 +96,7 @@ export class InspectionUi {
    * @param {import('../menu_state.js').MenuState} menu
    */
   update(menu) {
+    this.menu = menu;
     this.review.sync(this.model);
     this.view.update(this.model, this.review, this.transform());
     if (this.panel) this.panel.robot = menu.selected;
@@ -90,6 +106,8 @@ export class InspectionUi {
     menu.show('mission', mission ? /** @type {'running' | 'paused'} */ (mission.state) : null);
     menu.show('picked', this.review.picked.length);
     menu.show('alerts', this.model.openAlerts());
+    menu.show('sinceLastRound', this.model.sinceLastRound);
+    menu.show('changed', sinceLastRound(this.model.findings.values()).length);
   }
 
   /**

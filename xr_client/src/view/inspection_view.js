@@ -1,13 +1,14 @@
 // @ts-check
 /**
- * Inspection in the twin: each target as a ring on the floor with its name, each finding as a pin coloured by its
- * status (the report's colours) at its map position, a picked target amber with its place in the order. Redrawn
- * only when the model, the review or the twin changes (never per frame: a frame takes 100-300 ms under
+ * Inspection in the twin: each target as a ring on the floor with its name, each finding as a pin coloured by how
+ * much its target changed since the last round, else by its status (change_colour.js), at its map position (only
+ * what changed while the model's "since last round" is on), a picked target amber with its place in the order.
+ * Redrawn only when the model, the review or the twin changes (never per frame: a frame takes 100-300 ms under
  * SwiftShader); geometries and materials are shared by all pins.
  */
 import * as THREE from 'three';
 import { mapToScene } from '../frames.js';
-import { STATUS_COLOURS } from '../inspection_model.js';
+import { changeColour } from '../change_colour.js';
 import { LabelSprite } from './label_sprite.js';
 
 export class InspectionView {
@@ -34,14 +35,12 @@ export class InspectionView {
   #pickables = [];
   #stick = new THREE.CylinderGeometry(0.015, 0.015, 1.2, 8).translate(0, 0.6, 0);
   #head = new THREE.SphereGeometry(0.09, 16, 12).translate(0, 1.25, 0);
-  /** @type {Record<string, THREE.MeshBasicMaterial>} */
-  // Pins are drawn over the twin (no depth test), like RViz markers: findings in a room are seen from the corridor.
-  #pinMaterials = Object.fromEntries(
-    Object.entries(STATUS_COLOURS).map(([status, colour]) => [
-      status,
-      new THREE.MeshBasicMaterial({ color: colour, depthTest: false, transparent: true, opacity: 0.92 }),
-    ]),
-  );
+  /** One material a colour, made when first needed (a few: the statuses and the change scores seen). */
+  /** @type {Map<string, THREE.MeshBasicMaterial>} */
+  #pinMaterials = new Map();
+  /** Each pin's colour and label, by finding id (the page's state snapshot shows them). */
+  /** @type {Record<string, {colour: string, label: string}>} */
+  pins = {};
   #key = '';
 
   /** @param {THREE.Group} world */
@@ -80,19 +79,33 @@ export class InspectionView {
     // Several findings at one target stand side by side, newest at the target itself.
     /** @type {Map<string, number>} */
     const seen = new Map();
-    for (const finding of model.list()) {
+    this.pins = {};
+    for (const finding of model.visible()) {
       const key = `${finding.x.toFixed(2)},${finding.y.toFixed(2)}`;
       const n = seen.get(key) ?? 0;
       seen.set(key, n + 1);
       const pin = new THREE.Group();
       pin.name = `finding:${finding.id}`;
-      const material = this.#pinMaterials[finding.status];
+      const look = changeColour(finding);
+      this.pins[finding.id] = look;
+      const material = this.#material(look.colour);
       pin.add(new THREE.Mesh(this.#stick, material), new THREE.Mesh(this.#head, material));
       for (const part of pin.children) part.renderOrder = 15;
       pin.position.set(...mapToScene(transform, finding.x + 0.25 * n, finding.y, 0));
       this.group.add(pin);
       this.#pickables.push(pin);
     }
+  }
+
+  /** @param {string} colour */
+  #material(colour) {
+    let material = this.#pinMaterials.get(colour);
+    if (!material) {
+      // Pins are drawn over the twin (no depth test), like RViz markers: findings in a room are seen from the corridor.
+      material = new THREE.MeshBasicMaterial({ color: colour, depthTest: false, transparent: true, opacity: 0.92 });
+      this.#pinMaterials.set(colour, material);
+    }
+    return material;
   }
 
   /** What a VR ray may select: each target's disc (named by its ring) and each finding's pin. */
@@ -117,6 +130,6 @@ export class InspectionView {
     this.#pickedMaterial.dispose();
     this.#disc.dispose();
     this.#hidden.dispose();
-    for (const material of Object.values(this.#pinMaterials)) material.dispose();
+    for (const material of this.#pinMaterials.values()) material.dispose();
   }
 }

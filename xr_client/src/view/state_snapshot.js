@@ -40,6 +40,9 @@ export function snapshotState(app) {
           }
         : null,
       pins: app.views.inspectionUi.view.group.children.filter((c) => c.name.startsWith('finding:')).length,
+      // Each drawn pin's colour and label by finding id (change_colour.js), and whether only changes show.
+      pinLooks: { ...app.views.inspectionUi.view.pins },
+      sinceLastRound: app.views.inspectionUi.model.sinceLastRound,
       picked: [...app.views.inspectionUi.review.picked],
       review: {
         selected: app.views.inspectionUi.review.selected,

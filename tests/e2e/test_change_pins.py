@@ -1,0 +1,84 @@
+"""Pins coloured by change since the last round, and the "since last round" filter (issue 30, item 4): two rounds of
+the spill as the simulator renders them, compared by the relay's own comparison and stored and announced through its
+own capture path, make a ``changed`` finding in the second round; beside it in that round an unchanged finding. The
+changed pin takes the change colour (orange to magenta, xr_client/src/change_colour.js), the unchanged one keeps its
+status colour, and the filter (the desktop panel's switch, the menu's pair) hides the unchanged one and brings it
+back when off."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Any
+
+import pytest
+
+from relay.inspection.change import SCORE_THRESHOLD
+from relay.inspection.records import CaptureRecord, FindingRecord
+from relay.sim.camera import embree_available
+from tests.e2e.test_finding_before_after import SIZE, SPILL_VIEW, _rounds
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
+
+#: The ok status's pin colour (xr_client/src/inspection_model.js STATUS_COLOURS.ok).
+OK_GREEN = "#2e9e4f"
+
+
+async def _two_rounds(station: Station) -> tuple[FindingRecord, FindingRecord, FindingRecord]:
+    """Round one (mission m-pins-1): the spill as it was, ok. Round two (m-pins-2): the spill grown, ``changed`` with
+    the relay's score against round one, and the panels beside it unchanged (ok)."""
+    if not embree_available():
+        pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
+    captures: Any = station.running.relay.inspection.captures
+    first, later, score, outline = await asyncio.to_thread(_rounds)
+    assert score > SCORE_THRESHOLD and outline is not None, score
+    now = time.time()
+    rounds = ("m-pins-1.robot1", "m-pins-2.robot1")
+    stored = []
+    for index, jpeg in enumerate((first, later)):
+        record = CaptureRecord(f"c-pins-{index}", "robot1", now - 60 + 60 * index, *SPILL_VIEW, {}, rounds[index],
+                               "spill", None, SIZE, SIZE)  # fmt: skip
+        stored.append(await captures._store(lambda s, r=record, j=jpeg: s.add_capture(r, j)))
+    before, after = stored
+    old = FindingRecord("f-pins-0", before.id, "robot1", 1.8, 8.2, "ok", "within thresholds", "rule", before.t,
+                        before.t, rounds[0], "spill")  # fmt: skip
+    changed = FindingRecord("f-pins-1", after.id, "robot1", 1.8, 8.2, "changed", "changed since the last round",
+                            "rule", after.t, after.t, rounds[1], "spill", outline, round(score, 4),
+                            before.id)  # fmt: skip
+    same = FindingRecord("f-pins-2", after.id, "robot1", 4.0, 8.2, "ok", "within thresholds", "rule", after.t + 1,
+                         after.t + 1, rounds[1], "panels")  # fmt: skip
+    for finding in (old, changed, same):
+        capture = before if finding is old else after
+        await captures._announce(await captures._store(lambda s, f=finding: s.add_finding(f)), capture)
+    return old, changed, same
+
+
+async def test_changed_pins_take_the_change_colour_and_the_filter_keeps_only_them(
+    station: Station, open_client: OpenClient
+) -> None:
+    old, changed, same = await _two_rounds(station)
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "change-pins", 1280, 760)
+    page = client.page
+    ids = [old.id, changed.id, same.id]
+    looks = await client.wait("[...arg].every((id) => id in s.inspection.pinLooks) && s.inspection.pinLooks", 30, ids)
+    colour = looks[changed.id]["colour"]
+    red, green, blue = (int(colour[i : i + 2], 16) for i in (1, 3, 5))
+    # Orange (#ff7f00) at the threshold to magenta (#ff00ff) from 0.3: this score, a few percent, in between.
+    assert red == 0xFF and green < 0x7F and 0 < blue < 0xFF, colour
+    assert looks[changed.id]["label"] == f"Changed {changed.change * 100:.1f} %", looks  # type: ignore[operator]
+    assert looks[same.id]["colour"] == OK_GREEN and looks[old.id]["colour"] == OK_GREEN, looks
+    dot = page.locator(f"#findings li[data-finding='{changed.id}'] .dot")
+    assert await dot.evaluate("(d) => getComputedStyle(d).backgroundColor") == f"rgb({red}, {green}, {blue})"
+    # On (the panel's switch): what changed in each target's newest round alone, pins and rows; the menu follows.
+    await page.check("#findings input[data-since]")
+    shown = "s.inspection.sinceLastRound && Object.keys(s.inspection.pinLooks).join() === arg"
+    await client.wait(shown, 10, changed.id)
+    await page.wait_for_selector(f"#findings li[data-finding='{same.id}']", state="detached")
+    assert await page.locator("#findings li[data-finding]").count() == 1
+    await page.wait_for_selector('#menu button[data-button="findings:since"][aria-pressed="true"]', state="attached")
+    await client.shot("01-since-last-round", "change-pins.png")
+    # Off (the menu's All findings): every pin again, the unchanged one in its status colour.
+    await page.click('#menu button[data-button="findings:all"]')
+    await client.wait("!s.inspection.sinceLastRound && arg.every((id) => id in s.inspection.pinLooks)", 10, ids)
+    assert await page.locator("#findings li[data-finding]").count() == 3
+    assert not await page.is_checked("#findings input[data-since]")
+    assert not client.errors, client.errors
