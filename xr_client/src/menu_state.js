@@ -82,9 +82,8 @@ export class MenuState {
     this.picked = 0;
     /** The alerts nobody acknowledged, newest first (from the inspection model). @type {MenuAlert[]} */
     this.alerts = [];
-    /** Pins show only what changed since the last round (mirrors the inspection model's switch). */
+    /** Whether pins show only what changed since the last round (the model's switch), and how many findings did. */
     this.sinceLastRound = false;
-    /** How many findings changed since their target's last round: the Findings row shows while there are any. */
     this.changed = 0;
     /** Increments on every change, so that views redraw only when something changed. */
     this.version = 0;
