@@ -5,9 +5,7 @@ keeps the page drawing, Enter names the target, Esc cancels, and Space and Esc s
 
 from __future__ import annotations
 
-from playwright.async_api import Dialog
-
-from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, wait_until
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, native_dialogs, wait_until
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -21,13 +19,7 @@ async def test_the_target_dialog_is_in_the_page_and_estop_keys_work_while_it_is_
 ) -> None:
     client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "dialogs", 1280, 760)
     page = client.page
-    native: list[str] = []
-
-    async def refuse(dialog: Dialog) -> None:
-        native.append(f"{dialog.type}: {dialog.message}")
-        await dialog.dismiss()
-
-    page.on("dialog", refuse)
+    native = native_dialogs(page)
     targets = len(station.running.relay.inspection.targets)
     await client.drawn(2)  # framed: the first frames place the view
     px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [10.5, 2.0])

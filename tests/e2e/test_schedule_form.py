@@ -9,7 +9,7 @@ from __future__ import annotations
 import asyncio
 import time
 
-from playwright.async_api import Browser, Dialog
+from playwright.async_api import Browser
 
 from relay.cli.options import Options
 from relay.config import load_config
@@ -17,7 +17,7 @@ from relay.inspection.wire import ScheduleChange
 from relay.session.clients import Client
 from tests.conftest import ROOT, start_relay
 from tests.helpers import browser as pages
-from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, wait_until
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, native_dialogs, wait_until
 from tests.helpers.inspection import TOKEN, operator
 
 FORM = "#findings .schedule-form"
@@ -38,13 +38,7 @@ async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
 ) -> None:
     client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "schedule-form", 1280, 900)
     page = client.page
-    native: list[str] = []
-
-    async def refuse(dialog: Dialog) -> None:
-        native.append(f"{dialog.type}: {dialog.message}")
-        await dialog.dismiss()
-
-    page.on("dialog", refuse)
+    native = native_dialogs(page)
     scheduler = station.running.relay.inspection.scheduler
     schedules = station.running.relay.inspection.schedules
     commands: list[ScheduleChange] = []  # as the relay parsed them

@@ -16,7 +16,7 @@ from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
-from playwright.async_api import Page
+from playwright.async_api import Dialog, Page
 
 from tests.conftest import ROOT, RunningRelay
 from tests.helpers import waiting
@@ -165,6 +165,19 @@ class Client:
 
 
 OpenClient = Callable[..., Awaitable[Client]]
+
+
+def native_dialogs(page: Page) -> list[str]:
+    """Every native dialog (alert, confirm, prompt) the page opens from now, dismissed at once and listed: the
+    station has none (they block the page, and E-STOP's keys with it); a test asserts the list stays empty."""
+    opened: list[str] = []
+
+    async def refuse(dialog: Dialog) -> None:
+        opened.append(f"{dialog.type}: {dialog.message}")
+        await dialog.dismiss()
+
+    page.on("dialog", refuse)
+    return opened
 
 
 def record_timing(key: str, value: dict[str, Any]) -> None:

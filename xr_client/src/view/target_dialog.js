@@ -7,6 +7,7 @@
  * Esc is still the page's E-STOP: desktop_controls.js), Space is E-STOP too (a target's name has no spaces).
  */
 import { targetName } from '../inspection_review.js';
+import { InPageQuestion } from './in_page_question.js';
 
 export class TargetDialog {
   /** @param {HTMLDialogElement | null} element `#target-dialog` of index.html (null: no page, no dialog) */
@@ -14,27 +15,17 @@ export class TargetDialog {
     this.element = element;
     this.input = /** @type {HTMLInputElement | null} */ (element?.querySelector('input') ?? null);
     this.text = element?.querySelector('.prompt') ?? null;
-    /** Who waits for the answer of the dialog open now. @type {((name: string | null) => void) | null} */
-    this.resolve = null;
-    /** @type {(() => void)[]} */
-    this.unlisten = [];
-    if (!element) return;
-    const onClose = () =>
-      this.#answer(element.returnValue === 'ok' ? targetName(this.input?.value ?? '') || null : null);
-    const onKey = (/** @type {KeyboardEvent} */ e) => {
-      // A dialog opened with show() has no Esc of its own (showModal's would bring a backdrop that takes every click).
-      if (e.code === 'Escape') element.close('cancel');
-    };
-    element.addEventListener('close', onClose);
-    element.addEventListener('keydown', onKey);
-    this.unlisten.push(
-      () => element.removeEventListener('close', onClose),
-      () => element.removeEventListener('keydown', onKey),
+    /** @type {InPageQuestion<string | null>} */
+    this.question = new InPageQuestion(
+      element,
+      (value) => (value === 'ok' ? targetName(this.input?.value ?? '') || null : null),
+      null,
+      'cancel',
     );
   }
 
   get open() {
-    return Boolean(this.element?.open);
+    return this.question.open;
   }
 
   /**
@@ -44,29 +35,16 @@ export class TargetDialog {
    * @returns {Promise<string | null>}
    */
   ask(prompt, suggestion) {
-    const element = this.element;
-    if (!element || !this.input) return Promise.resolve(null);
-    this.#answer(null);
+    if (!this.element || !this.input) return Promise.resolve(null);
     if (this.text) this.text.textContent = prompt;
     this.input.value = suggestion;
-    element.returnValue = '';
-    if (!element.open) element.show();
+    const answer = this.question.show();
     this.input.focus();
     this.input.select();
-    return new Promise((resolve) => (this.resolve = resolve));
-  }
-
-  /** @param {string | null} name */
-  #answer(name) {
-    const resolve = this.resolve;
-    this.resolve = null;
-    resolve?.(name);
+    return answer;
   }
 
   dispose() {
-    this.#answer(null);
-    for (const off of this.unlisten) off();
-    this.unlisten = [];
-    if (this.element?.open) this.element.close();
+    this.question.dispose();
   }
 }
