@@ -13,11 +13,11 @@ import sqlite3
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Final
+from typing import Final, Literal
 
 from ..wire.messages import Role
 from .passwords import hash_password
-from .roles import ROLES
+from .roles import role_of
 
 NAME: Final = re.compile(r"[A-Za-z0-9][A-Za-z0-9 ._-]{0,31}")
 
@@ -53,10 +53,10 @@ def check_name(name: str) -> str:
 
 
 def _role(text: str) -> Role:
-    for role in ROLES:
-        if role == text:
-            return role
-    raise AccountError(f"role {text[:40]!r} is none of {', '.join(ROLES)}")
+    try:
+        return role_of(text)
+    except ValueError as exc:
+        raise AccountError(str(exc)) from None
 
 
 class UserBook:
@@ -98,25 +98,13 @@ class UserBook:
     def set_password(self, name: str, password: str) -> None:
         digest = _hashed(password)
         with self._open() as db:
-            if (
-                db.execute(
-                    "UPDATE users SET hash = ?, changed = ? WHERE name = ?", (digest, time.time(), name)
-                ).rowcount
-                == 0
-            ):
-                raise AccountError(f"no user {name[:40]!r}")
+            _changed(db, name, "hash", digest)
 
     def set_role(self, name: str, role: str) -> None:
         checked = _role(role)
         with self._open() as db:
             self._keep_an_admin(db, name, checked)
-            if (
-                db.execute(
-                    "UPDATE users SET role = ?, changed = ? WHERE name = ?", (checked, time.time(), name)
-                ).rowcount
-                == 0
-            ):
-                raise AccountError(f"no user {name[:40]!r}")
+            _changed(db, name, "role", checked)
 
     def remove(self, name: str) -> None:
         with self._open() as db:
@@ -129,6 +117,13 @@ class UserBook:
         admins = [row[0].lower() for row in db.execute("SELECT name FROM users WHERE role = 'admin'")]
         if becomes != "admin" and admins == [name.lower()]:
             raise AccountError(f"{name!r} is the last admin: make another admin first")
+
+
+def _changed(db: sqlite3.Connection, name: str, column: Literal["hash", "role"], value: str) -> None:
+    """Set one column of ``name``'s row (``hash`` or ``role``, never from input), or say there is no such user."""
+    sql = f"UPDATE users SET {column} = ?, changed = ? WHERE name = ?"
+    if db.execute(sql, (value, time.time(), name)).rowcount == 0:
+        raise AccountError(f"no user {name[:40]!r}")
 
 
 def _hashed(password: str) -> str:

@@ -16,8 +16,8 @@ import pytest
 from relay.inspection.change import SCORE_THRESHOLD
 from relay.inspection.records import CaptureRecord, FindingRecord
 from relay.sim.camera import embree_available
-from tests.e2e.test_finding_before_after import SIZE, SPILL_VIEW, _rounds
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
+from tests.helpers.inspection import SIZE, SPILL_VIEW, spill_rounds
 
 #: The ok status's pin colour (xr_client/src/inspection_model.js STATUS_COLOURS.ok).
 OK_GREEN = "#2e9e4f"
@@ -29,7 +29,7 @@ async def _two_rounds(station: Station) -> tuple[FindingRecord, FindingRecord, F
     if not embree_available():
         pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
     captures: Any = station.running.relay.inspection.captures
-    first, later, score, outline = await asyncio.to_thread(_rounds)
+    first, later, score, outline = await asyncio.to_thread(spill_rounds)
     assert score > SCORE_THRESHOLD and outline is not None, score
     now = time.time()
     rounds = ("m-pins-1.robot1", "m-pins-2.robot1")

@@ -5,38 +5,17 @@ from __future__ import annotations
 
 import asyncio
 import io
-import math
 import time
 from typing import Any
 
 import pytest
 from PIL import Image, ImageChops
 
-from relay.config import Lens
-from relay.inspection.change import SCORE_THRESHOLD, compare, decode
+from relay.inspection.change import SCORE_THRESHOLD
 from relay.inspection.records import CaptureRecord, FindingRecord
-from relay.inspection.segment import outline_of
-from relay.sim.camera import SimCamera, embree_available, rgb_to_jpeg
-from relay.sim.floorplan import demo_facility
-from relay.sim.spill import GrownSpill
-from tests.conftest import ROOT
+from relay.sim.camera import embree_available
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
-
-#: The spill's standoff, facing north (the demo round's view of it), and the simulated camera's lens.
-SPILL_VIEW = (1.8, 7.4, math.pi / 2)
-SIZE = 320
-
-
-def _rounds() -> tuple[bytes, bytes, float, tuple[tuple[int, int], ...] | None]:
-    """Two rounds' pictures of the spill as the simulator renders them (scenes/facility.glb through the demo's
-    fisheye), the spill as it was and grown twice its size, and what the relay's comparison makes of them: the
-    change score and the outline of what changed, as relay/inspection/change_watch.py computes them."""
-    camera = SimCamera.load(ROOT / "scenes" / "facility.glb")
-    lens = camera.fit_lens(Lens("equidistant", 180.0), SIZE, SIZE)
-    decal = next(d for d in demo_facility().decals if d.kind == "spill")
-    first, later = (rgb_to_jpeg(camera.render(*SPILL_VIEW, lens, spill=GrownSpill(decal, k))) for k in (1.0, 2.0))
-    change = compare(decode(first, "the first round"), decode(later, "the second round"))
-    return first, later, change.score, outline_of(change.mask, SIZE, SIZE)
+from tests.helpers.inspection import SIZE, SPILL_VIEW, spill_rounds
 
 
 async def _changed_finding(station: Station) -> FindingRecord:
@@ -45,7 +24,7 @@ async def _changed_finding(station: Station) -> FindingRecord:
     if not embree_available():
         pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
     captures: Any = station.running.relay.inspection.captures
-    first, later, score, outline = await asyncio.to_thread(_rounds)
+    first, later, score, outline = await asyncio.to_thread(spill_rounds)
     assert score > SCORE_THRESHOLD and outline is not None, score
     now = time.time()
     stored = []

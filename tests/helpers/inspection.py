@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import asyncio
+import math
 from pathlib import Path
 from typing import Any
 
 from relay.cli.options import Options
-from relay.config import FleetConfig
+from relay.config import FleetConfig, Lens
+from relay.inspection.change import compare, decode
 from relay.inspection.records import AlertRecord
+from relay.inspection.segment import outline_of
 from relay.inspection.store import Store
-from tests.conftest import RunningRelay, start_relay
+from relay.sim.camera import SimCamera, rgb_to_jpeg
+from relay.sim.floorplan import demo_facility
+from relay.sim.spill import GrownSpill
+from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "op"
@@ -49,3 +55,20 @@ async def stored_alert(running: RunningRelay, alert_id: str) -> AlertRecord | No
             return own.alert(alert_id)
 
     return await asyncio.to_thread(read)
+
+
+#: The spill's standoff, facing north (the demo round's view of it), and the simulated camera's lens.
+SPILL_VIEW = (1.8, 7.4, math.pi / 2)
+SIZE = 320
+
+
+def spill_rounds() -> tuple[bytes, bytes, float, tuple[tuple[int, int], ...] | None]:
+    """Two rounds' pictures of the spill as the simulator renders them (scenes/facility.glb through the demo's
+    fisheye), the spill as it was and grown twice its size, and what the relay's comparison makes of them: the
+    change score and the outline of what changed, as relay/inspection/change_watch.py computes them."""
+    camera = SimCamera.load(ROOT / "scenes" / "facility.glb")
+    lens = camera.fit_lens(Lens("equidistant", 180.0), SIZE, SIZE)
+    decal = next(d for d in demo_facility().decals if d.kind == "spill")
+    first, later = (rgb_to_jpeg(camera.render(*SPILL_VIEW, lens, spill=GrownSpill(decal, k))) for k in (1.0, 2.0))
+    change = compare(decode(first, "the first round"), decode(later, "the second round"))
+    return first, later, change.score, outline_of(change.mask, SIZE, SIZE)
