@@ -41,7 +41,8 @@ class Options:
     #: The operator token; None: no token needed (library use and tests; the command line always sets one).
     token: str | None = None
     allow_viewers: bool = False
-    #: The accounts file (relay/accounts/users.py); None: no accounts. People sign in when it holds any user.
+    #: The accounts file (relay/accounts/users.py): people sign in. None: no accounts (the command line gives it only
+    #: when it holds anyone, read once at start-up, before the event loop).
     users: str | None = None
     #: Origins allowed besides the relay's own, e.g. ("https://ops.example.org",).
     allowed_origins: tuple[str, ...] = ()

@@ -400,8 +400,8 @@ def create_app(
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
     app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory, wall_clock=wall_clock)
-    book = UserBook(options.users) if options.users else None
-    accounts = book is not None and bool(book.users())  # a few milliseconds, before the relay serves anything
+    book = UserBook(options.users) if options.users else None  # the command line names it only when it holds anyone
+    accounts = book is not None
     app[ACCESS_KEY] = Access(
         options.token, options.allow_viewers, options.allowed_origins, allowed_hosts=own_host_names(options),
         accounts=accounts,
