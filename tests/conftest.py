@@ -326,15 +326,16 @@ _RELAY_PROCESSES = itertools.count()
 
 
 def own_files(*args: str) -> tuple[str, ...]:
-    """A relay command line's ARGS with an inspection database, an audit log and accounts of its own (in a temporary
-    directory) unless ARGS name theirs: relays of tests that run in parallel do not share the checkout's defaults."""
+    """A relay command line's ARGS with an inspection database and an audit log of its own (in a temporary directory)
+    unless ARGS name theirs, and no accounts unless ARGS name a users file: relays of tests that run in parallel do
+    not share the checkout's defaults, and a relay's first start does not make an admin in the checkout."""
     n = next(_RELAY_PROCESSES)
     if "--database" not in args:
         args = (*args, "--database", str(_scratch() / f"inspection-{n}.sqlite"))
     if "--audit-log" not in args:
         args = (*args, "--audit-log", str(_scratch() / f"audit-{n}.jsonl"))
-    if "--users" not in args:
-        args = (*args, "--users", str(_scratch() / f"users-{n}.sqlite"))
+    if "--users" not in args:  # a lab bench (the operator token): a test of accounts names its users file
+        args = (*args, "--no-accounts")
     return args
 
 

@@ -279,7 +279,7 @@ def test_self_signed_certificate_is_created_once_and_reused(tmp_path: Path) -> N
 async def test_relay_serves_https_and_wss_with_tls_auto(tmp_path: Path) -> None:
     process = await asyncio.create_subprocess_exec(
         sys.executable, "-m", "relay", "--tls", "auto", "--tls-dir", str(tmp_path), "--port", "0",
-        "--audit-log", "", cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
+        "--audit-log", "", "--no-accounts", cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
     )  # fmt: skip
     try:
         assert process.stdout is not None
@@ -305,7 +305,7 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
     script = (
         "import asyncio, sys\n"
         "from relay.cli.main import main\n"
-        f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '']))\n"
+        f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '', '--no-accounts']))\n"
     )
     process = subprocess.Popen(
         [sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True

@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import re
 import shutil
+import sys
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Any
+from types import SimpleNamespace
+from typing import Any, cast
 
 import aiohttp
 import orjson
@@ -28,8 +31,11 @@ from relay.cli.options import Options
 from relay.config import FleetConfig, parse_config
 from relay.errors import ConfigError
 from relay.net.access import FREE_FAILURES
+from relay.net.account_watch import CLOSE_CODE as ACCOUNT_CHANGED
+from relay.net.account_watch import PERIOD as WATCH_PERIOD
 from relay.net.sign_in import COOKIE, CSRF_HEADER
-from tests.conftest import RunningRelay, start_relay
+from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, own_files, start_relay
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 MINIMAL = "robots:\n  - name: alpha\n    limits: {linear: 0.5, angular: 1.0}\n"
@@ -304,4 +310,70 @@ async def test_where_only_the_presser_resets_another_operator_is_told_whose_it_i
     assert (await max_.request({"identifier": "estop"}))["identifier"] == "ack"
     assert (await max_.request({"identifier": "estop", "action": "reset"}))["identifier"] == "ack"  # the presser may
     for page in (ana, max_, root):
+        await page.close()
+
+
+async def test_the_first_start_makes_an_admin_prints_the_password_once_and_never_logs_it(tmp_path: Path) -> None:
+    """A relay started on a users file that does not exist yet (a new site's first `make run`) makes the account
+    admin, prints its password once on stdout and asks everyone to sign in (no token in the URL); the admin signs in
+    with it. The second start on the same file prints no password; no log line holds it."""
+    users, log = tmp_path / "users.sqlite", tmp_path / "stderr.log"
+    outputs = []
+    for start in range(2):
+        with log.open("ab") as stderr:
+            process = await asyncio.create_subprocess_exec(
+                sys.executable, "-m", "relay", *own_files("--users", str(users)), "--port", "0", cwd=ROOT,
+                stdout=asyncio.subprocess.PIPE, stderr=stderr,
+            )  # fmt: skip
+        assert process.stdout is not None
+        lines = [(await asyncio.wait_for(process.stdout.readline(), 60)).decode() for _ in range(2 - start)]
+        outputs.append(lines)
+        url = lines[-1].split("open ")[1].split()[0]
+        assert "#token=" not in url and "(sign in;" in lines[-1], lines
+        if start == 0:
+            match = re.search(r"made the account 'admin' \(admin\) in \S+, password (\S+) ", lines[0])
+            assert match, lines[0]
+            relay = cast(RunningRelay, SimpleNamespace(url=url.rstrip("/"), ws_url=url.replace("http", "ws") + "ws"))
+            admin = Person(relay)
+            try:
+                assert (await admin.sign_in("admin", match.group(1)))["role"] == "admin"
+                page = await admin.page()
+                hello = await page.hello()
+                await page.close()
+                assert hello["role"] == "admin", hello
+            finally:
+                await admin.close()
+            password = match.group(1)
+        process.terminate()
+        await process.wait()
+    assert "password" not in "".join(outputs[1]), outputs[1]
+    assert [u.name for u in UserBook(users).users()] == ["admin"]
+    assert password not in log.read_text(), "the admin's password reached a log line"
+
+
+async def test_a_user_removed_or_given_another_role_while_the_relay_runs_is_signed_out_and_their_pages_closed(
+    site: tuple[RunningRelay, Path], people: dict[str, Person], tmp_path: Path
+) -> None:
+    """`xr-relay users remove Ana` in another process while Ana drives: within the watch's period her page is closed
+    and her cookie no longer opens one; Ben, a viewer made operator, is signed out too and signs in as an operator.
+    Max, whose account did not change, stays connected."""
+    ana, ben, max_ = people["Ana"], people["Ben"], people["Max"]
+    pages = {}
+    for name, person in (("Ana", ana), ("Ben", ben), ("Max", max_)):
+        await person.sign_in(name)
+        pages[name] = await person.page()
+    book = UserBook(tmp_path / "users.sqlite")
+    await asyncio.to_thread(book.remove, "Ana")
+    await asyncio.to_thread(book.set_role, "Ben", "operator")
+    closed = lambda: bool(pages["Ana"].closed_code and pages["Ben"].closed_code)  # noqa: E731
+    await wait_until(closed, 3 * WATCH_PERIOD + LOAD_SLACK, "Ana's and Ben's pages closed")
+    assert pages["Ana"].closed_code == pages["Ben"].closed_code == ACCOUNT_CHANGED, pages
+    assert pages["Max"].closed_code is None
+    with pytest.raises(Exception, match="401"):
+        await ana.page()
+    assert (await ana.post("/signin", {"user": "Ana", "password": PASSWORDS["Ana"]}))[0] == 401
+    assert (await ben.sign_in("Ben"))["role"] == "operator"
+    again = await ben.page()
+    assert again.latest["hello"]["role"] == "operator"
+    for page in (again, pages["Max"]):
         await page.close()

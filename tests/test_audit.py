@@ -123,7 +123,7 @@ async def test_an_audit_log_path_that_cannot_be_opened_is_a_clear_start_up_error
     blocker = tmp_path / "a-file"
     blocker.write_text("not a directory")
     result = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", "--port", "0", "--audit-log", str(blocker / "audit.jsonl"),
+        sys.executable, "-m", "relay", "--port", "0", "--audit-log", str(blocker / "audit.jsonl"), "--no-accounts",
         stderr=asyncio.subprocess.PIPE, cwd=ROOT,
     )  # fmt: skip
     _, stderr = await asyncio.wait_for(result.communicate(), 60)

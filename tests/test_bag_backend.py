@@ -394,7 +394,7 @@ async def test_a_truncated_or_corrupt_bag_is_refused_naming_the_file(fleet_confi
 def test_the_relay_exits_with_status_2_and_one_line_for_a_bad_bag(tmp_path: Path) -> None:
     bad = broken_bags(tmp_path)[0]
     result = subprocess.run(
-        [sys.executable, "-m", "relay", "--backend", "bag", "--bag", str(bad), "--port", "0"],
+        [sys.executable, "-m", "relay", "--backend", "bag", "--bag", str(bad), "--port", "0", "--no-accounts"],
         cwd=ROOT,
         capture_output=True,
         text=True,

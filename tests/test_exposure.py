@@ -34,7 +34,7 @@ async def _relay(database: str, cwd: Path, env: dict[str, str]) -> tuple[asyncio
     """``python -m relay`` as a user starts it, in ``cwd``; the process and the first line it printed."""
     process = await asyncio.create_subprocess_exec(
         sys.executable, "-m", "relay", "--port", "0", "--config", str(ROOT / "robots.yaml"), f"--token={TOKEN}",
-        "--database", database, "--audit-log", "", "--log-level", "debug",
+        "--database", database, "--audit-log", "", "--log-level", "debug", "--no-accounts",
         cwd=cwd, env=env, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
     )  # fmt: skip
     assert process.stdout is not None

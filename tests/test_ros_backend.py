@@ -284,7 +284,7 @@ def test_missing_message_package_is_a_startup_error(ros_domain: int, tmp_path: P
     import subprocess
 
     result = subprocess.run(
-        [sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0"],
+        [sys.executable, "-m", "relay", "--backend", "ros", "--config", str(config), "--port", "0", "--no-accounts"],
         cwd=ROOT, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     try:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import secrets
 from collections import OrderedDict
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Final
 
@@ -86,6 +87,14 @@ class Sessions:
         for session_id in ended:
             self.close(session_id)
         return len(ended)
+
+    def end_changed(self, roles: Mapping[str, Role]) -> set[str]:
+        """End the sessions of users no longer in ``roles`` (user name in lower case -> role) or whose role is not
+        the one they signed in with; the names of the users whose sessions ended."""
+        ended = {s.user for s in self._sessions.values() if roles.get(s.user.lower()) != s.role}
+        for user in ended:
+            self.close_user(user)
+        return ended
 
     def pairing_code(self, session: Session, now: float) -> str:
         """A new code for ``session`` (the previous one of that session no longer works)."""

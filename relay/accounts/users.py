@@ -1,5 +1,6 @@
 """The accounts of a site: a SQLite file of user names, roles and Argon2id hashes (``--users``, default
-``./xr-relay-users.sqlite``), written by ``xr-relay users`` and read by the relay at each sign-in.
+``./xr-relay-users.sqlite``), written by ``xr-relay users`` and read by the relay at each sign-in. A relay's first
+start on a file that holds no one makes the ``admin`` account and prints its password once.
 
 Every method opens its own connection and is blocking: the relay calls it off the event loop. A name is 1-32
 letters, digits, spaces, ``.``, ``_`` or ``-``, compared without case (``Ana`` and ``ana`` are one account). The last
@@ -9,6 +10,7 @@ admin cannot be removed nor made anything else: someone must be able to manage t
 from __future__ import annotations
 
 import re
+import secrets
 import sqlite3
 import time
 from dataclasses import dataclass
@@ -20,6 +22,8 @@ from .passwords import hash_password
 from .roles import role_of
 
 NAME: Final = re.compile(r"[A-Za-z0-9][A-Za-z0-9 ._-]{0,31}")
+#: The account a relay makes on its first start (UserBook.first_admin).
+FIRST_ADMIN: Final = "admin"
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS users (
@@ -94,6 +98,18 @@ class UserBook:
             except sqlite3.IntegrityError:
                 raise AccountError(f"user {name!r} exists already (xr-relay users passwd changes a password)") from None
         return User(name, checked, now)
+
+    def first_admin(self) -> tuple[User, str] | None:
+        """On a relay's first start (a users file that holds no one): the ``admin`` account with a new random
+        password, returned once to be printed (never logged), or None when the file holds someone already. Two
+        relays starting on one new file make one admin: the insert is the check."""
+        if self.users():
+            return None
+        password = secrets.token_urlsafe(12)  # 96 bits, 16 characters: typed once, then changed
+        try:
+            return self.add(FIRST_ADMIN, "admin", password), password
+        except AccountError:
+            return None  # another relay made it between the check and the insert
 
     def set_password(self, name: str, password: str) -> None:
         digest = _hashed(password)

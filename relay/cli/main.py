@@ -7,11 +7,12 @@ import asyncio
 import logging
 import os
 import secrets
+import sqlite3
 import sys
 from pathlib import Path
 
 from .. import __version__
-from ..accounts.users import UserBook
+from ..accounts.users import AccountError, UserBook
 from ..backends import BACKENDS
 from ..config import load_config
 from ..errors import AuditLogUnavailable, BackendUnavailable, ConfigError
@@ -105,8 +106,14 @@ def _add_access_options(access: argparse._ArgumentGroup) -> None:
         "--users",
         default="xr-relay-users.sqlite",
         metavar="FILE",
-        help="the accounts file (default ./xr-relay-users.sqlite; made by xr-relay users add): when it holds anyone, "
-        "people sign in, and the operator token is off unless --token or $XR_RELAY_TOKEN gives one",
+        help="the accounts file (default ./xr-relay-users.sqlite; xr-relay users manages it): people sign in, and "
+        "the operator token is off unless --token or $XR_RELAY_TOKEN gives one; the first start makes the account "
+        "'admin' and prints its password once",
+    )
+    access.add_argument(
+        "--no-accounts",
+        action="store_true",
+        help="a lab bench: no accounts (no users file read or made), the operator token alone, as before accounts",
     )
     access.add_argument(
         "--allow-weak-token",
@@ -256,14 +263,27 @@ def main(argv: list[str] | None = None) -> int:
             "relay may guess it and command the robots: use it on a closed test network only",
             source, why,
         )  # fmt: skip
-    accounts = bool(args.users) and bool(UserBook(args.users).users())
-    if accounts:
-        log.info("accounts: %s; people sign in%s", args.users, " (and the operator token works)" if token else "")
     try:
         config = load_config(args.config)
     except ConfigError as exc:
         log.error("%s", exc)
         return EXIT_USAGE
+    # After the configuration: a start that fails on it makes no account.
+    accounts = bool(args.users) and not args.no_accounts
+    if accounts:
+        try:
+            made = UserBook(args.users).first_admin()
+        except (AccountError, sqlite3.Error) as exc:
+            log.error("--users %s: %s", args.users, exc)
+            return EXIT_USAGE
+        if made is not None:  # printed once, on stdout: never a log line (the password would stay in the logs)
+            print(  # noqa: T201
+                f"xr-relay {__version__}: first start: made the account {made[0].name!r} (admin) in {args.users}, "
+                f"password {made[1]} - shown only now (xr-relay users passwd {made[0].name} changes it; "
+                "xr-relay users add NAME --role operator adds people)",
+                flush=True,
+            )
+        log.info("accounts: %s; people sign in%s", args.users, " (and the operator token works)" if token else "")
     from ..net.server import serve
 
     try:

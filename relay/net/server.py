@@ -195,6 +195,8 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     await ws.prepare(request)
     request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)
+    watch = request.app[SIGN_IN_KEY].watch
+    forget_page = watch.attach(user, lambda code, why: ws.close(code=code, message=why)) if watch and user else None
     batch = request.query.get("batch") == "1"  # the client reads JSON arrays of state messages (relay.station.hub)
     client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch, user=user)
     # Each frame is dated by the read that brought it, a read after a stall of the loop to the stall's start: a
@@ -222,6 +224,8 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
         await ws.close(code=WSCloseCode.INTERNAL_ERROR, message=b"internal error")
     finally:
         forget_stalls()
+        if forget_page is not None:
+            forget_page()
         request.app[SOCKETS_KEY].discard(ws)
         await relay.disconnect(client)
     return ws
@@ -415,6 +419,7 @@ def create_app(
     app.on_cleanup.append(_stop_guard)
     app[SOCKETS_KEY] = set()
     app.cleanup_ctx.append(_relay_context)
+    app.cleanup_ctx.append(app[SIGN_IN_KEY].watching)
     app.on_shutdown.append(_close_sockets)
     app.router.add_get("/ws", websocket_handler)
     app.router.add_post("/auth", check_token)
@@ -447,7 +452,8 @@ async def serve(config: FleetConfig, options: Options) -> None:
         url = f"{scheme}://{shown}:{bound[1]}/"
         logger.info("serving on %s", url)
         fragment = f"#token={options.token}" if options.token else ""
-        opened = f"xr-relay {__version__}: open {url}{fragment}  (backend: {backend}; Ctrl-C to stop)"
+        sign_in = "sign in; " if options.users and not options.token else ""
+        opened = f"xr-relay {__version__}: open {url}{fragment}  ({sign_in}backend: {backend}; Ctrl-C to stop)"
         print(opened, flush=True)  # noqa: T201
         if ssl_context and options.tls_cert:
             sha256 = fingerprint(Path(options.tls_cert))

@@ -22,7 +22,7 @@ import hmac
 import json
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
 from typing import Any, Final
 
 from aiohttp import web
@@ -31,6 +31,7 @@ from ..accounts.passwords import verify
 from ..accounts.sessions import CODE_LIFETIME, LIFETIME, Session, Sessions
 from ..accounts.users import UserBook
 from .access import Access, Refused
+from .account_watch import AccountWatch
 
 logger = logging.getLogger(__name__)
 
@@ -50,11 +51,21 @@ class SignIn:
     ) -> None:
         self.book = book
         self.sessions = Sessions()
+        #: Removals and role changes made while the relay runs end their sessions and pages (None: no accounts).
+        self.watch = AccountWatch(book, self.sessions) if book is not None else None
         self._access = access
         self._secure = secure
         self._clock = clock
         self._checks = asyncio.Semaphore(CHECKS_AT_ONCE)
         self._waiting = 0
+
+    async def watching(self, app: web.Application) -> AsyncIterator[None]:
+        """cleanup_ctx: the users file watched while the relay serves."""
+        task = asyncio.create_task(self.watch.run(), name="account watch") if self.watch else None
+        yield
+        if task is not None:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
 
     def session_of(self, request: web.Request) -> Session | None:
         if self.book is None:

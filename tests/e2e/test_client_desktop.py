@@ -18,6 +18,7 @@ from tests.helpers.browser import (
     Client,
     OpenClient,
     Station,
+    confirm_reset,
     distance,
     goal_at_backend,
     measure_rate,
@@ -130,7 +131,7 @@ async def test_desktop_demo_scenario(station: Station, open_client: OpenClient) 
     await client.wait("s.menu.buttons.find((b) => b.id === 'tool:teleop').enabled === false")
     await client.drawn(2)
     await client.shot("03b-estop-latched")
-    await page.click('#menu button[data-button="estop:reset"]')
+    await confirm_reset(page, '#menu button[data-button="estop:reset"]')
     await wait_until(lambda: station.status("robot2")["estopped"] is False, 5, "robot2 released")
     await client.wait("!s.menu.buttons.some((b) => b.id === 'estop:reset')")
     await client.wait("s.menu.buttons.find((b) => b.id === 'tool:teleop').enabled === true")

@@ -14,8 +14,17 @@ from pathlib import Path
 from playwright.async_api import Browser
 
 from tests.conftest import relay_process
-from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, choose, goal_at_backend, wait_until
-from tests.helpers.xr import aim, aim_arc, button, click, enter_vr, press_menu_button, set_menu
+from tests.helpers.browser import (
+    SOFTWARE_GL,
+    Client,
+    OpenClient,
+    Station,
+    choose,
+    confirm_reset,
+    goal_at_backend,
+    wait_until,
+)
+from tests.helpers.xr import aim, aim_arc, button, click, enter_vr, press_menu_button, reset_in_vr, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -53,7 +62,13 @@ async def test_estop_by_key_while_driving_holds_view_and_robot_and_stays_until_r
     assert (await client.state())["estop"]["page"] is True
     await page.keyboard.up("KeyW")
     await client.shot("01-estop-banner", "estop-banner.png")
+    # The reset asks first, naming whose E-STOP it lifts; Keep keeps it.
     await page.click('#estop-banner button[data-button="estop:reset"]')
+    await page.click('#confirm-dialog button[value="no"]')
+    await client.drawn(2)
+    assert latched(station) == list(ROBOTS)
+    question = await confirm_reset(page)
+    assert question.startswith("Reset the E-STOP pressed by you on all robots?"), question
     await wait_until(lambda: latched(station) == [], 5, "every robot released")
     await client.wait("s.estop.banner === null && !s.estop.page")
 
@@ -65,7 +80,7 @@ async def test_estop_by_key_while_driving_holds_view_and_robot_and_stays_until_r
     await page.keyboard.press("Escape")
     await wait_until(lambda: latched(station) == list(ROBOTS), 5, "Esc latched the fleet")
     await client.wait("s.estop.fleet")
-    await page.click('#estop-banner button[data-button="estop:reset"]')
+    await confirm_reset(page)
     await wait_until(lambda: latched(station) == [], 5, "released again")
     assert client.errors == [], client.errors
 
@@ -82,6 +97,11 @@ async def test_vr_estop_within_reach_on_a_button_and_the_wrist(station: Station,
     await client.shot("10-estop-banner", "vr-estop.png")
     await set_menu(client, True)
     await press_menu_button(client, "estop:reset")
+    notice = await client.wait("s.notice.startsWith('Reset the E-STOP') && s.notice", 10)
+    assert "pressed by you on all robots" in notice and "again to confirm" in notice, notice
+    await client.frames(3)
+    assert latched(station) == list(ROBOTS), "one press reset the E-STOP: no confirmation"
+    await press_menu_button(client, "estop:reset")
     await wait_until(lambda: latched(station) == [], 5, "released from the menu")
     await client.wait("!s.estop.vr")
     await set_menu(client, False)
@@ -94,7 +114,7 @@ async def test_vr_estop_within_reach_on_a_button_and_the_wrist(station: Station,
     await wait_until(lambda: latched(station) == list(ROBOTS), 5, "every robot latched from the wrist")
     await client.wait("s.estop.vr")
     await set_menu(client, True)
-    await press_menu_button(client, "estop:reset")
+    await reset_in_vr(client)
     await wait_until(lambda: latched(station) == [], 5, "released")
     assert client.errors == [], client.errors
 

@@ -5,7 +5,7 @@ keeps the page drawing, Enter names the target, Esc cancels, and Space and Esc s
 
 from __future__ import annotations
 
-from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, native_dialogs, wait_until
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, confirm_reset, native_dialogs, wait_until
 
 ROBOTS = ("robot1", "robot2", "robot3")
 
@@ -42,7 +42,7 @@ async def test_the_target_dialog_is_in_the_page_and_estop_keys_work_while_it_is_
     assert await page.input_value("#target-dialog input") == suggestion
     assert await page.is_visible("#target-dialog")
     # The banner's Reset is clickable with the dialog open (no modal backdrop takes the clicks).
-    await page.click('#estop-banner button[data-button="estop:reset"]')
+    await confirm_reset(page)
     await wait_until(lambda: latched(station) == [], 5, "released")
 
     # Enter names it.

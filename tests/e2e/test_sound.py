@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, wait_until
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, confirm_reset, wait_until
 
 #: Renders one earcon with the listener at head height looking north (-z in the scene) and the source 3 m to the
 #: given side, half a metre ahead; returns each channel's energy.
@@ -76,7 +76,7 @@ async def test_the_page_plays_the_estop_earcon_after_the_first_gesture_and_mutes
     await page.click('#menu button[data-button="estop"]')
     await client.wait("s.sound.played.estop === 1", 5)
     await wait_until(lambda: all(station.status(r)["estopped"] for r in ("robot1", "robot2", "robot3")), 5, "latched")
-    await page.click('#estop-banner button[data-button="estop:reset"]')
+    await confirm_reset(page)
     await wait_until(lambda: not any(station.status(r)["estopped"] for r in ("robot1", "robot2", "robot3")), 5, "reset")
     s = await client.state()
     assert s["sound"]["played"] == {"estop": 1}, s["sound"]

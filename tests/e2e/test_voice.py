@@ -9,7 +9,7 @@ from typing import Any
 
 from playwright.async_api import Browser
 
-from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, Station, wait_until
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, Station, confirm_reset, wait_until
 from tests.helpers.xr import aim, button, click
 
 ROBOTS = ("robot1", "robot2", "robot3")
@@ -125,7 +125,7 @@ async def test_a_spoken_goal_waits_for_confirm_and_stop_all_latches_every_robot(
         assert caption is not None and 'heard "stop all"' in caption, caption
         await client.shot("voice-stop-all")
         # Released as an operator releases it, for the tests that share this station.
-        await client.page.click('#estop-banner button[data-button="estop:reset"]')
+        await confirm_reset(client.page)
         await wait_until(lambda: latched(station) == [], 5, "every robot released")
     finally:
         await client.page.close()

@@ -19,7 +19,7 @@ from relay.config.model import Pose2D
 from relay.twin.facility import load_facility
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.browser import OpenClient, Station, wait_until
-from tests.helpers.xr import HAND_ORIGIN, button, enter_vr, press_menu_button, set_menu
+from tests.helpers.xr import HAND_ORIGIN, button, enter_vr, reset_in_vr, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
 #: One robot in each room, at its work: robot1 by the spill, robot2 before the panels, robot3 by the leak. The
@@ -74,7 +74,7 @@ async def test_a_latched_estop_is_a_red_alarm_in_the_middle_of_the_view(
     await client.frames(3)
     over_menu = await client.shot("23-estop-alarm-over-menu")
     assert await asyncio.to_thread(alarm_red_share, over_menu, upper_middle) > 0.04
-    await press_menu_button(client, "estop:reset")
+    await reset_in_vr(client)
     await wait_until(lambda: latched(station) == [], 5, "released from the menu")
     await client.wait("!s.estop.vr")
     assert client.errors == [], client.errors

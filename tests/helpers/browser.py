@@ -180,6 +180,30 @@ def native_dialogs(page: Page) -> list[str]:
     return opened
 
 
+async def covered(page: Page, selector: str) -> list[str]:
+    """The elements matching the selector (by their data-button, else their text) whose centre is off the window or
+    under something else: what an operator could not click where it is drawn. Empty when all are in reach."""
+    result: list[str] = await page.evaluate(
+        """(selector) => [...document.querySelectorAll(selector)].filter((e) => {
+          const r = e.getBoundingClientRect(), x = r.left + r.width / 2, y = r.top + r.height / 2;
+          const inside = x >= 0 && y >= 0 && x < innerWidth && y < innerHeight;
+          return !inside || !e.contains(document.elementFromPoint(x, y));
+        }).map((e) => e.dataset.button || e.textContent)""",
+        selector,
+    )
+    return result
+
+
+async def confirm_reset(page: Page, click: str = '#estop-banner button[data-button="estop:reset"]') -> str:
+    """Press a Reset E-STOP (the banner's, or CLICK) and answer yes to the question it asks first (the page's own
+    dialog); returns the question, which names whose E-STOP the reset lifts."""
+    await page.click(click)
+    await page.wait_for_selector("#confirm-dialog[open]")
+    question = await page.inner_text("#confirm-dialog p")
+    await page.click('#confirm-dialog button[value="yes"]')
+    return question
+
+
 def record_timing(key: str, value: dict[str, Any]) -> None:
     """Merge one measurement into test-artifacts/frame_timing.json (under a lock: tests run in parallel)."""
     ARTIFACTS.mkdir(exist_ok=True)

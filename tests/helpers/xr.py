@@ -107,6 +107,15 @@ async def press_menu_button(client: Client, button_id: str, hand: str = "right")
     return await client.state()
 
 
+async def reset_in_vr(client: Client) -> str:
+    """Reset E-STOP from the open VR menu: the first press says whose E-STOP it lifts (the notice, in the view's
+    toast), the second within the confirmation time resets. Returns the notice."""
+    await press_menu_button(client, "estop:reset")
+    notice: str = await client.wait("s.notice.startsWith('Reset the E-STOP') && s.notice", 10)
+    await press_menu_button(client, "estop:reset")
+    return notice
+
+
 async def set_menu(client: Client, open_: bool) -> None:
     """Open or close the menu with the left controller's Y button (one press, one toggle)."""
     s = await client.state()

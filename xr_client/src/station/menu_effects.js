@@ -6,6 +6,9 @@
  */
 import { displayName } from '../operator_names.js';
 
+/** In VR a Reset E-STOP press is confirmed by a second press within this (ms): long enough to read the question. */
+export const RESET_CONFIRM_MS = 6000;
+
 /**
  * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
  *   sender: import('../command_sender.js').CommandSender, driver: import('../teleop_driver.js').TeleopDriver,
@@ -21,6 +24,8 @@ export class MenuEffects {
     this.host = host;
     this.views = views;
     this.modes = modes;
+    /** Until when (performance.now() ms) a second Reset E-STOP press in VR confirms the first: 0, none waits. */
+    this.resetArmed = 0;
   }
 
   /** Carry out what the menu decided. @param {import('../menu_state.js').MenuEffect[]} effects */
@@ -64,7 +69,7 @@ export class MenuEffects {
           sender.estop(effect.robot);
           break;
         case 'estop_reset':
-          sender.estopReset();
+          this.#askReset();
           break;
         case 'mission':
           views.inspectionUi.command(effect, menu);
@@ -77,6 +82,30 @@ export class MenuEffects {
           break;
       }
     }
+  }
+
+  /**
+   * A reset asks first, naming whose E-STOP it lifts on which robots (estop_banner.js): on the desktop in the page's
+   * own dialog (E-STOP stays clickable, Space and Esc still stop); in the headset, where no page dialog is seen, the
+   * question comes as a notice and a second press of Reset E-STOP within RESET_CONFIRM_MS is the yes.
+   */
+  #askReset() {
+    const { sender } = this.host;
+    const question = this.views.overlay.banner?.question ?? 'Reset the E-STOP?';
+    if (this.views.presenting()) {
+      const now = performance.now();
+      if (now <= this.resetArmed) {
+        this.resetArmed = 0;
+        sender.estopReset();
+      } else {
+        this.resetArmed = now + RESET_CONFIRM_MS;
+        this.views.notify(`${question} Press Reset E-STOP again to confirm.`, 'warning');
+      }
+      return;
+    }
+    void this.views.inspectionUi.confirm.ask(question, 'Reset E-STOP').then((yes) => {
+      if (yes) sender.estopReset();
+    });
   }
 
   /** The selected robot's camera feeds the POV screen; its teleop limits apply. */

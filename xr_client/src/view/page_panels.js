@@ -42,11 +42,7 @@ export class PagePanels {
     };
     const onResize = () => {
       document.body.classList.toggle('compact', isCompact({ width: window.innerWidth, height: window.innerHeight }));
-      // Panels hang below the header, however many lines it takes in a narrow window.
-      document.documentElement.style.setProperty(
-        '--header',
-        `${document.querySelector('header')?.offsetHeight ?? 44}px`,
-      );
+      this.#measure();
     };
     document.addEventListener('click', onClick);
     window.addEventListener('keydown', onKey);
@@ -59,8 +55,19 @@ export class PagePanels {
     this.#apply();
     onResize();
     this.resizeObserver = new ResizeObserver(onResize);
-    const header = document.querySelector('header');
-    if (header) this.resizeObserver.observe(header);
+    for (const panel of [document.querySelector('header'), document.getElementById('help')])
+      if (panel) this.resizeObserver.observe(panel);
+  }
+
+  /**
+   * Panels hang below the header, however many lines it takes in a narrow window; the menu ends above the help box
+   * while it is open, so the help never covers a menu button (the menu scrolls instead, its E-STOP row first).
+   */
+  #measure() {
+    const style = document.documentElement.style;
+    style.setProperty('--header', `${document.querySelector('header')?.offsetHeight ?? 44}px`);
+    const help = this.open.help ? (document.getElementById('help')?.offsetHeight ?? 0) : 0;
+    style.setProperty('--help', `${help > 0 ? help + 8 : 0}px`);
   }
 
   /** @param {keyof PanelsOpen} panel */
@@ -80,6 +87,7 @@ export class PagePanels {
       const panel = /** @type {keyof PanelsOpen} */ (/** @type {HTMLElement} */ (button).dataset.panel);
       button.setAttribute('aria-pressed', String(this.open[panel]));
     }
+    this.#measure();
   }
 
   dispose() {
