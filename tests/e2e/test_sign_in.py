@@ -1,6 +1,7 @@
 """Accounts in the page (issue #31): a relay with a users file asks people to sign in, in the page, and then knows
-them: Ana's E-STOP reads "by Ana" on Ben's page, Ben (a viewer) has nothing to press, and a headset's page signs
-in as Ana with the code her desktop shows, without her password."""
+them: Ana's E-STOP reads "by Ana" on Ben's page, Ben (a viewer) has nothing to press until the admin makes him an
+operator (his page asks him to sign in again, and his reset names Ana's E-STOP), and a headset's page signs in as Ana
+with the code her desktop shows, without her password."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from relay.accounts.users import UserBook
 from relay.cli.options import Options
 from relay.config import load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import Client
+from tests.helpers.browser import Client, confirm_reset
 
 PASSWORDS = {"Ana": "ana-correct-horse", "Ben": "ben-battery-staple"}
 
@@ -57,7 +58,9 @@ async def signed_in(browser: Browser, url: str, name: str, user: str | None, cod
     return client
 
 
-async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(site: RunningRelay, browser: Browser) -> None:
+async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(
+    site: RunningRelay, browser: Browser, tmp_path: Path
+) -> None:
     ana = await signed_in(browser, site.url, "ana", "Ana")
     ben = await signed_in(browser, site.url, "ben", "Ben")
     assert await ana.page.locator("#account .who").inner_text() == "Ana (operator)"
@@ -69,6 +72,20 @@ async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(site: 
     assert s["banner"] == "ALL ROBOTS E-STOPPED · by Ana", s
     # Ben watches: his banner has no reset, and the relay would refuse one (tests/test_accounts.py).
     assert not await ben.page.locator('#estop-banner button[data-button="estop:reset"]').is_visible()
+
+    # The admin makes Ben an operator while he watches: his page is signed out (its account changed) and asks him to
+    # sign in again; then he may reset, and the reset first says whose E-STOP it lifts.
+    await asyncio.to_thread(UserBook(tmp_path / "users.sqlite").set_role, "Ben", "operator")
+    dialog = ben.page.locator("#sign-in-dialog")
+    await dialog.wait_for(state="visible", timeout=30_000)
+    await dialog.locator('input[name="user"]').fill("Ben")
+    await dialog.locator('input[name="password"]').fill(PASSWORDS["Ben"])
+    await dialog.locator('button[value="sign-in"]').click()
+    await ben.page.locator("#account .who", has_text="Ben (operator)").wait_for(timeout=30_000)
+    await ben.wait("s.connected && s.estop.page", 30)
+    question = await confirm_reset(ben.page)
+    assert question.startswith("Reset the E-STOP pressed by Ana on all robots?"), question
+    await ana.wait("!s.estop.page", 10)
 
     # Ana pairs a headset: its page signs in by the code alone, as her.
     await ana.page.locator('#account button[data-account="pair"]').click()
