@@ -64,6 +64,8 @@ TARGET_SSIM = 0.95
 TARGET_ENCODE_CORE = 0.25
 TARGET_VIEWERS_EXTRA = 0.10
 TARGET_FPS = 28.5
+#: Issue #31: what the page shows of a picture's latency against the same pictures measured here.
+TARGET_SHOWN = 0.10
 #: How a run whose publisher uses the relay's Fast DDS profile is labelled.
 PROFILED = " (publisher with the large-images DDS profile)"
 BUILTIN = " (publisher with Fast DDS's built-in transports)"
@@ -376,7 +378,34 @@ def targets(r: JsonDict) -> list[JsonDict]:
     ):
         out.append(browser_target(one.get("browser"), suffix))
         out.append(three_target(three, suffix))
+    out.append(shown_target(r["one_camera"].get("browser")))
     return out
+
+
+def shown_target(browser: JsonDict | None) -> JsonDict:
+    """Issue #31: the picture latency the page shows (the robot card, the POV caption) is the one measured here."""
+    name = "the picture latency the page shows matches this measure (H.264 and JPEG)"
+    wanted = f"within {100 * TARGET_SHOWN:.0f} % of the same pictures' publisher-to-decoded median"
+    pages = [p for p in (browser or {}).get("pages", []) if "latency_ms" in p]
+    if not pages:
+        return make_target(name, wanted, "n/a", None, (browser or {}).get("skipped", "the pages did not run"))
+    offs = []
+    for page in pages:
+        shown, measured = page.get("shown_ms"), page.get("measured_last_ms")
+        if shown is None or measured is None:
+            return make_target(name, wanted, "n/a", False, f"{page['codec']}: the page showed no picture latency")
+        offs.append((page["codec"], shown, measured, abs(shown - measured) / max(measured, 1e-6)))
+    # The clock mappings (the page's from its pings, this one's from its round trips) may differ by their errors.
+    slack = max(page["clock_error_ms"] for page in pages)
+    met = all(off <= TARGET_SHOWN or abs(shown - measured) <= slack for _, shown, measured, off in offs)
+    return make_target(
+        name,
+        wanted,
+        ", ".join(f"{codec}: shown {shown:.1f} ms, measured {measured:.1f} ms" for codec, shown, measured, _ in offs),
+        met,
+        "" if met else f"the clocks' mapping errors are up to {slack:.1f} ms",
+        baseline="the page's figure is the median of its last 15 pictures, the same pictures measured here",
+    )
 
 
 def three_target(part: JsonDict, suffix: str) -> JsonDict:

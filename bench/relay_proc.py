@@ -293,7 +293,9 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
         return create_backend(cfg, counter, options)
 
     options = relay_options("sim" if args.backend == "synthetic" else args.backend, args.token, args.zenoh_connect)
-    app = create_app(config, options, backend_factory=counting_backend)
+    # The benchmarks' publishers stamp with time.monotonic() (bench/ros_pub.py, the synthetic backend): it is the
+    # relay's clock of record here, so that the latency it exports and the page shows compare the same clocks.
+    app = create_app(config, options, backend_factory=counting_backend, wall_clock=time.monotonic)
     the_relay = app[RELAY_KEY]
     backend = the_relay.backend
     assert counter is not None

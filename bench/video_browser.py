@@ -77,6 +77,10 @@ async def measure_codec(browser: Any, port: int, robot: str, codec: str, seconds
         end = time.monotonic()
         offset2, error2 = await page_offset(page)
         times: list[list[float]] = await page.evaluate("window.__xrRelay.pictureTimes(2000)")
+        # What the operator is shown at the end of the window (the robot card's and the POV's picture figure, the
+        # median of its last 15 pictures: xr_client/src/latency.js), beside this measure of the same 15 pictures.
+        shown = (await page.evaluate("window.__xrRelay.state.latency.robots"))[robot]["picture"]
+        last = sorted(at / 1000 + offset2 - stamp for stamp, at in times[-15:])
         # The clocks' mapping at both ends: their drift over the window is part of the error.
         mapping = (offset + offset2) / 2
         latencies = [at / 1000 + mapping - stamp for stamp, at in times if start <= at / 1000 + mapping <= end]
@@ -86,6 +90,8 @@ async def measure_codec(browser: Any, port: int, robot: str, codec: str, seconds
             "pictures_per_s": round(len(latencies) / wall, 2),
             "latency_ms": summary(latencies),
             "clock_error_ms": round(1000 * (max(error, error2) + abs(offset2 - offset) / 2), 3),
+            "shown_ms": None if shown is None else round(shown, 2),
+            "measured_last_ms": round(1000 * (last[(len(last) - 1) // 2] + last[len(last) // 2]) / 2, 2) if last else None,
             "decoded": after["video"]["decoded"] - before["video"]["decoded"] if codec == "h264" else None,
             "decoder_errors": after["video"]["errors"] - before["video"]["errors"],
             # What the page drew meanwhile (its draws hold the main thread, where decode callbacks run too).

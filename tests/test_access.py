@@ -305,7 +305,8 @@ def test_token_never_reaches_the_logs(tmp_path: Path) -> None:
     script = (
         "import asyncio, sys\n"
         "from relay.cli.main import main\n"
-        f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '', '--no-accounts']))\n"
+        f"sys.exit(main(['--port', '0', '--token', {token!r}, '--log-level', 'debug', '--audit-log', '',\n"
+        "'--no-accounts']))\n"
     )
     process = subprocess.Popen(
         [sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True

@@ -325,6 +325,16 @@ async def metrics(request: web.Request) -> web.Response:
         ("xr_relay_loop_lag_worst_ever_seconds", "gauge", "Event loop lag, worst since start", lag.worst_ever),
     ]
     text = "".join(f"# HELP {n} {h}\n# TYPE {n} {t}\n{n} {v}\n" for n, t, h, v in lines)
+    # Per robot and stage (relay.fleet.latency): the robot's stamp to the relay for poses and pictures, a teleop
+    # command's age when handed to the backend; the median of the last few.
+    latency = relay.latency.medians()
+    text += (
+        "# HELP xr_relay_latency_seconds How late each robot's data and commands are at the relay (median, recent)\n"
+        "# TYPE xr_relay_latency_seconds gauge\n"
+    ) + "".join(
+        f'xr_relay_latency_seconds{{robot="{robot}",stage="{stage}"}} {round(value, 6)}\n'
+        for (robot, stage), value in latency.items()
+    )
     return web.Response(
         text=text, content_type="text/plain", charset="utf-8", headers={"X-Content-Type-Options": "nosniff"}
     )

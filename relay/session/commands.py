@@ -23,6 +23,7 @@ from ..config import Robot
 from ..control.control import Control
 from ..control.safety import check_goal, check_goal_clear, clamp_velocity
 from ..errors import CommandRejected, ProtocolError
+from ..fleet.latency import StageLatency
 from ..fleet.occupancy import OccupancyGrid
 from ..fleet.state import FleetState
 from ..inspection.service import Inspection
@@ -64,6 +65,8 @@ class CommandHandler:
     #: Every connected client by id (relay.station.core's own dict): the names of the ``operators`` roster.
     clients: Mapping[str, Client]
     snapshots: Snapshots
+    #: How late each robot's commands reach its backend (relay.fleet.latency), for /metrics.
+    latency: StageLatency
     wall_clock: Callable[[], float] = time.time
 
     def handle_binary(self, client: Client) -> None:
@@ -243,6 +246,7 @@ class CommandHandler:
             # clock estimate an impossible delay, and every later command would look stale.
             age += client.sender_clock.age(command.sent, received)
         age = max(age, now - arrived)  # both are lower bounds of how long it waited
+        self.latency.took(robot.name, "command", age)
         self.control.gate.admit(client, robot.name, identifier, command.id, now, age)
         clamped = clamp_velocity(command.linear, command.angular, robot.limits)
         previous = self.control.deadman.feed(robot.name, client.client_id, now)

@@ -32,6 +32,7 @@ from ..fleet.events import (
     Event,
     EventSink,
 )
+from ..fleet.latency import StageLatency
 from ..fleet.occupancy import OccupancyGrid, from_map_yaml
 from ..fleet.state import FleetState
 from ..fleet.vantage import vantage
@@ -108,6 +109,8 @@ class Relay:
             outbox=self.outbox, map_grid=self.map_grid, clock=clock, wall_clock=wall_clock,
         )  # fmt: skip
         self._clients: dict[str, Client] = {}
+        #: How late each robot's poses, pictures and commands are where the relay sees them (/metrics).
+        self.latency = StageLatency(wall_clock)
         self.commands = CommandHandler(
             self.robots,
             self.backend,
@@ -120,6 +123,8 @@ class Relay:
             self.inspection,
             self._clients,
             Snapshots(self.robots, self.backend, self.streams, self.outbox),
+            self.latency,
+            wall_clock,
         )
         self.supervisor = Supervisor(config.names, self.backend, self.control, self.outbox, clock)
         #: The loop's stalls: /healthz's figures, and the dates of client frames read after one (relay.net.loop_lag).
@@ -127,8 +132,9 @@ class Relay:
         self.started_at = clock()
         self._map: OccupancyGrid | None = None  # from robots.yaml's `map`
         self.router = EventRouter(
-            self.robots, self.fleet, self.outbox, self.assets, self.streams, self.control, self.inspection, clock
-        )
+            self.robots, self.fleet, self.outbox, self.assets, self.streams, self.control, self.inspection,
+            self.latency, clock,
+        )  # fmt: skip
         #: The rooms of robots.yaml's scene file (``sim.world``), named in every hello.
         self.rooms: list[RoomDescription] = []
 

@@ -26,6 +26,7 @@ from ..fleet.events import (
     ScanEvent,
     SensorEvent,
 )
+from ..fleet.latency import StageLatency
 from ..fleet.occupancy import OccupancyGrid
 from ..fleet.state import FleetState
 from ..inspection.service import Inspection
@@ -56,6 +57,7 @@ class EventRouter:
         streams: CameraStreams,
         control: Control,
         inspection: Inspection,
+        latency: StageLatency,
         clock: Callable[[], float],
     ) -> None:
         self.robots = robots
@@ -65,6 +67,7 @@ class EventRouter:
         self.streams = streams
         self.control = control
         self.inspection = inspection
+        self.latency = latency
         self.clock = clock
         self.live_map: OccupancyGrid | None = None  # from the backend's /map
         self.playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
@@ -88,6 +91,7 @@ class EventRouter:
 
     def _on_robot_event(self, event: Event, now: float) -> None:
         if isinstance(event, PoseEvent):
+            self.latency.stamped(event.robot, "pose", event.stamp)
             message = self.fleet.on_pose(event, now)
             self.outbox.state(message)
             if self.outbox.online_changed(event.robot, now):
@@ -139,6 +143,7 @@ class EventRouter:
             )
             self.outbox.state(scan)
         elif isinstance(event, FrameEvent):
+            self.latency.stamped(event.robot, "picture", event.stamp)
             self.streams.on_frame(event, now)
         elif isinstance(event, CameraError):
             self.streams.camera_failed(camera_identifier(event.robot, event.camera), event.message)

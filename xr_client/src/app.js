@@ -17,6 +17,7 @@ import { TeleopLoop } from './teleop.js';
 import { TeleopDriver } from './teleop_driver.js';
 import { GoalPointer, GoalTracker } from './goal_pointer.js';
 import { SensorHistory } from './sensor_history.js';
+import { ClockSync, Latency } from './latency.js';
 import { pageVrAvailability, vrAvailability } from './security.js';
 import { snapshotState } from './view/state_snapshot.js';
 import { povCaption, sensorPanelData } from './view/captions.js';
@@ -59,13 +60,17 @@ export class App {
     this.goalPointer = new GoalPointer();
     this.goals = new GoalTracker();
     this.history = new SensorHistory();
-    this.connection = pageConnection(window.location, window.sessionStorage);
-    this.sender = new CommandSender(this.connection, (text) => this.views.notify(text, 'error'));
+    /** How late each robot's pose, picture and commands are (latency.js): shown on its card and the POV. */
+    this.latency = new Latency(new ClockSync());
+    this.connection = pageConnection(window.location, window.sessionStorage, this.latency.clock);
+    const notSent = (/** @type {string} */ text) => this.views.notify(text, 'error');
+    this.sender = new CommandSender(this.connection, notSent, () => performance.now(), this.latency);
     this.router = new MessageRouter({
       fleet: this.fleet,
       goals: this.goals,
       history: this.history,
       commands: this.sender,
+      latency: this.latency,
     });
     const warn = (/** @type {string} */ text) => this.views.notify(text, 'warning');
     this.driver = new TeleopDriver(this.teleop, this.sender, this.connection, warn);
@@ -104,6 +109,7 @@ export class App {
       link: () => this.relay.linkText,
       sensorPanelData: (now) => this.sensorPanelData(now),
       povText: () => povCaption(this),
+      latency: this.latency,
     });
     /** @type {ViewModes} */
     this.modes = new ViewModes(this.stage, this.views, menu);

@@ -4,7 +4,7 @@
  * the requests that await an answer. Nothing queues while disconnected: a command that cannot go out returns
  * null and the caller is told through `onNotSent` (the operator must know that a stop did not leave).
  */
-import { ERROR_CODES, robotIdentifier } from './protocol.js';
+import { ERROR_CODES, parseIdentifier, robotIdentifier } from './protocol.js';
 import { count } from './wording.js';
 
 /**
@@ -60,11 +60,13 @@ export class CommandSender {
    * @param {Link} link
    * @param {(text: string) => void} onNotSent
    * @param {() => number} [clock] milliseconds on a monotonic clock, stamped on every cmd_vel as `t`
+   * @param {import('./latency.js').Latency | null} [latency] told when a robot's command leaves (its round trip)
    */
-  constructor(link, onNotSent, clock = () => performance.now()) {
+  constructor(link, onNotSent, clock = () => performance.now(), latency = null) {
     this.link = link;
     this.onNotSent = onNotSent;
     this.clock = clock;
+    this.latency = latency;
   }
 
   /**
@@ -75,6 +77,8 @@ export class CommandSender {
   #send(message, withId = true) {
     const id = this.link.send(/** @type {Record<string, unknown>} */ (message), withId);
     if (id === null) this.onNotSent(`not connected: ${message.identifier} not sent`);
+    const { robot } = parseIdentifier(message.identifier);
+    if (id && robot !== null) this.latency?.sent(id, robot, this.clock());
     return id;
   }
 

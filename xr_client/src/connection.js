@@ -66,7 +66,7 @@ export class RelayConnection extends EventTarget {
   /**
    * @param {string} url
    * @param {{now?: () => number, refusal?: () => Promise<string | null>,
-   *   link?: import('./worker_link.js').WorkerLink | null}} [options]
+   *   link?: import('./worker_link.js').WorkerLink | null, clock?: import('./latency.js').ClockSync}} [options]
    *   `refusal` asks why a handshake failed (accessRefusal); a reason stops the retries. `link`: the socket worker
    *   (null: sockets on this thread).
    */
@@ -76,6 +76,8 @@ export class RelayConnection extends EventTarget {
     this.now = options.now ?? (() => performance.now());
     this.refusal = options.refusal ?? (async () => null);
     this.link = options.link ?? null;
+    /** The page's clock mapped onto the relay's, from the pongs (latency.js). */
+    this.clock = options.clock ?? null;
     this.policy = new ReconnectPolicy();
     /** @type {WebSocket | WorkerSocket | null} */
     this.socket = null;
@@ -125,6 +127,7 @@ export class RelayConnection extends EventTarget {
         this.messagesIn++;
         if (message.identifier === 'pong') {
           this.policy.pong(message.t, this.now());
+          this.clock?.pong(message.t, this.now(), message.server_time);
           this.#status();
         } else if (message.identifier === 'hello' && message.protocol !== PROTOCOL_VERSION) {
           console.warn(`relay speaks protocol ${message.protocol}, this page ${PROTOCOL_VERSION}`);
@@ -235,11 +238,13 @@ export class RelayConnection extends EventTarget {
  * The connection to the relay that served this page, with this tab's operator token; a refused token stops
  * the retries (accessRefusal).
  * @param {Location} location @param {Pick<Storage, 'getItem' | 'setItem'> | null} storage
+ * @param {import('./latency.js').ClockSync} [clock] fed from the pongs
  */
-export function pageConnection(location, storage) {
+export function pageConnection(location, storage, clock) {
   const token = operatorToken(location, storage);
   return new RelayConnection(relayUrl(location, token), {
     refusal: () => accessRefusal(location, token),
     link: startWorkerLink(),
+    clock,
   });
 }

@@ -39,7 +39,7 @@ import { ControlNews } from './control_news.js';
  *   | {type: 'nav', robot: string, text: string, kind: NoticeKind, mine: boolean}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
  *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender,
- *   inspection?: InspectionModel}} RouterModels
+ *   inspection?: InspectionModel, latency?: import('./latency.js').Latency}} RouterModels
  */
 
 export class MessageRouter {
@@ -70,6 +70,8 @@ export class MessageRouter {
     this.history = models.history;
     this.commands = models.commands;
     this.inspection = models.inspection ?? new InspectionModel();
+    /** How late poses and answers come (latency.js), when the page shows it. */
+    this.latency = models.latency ?? null;
     /** Who controls a robot, and how its goals end, told to the operator (control_news.js). */
     this.control = new ControlNews(this.fleet, this.goals, this.paths);
   }
@@ -107,6 +109,7 @@ export class MessageRouter {
       const pose = /** @type {import('./protocol.js').PoseMessage} */ (message);
       this.smoother(robot).push(pose.x, pose.y, pose.yaw, now);
       this.freshness.seen(robot, now);
+      this.latency?.pose(robot, pose.stamp, now);
     } else if (kind === 'status') {
       const status = /** @type {import('./protocol.js').StatusMessage} */ (message);
       this.goals.status(robot, status.goal, now);
@@ -145,6 +148,7 @@ export class MessageRouter {
       case 'ack':
         this.goals.acked(String(message.id));
         this.commands.acked(message.id);
+        this.latency?.answered(String(message.id), now);
         return this.inspection.settle(String(message.id), true) ? [{ type: 'inspection' }] : [];
       case 'error':
         return this.#error(message, now);
@@ -200,6 +204,7 @@ export class MessageRouter {
     this.goals.reset();
     this.paths.clear();
     this.freshness.reset();
+    this.latency?.reset();
     this.hellos++;
     this.commands.reset();
     this.inspection.reset(); // the relay sends the targets, missions and findings again right after hello
@@ -241,6 +246,7 @@ export class MessageRouter {
     /** @type {RouterEffect[]} */
     const effects = this.control.refused(error);
     this.commands.failed(error);
+    if (error.id !== null) this.latency?.answered(String(error.id), now);
     if (error.id !== null && this.inspection.settle(String(error.id), false, error.message))
       effects.push({ type: 'inspection' });
     const shownAtMarker = this.goals.failed(

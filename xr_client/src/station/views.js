@@ -31,7 +31,7 @@ import { SoundControl } from '../view/sound_control.js';
  *   actions: import('../app.js').OperatorActions,
  *   goalFor: (robot: string, goal: import('../command_sender.js').Goal) => void, link: () => string,
  *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData,
- *   povText: () => string}} ViewsHost
+ *   povText: () => string, latency: import('../latency.js').Latency}} ViewsHost
  */
 
 export class StationViews {
@@ -75,6 +75,7 @@ export class StationViews {
       sender,
       say: (text) => this.notify(text, 'warning'),
       params: new URLSearchParams(location.search),
+      latency: host.latency,
     });
     const inspection = host.inspection; // voice: its targets are places, its missions can be paused
     this.voice = new VoiceControl({

@@ -13,6 +13,7 @@
 import { parseFrame } from '../camera_frame.js';
 import { H264Decoder, streamCodec } from '../video_decoder.js';
 import { PictureTimes } from '../picture_times.js';
+import { parseIdentifier } from '../protocol.js';
 import { FrameDecoder } from './frame_decoder.js';
 
 /** @typedef {import('../protocol.js').CameraDescription} CameraDescription */
@@ -30,7 +31,8 @@ export class CameraFeed {
   /**
    * @param {{hemisphere: import('./hemisphere_screen.js').HemisphereScreen,
    *   sender: import('../command_sender.js').CommandSender, say: (text: string) => void,
-   *   params: URLSearchParams}} host `say`: a line for the operator (the fallback, once)
+   *   params: URLSearchParams, latency: import('../latency.js').Latency | null}} host `say`: a line for the operator
+   *   (the fallback, once); `latency`: told when each picture became drawable
    */
   constructor(host) {
     this.host = host;
@@ -40,7 +42,7 @@ export class CameraFeed {
     this.jpeg = new FrameDecoder(
       () => ({ width: hemisphere.width, height: hemisphere.height }),
       (bitmap, header) => {
-        this.times.record(header.stamp, performance.now());
+        this.#decoded(header);
         hemisphere.show(bitmap, header);
       },
     );
@@ -62,7 +64,7 @@ export class CameraFeed {
       restart: () => this.#again(),
       unsupported: (why) =>
         this.#fallBack(`video decoding unavailable: JPEG frames (this browser cannot decode ${why})`),
-      decoded: (header) => this.times.record(header.stamp, performance.now()),
+      decoded: (header) => this.#decoded(header),
     });
     // The decoder hands out what the browser's VideoDecoder gave it: VideoFrames.
     hemisphere.pull = () =>
@@ -150,6 +152,14 @@ export class CameraFeed {
       lastError: v.lastError || null,
       ...v.counts,
     };
+  }
+
+  /** A picture became drawable now: when, beside its stamp (the benchmark's record, the operator's figure). */
+  #decoded(/** @type {import('../camera_frame.js').FrameHeader} */ header) {
+    const at = performance.now();
+    this.times.record(header.stamp, at);
+    const robot = parseIdentifier(header.identifier).robot;
+    if (robot !== null) this.host.latency?.picture(robot, header.stamp, at);
   }
 
   dispose() {

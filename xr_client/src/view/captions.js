@@ -1,11 +1,13 @@
 // @ts-check
 /**
  * The words the panels show, built from the app's state each time they redraw: the sensor panels' data (the
- * selected robot, its readings and their age, the link, with how long the relay has been silent) and the Robot
- * POV panel's caption. Building them changes nothing.
+ * selected robot, its readings and their age, the link, with how long the relay has been silent, how late its pose,
+ * picture and commands come) and the Robot POV panel's caption (with the picture's latency). Building them changes
+ * nothing.
  */
 import { sensorPanel } from '../sensor_panel.js';
 import { formatSilence } from '../freshness.js';
+import { formatMs, latencyParts } from '../latency.js';
 
 /** What the wrist and corner sensor panels show. @param {import('../app.js').App} app @param {number} now */
 export function sensorPanelData(app, now) {
@@ -14,7 +16,7 @@ export function sensorPanelData(app, now) {
   const quiet =
     age.linkStale && app.relay.linkOk ? ` · no answer for ${formatSilence(now - app.router.lastMessage)}` : '';
   const link = { text: app.relay.linkText + quiet, ok: app.relay.linkOk && !quiet };
-  return sensorPanel(
+  const panel = sensorPanel(
     app.fleet,
     app.menu.selected,
     app.history,
@@ -23,6 +25,8 @@ export function sensorPanelData(app, now) {
     app.views.inspectionUi.progress(app.menu.selected),
     age,
   );
+  // How late this robot's pose, picture and commands are, each in its colour (latency.js).
+  return { ...panel, latency: app.menu.selected ? latencyParts(app.latency.of(app.menu.selected)) : [] };
 }
 
 /** The POV panel's caption. @param {import('../app.js').App} app */
@@ -30,7 +34,8 @@ export function povCaption(app) {
   const s = app.views.hemisphere;
   const robot = app.menu.selected ?? '–';
   const live = app.menu.live ? 'live' : 'snapshot';
+  const late = app.menu.selected ? app.latency.of(app.menu.selected).picture : null;
   return s.lastIdentifier
-    ? `${robot} · ${live} · frame ${s.lastSeq}`
+    ? `${robot} · ${live} · frame ${s.lastSeq}${late === null ? '' : ` · picture ${formatMs(late)}`}`
     : `${robot} · ${app.sender.noImageYet ? 'no image yet (no_camera)' : 'waiting for an image'}`;
 }

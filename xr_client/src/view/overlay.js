@@ -185,6 +185,7 @@ export class Overlay {
       drawSensorPanel(ctx, this.sensorCanvas.width, this.sensorCanvas.height, data);
       this.sensorCanvas.dataset.robot = data.robot ?? '';
       this.sensorCanvas.dataset.warning = String(data.sensors.some((s) => s.warning));
+      this.sensorCanvas.dataset.latency = (data.latency ?? []).map((p) => p.text).join(' · ');
     }
     if (menu.mode === 'pov') this.povInfo.textContent = this.host.povText();
   }

@@ -9,7 +9,8 @@ import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
  * @typedef {{robot: string | null, colour: string, status: string, link: string, linkOk: boolean,
  *   sensors: {name: string, value: number | null, unit: string, warning: boolean, stale?: string | null,
  *     above?: number | null, below?: number | null}[],
- *   history: import('../sensor_history.js').SensorHistory, now: number}} SensorPanelData
+ *   history: import('../sensor_history.js').SensorHistory, now: number,
+ *   latency?: {stage: string, text: string, colour: string}[]}} SensorPanelData
  */
 
 /**
@@ -37,7 +38,15 @@ export function drawSensorPanel(ctx, width, height, data) {
   fitText(ctx, data.robot ?? 'no robot selected', 32 * u, 60 * u, width - 48 * u, 28 * u, 700);
   ctx.fillStyle = '#9aa5b8';
   fitText(ctx, data.status, 32 * u, 84 * u, width - 48 * u, 18 * u);
-  const top = 102 * u;
+  // How late the pose, the picture and the commands are, each figure in its colour (latency.js).
+  const late = data.latency ?? [];
+  let x = 32 * u;
+  for (const part of late) {
+    ctx.fillStyle = part.colour;
+    fitText(ctx, part.text, x, 106 * u, width - 16 * u - x, 18 * u, 600);
+    x += ctx.measureText(part.text).width + 14 * u;
+  }
+  const top = (late.length > 0 ? 122 : 102) * u;
   const rows = Math.max(1, data.sensors.length);
   const rowHeight = Math.min(90 * u, (height - top - 8 * u) / rows);
   data.sensors.forEach((s, i) => {

@@ -193,6 +193,12 @@ export function snapshotState(app) {
     },
     // The live stream's codec and the H.264 decoder's counts (view/camera_feed.js, video_decoder.js).
     video: app.views.feed.state(),
+    // What the robot card and the POV show of each robot's latency (latency.js), and the clock mapping's error.
+    latency: {
+      robots: Object.fromEntries([...app.fleet.robots.keys()].map((r) => [r, app.latency.of(r)])),
+      clockError: app.latency.clock.error,
+      shown: app.views.overlay.sensorCanvas.dataset.latency ?? '',
+    },
     voice: { ...app.views.voice.state(), toast: app.views.hud.toast.sprite.visible },
     /** The message line (and, in VR, the HUD's toast) says this now. */
     notice: app.views.overlay.message.textContent,

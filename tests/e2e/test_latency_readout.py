@@ -1,0 +1,67 @@
+"""Latency in view (issue #31, item 4), the page's half: the selected robot's card (the sensor panel) shows how late
+its pose, picture and commands are, each figure in its colour, and the Robot POV's caption the picture's. The picture
+figure is checked against this test's own measurement of the same pictures: each one's publisher stamp against the
+moment the page decoded it (``window.__xrRelay.pictureTimes``), the page's clock mapped onto this process's wall
+clock by the quickest of several round trips, as bench/video_browser.py does."""
+
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Any
+
+from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, snapshot_until_uploaded
+
+#: The page keeps its last 15 pictures per robot; the test compares the median of the same ones.
+RECENT = 15
+
+
+async def page_to_wall(page: Any) -> tuple[float, float]:
+    """(s to add to the page's performance.now()/1000 for time.time(), half the quickest round trip in s)."""
+    best: tuple[float, float] | None = None
+    for _ in range(10):
+        t0 = time.time()
+        at: float = await page.evaluate("performance.now()")
+        t1 = time.time()
+        if best is None or t1 - t0 < 2 * best[1]:
+            best = ((t0 + t1) / 2 - at / 1000, (t1 - t0) / 2)
+    assert best is not None
+    return best
+
+
+async def test_the_robot_card_and_the_pov_show_how_late_pose_picture_and_commands_are(
+    station: Station, open_client: OpenClient
+) -> None:
+    if station.camera is None:
+        return
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "latency", 1280, 760)
+    page = client.page
+    robot = next(r.name for r in station.running.relay.robots.values() if r.cameras)
+    await page.click(f'#menu button[data-button="robot:{robot}"]')
+    await page.click('#menu button[data-button="mode:pov"]')
+    await client.wait("s.menu.mode === 'pov' && s.pov.visible")
+    # A command with an answer (a snapshot: its ack) gives the round trip; then the camera live.
+    await snapshot_until_uploaded(client, press=lambda: page.click('#menu button[data-button="camera:snapshot"]'))
+    await page.click('#menu button[data-button="camera:live"]')
+    await client.wait("s.pov.uploads >= 3", 60)
+    figures = await client.wait(
+        "(f => f && f.pose !== null && f.picture !== null && f.command !== null && f)(s.latency.robots[arg])", 60, robot
+    )
+    shown = await client.wait("s.latency.shown.includes('picture') && s.latency.shown", 10)
+    assert shown.startswith("pose ") and " ms" in shown, shown
+    caption = await page.inner_text("#pov-panel")
+    assert "picture " in caption and " ms" in caption, caption
+    await client.shot("01-latency", "latency.png")
+
+    # The same pictures measured here: publisher stamp to decoded, on this process's clock.
+    offset, error = await page_to_wall(page)
+    state: dict[str, Any] = await page.evaluate("window.__xrRelay.state.latency")
+    figures = state["robots"][robot]
+    times = await page.evaluate("n => window.__xrRelay.pictureTimes(n)", RECENT)
+    offset2, error2 = await page_to_wall(page)
+    measured = statistics.median((at / 1000 + (offset + offset2) / 2 - stamp) * 1000 for stamp, at in times)
+    # Within 10 %, or within what the two clock mappings may be off by (half their quickest round trips).
+    allowed = max(0.1 * measured, 1000 * max(error, error2) + (state["clockError"] or 0) + 2)
+    assert abs(figures["picture"] - measured) <= allowed, (figures, measured, allowed, state)
+    assert 0 <= figures["pose"] < 5000 and 0 <= figures["command"] < 5000, figures
+    assert client.errors == [], client.errors
