@@ -74,6 +74,10 @@ def test_a_twist_towards_the_workspaces_edge_stops_there_with_the_reason() -> No
         stopped = stopped or (reasons[0] if reasons else None)
     assert stopped is not None and "z" in stopped and "min 0.2" in stopped
     assert 0.2 <= tip(arm)[2] < 0.21
+    held = arm.positions
+    now, later = run(arm, now, 1.0)
+    assert later == []  # stopped: nothing more to say (no deadman after it)
+    assert arm.positions == pytest.approx(held)
     assert arm.servo((0.0, 0.0, 0.05), (0.0, 0.0, 0.0), now) is None  # back up is allowed
 
 

@@ -164,6 +164,10 @@ class ArmGate:
     def reset(self) -> None:
         self._latched = False
 
+    def stopped(self) -> None:
+        """The arm was stopped (a rule, a stop): no zero is due until it moves again."""
+        self.moving = False
+
     def feed(self, now: float, moving: bool) -> str | None:
         """A hand command (``moving``: a non-zero twist, a named pose or the gripper) at ``now``: the reason it is
         refused, or None."""

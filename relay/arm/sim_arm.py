@@ -132,6 +132,7 @@ class SimArm:
 
     def stop(self) -> None:
         """Zero velocity at once: the twist, a named pose and the gripper stop where they are."""
+        self.gate.stopped()
         self._twist = None
         self._target = None
         self._qdot = np.zeros(len(self.model.joints))
