@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from relay.arm.kinematics import forward
-from relay.arm.model import arm_from_urdf
+from relay.arm.model import arm_from_urdf, load_joint_limits, with_joint_limits
 from relay.arm.srdf import group_states, load_group_states
 from relay.twin.urdf.errors import RobotModelError
 from tests.helpers.arm import PLANAR_URDF, omx, tb3_manipulation
@@ -110,3 +110,29 @@ def test_a_joint_without_a_velocity_limit_is_named() -> None:
     )
     with pytest.raises(RobotModelError, match="'shoulder' has no positive velocity limit"):
         arm_from_urdf(urdf, "base_link", "tip")
+
+
+def test_moveits_joint_limits_file_narrows_nothing_of_this_urdf() -> None:
+    # turtlebot3_manipulation's joint_limits.yaml gives every joint the URDF's 4.8 rad/s, and no positions.
+    model = omx()
+    narrowed = load_joint_limits(model, tb3_manipulation("config", "joint_limits.yaml"))
+    assert [(j.lower, j.upper, j.velocity) for j in narrowed.joints] == [
+        (j.lower, j.upper, j.velocity) for j in model.joints
+    ]
+
+
+def test_joint_limits_narrow_the_urdfs_but_never_widen_them() -> None:
+    model = arm_from_urdf(PLANAR_URDF, "base_link", "tip")
+    narrowed = with_joint_limits(
+        model,
+        {
+            "shoulder": {"has_velocity_limits": True, "max_velocity": 0.5, "has_position_limits": True,
+                         "min_position": -1.0, "max_position": 9.0},
+            "elbow": {"has_velocity_limits": False, "max_velocity": 0.1},
+        },
+    )  # fmt: skip
+    shoulder, elbow = narrowed.joints
+    assert (shoulder.lower, shoulder.upper, shoulder.velocity) == (-1.0, 1.5, 0.5)  # 9.0 would widen the URDF's 1.5
+    assert (elbow.lower, elbow.upper, elbow.velocity) == (-2.5, 2.5, 2.0)  # no velocity limit asked for
+    with pytest.raises(RobotModelError, match="'elbow'"):
+        with_joint_limits(model, {"elbow": {"has_velocity_limits": True, "max_velocity": "fast"}})

@@ -4,7 +4,8 @@ The chain is the path of joints from ``base_link`` down to ``tip_link``; fixed j
 origin of the next moving joint (or into the tip's offset), so only revolute and prismatic joints remain, each with
 its axis, its origin and the position and velocity limits the URDF gives. The gripper joint is kept apart, with the
 joints that mimic it (OpenManipulator-X: ``gripper_right_joint`` mimics ``gripper_left_joint``). The base link's
-collision boxes are kept as the body the arm must not reach into (relay.arm.rules).
+collision boxes are kept as the body the arm must not reach into (relay.arm.rules). MoveIt's joint_limits.yaml may
+narrow the joints' limits (:func:`with_joint_limits`).
 
 Loading reads and parses a file (or a robot_description string) with yourdfpy, without meshes: it blocks for
 tens of milliseconds, so call it off the event loop (``asyncio.to_thread``).
@@ -14,11 +15,13 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+import yaml
 from numpy.typing import NDArray
 
 from ..twin.urdf.errors import RobotModelError
@@ -120,6 +123,38 @@ def arm_from_urdf(urdf_text: str, base_link: str, tip_link: str, gripper_joint: 
         raise RobotModelError(f"no revolute or prismatic joint between {base_link!r} and {tip_link!r}")
     gripper = _gripper(urdf.robot.joints, gripper_joint, {j.name for j in joints}) if gripper_joint else None
     return ArmModel(base_link, tip_link, tuple(joints), pending, gripper, _boxes(links[base_link]))
+
+
+def load_joint_limits(model: ArmModel, path: str | Path) -> ArmModel:
+    """``model`` narrowed by MoveIt's joint_limits.yaml at ``path`` (:func:`with_joint_limits`); blocking."""
+    try:
+        document = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
+        raise RobotModelError(f"cannot read the joint limits {path}: {err}") from err
+    limits = document.get("joint_limits") if isinstance(document, dict) else None
+    return with_joint_limits(model, limits if isinstance(limits, dict) else {})
+
+
+def with_joint_limits(model: ArmModel, limits: Mapping[str, Any]) -> ArmModel:
+    """``model`` with MoveIt's per-joint limits (joint_limits.yaml's ``joint_limits`` mapping) applied to its chain:
+    ``max_velocity`` where ``has_velocity_limits``, ``min_position``/``max_position`` where ``has_position_limits``.
+    They only narrow the URDF's limits, never widen them: the URDF is what the hardware takes."""
+    joints = []
+    for joint in model.joints:
+        entry = limits.get(joint.name) or {}
+        lower, upper, velocity = joint.lower, joint.upper, joint.velocity
+        try:
+            if entry.get("has_velocity_limits") and entry.get("max_velocity") is not None:
+                velocity = min(velocity, float(entry["max_velocity"]))
+            if entry.get("has_position_limits"):
+                lower = max(lower, float(entry.get("min_position", lower)))
+                upper = min(upper, float(entry.get("max_position", upper)))
+        except (TypeError, ValueError, AttributeError):
+            raise RobotModelError(f"joint limits of {joint.name!r}: expected numbers, got {entry!r:.80}") from None
+        if not (velocity > 0.0 and lower < upper):
+            raise RobotModelError(f"joint limits of {joint.name!r} leave it no room to move")
+        joints.append(replace(joint, lower=lower, upper=upper, velocity=velocity))
+    return replace(model, joints=tuple(joints))
 
 
 def _origin(joint: Any) -> Transform:
