@@ -151,3 +151,12 @@ def test_an_estop_refuses_every_arm_motion_until_reset() -> None:
     assert arm.positions == pytest.approx(held)
     arm.reset_estop()
     assert arm.servo((0.05, 0.0, 0.0), (0.0, 0.0, 0.0), 0.6) is None
+
+
+def test_a_named_pose_outside_the_rules_is_refused_with_the_rules_reason() -> None:
+    # The zero pose's tip is 0.2955 m up, home's 0.2935 m: with the workspace's floor at 0.295 m between them,
+    # going home would take the tip out of it.
+    arm = sim_arm(positions=(0.0, 0.0, 0.0, 0.0), workspace=Workspace((-0.3, -0.35, 0.295), (0.45, 0.35, 0.5)))
+    reason = arm.named("home")
+    assert reason is not None and reason.startswith("home: the tip would leave the workspace") and "z" in reason
+    assert sim_arm(positions=(0.0, 0.0, 0.0, 0.0)).named("home") is None

@@ -1,4 +1,4 @@
-"""The ``robots`` entries of robots.yaml: names, namespaces, topics, pose sources, cameras, sensors, limits."""
+"""The ``robots`` entries of robots.yaml: names, namespaces, topics, pose sources, cameras, sensors, limits, arms."""
 
 from __future__ import annotations
 
