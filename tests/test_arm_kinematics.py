@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from relay.arm.kinematics import forward, inverse, jacobian, velocity_step
-from relay.arm.model import ArmModel
+from relay.arm.model import ArmModel, arm_from_urdf
 from tests.helpers.arm import omx
 
 HOME = np.array([0.0, -1.0, 0.7, 0.3])  # the SRDF's "home": the tip ahead of and above the base
@@ -77,3 +77,49 @@ def test_inverse_then_forward_comes_back_within_a_millimetre() -> None:
 @pytest.mark.parametrize("target", [(1.0, 0.0, 0.3), (0.0, 0.0, 1.5), (-0.08, 0.0, -0.5)])
 def test_a_point_out_of_reach_has_no_solution(target: tuple[float, float, float]) -> None:
     assert inverse(omx(), target) is None
+
+
+#: A turning column (continuous, about z), a lift (prismatic, along z) and a tilted forearm: the joint kinds and
+#: rotated origins OpenManipulator-X lacks.
+LIFT_URDF = """<?xml version="1.0"?>
+<robot name="lift">
+  <link name="base"/><link name="column"/><link name="carriage"/><link name="forearm"/><link name="hand"/>
+  <joint name="turn" type="continuous">
+    <parent link="base"/><child link="column"/><origin xyz="0.05 0 0.1"/><axis xyz="0 0 1"/>
+    <limit velocity="1.5" effort="1"/>
+  </joint>
+  <joint name="lift" type="prismatic">
+    <parent link="column"/><child link="carriage"/><origin xyz="0 0 0.2" rpy="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="0" upper="0.3" velocity="0.2" effort="1"/>
+  </joint>
+  <joint name="tilt" type="revolute">
+    <parent link="carriage"/><child link="forearm"/><origin xyz="0.1 0 0" rpy="0.2 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" velocity="1" effort="1"/>
+  </joint>
+  <joint name="hand_fixed" type="fixed">
+    <parent link="forearm"/><child link="hand"/><origin xyz="0.25 0 0"/>
+  </joint>
+</robot>
+"""
+
+
+def test_continuous_and_prismatic_joints_and_rotated_origins() -> None:
+    model = arm_from_urdf(LIFT_URDF, "base", "hand")
+    assert [j.kind for j in model.joints] == ["revolute", "prismatic", "revolute"]
+    assert (model.lower[0], model.upper[0]) == (-np.inf, np.inf)  # continuous: no bounds
+    q = np.array([0.7, 0.1, 0.4])
+    numeric = np.empty((3, 3))
+    for i in range(3):
+        dq = np.zeros(3)
+        dq[i] = 1e-6
+        numeric[:, i] = (forward(model, q + dq)[:3, 3] - forward(model, q - dq)[:3, 3]) / 2e-6
+    assert jacobian(model, q)[:3] == pytest.approx(numeric, abs=1e-6)
+    # Lifting moves the hand straight up by as much.
+    assert forward(model, q + np.array([0.0, 0.05, 0.0]))[:3, 3] - forward(model, q)[:3, 3] == pytest.approx(
+        [0, 0, 0.05]
+    )
+    target = forward(model, (-2.0, 0.2, -0.5))[:3, 3]
+    solution = inverse(model, target)
+    assert solution is not None and np.linalg.norm(forward(model, solution)[:3, 3] - target) < 1e-3
+    step = velocity_step(model, q, (0.0, 0.0, 1.0), (0.0, 0.0, 0.0), 0.1)  # up, faster than the lift goes
+    assert abs(step.velocities[1]) <= 0.2 + 1e-9

@@ -113,11 +113,11 @@ def inverse(
     if not _within_reach(model, goal):
         return None
     bounded = np.isfinite(model.lower) & np.isfinite(model.upper)
-    middle = np.where(bounded, (model.lower + model.upper) / 2.0, 0.0)
+    middle: Vector = (np.where(bounded, model.lower, 0.0) + np.where(bounded, model.upper, 0.0)) / 2.0  # 0: unbounded
     seeds = [np.zeros(len(model.joints)), middle] if start is None else [np.asarray(start, dtype=np.float64)]
     seeds += [np.clip(middle + offset, model.lower, model.upper) for offset in (0.7, -0.7)]
     for seed in seeds:
-        q = np.clip(seed, model.lower, model.upper)
+        q: Vector = np.clip(seed, model.lower, model.upper)
         for _ in range(iterations):
             error = goal - forward(model, q)[:3, 3]
             if float(np.linalg.norm(error)) < IK_TOLERANCE:
