@@ -85,6 +85,51 @@ class ModelSource:
 
 
 @dataclass(frozen=True)
+class ArmLimits:
+    """The tip's speed limits, clamped in the relay before a twist reaches MoveIt Servo (relay.arm.rules)."""
+
+    linear: float  # m/s
+    angular: float  # rad/s
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """The box the arm's tip must stay in, in the arm's base link frame (metres)."""
+
+    min: tuple[float, float, float]
+    max: tuple[float, float, float]
+
+    def contains(self, x: float, y: float, z: float) -> bool:
+        return all(lo <= v <= hi for lo, v, hi in zip(self.min, (x, y, z), self.max, strict=True))
+
+
+@dataclass(frozen=True)
+class ArmTopics:
+    """Where the arm's state comes from and its commands go (absolute), as MoveIt Servo and ros2_control name them."""
+
+    joint_states: str  # sensor_msgs/JointState (joint_state_broadcaster)
+    delta_twist_cmds: str  # geometry_msgs/TwistStamped into MoveIt Servo
+    joint_trajectory: str  # trajectory_msgs/JointTrajectory of the arm's controller (named poses)
+    gripper_cmd: str  # control_msgs/action/GripperCommand of the gripper's controller
+
+
+@dataclass(frozen=True)
+class Arm:
+    """An arm on the robot (robots.yaml ``arm:``; docs/configuration.md, "Arms")."""
+
+    urdf: Path | None  # None: the robot's robot_description parameter
+    base_link: str
+    tip_link: str
+    gripper_joint: str | None
+    topics: ArmTopics
+    limits: ArmLimits
+    workspace: Workspace
+    #: A joint may not move closer than this to its limit (rad or m); MoveIt Servo's joint_limit_margin.
+    joint_margin: float = 0.1
+    camera: str | None = None  # the name of the robot's camera on the arm, if one is
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     namespace: str
@@ -115,6 +160,7 @@ class Robot:
     #: What the watchdog does with autonomy when the relay's heartbeat stops: ``hold`` it or let it ``continue``
     #: (teleop stops either way).
     on_relay_lost: RelayLost = "hold"
+    arm: Arm | None = None  # an arm on the robot, moved by the operator's hand
 
     def __post_init__(self) -> None:
         # Frozen: the namespace's defaults are filled in once, here, for entries built without them.

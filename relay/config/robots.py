@@ -1,4 +1,4 @@
-"""The ``robots`` entries of robots.yaml: names, namespaces, topics, pose sources, cameras, sensors, limits."""
+"""The ``robots`` entries of robots.yaml: names, namespaces, topics, pose sources, cameras, sensors, limits, arms."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 
 from ..ros.rosmsg import SENSOR_TYPES
 from ..session.protocol import ROBOT_NAME_PATTERN
+from .arm import arm
 from .model import (
     LENS_MODELS,
     NAV_INTERFACES,
@@ -43,6 +44,7 @@ _ROBOT_FIELDS = (
     "scan",
     "plan",
     "navigation",
+    "arm",
 )
 
 
@@ -68,6 +70,8 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     scan_topic = _optional_topic(reader, f, path, namespace, "scan")
     plan_topic = _optional_topic(reader, f, path, namespace, "plan")
     navigation = _navigation(reader, f, path, namespace, (cmd_vel_topic, watchdog_topic))
+    camera_names = tuple(c.name for c in cameras)
+    robot_arm = arm(reader, f["arm"], f"{path}.arm", namespace, base_dir, camera_names) if "arm" in f else None
     return Robot(
         model_source=model_source,
         scan_topic=scan_topic,
@@ -89,6 +93,7 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
         nav_action=navigation.action,
         autonomy_topic=navigation.autonomy,
         on_relay_lost=navigation.on_relay_lost,
+        arm=robot_arm,
     )
 
 
