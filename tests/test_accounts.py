@@ -293,7 +293,7 @@ async def test_a_headset_paired_by_code_is_the_same_person_and_the_code_needs_th
     # Signed out, the cookie no longer opens anything.
     assert (await ana.post("/signout"))[0] == 200
     async with ana.http.get(site[0].url + "/whoami") as response:
-        assert await response.json() == {"accounts": True, "user": None}
+        assert await response.json() == {"accounts": True, "user": None, "oidc": None}
 
 
 @pytest.mark.parametrize("presser_only", [True], indirect=True)

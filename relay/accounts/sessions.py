@@ -82,16 +82,17 @@ class Sessions:
         self._codes = {c: code for c, code in self._codes.items() if code.session != session_id}
 
     def close_user(self, user: str) -> int:
-        """End every session of ``user`` (removed, or their role changed); how many there were."""
-        ended = [s.id for s in self._sessions.values() if s.user.lower() == user.lower()]
+        """End every session of the users file's ``user`` (removed, or their role changed); how many there were."""
+        ended = [s.id for s in self._sessions.values() if s.via != "oidc" and s.user.lower() == user.lower()]
         for session_id in ended:
             self.close(session_id)
         return len(ended)
 
     def end_changed(self, roles: Mapping[str, Role]) -> set[str]:
         """End the sessions of users no longer in ``roles`` (user name in lower case -> role) or whose role is not
-        the one they signed in with; the names of the users whose sessions ended."""
-        ended = {s.user for s in self._sessions.values() if roles.get(s.user.lower()) != s.role}
+        the one they signed in with; the names of the users whose sessions ended. A session of the site's OpenID
+        Connect provider is the provider's to end (its people are not in the users file)."""
+        ended = {s.user for s in self._sessions.values() if s.via != "oidc" and roles.get(s.user.lower()) != s.role}
         for user in ended:
             self.close_user(user)
         return ended

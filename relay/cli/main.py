@@ -10,6 +10,7 @@ import secrets
 import sqlite3
 import sys
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from .. import __version__
 from ..accounts.users import AccountError, UserBook
@@ -23,6 +24,20 @@ from ..net.access import MIN_TOKEN_BITS, weak_token
 from .options import BagOptions, Options, ZenohOptions
 
 EXIT_USAGE = 2
+
+
+def oidc_refusal(issuer: str | None, accounts: bool, secret: str) -> str | None:
+    """Why ``--oidc-issuer`` cannot be used as given, or None."""
+    if issuer is None:
+        return None
+    parts = urlsplit(issuer)
+    if not accounts:
+        return "a sign-in provider needs accounts (it is not used with --no-accounts)"
+    if parts.scheme != "https" and not (parts.scheme == "http" and parts.hostname in ("127.0.0.1", "localhost", "::1")):
+        return f"{issuer[:80]!r} is not an https:// URL (tokens would cross the network in clear)"
+    if not secret:
+        return "the client secret is missing: set $XR_RELAY_OIDC_SECRET (never an argument: others can read those)"
+    return None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -114,6 +129,18 @@ def _add_access_options(access: argparse._ArgumentGroup) -> None:
         "--no-accounts",
         action="store_true",
         help="a lab bench: no accounts (no users file read or made), the operator token alone, as before accounts",
+    )
+    access.add_argument(
+        "--oidc-issuer",
+        metavar="URL",
+        help="the site's OpenID Connect provider (its issuer URL): people may also sign in with it (the relay's "
+        "redirect URI is https://HOST:PORT/oidc/callback); the client secret comes from $XR_RELAY_OIDC_SECRET",
+    )
+    access.add_argument("--oidc-client-id", default="xr-relay", help="this relay's client id at the provider")
+    access.add_argument(
+        "--oidc-role-claim",
+        default="roles",
+        help="the ID token claim naming each person's station role (admin, operator, inspector or viewer)",
     )
     access.add_argument(
         "--allow-weak-token",
@@ -284,6 +311,10 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
         log.info("accounts: %s; people sign in%s", args.users, " (and the operator token works)" if token else "")
+    why_not = oidc_refusal(args.oidc_issuer, accounts, os.environ.get("XR_RELAY_OIDC_SECRET", ""))
+    if why_not is not None:
+        log.error("--oidc-issuer: %s", why_not)
+        return EXIT_USAGE
     from ..net.server import serve
 
     try:
@@ -304,6 +335,10 @@ def main(argv: list[str] | None = None) -> int:
             port=port,
             token=token or (None if accounts else secrets.token_urlsafe(24)),
             users=args.users if accounts else None,
+            oidc_issuer=args.oidc_issuer if accounts else None,
+            oidc_client_id=args.oidc_client_id,
+            oidc_secret=os.environ.get("XR_RELAY_OIDC_SECRET", ""),
+            oidc_role_claim=args.oidc_role_claim,
             allow_viewers=args.allow_viewers,
             allowed_origins=tuple(o.rstrip("/") for o in args.allow_origin),
             allowed_hosts=tuple(args.allow_host),

@@ -44,6 +44,12 @@ class Options:
     #: The accounts file (relay/accounts/users.py): people sign in. None: no accounts (the command line gives it only
     #: when it holds anyone, read once at start-up, before the event loop).
     users: str | None = None
+    #: The site's OpenID Connect provider (an issuer URL), its client id and secret for this relay, and the ID token
+    #: claim naming each person's role (relay/net/oidc.py); None: password and pairing sign-in only.
+    oidc_issuer: str | None = None
+    oidc_client_id: str = ""
+    oidc_secret: str = ""
+    oidc_role_claim: str = "roles"
     #: Origins allowed besides the relay's own, e.g. ("https://ops.example.org",).
     allowed_origins: tuple[str, ...] = ()
     #: Host names (of the Host header) allowed besides IP addresses, localhost and this machine's names.

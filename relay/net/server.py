@@ -35,6 +35,8 @@ from .keys import RELAY_KEY as RELAY_KEY
 from .keys import SIGN_IN_KEY as SIGN_IN_KEY
 from .keys import SOCKETS_KEY as SOCKETS_KEY
 from .loop_lag import ArrivalDates, date_reads, unread_bytes
+from .oidc import OidcSettings, OidcSignIn
+from .oidc import add_routes as add_oidc_routes
 from .sign_in import SignIn
 from .sign_in import add_routes as add_sign_in_routes
 from .tls import fingerprint, server_context
@@ -422,6 +424,10 @@ def create_app(
     )  # fmt: skip
     app[SIGN_IN_KEY] = SignIn(book if accounts else None, app[ACCESS_KEY], secure=bool(options.tls_cert))
     add_sign_in_routes(app, app[SIGN_IN_KEY])
+    if accounts and options.oidc_issuer:
+        oidc = OidcSettings(options.oidc_issuer, options.oidc_client_id, options.oidc_secret, options.oidc_role_claim)
+        add_oidc_routes(app, OidcSignIn(oidc, app[SIGN_IN_KEY]))
+        app[SIGN_IN_KEY].oidc_issuer = options.oidc_issuer
     app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
     # Every response, errors included: the CSP the client and the report pass, nosniff, no referrer, no framing.
     headers = SecurityHeaders.for_pages(CLIENT_DIR, own_host=app[ACCESS_KEY].is_own_host)

@@ -53,6 +53,8 @@ class SignIn:
         self.sessions = Sessions()
         #: Removals and role changes made while the relay runs end their sessions and pages (None: no accounts).
         self.watch = AccountWatch(book, self.sessions) if book is not None else None
+        #: The site's OpenID Connect provider, when people may also sign in with it (relay/net/oidc.py).
+        self.oidc_issuer: str | None = None
         self._access = access
         self._secure = secure
         self._clock = clock
@@ -93,7 +95,7 @@ class SignIn:
             return web.json_response({"accounts": False})
         session = self.session_of(request)
         if session is None:
-            return web.json_response({"accounts": True, "user": None})
+            return web.json_response({"accounts": True, "user": None, "oidc": self.oidc_issuer})
         return web.json_response({"accounts": True, "user": session.user, "role": session.role, "csrf": session.csrf})
 
     async def sign_out(self, request: web.Request) -> web.Response:
@@ -174,10 +176,14 @@ class SignIn:
 
     def _with_cookie(self, session: Session, body: dict[str, Any]) -> web.Response:
         response = web.json_response(body)
+        self.set_cookie(response, session)
+        return response
+
+    def set_cookie(self, response: web.StreamResponse, session: Session) -> None:
+        """The session's cookie on a response (also the OpenID Connect sign-in's redirect: relay/net/oidc.py)."""
         response.set_cookie(
             COOKIE, session.id, max_age=int(LIFETIME), path="/", httponly=True, samesite="Strict", secure=self._secure
         )
-        return response
 
 
 def _check(book: UserBook, user: str, password: str) -> tuple[str, Any] | None:

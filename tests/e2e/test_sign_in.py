@@ -17,6 +17,7 @@ from relay.cli.options import Options
 from relay.config import load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.browser import Client, confirm_reset
+from tests.helpers.oidc import CLIENT_ID, SECRET, Provider
 
 PASSWORDS = {"Ana": "ana-correct-horse", "Ben": "ben-battery-staple"}
 
@@ -100,3 +101,34 @@ async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(
     assert errors == [], errors
     for client in (ana, ben, headset):
         await client.page.close()
+
+
+async def test_a_person_signs_in_with_the_sites_provider_from_the_page(browser: Browser, tmp_path: Path) -> None:
+    """The sign-in dialog offers the site's OpenID Connect provider (a loopback one, tests/helpers/oidc.py); its link
+    goes there and back, and the page comes back signed in as the person the provider named, with their role."""
+    provider = await Provider().start()
+    book = UserBook(tmp_path / "users.sqlite")
+    await asyncio.to_thread(book.add, "Root", "admin", "root-admin-pw")
+    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
+    options = Options(
+        users=str(book.path), database=str(tmp_path / "i.sqlite"), oidc_issuer=provider.issuer,
+        oidc_client_id=CLIENT_ID, oidc_secret=SECRET,
+    )  # fmt: skip
+    site = await start_relay(config, options=options)
+    page = await browser.new_page(viewport={"width": 1280, "height": 760})
+    client = Client(page, "oidc")
+    try:
+        await page.goto(site.url)
+        link = page.locator("#sign-in-dialog a.oidc")
+        await link.wait_for(state="visible", timeout=30_000)
+        assert await link.inner_text() == f"Sign in with {provider.issuer.removeprefix('http://')}"
+        await client.shot("01-provider-offered")
+        await link.click()
+        await page.locator("#account .who", has_text="ana@site.example (operator)").wait_for(timeout=30_000)
+        await client.wait("s.connected && Object.keys(s.robots).length > 0", 30)
+        assert not await page.locator("#sign-in-dialog").is_visible()
+        assert [e for e in client.errors if "status of 401" not in e] == []
+    finally:
+        await page.close()
+        await site.runner.cleanup()
+        await provider.close()

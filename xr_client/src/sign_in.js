@@ -32,6 +32,20 @@ export async function whoAmI(origin, fetcher = fetch) {
 }
 
 /**
+ * The site's OpenID Connect provider when the relay offers sign-in with it (its issuer URL), else null.
+ * @param {string} origin @param {typeof fetch} [fetcher] @returns {Promise<string | null>}
+ */
+export async function signInProvider(origin, fetcher = fetch) {
+  try {
+    const response = await fetcher(`${origin}/whoami`, { credentials: 'same-origin' });
+    const body = response.ok ? await response.json() : null;
+    return typeof body?.oidc === 'string' ? body.oidc : null;
+  } catch {
+    return null;
+  }
+}
+
+/**
  * @param {string} origin @param {string} user @param {string} password @param {typeof fetch} [fetcher]
  * @returns {Promise<SignInResult>}
  */

@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 
-import { claimCode, CSRF_HEADER, pairingCode, signIn, signOut, whoAmI } from '../src/sign_in.js';
+import { claimCode, CSRF_HEADER, pairingCode, signIn, signInProvider, signOut, whoAmI } from '../src/sign_in.js';
 
 /** A relay's answers by path, and every request the page made. */
 function relay(answers) {
@@ -33,6 +33,17 @@ test('a page asks who it is: an account, signed out, or a relay without accounts
     throw new TypeError('network');
   };
   assert.equal(await whoAmI(ORIGIN, broken), undefined);
+});
+
+test("the site's sign-in provider is offered when the relay names one, and only then", async () => {
+  const issuer = 'https://id.site.example/realms/plant';
+  const signedOut = { accounts: true, user: null };
+  assert.equal(
+    await signInProvider(ORIGIN, relay({ '/whoami': [200, { ...signedOut, oidc: issuer }] }).fetcher),
+    issuer,
+  );
+  assert.equal(await signInProvider(ORIGIN, relay({ '/whoami': [200, { ...signedOut, oidc: null }] }).fetcher), null);
+  assert.equal(await signInProvider(ORIGIN, relay({}).fetcher), null);
 });
 
 test('signing in sends JSON and takes the account; a refusal is the relay own words', async () => {

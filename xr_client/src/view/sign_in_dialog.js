@@ -5,7 +5,7 @@
  * page (target_dialog.js), so E-STOP stays reachable; it stays open until the relay accepts, showing the relay's own
  * words when it does not ("wrong user name or password"). And the dialog that shows a pairing code.
  */
-import { claimCode, signIn } from '../sign_in.js';
+import { claimCode, signIn, signInProvider } from '../sign_in.js';
 
 export class SignInDialog {
   /**
@@ -40,8 +40,18 @@ export class SignInDialog {
     if (!element) return new Promise(() => {}); // no page: nobody to ask
     this.#error(why.replace(/^sign in:\s*/, ''));
     if (!element.open) element.show();
+    void this.#offerProvider(element);
     this.#field('user')?.focus();
     return new Promise((resolve) => (this.resolve = resolve));
+  }
+
+  /** The site's sign-in provider, when the relay has one: a link that leaves for it and comes back signed in. */
+  async #offerProvider(/** @type {HTMLDialogElement} */ element) {
+    const link = /** @type {HTMLAnchorElement | null} */ (element.querySelector('a.oidc'));
+    const issuer = link ? await signInProvider(this.origin, this.fetcher) : null;
+    if (!link || !issuer) return;
+    link.textContent = `Sign in with ${new URL(issuer).host}`;
+    link.hidden = false;
   }
 
   /** @param {'sign-in' | 'pair'} how */
