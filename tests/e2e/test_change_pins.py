@@ -7,55 +7,17 @@ back when off."""
 
 from __future__ import annotations
 
-import asyncio
-import time
-from typing import Any
-
-import pytest
-
-from relay.inspection.change import SCORE_THRESHOLD
-from relay.inspection.records import CaptureRecord, FindingRecord
-from relay.sim.camera import embree_available
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
-from tests.helpers.inspection import SIZE, SPILL_VIEW, spill_rounds
+from tests.helpers.inspection import two_rounds
 
 #: The ok status's pin colour (xr_client/src/inspection_model.js STATUS_COLOURS.ok).
 OK_GREEN = "#2e9e4f"
 
 
-async def _two_rounds(station: Station) -> tuple[FindingRecord, FindingRecord, FindingRecord]:
-    """Round one (mission m-pins-1): the spill as it was, ok. Round two (m-pins-2): the spill grown, ``changed`` with
-    the relay's score against round one, and the panels beside it unchanged (ok)."""
-    if not embree_available():
-        pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
-    captures: Any = station.running.relay.inspection.captures
-    first, later, score, outline = await asyncio.to_thread(spill_rounds)
-    assert score > SCORE_THRESHOLD and outline is not None, score
-    now = time.time()
-    rounds = ("m-pins-1.robot1", "m-pins-2.robot1")
-    stored = []
-    for index, jpeg in enumerate((first, later)):
-        record = CaptureRecord(f"c-pins-{index}", "robot1", now - 60 + 60 * index, *SPILL_VIEW, {}, rounds[index],
-                               "spill", None, SIZE, SIZE)  # fmt: skip
-        stored.append(await captures._store(lambda s, r=record, j=jpeg: s.add_capture(r, j)))
-    before, after = stored
-    old = FindingRecord("f-pins-0", before.id, "robot1", 1.8, 8.2, "ok", "within thresholds", "rule", before.t,
-                        before.t, rounds[0], "spill")  # fmt: skip
-    changed = FindingRecord("f-pins-1", after.id, "robot1", 1.8, 8.2, "changed", "changed since the last round",
-                            "rule", after.t, after.t, rounds[1], "spill", outline, round(score, 4),
-                            before.id)  # fmt: skip
-    same = FindingRecord("f-pins-2", after.id, "robot1", 4.0, 8.2, "ok", "within thresholds", "rule", after.t + 1,
-                         after.t + 1, rounds[1], "panels")  # fmt: skip
-    for finding in (old, changed, same):
-        capture = before if finding is old else after
-        await captures._announce(await captures._store(lambda s, f=finding: s.add_finding(f)), capture)
-    return old, changed, same
-
-
 async def test_changed_pins_take_the_change_colour_and_the_filter_keeps_only_them(
     station: Station, open_client: OpenClient
 ) -> None:
-    old, changed, same = await _two_rounds(station)
+    old, changed, same = await two_rounds(station.running)
     client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "change-pins", 1280, 760)
     page = client.page
     ids = [old.id, changed.id, same.id]

@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import asyncio
 import math
+import time
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from relay.cli.options import Options
 from relay.config import FleetConfig, Lens
-from relay.inspection.change import compare, decode
-from relay.inspection.records import AlertRecord
+from relay.inspection.change import SCORE_THRESHOLD, compare, decode
+from relay.inspection.records import AlertRecord, CaptureRecord, FindingRecord
 from relay.inspection.segment import outline_of
 from relay.inspection.store import Store
-from relay.sim.camera import SimCamera, rgb_to_jpeg
+from relay.sim.camera import SimCamera, embree_available, rgb_to_jpeg
 from relay.sim.floorplan import demo_facility
 from relay.sim.spill import GrownSpill
 from tests.conftest import ROOT, RunningRelay, start_relay
@@ -72,3 +75,32 @@ def spill_rounds() -> tuple[bytes, bytes, float, tuple[tuple[int, int], ...] | N
     first, later = (rgb_to_jpeg(camera.render(*SPILL_VIEW, lens, spill=GrownSpill(decal, k))) for k in (1.0, 2.0))
     change = compare(decode(first, "the first round"), decode(later, "the second round"))
     return first, later, change.score, outline_of(change.mask, SIZE, SIZE)
+
+
+async def two_rounds(running: RunningRelay) -> tuple[FindingRecord, FindingRecord, FindingRecord]:
+    """Round one (mission m-pins-1): the spill as it was, ok. Round two (m-pins-2): the spill grown, ``changed`` with
+    the relay's score against round one, and the panels beside it unchanged (ok)."""
+    if not embree_available():
+        pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
+    captures: Any = running.relay.inspection.captures
+    first, later, score, outline = await asyncio.to_thread(spill_rounds)
+    assert score > SCORE_THRESHOLD and outline is not None, score
+    now = time.time()
+    rounds = ("m-pins-1.robot1", "m-pins-2.robot1")
+    stored = []
+    for index, jpeg in enumerate((first, later)):
+        record = CaptureRecord(f"c-pins-{index}", "robot1", now - 60 + 60 * index, *SPILL_VIEW, {}, rounds[index],
+                               "spill", None, SIZE, SIZE)  # fmt: skip
+        stored.append(await captures._store(lambda s, r=record, j=jpeg: s.add_capture(r, j)))
+    before, after = stored
+    old = FindingRecord("f-pins-0", before.id, "robot1", 1.8, 8.2, "ok", "within thresholds", "rule", before.t,
+                        before.t, rounds[0], "spill")  # fmt: skip
+    changed = FindingRecord("f-pins-1", after.id, "robot1", 1.8, 8.2, "changed", "changed since the last round",
+                            "rule", after.t, after.t, rounds[1], "spill", outline, round(score, 4),
+                            before.id)  # fmt: skip
+    same = FindingRecord("f-pins-2", after.id, "robot1", 4.0, 8.2, "ok", "within thresholds", "rule", after.t + 1,
+                         after.t + 1, rounds[1], "panels")  # fmt: skip
+    for finding in (old, changed, same):
+        capture = before if finding is old else after
+        await captures._announce(await captures._store(lambda s, f=finding: s.add_finding(f)), capture)
+    return old, changed, same

@@ -23,7 +23,8 @@ const COLUMN_W = CARD_PX[0] - COLUMN_X - MARGIN;
 /**
  * The card for one finding.
  * @param {{status: string, proposal: boolean, imageAction: 'region' | 'target', operator: boolean,
- *   imageSize: [number, number] | null}} state what the buttons show, and the capture's size once it is known
+ *   imageSize: [number, number] | null, before?: 'before' | 'after' | null}} state what the buttons show, the
+ *   capture's size once it is known, and for a changed finding which of its images shows (null: it has one)
  * @returns {{image: Rect | null, text: Rect, trend: Rect, buttons: CardButton[]}}
  */
 export function cardLayout(state) {
@@ -59,6 +60,13 @@ export function cardLayout(state) {
     row([
       ['image:region', 'Mark region', state.imageAction === 'region', op],
       ['image:target', 'New target', state.imageAction === 'target', op],
+    ]);
+  }
+  // A changed finding's two images, switched (the desktop's slider): for everyone, viewers too (it only shows).
+  if (state.before) {
+    row([
+      ['card:after', 'After', state.before === 'after', true],
+      ['card:before', 'Before', state.before === 'before', true],
     ]);
   }
   // The trend: what is left of the column between the last row and Close (no button: a ray passes through it).

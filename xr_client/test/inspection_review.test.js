@@ -164,6 +164,18 @@ test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and
     viewer.buttons.find((b) => b.id === 'card:close')
   );
   assert.deepEqual(cardHit(viewer, size, close.x + 5, close.y + 5), { button: 'card:close' });
+  // A changed finding's Before and After: for a viewer too (they only show), the one showing active; none without.
+  const changed = cardLayout({ ...viewerState(size), before: 'before' });
+  const shown = changed.buttons.filter((b) => b.id === 'card:before' || b.id === 'card:after');
+  assert.deepEqual(
+    shown.map((b) => [b.id, b.active, b.enabled]),
+    [
+      ['card:after', false, true],
+      ['card:before', true, true],
+    ],
+  );
+  for (const b of shown) assert.deepEqual(cardHit(changed, size, b.x + b.w / 2, b.y + b.h / 2), { button: b.id });
+  assert.ok(!viewer.buttons.some((b) => b.id === 'card:before'));
   // A wide capture is letterboxed: its rectangle keeps 16:9.
   const wide = /** @type {NonNullable<typeof layout.image>} */ (
     cardLayout({ status: 'ok', proposal: false, imageAction: 'region', operator: true, imageSize: [1280, 720] }).image
@@ -322,3 +334,14 @@ test('a change has a colour of its own, and a false alarm is marked with a note 
   );
   assert.deepEqual(cardHit(card, size, mark.x + mark.w / 2, mark.y + mark.h / 2), { button: 'status:false_alarm' });
 });
+
+/** A viewer's card state for a capture of `size`. @param {[number, number]} size */
+function viewerState(size) {
+  return {
+    status: 'changed',
+    proposal: false,
+    imageAction: /** @type {'region'} */ ('region'),
+    operator: false,
+    imageSize: size,
+  };
+}

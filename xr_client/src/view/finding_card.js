@@ -11,7 +11,8 @@ import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
 import { fillRounded, fitText, font } from './canvas_text.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../finding_card_layout.js';
-import { sparkline } from '../sparkline.js';
+import { drawTrend } from './card_trend.js';
+import { CardImage } from './card_image.js';
 import { STATUS_COLOURS } from '../inspection_model.js';
 import { statusWords } from '../wording.js';
 
@@ -27,14 +28,21 @@ export class FindingCard {
     this.mesh = this.plane.mesh;
     this.mesh.renderOrder = 30;
     this.mesh.visible = false;
-    /** @type {HTMLImageElement | null} */
-    this.image = null;
-    /** @type {[number, number] | null} the capture's size, once its image has loaded */
-    this.imageSize = null;
-    this.imageSrc = '';
-    this.imageState = 'none';
+    /** The capture, and a changed finding's before image (the capture it was compared with). */
+    this.after = new CardImage();
+    this.before = new CardImage();
+    /** Which of them the card shows: a changed finding's Before and After buttons switch (the desktop's slider). */
+    this.showing = /** @type {'after' | 'before'} */ ('after');
+    this.findingId = '';
     /** @type {ReturnType<typeof cardLayout>} */
-    this.layout = cardLayout({ status: '', proposal: false, imageAction: 'region', operator: false, imageSize: null });
+    this.layout = cardLayout({
+      status: '',
+      proposal: false,
+      imageAction: 'region',
+      operator: false,
+      imageSize: null,
+      before: null,
+    });
     this.key = '';
     this.draws = 0;
   }
@@ -49,9 +57,13 @@ export class FindingCard {
     const finding = review.selected ? model.findings.get(review.selected) : null;
     this.mesh.visible = Boolean(finding) && context.presenting;
     if (!finding || !context.presenting) return;
-    this.#load(finding.image ? `${finding.image}${this.token ? `?token=${encodeURIComponent(this.token)}` : ''}` : '');
+    const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
+    this.after.load(finding.image ? `${finding.image}${query}` : '');
+    this.before.load(finding.before ? `${finding.before}${query}` : '');
+    if (finding.id !== this.findingId) [this.findingId, this.showing] = [finding.id, 'after'];
     const version = `${finding.id}|${finding.updated}|${review.version}`;
-    const key = `${version}|${context.hover}|${context.operator}|${this.imageState}`;
+    const images = `${this.after.state}|${this.before.state}|${this.showing}`;
+    const key = `${version}|${context.hover}|${context.operator}|${images}`;
     if (key === this.key) return;
     this.key = key;
     this.layout = cardLayout({
@@ -60,28 +72,19 @@ export class FindingCard {
       imageAction: review.imageAction,
       operator: context.operator,
       imageSize: this.imageSize,
+      before: finding.before ? this.showing : null,
     });
     this.#draw(finding, review.outline(model), review.hint(), context.hover);
   }
 
-  /** @param {string} src */
-  #load(src) {
-    if (src === this.imageSrc) return;
-    this.imageSrc = src;
-    this.imageSize = null;
-    this.imageState = src ? 'loading' : 'none';
-    if (!src) return;
-    const img = new Image();
-    img.onload = () => {
-      if (this.imageSrc !== src) return;
-      this.image = img;
-      this.imageSize = [img.naturalWidth, img.naturalHeight];
-      this.imageState = 'loaded';
-    };
-    img.onerror = () => {
-      if (this.imageSrc === src) this.imageState = 'failed';
-    };
-    img.src = src;
+  /** The capture's size, once its image has loaded (a hit on the image maps back to its pixels). */
+  get imageSize() {
+    return this.after.size;
+  }
+
+  /** Show the capture or, for a changed finding, its before image. @param {'after' | 'before'} which */
+  show(which) {
+    this.showing = which;
   }
 
   /**
@@ -100,9 +103,11 @@ export class FindingCard {
     ctx.arc(40, 34, 12, 0, Math.PI * 2);
     ctx.fill();
     ctx.fillStyle = '#fff';
+    const shown = this.showing === 'before' && finding.before ? this.before : this.after;
     fitText(
       ctx,
-      `${finding.target ?? 'finding'} · ${finding.robot} · ${statusWords(finding.status)}`,
+      `${finding.target ?? 'finding'} · ${finding.robot} · ${statusWords(finding.status)}` +
+        (finding.before ? ` · ${this.showing === 'before' ? 'before (the last round)' : 'after'}` : ''),
       64,
       34,
       w - 100,
@@ -110,18 +115,14 @@ export class FindingCard {
       700,
     );
     const box = this.layout.image;
-    if (box && this.image && this.imageSize) {
-      ctx.drawImage(this.image, box.x, box.y, box.w, box.h);
-      if (outline && outline.length > 2) this.#outline(ctx, box, this.imageSize, outline);
+    if (box && shown.image && shown.size && this.imageSize) {
+      ctx.drawImage(shown.image, box.x, box.y, box.w, box.h);
+      if (outline && outline.length > 2 && shown === this.after) this.#outline(ctx, box, this.imageSize, outline);
     } else {
       ctx.fillStyle = '#9aa5b8';
       fitText(
         ctx,
-        this.imageState === 'failed'
-          ? 'the image could not be loaded'
-          : finding.image
-            ? 'loading the image…'
-            : 'no image',
+        shown.state === 'failed' ? 'the image could not be loaded' : finding.image ? 'loading the image…' : 'no image',
         40,
         h / 2,
         560,
@@ -138,7 +139,7 @@ export class FindingCard {
     fitText(ctx, readings || 'no readings', text.x, text.y + 60, text.w, 22);
     fitText(ctx, hint, text.x, text.y + 100, text.w, 20);
     // One round is a reading, not a trend.
-    if ((finding.trend?.points.length ?? 0) >= 2 && finding.trend) this.#trend(ctx, this.layout.trend, finding.trend);
+    if ((finding.trend?.points.length ?? 0) >= 2 && finding.trend) drawTrend(ctx, this.layout.trend, finding.trend);
     for (const b of this.layout.buttons) {
       const hovered = hover === b.id && b.enabled;
       ctx.globalAlpha = b.enabled ? 1 : 0.4;
@@ -175,51 +176,6 @@ export class FindingCard {
     ctx.lineWidth = 4;
     ctx.strokeStyle = '#ffc828';
     ctx.stroke();
-  }
-
-  /**
-   * The reading over its last rounds in ``box``: a line through a dot a round, the threshold dashed and labelled,
-   * and a caption (the geometry is sparkline.js, as on the desktop card).
-   * @param {CanvasRenderingContext2D} ctx @param {{x: number, y: number, w: number, h: number}} box
-   * @param {import('../protocol.js').TrendDescription} trend
-   */
-  #trend(ctx, box, trend) {
-    const caption = 26;
-    const line = sparkline(trend.points, trend.threshold, { width: box.w, height: box.h - caption, pad: 8 });
-    const unit = trend.unit ? ` ${trend.unit}` : '';
-    ctx.save();
-    ctx.translate(box.x, box.y);
-    fillRounded(ctx, [0, 0, box.w, box.h - caption], 10, 'rgba(255,255,255,0.05)');
-    if (line.limit !== null && trend.threshold !== null) {
-      ctx.strokeStyle = '#ff6b5e';
-      ctx.lineWidth = 2;
-      ctx.setLineDash([10, 7]);
-      ctx.beginPath();
-      ctx.moveTo(8, line.limit);
-      ctx.lineTo(box.w - 8, line.limit);
-      ctx.stroke();
-      ctx.setLineDash([]);
-      ctx.fillStyle = '#ff6b5e';
-      const above = line.limit > (box.h - caption) / 2;
-      fitText(ctx, `${trend.threshold}${unit}`, 12, line.limit + (above ? -12 : 14), box.w / 2, 18);
-    }
-    ctx.strokeStyle = '#8ab4ff';
-    ctx.fillStyle = '#8ab4ff';
-    ctx.lineWidth = 3;
-    ctx.beginPath();
-    line.points.forEach((p, i) => (i === 0 ? ctx.moveTo(p.x, p.y) : ctx.lineTo(p.x, p.y)));
-    ctx.stroke();
-    for (const p of line.points) {
-      ctx.beginPath();
-      ctx.arc(p.x, p.y, 5, 0, Math.PI * 2);
-      ctx.fill();
-    }
-    ctx.fillStyle = '#9aa5b8';
-    const rounds = trend.points.length;
-    const latest = trend.points[rounds - 1][1];
-    const said = `${trend.sensor} over ${rounds} round${rounds === 1 ? '' : 's'}: now ${latest.toFixed(1)}${unit}`;
-    fitText(ctx, said, 0, box.h - caption / 2, box.w, 20);
-    ctx.restore();
   }
 
   /**
@@ -265,6 +221,5 @@ export class FindingCard {
 
   dispose() {
     this.plane.dispose();
-    this.image = null;
   }
 }

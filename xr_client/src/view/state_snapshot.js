@@ -53,6 +53,9 @@ export function snapshotState(app) {
       card: {
         visible: app.views.findingCard.mesh.visible,
         image: app.views.findingCard.imageSize,
+        // A changed finding's images on the VR card: which shows, and whether its before image has loaded.
+        showing: app.views.findingCard.showing,
+        before: app.views.findingCard.before.state,
         draws: app.views.findingCard.draws,
         wipe: app.views.inspectionUi.panel?.wipe ?? null, // the desktop card's before/after slider (0-100)
       },

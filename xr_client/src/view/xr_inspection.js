@@ -157,6 +157,8 @@ export class XRInspection {
   #button(button) {
     const review = this.host.ui.review;
     if (button === 'card:close') review.select(null);
+    else if (button === 'card:before' || button === 'card:after')
+      this.host.card.show(button === 'card:before' ? 'before' : 'after');
     else if (button.startsWith('status:'))
       this.host.ui.run(review.setStatus(/** @type {any} */ (button.slice('status:'.length))));
     else if (button === 'region:accept') this.host.ui.run(review.accept());
