@@ -112,9 +112,9 @@ async def test_twenty_robots_are_picked_by_name_on_the_desktop(fleet_of: StartFl
     await client.wait("s.menu.selected === 'robot9'")
     await page.click(SEARCH)
     assert await page.get_attribute('#menu .picker-list button[data-robot="robot9"]', "aria-selected") == "true"
-    await client.shot("02-list", "robot-picker.png")
+    await client.shot("02-list")
 
-    # Stopped, robot9 heads the list sorted by status, in red words.
+    # Stopped, robot9 heads the list sorted by status, marked E-STOPPED.
     await page.click('#menu button[data-button="estop:robot"]')
     await client.wait("s.estop.latched.includes('robot9')")
     await page.click(SEARCH)
@@ -125,7 +125,7 @@ async def test_twenty_robots_are_picked_by_name_on_the_desktop(fleet_of: StartFl
     assert await page.inner_text('#menu .picker-list button[data-robot="robot9"] .state') == "E-STOPPED"
     assert (await listed(client))[1:] == [f"robot{i}" for i in range(1, 21) if i != 9]
     assert await covered(page, '#menu .picker-list button[data-robot="robot9"]') == [], "robot9 is out of sight"
-    await client.shot("03-by-status")
+    await client.shot("03-by-status", "robot-picker.png")
 
     # Esc in the search box is still the E-STOP of every robot (and closes the list); so is Space, which types nothing.
     await page.fill(SEARCH, "robot")
