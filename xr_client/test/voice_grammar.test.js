@@ -215,11 +215,19 @@ test('in a fleet of a hundred robots named robot1..robot100, "select robot 17" i
     ['switch to robot 73', 'robot73'],
     ['robot 100', 'robot100'],
     ['Robot 10.', 'robot10'],
+    ['select robot seventy three', 'robot73'],
+    ['robot twenty one', 'robot21'],
+    ['robot twenty', 'robot20'],
+    ['robot thirty', 'robot30'],
+    ['switch to robot one hundred', 'robot100'],
+    ['robot a hundred', 'robot100'],
   ]) {
     const c = command(text, fleet);
     assert.ok(c.kind === 'select' && c.robot === robot, `${text}: ${JSON.stringify(c)}`);
   }
   const stop = command('stop robot 99', fleet);
   assert.ok(stop.kind === 'stop' && stop.robot === 'robot99');
+  const goal = command('robot ninety nine go to plumbing', fleet);
+  assert.ok(goal.kind === 'goto' && goal.robot === 'robot99');
   assert.match(refusal('select robot 101', fleet), /robot 101/);
 });
