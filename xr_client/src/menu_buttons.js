@@ -5,6 +5,8 @@
  * menu_state.js's.
  */
 
+import { pageLabel } from './robot_pages.js';
+
 /** @typedef {import('./menu_state.js').MenuState} MenuState */
 /** @typedef {import('./menu_state.js').MenuButton} MenuButton */
 
@@ -29,13 +31,7 @@ export function menuButtons(menu) {
   };
   return [
     ...modeButtons(menu, context),
-    ...menu.robots.map((robot) => ({
-      id: `robot:${robot.name}`,
-      label: robot.name,
-      group: 'robots',
-      active: robot.name === menu.selected,
-      enabled: true,
-    })),
+    ...robotButtons(menu),
     ...toolButtons(menu, context),
     ...cameraButtons(menu, context),
     ...missionButtons(menu),
@@ -43,6 +39,28 @@ export function menuButtons(menu) {
     ...findingButtons(menu),
     ...optionButtons(menu),
     ...estopButtons(menu, context),
+  ];
+}
+
+/**
+ * A button a robot, on the page the row shows, and in a fleet larger than a page, `‹`, which robots the page holds,
+ * and `›` in a row of their own (`pages`) under them. @param {MenuState} menu @returns {MenuButton[]}
+ */
+function robotButtons(menu) {
+  const page = menu.robotPages.shown(menu.robots.length);
+  const robots = menu.robots.slice(page.first, page.last).map((robot) => ({
+    id: `robot:${robot.name}`,
+    label: robot.name,
+    group: 'robots',
+    active: robot.name === menu.selected,
+    enabled: true,
+  }));
+  if (!page.paged) return robots;
+  return [
+    ...robots,
+    { id: 'robots:prev', label: '‹', group: 'pages', active: false, enabled: true },
+    { id: 'robots:page', label: pageLabel(page), group: 'pages', active: false, enabled: false, caption: true },
+    { id: 'robots:next', label: '›', group: 'pages', active: false, enabled: true },
   ];
 }
 

@@ -8,6 +8,7 @@
 export const MENU_ROWS = Object.freeze([
   ['mode', 'View'],
   ['robots', 'Robot'],
+  ['pages', ''],
   ['tools', 'Tool'],
   ['camera', 'Camera'],
   ['mission', 'Mission'],
@@ -39,8 +40,9 @@ export function layoutMenu(buttons, width, height, options = {}) {
     const inRow = buttons.filter((b) => b.group === group);
     const left = group === 'estop' ? margin : margin + label;
     const usable = width - margin - left;
-    // E-STOP is twice as wide as anything beside it: the easiest target on the panel.
-    const weights = inRow.map((b) => (b.id === 'estop' ? 2 : 1));
+    // E-STOP is twice as wide as anything beside it: the easiest target on the panel. The robots' page label too:
+    // "robots 13-18 of 20" in the row's letters.
+    const weights = inRow.map((b) => (b.id === 'estop' || b.id === 'robots:page' ? 2 : 1));
     const unit = (usable - gap * (inRow.length - 1)) / weights.reduce((a, b) => a + b, 0);
     const y = header + r * (rowHeight + gap);
     let x = left;

@@ -5,7 +5,8 @@
  *
  * Rules:
  * - mode `free_roam` | `pov`; `pov` needs a selected robot with a camera;
- * - robots are a radio group where pressing the selected one selects none;
+ * - robots are a radio group where pressing the selected one selects none; more than a row holds are paged
+ *   (robot_pages.js: `‹` / `›` turn the pages), the selected robot's page shown when it is selected or the menu opens;
  * - tools `teleop`, `goal` and `inspect` are exclusive; teleop and goal need a selected robot and an operator
  *   connection; `goal` and `inspect` only in free roam (there is no floor in the POV space); `inspect` (point at
  *   pins, rings and the floor) needs no robot, and serves viewers too (they review, they change nothing);
@@ -25,13 +26,16 @@
 import { MAX_STREAM_FPS } from './protocol.js';
 import { menuButtons } from './menu_buttons.js';
 import { MenuOptions } from './menu_options.js';
+import { RobotPages } from './robot_pages.js';
 
 /** @typedef {'free_roam' | 'pov'} Mode */
 /** @typedef {'none' | 'teleop' | 'goal' | 'inspect'} Tool */
 /** @typedef {{name: string, hasCamera: boolean}} MenuRobot */
 /** @typedef {'start' | 'all' | 'picked' | 'pause' | 'resume' | 'abort'} MissionAction */
 /**
- * @typedef {{id: string, label: string, group: string, active: boolean, enabled: boolean, danger?: boolean}} MenuButton
+ * A button of the menu; a caption is words among the buttons, drawn without a button's face ("robots 1-6 of 20").
+ * @typedef {{id: string, label: string, group: string, active: boolean, enabled: boolean, danger?: boolean,
+ *   caption?: boolean}} MenuButton
  */
 /**
  * @typedef {{type: 'menu', open: boolean}
@@ -65,6 +69,7 @@ export class MenuState {
     this.options = new MenuOptions();
     /** @type {MenuRobot[]} */
     this.robots = [];
+    this.robotPages = new RobotPages(); // the VR row's page of robots, in a large fleet (robot_pages.js)
     this.operator = true;
     this.connected = false;
     /** The selected robot follows a goal (from its status): `Cancel goal` is enabled. */
@@ -114,10 +119,9 @@ export class MenuState {
 
   /** @param {boolean} connected */
   setConnected(connected) {
-    if (this.connected !== connected) {
-      this.connected = connected;
-      this.#changed();
-    }
+    if (this.connected === connected) return;
+    this.connected = connected;
+    this.#changed();
   }
 
   /** @param {string | null} name */
@@ -156,11 +160,7 @@ export class MenuState {
    * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound' | 'changed'} key @param {any} value
    */
   show(key, value) {
-    const before = /** @type {any} */ (this)[key];
-    const same = Array.isArray(value)
-      ? value.length === before.length && value.every((v, i) => v === before[i])
-      : value === before;
-    if (same) return;
+    if (same(/** @type {any} */ (this)[key], value)) return;
     /** @type {any} */ (this)[key] = value;
     this.#changed();
   }
@@ -178,6 +178,7 @@ export class MenuState {
   setOpen(open) {
     if (open === this.open) return [];
     this.open = open;
+    if (open) this.robotPages.show(this.robots.findIndex((r) => r.name === this.selected));
     this.#changed();
     /** @type {MenuEffect[]} */
     const effects = [{ type: 'menu', open }];
@@ -213,6 +214,7 @@ export class MenuState {
       this.live = !this.live;
       effects = [{ type: 'stream', robot: this.selected, fps: this.live ? MAX_STREAM_FPS : 0 }];
     } else if (kind === 'opt') this.options.press(id);
+    else if (kind === 'robots') this.robotPages.turn(arg, this.robots.length);
     else if (id === 'menu:close') effects = this.setOpen(false);
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected)
@@ -258,6 +260,7 @@ export class MenuState {
     if (name === this.selected) return [];
     const effects = [...this.#stopDriving(), ...this.#stopLive()];
     this.selected = name;
+    this.robotPages.show(this.robots.findIndex((r) => r.name === name));
     this.goalActive = false; // until the new robot's status says otherwise
     this.holder = null; // likewise
     effects.push({ type: 'select', robot: name });
@@ -315,6 +318,13 @@ function missionEffects(button, menu) {
   if (button === 'toggle') return [{ type: 'mission', action: menu.mission === 'paused' ? 'resume' : 'pause', robot }];
   if (button === 'abort') return [{ type: 'mission', action: 'abort', robot }];
   return [];
+}
+
+/** A value shown, the same as before: equal, or arrays of the same items. @param {any} before @param {any} value */
+function same(before, value) {
+  return Array.isArray(value)
+    ? value.length === before.length && value.every((v, i) => v === before[i])
+    : value === before;
 }
 
 /** One press = one toggle: reports the rising edge of a button, never repeats while it is held. */

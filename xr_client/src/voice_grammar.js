@@ -64,6 +64,10 @@ const NUMBERS = new Map(
     third: 3,
   }),
 );
+/** Tens said in words, for a robot's number past twenty ("robot seventy three": robot73, in a fleet of a hundred). */
+const TENS = new Map(
+  Object.entries({ twenty: 20, thirty: 30, forty: 40, fifty: 50, sixty: 60, seventy: 70, eighty: 80, ninety: 90 }),
+);
 /** What recognisers write for a number right after "robot" ("robot to go to ..."). */
 const AFTER_ROBOT = new Map(Object.entries({ to: 2, too: 2, for: 4, fore: 4, ate: 8 }));
 const FILLERS = new Set([
@@ -110,6 +114,27 @@ export function words(text) {
     .replace(/([a-z])(\d)/g, '$1 $2')
     .split(/\s+/)
     .filter(Boolean);
+}
+
+/**
+ * A number said in more than one word, as one: "seventy three" -> "73", "one hundred" / "a hundred" -> "100".
+ * @param {string[]} w words @returns {string[]}
+ */
+function joinNumbers(w) {
+  const out = [];
+  for (let i = 0; i < w.length; i++) {
+    const tens = TENS.get(w[i]);
+    const unit = NUMBERS.get(w[i + 1] ?? '') ?? 0;
+    const isUnit = unit >= 1 && unit <= 9 && !['won', 'first', 'second', 'third'].includes(w[i + 1]);
+    if (tens !== undefined) {
+      out.push(String(tens + (isUnit ? unit : 0)));
+      if (isUnit) i++;
+    } else if ((w[i] === 'one' || w[i] === 'a') && w[i + 1] === 'hundred') {
+      out.push('100');
+      i++;
+    } else out.push(w[i] === 'hundred' ? '100' : w[i]);
+  }
+  return out;
 }
 
 /** The number a robot's name ends in (robot1 -> 1), or null. @param {string} name */
@@ -195,7 +220,7 @@ function findPlace(w, vocab) {
  */
 export function parse(transcript, vocab) {
   const heard = transcript.trim();
-  const all = words(heard).map((t) =>
+  const all = joinNumbers(words(heard)).map((t) =>
     NUMBERS.has(t) && t !== 'won' && t !== 'first' && t !== 'second' && t !== 'third' ? String(NUMBERS.get(t)) : t,
   );
   // "robot two" arrives as "robot 2"; "robot to" too (AFTER_ROBOT): restore the spoken word for takeRobot.

@@ -37,3 +37,27 @@ test('every menu button gets a rectangle inside the panel, rows do not overlap, 
   assert.equal(own.y, big.y);
   assert.ok(Math.abs(big.w - 2 * own.w) < 1e-9 && rects.every((r) => r.id === 'estop' || r.w < big.w));
 });
+
+test('with twenty robots the robot row keeps six wide buttons, its pages a row of their own under it', () => {
+  const menu = new MenuState();
+  menu.setFleet(
+    Array.from({ length: 20 }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false })),
+    true,
+  );
+  menu.select('robot17');
+  const buttons = menu.buttons();
+  const rects = layoutMenu(buttons, 1024, 700);
+  const rect = (/** @type {string} */ id) =>
+    /** @type {import('../src/menu_layout.js').ButtonRect} */ (rects.find((r) => r.id === id));
+  const robots = rects.filter((r) => r.id.startsWith('robot:'));
+  assert.equal(robots.length, 6);
+  // ~112 pixels for a name (panels.js draws a label 20 pixels narrower than its button): "robot100" in 26 px letters.
+  assert.ok(
+    robots.every((r) => r.w - 20 >= 110),
+    JSON.stringify(robots),
+  );
+  const [prev, page, next] = [rect('robots:prev'), rect('robots:page'), rect('robots:next')];
+  assert.ok(prev.y > robots[0].y + robots[0].h, 'the pages sit under the robots');
+  assert.ok(prev.x < page.x && page.x < next.x && page.w > prev.w);
+  assert.equal(buttonAt(rects, next.x + next.w / 2, next.y + next.h / 2), 'robots:next');
+});

@@ -289,3 +289,82 @@ test('the findings row switches the pins between all findings and what changed s
   m.show('sinceLastRound', true); // the desktop panel's switch turned it on
   assert.equal(m.buttons().find((b) => b.id === 'findings:since')?.active, true);
 });
+
+/** A fleet of `n` robots, robot1..robotN. @param {number} n */
+function fleetOf(n) {
+  const m = new MenuState();
+  m.setFleet(
+    Array.from({ length: n }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false })),
+    true,
+  );
+  return m;
+}
+/** @param {MenuState} m */
+const robotRow = (m) =>
+  m
+    .buttons()
+    .filter((b) => b.group === 'robots')
+    .map((b) => b.label);
+/** @param {MenuState} m */
+const pageRow = (m) =>
+  m
+    .buttons()
+    .filter((b) => b.group === 'pages')
+    .map((b) => b.label);
+
+test('a fleet of six robots is one row of buttons, without pages', () => {
+  const m = fleetOf(6);
+  assert.deepEqual(robotRow(m), ['robot1', 'robot2', 'robot3', 'robot4', 'robot5', 'robot6']);
+  assert.deepEqual(pageRow(m), []);
+});
+
+test('twenty robots are paged six at a time by their full names, the pages turning round the ends', () => {
+  const m = fleetOf(20);
+  assert.deepEqual(robotRow(m), ['robot1', 'robot2', 'robot3', 'robot4', 'robot5', 'robot6']);
+  assert.deepEqual(pageRow(m), ['‹', 'robots 1-6 of 20', '›']);
+  assert.equal(button(m, 'robots:page')?.enabled, false, 'the label is no button');
+  assert.deepEqual(m.press('robots:next'), []);
+  m.press('robots:next');
+  assert.deepEqual(robotRow(m), ['robot13', 'robot14', 'robot15', 'robot16', 'robot17', 'robot18']);
+  assert.deepEqual(pageRow(m), ['‹', 'robots 13-18 of 20', '›']);
+  // A robot of the page shown is pressed as in a small fleet.
+  assert.deepEqual(m.press('robot:robot17'), [{ type: 'select', robot: 'robot17' }]);
+  m.press('robots:next');
+  assert.deepEqual(robotRow(m), ['robot19', 'robot20']);
+  assert.deepEqual(pageRow(m), ['‹', 'robots 19-20 of 20', '›']);
+  m.press('robots:next');
+  assert.deepEqual(pageRow(m), ['‹', 'robots 1-6 of 20', '›']);
+  m.press('robots:prev');
+  assert.deepEqual(pageRow(m), ['‹', 'robots 19-20 of 20', '›']);
+  // A robot on another page is not in the row: its button cannot be pressed.
+  assert.deepEqual(m.press('robot:robot3'), []);
+  assert.equal(m.selected, 'robot17');
+});
+
+test("the menu opens on the selected robot's page, and a selection made elsewhere turns to its page", () => {
+  const m = fleetOf(20);
+  m.select('robot17');
+  assert.equal(robotRow(m)[4], 'robot17');
+  m.press('robots:prev');
+  m.press('robots:prev');
+  assert.deepEqual(pageRow(m), ['‹', 'robots 1-6 of 20', '›']);
+  m.setOpen(true);
+  m.setOpen(false);
+  m.setOpen(true);
+  assert.deepEqual(pageRow(m), ['‹', 'robots 13-18 of 20', '›']);
+  assert.equal(button(m, 'robot:robot17')?.active, true);
+  m.select('robot8'); // a robot clicked in the twin, or named by voice
+  assert.deepEqual(pageRow(m), ['‹', 'robots 7-12 of 20', '›']);
+});
+
+test('a fleet that shrinks under the page shown shows its last page', () => {
+  const m = fleetOf(20);
+  m.select('robot20');
+  const fewer = Array.from({ length: 8 }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false }));
+  m.setFleet(fewer, true);
+  assert.deepEqual(robotRow(m), ['robot7', 'robot8']);
+  assert.deepEqual(pageRow(m), ['‹', 'robots 7-8 of 8', '›']);
+  m.setFleet(fewer.slice(0, 6), true);
+  assert.equal(robotRow(m).length, 6);
+  assert.deepEqual(pageRow(m), []);
+});

@@ -204,3 +204,30 @@ test('motion waits for a confirmation; stops act at once and drop what waited; c
     { type: 'say', text: 'heard "robot seven go to plumbing": no robot 7 in this fleet (robot1, robot2, robot3)' },
   ]);
 });
+
+test('in a fleet of a hundred robots named robot1..robot100, "select robot 17" is robot17, not robot1 or robot100', () => {
+  const robots = Array.from({ length: 100 }, (_, i) => `robot${i + 1}`);
+  const fleet = { ...VOCAB, robots };
+  for (const [text, robot] of [
+    ['select robot 17', 'robot17'],
+    ['robot seventeen', 'robot17'],
+    ['select robot 1', 'robot1'],
+    ['switch to robot 73', 'robot73'],
+    ['robot 100', 'robot100'],
+    ['Robot 10.', 'robot10'],
+    ['select robot seventy three', 'robot73'],
+    ['robot twenty one', 'robot21'],
+    ['robot twenty', 'robot20'],
+    ['robot thirty', 'robot30'],
+    ['switch to robot one hundred', 'robot100'],
+    ['robot a hundred', 'robot100'],
+  ]) {
+    const c = command(text, fleet);
+    assert.ok(c.kind === 'select' && c.robot === robot, `${text}: ${JSON.stringify(c)}`);
+  }
+  const stop = command('stop robot 99', fleet);
+  assert.ok(stop.kind === 'stop' && stop.robot === 'robot99');
+  const goal = command('robot ninety nine go to plumbing', fleet);
+  assert.ok(goal.kind === 'goto' && goal.robot === 'robot99');
+  assert.match(refusal('select robot 101', fleet), /robot 101/);
+});

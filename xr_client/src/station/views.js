@@ -20,6 +20,7 @@ import { VRHud } from '../view/vr_hud.js';
 import { OperatorUi } from '../view/operator_ui.js';
 import { DesktopControls } from '../view/desktop_controls.js';
 import { Overlay } from '../view/overlay.js';
+import { fleetFacts } from '../robot_picker.js';
 import { VoiceControl } from '../view/voice_control.js';
 import { SoundControl } from '../view/sound_control.js';
 
@@ -128,7 +129,13 @@ export class StationViews {
       locomotion: stage.xrSession,
       link: host.link,
     });
-    this.overlay = new Overlay({ menu, actions, sensorPanelData: host.sensorPanelData, povText: host.povText });
+    this.overlay = new Overlay({
+      menu,
+      actions,
+      sensorPanelData: host.sensorPanelData,
+      povText: host.povText,
+      robotFacts: () => fleetFacts(fleet.robots.values(), (r) => inspection.progress(r), inspection.openAlerts()),
+    });
     const desktopHost = {
       camera,
       canvas: renderer.domElement,

@@ -6,6 +6,8 @@
  */
 import { drawSensorPanel } from './sensor_drawing.js';
 import { PagePanels } from './page_panels.js';
+import { RobotPicker } from './robot_picker.js';
+import { ROBOTS_PER_PAGE } from '../robot_pages.js';
 
 /** @param {string} id */
 function el(id) {
@@ -38,7 +40,8 @@ function writeSession(key, value) {
 export class Overlay {
   /**
    * @param {{menu: import('../menu_state.js').MenuState, actions: import('../app.js').OperatorActions,
-   *   sensorPanelData: (now: number) => import('./sensor_drawing.js').SensorPanelData, povText: () => string}} host
+   *   sensorPanelData: (now: number) => import('./sensor_drawing.js').SensorPanelData, povText: () => string,
+   *   robotFacts: () => import('../robot_picker.js').RobotFacts[]}} host
    */
   constructor(host) {
     this.host = host;
@@ -51,6 +54,8 @@ export class Overlay {
     this.povInfo = el('pov-info');
     this.sensorCanvas = /** @type {HTMLCanvasElement} */ (el('sensor-canvas'));
     this.estopBanner = el('estop-banner');
+    /** The menu's robot row in a fleet larger than a row of buttons (view/robot_picker.js). */
+    this.picker = new RobotPicker({ menu: host.menu, actions: host.actions, facts: host.robotFacts });
     /** Which panels are open (menu, sensors, help), compact in small windows. */
     this.panels = new PagePanels(window.localStorage, { width: window.innerWidth, height: window.innerHeight });
     /**
@@ -188,12 +193,18 @@ export class Overlay {
       this.sensorCanvas.dataset.latency = (data.latency ?? []).map((p) => p.text).join(' · ');
     }
     if (menu.mode === 'pov') this.povInfo.textContent = this.host.povText();
+    if (menu.robots.length > ROBOTS_PER_PAGE && !hidden) this.picker.update(now);
   }
 
   #drawMenu() {
     const groups = new Map();
+    const picking = this.host.menu.robots.length > ROBOTS_PER_PAGE;
     for (const button of this.host.menu.buttons()) {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
+      if (picking && (button.group === 'robots' || button.group === 'pages')) {
+        groups.set('robots', this.picker.element); // the picker lists every robot: no page of buttons
+        continue;
+      }
       let row = groups.get(button.group);
       if (!row) {
         row = document.createElement('div');
@@ -209,7 +220,22 @@ export class Overlay {
       if (button.danger) b.className = 'estop';
       row.append(b);
     }
-    this.menu.replaceChildren(...groups.values());
+    this.#place([...groups.values()]);
+  }
+
+  /**
+   * The menu's rows in order, the picker's never taken out: a focused search box taken out of the page loses its
+   * focus, and each status that changes the menu would end a search being typed.
+   * @param {HTMLElement[]} rows
+   */
+  #place(rows) {
+    for (const child of [...this.menu.children]) if (!rows.includes(/** @type {HTMLElement} */ (child))) child.remove();
+    /** @type {ChildNode | null} */
+    let at = this.menu.firstChild;
+    for (const row of rows) {
+      if (row !== at) this.menu.insertBefore(row, at);
+      at = row.nextSibling;
+    }
   }
 
   /** The POV panel's rectangle in CSS pixels, for the scissored render. */
@@ -220,6 +246,7 @@ export class Overlay {
   dispose() {
     clearTimeout(this.messageTimer);
     this.panels.dispose();
+    this.picker.dispose();
     for (const off of this.unlisten) off();
   }
 }

@@ -74,6 +74,12 @@ export class MenuPanel {
     for (const rect of this.rects) {
       const button = /** @type {import('../menu_state.js').MenuButton} */ (this.buttons.find((b) => b.id === rect.id));
       const hovered = hover === rect.id && button.enabled;
+      if (button.caption) {
+        ctx.fillStyle = '#c8d0dc';
+        ctx.textAlign = 'center';
+        fitText(ctx, button.label, rect.x + rect.w / 2, rect.y + rect.h / 2 + 1, rect.w - 20, 26, 600);
+        continue;
+      }
       roundRect(ctx, rect.x, rect.y, rect.w, rect.h, 16);
       ctx.fillStyle = button.danger
         ? hovered
