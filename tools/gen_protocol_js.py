@@ -19,6 +19,7 @@ from typing import Any, Literal, NotRequired, Union, get_args, get_origin, get_t
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from relay.accounts import roles  # noqa: E402
 from relay.control import safety  # noqa: E402
 from relay.inspection import messages as inspection_messages  # noqa: E402
 from relay.inspection import records  # noqa: E402
@@ -160,6 +161,8 @@ def render() -> str:
         "CLIENT_GLOBAL_KINDS": list(protocol.CLIENT_GLOBAL_KINDS),
         "SERVER_ROBOT_KINDS": list(protocol.SERVER_ROBOT_KINDS),
         "SERVER_GLOBAL_KINDS": list(protocol.SERVER_GLOBAL_KINDS),
+        # What each role may do (relay/accounts/roles.py): the page offers only what the relay would accept.
+        "ROLE_PERMISSIONS": {role: sorted(roles.permissions(role)) for role in roles.ROLES},
     }
     lines = [
         "// @ts-check",

@@ -40,6 +40,11 @@ def may(role: Role, permission: Permission) -> bool:
     return permission in _MAY[role]
 
 
+def permissions(role: Role) -> frozenset[Permission]:
+    """Everything ``role`` may do (the page's copy of this table is generated from it: tools/gen_protocol_js.py)."""
+    return _MAY[role]
+
+
 def role_of(text: str) -> Role:
     """A role from its name; ValueError naming the roles otherwise."""
     for role in ROLES:

@@ -80,7 +80,7 @@ export class FleetModel {
     this.vantage = hello.vantage ?? null;
     this.rooms = Array.isArray(hello.rooms) ? hello.rooms : [];
     this.clientId = hello.client_id;
-    this.role = hello.role === 'viewer' ? 'viewer' : 'operator';
+    this.role = hello.role; // what the page offers follows it (roles.js): an inspector drives nothing
     this.#setScene(hello.scene);
     for (const description of hello.robots) {
       const state = hello.state?.[description.name];

@@ -5,6 +5,7 @@
  * menu_state.js's.
  */
 
+import { may } from './roles.js';
 import { pageLabel } from './robot_pages.js';
 
 /** @typedef {import('./menu_state.js').MenuState} MenuState */
@@ -26,7 +27,7 @@ export function menuButtons(menu) {
     pov: menu.mode === 'pov',
     latched,
     command: menu.canCommand && selected !== null && !latched,
-    why: !menu.operator ? ' (viewer)' : !menu.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '',
+    why: !menu.operator ? ` (${menu.role})` : !menu.connected ? ' (offline)' : latched ? ' (E-STOPPED)' : '',
     held: menu.holder !== null && !latched,
   };
   return [
@@ -159,14 +160,14 @@ function missionButtons(menu) {
       label: 'Run demo mission',
       group: 'mission',
       active: false,
-      enabled: menu.operator && menu.connected,
+      enabled: may(menu.role, 'inspect') && menu.connected,
     },
     {
       id: 'mission:all',
       label: menu.selected ? `All targets: ${menu.selected}` : 'All targets: fleet',
       group: 'mission',
       active: false,
-      enabled: menu.operator && menu.connected,
+      enabled: may(menu.role, 'inspect') && menu.connected,
     },
     ...(menu.picked
       ? [
@@ -175,7 +176,7 @@ function missionButtons(menu) {
             label: `Inspect picked (${menu.picked}): ${menu.selected ?? 'fleet'}`,
             group: 'mission',
             active: false,
-            enabled: menu.operator && menu.connected,
+            enabled: may(menu.role, 'inspect') && menu.connected,
           },
         ]
       : []),
@@ -186,14 +187,14 @@ function missionButtons(menu) {
             label: menu.mission === 'paused' ? 'Resume mission' : 'Pause mission',
             group: 'mission',
             active: menu.mission === 'paused',
-            enabled: menu.operator && menu.connected,
+            enabled: may(menu.role, 'inspect') && menu.connected,
           },
           {
             id: 'mission:abort',
             label: 'Abort mission',
             group: 'mission',
             active: false,
-            enabled: menu.operator && menu.connected,
+            enabled: may(menu.role, 'inspect') && menu.connected,
           },
         ]
       : []),
@@ -218,7 +219,7 @@ function alertButtons(menu) {
       label: `Acknowledge: ${clip(a.text)}`,
       group: 'alerts',
       active: false,
-      enabled: menu.operator && menu.connected,
+      enabled: may(menu.role, 'inspect') && menu.connected,
       danger: a.severity === 'critical',
     })),
     ...(more > 0
@@ -281,17 +282,16 @@ function optionButtons(menu) {
  * @param {MenuState} menu @param {ButtonContext} c @returns {MenuButton[]}
  */
 function estopButtons(menu, { selected, latched }) {
+  const stop = may(menu.role, 'stop'); // an inspector stops robots too: stopping is always safe
   /** @type {MenuButton[]} */
-  const list = [
-    { id: 'estop', label: 'E-STOP', group: 'estop', active: menu.estopped, enabled: menu.operator, danger: true },
-  ];
+  const list = [{ id: 'estop', label: 'E-STOP', group: 'estop', active: menu.estopped, enabled: stop, danger: true }];
   if (selected) {
     list.push({
       id: 'estop:robot',
       label: latched ? `${selected.name} stopped` : `Stop ${selected.name}`,
       group: 'estop',
       active: latched,
-      enabled: menu.operator && !latched,
+      enabled: stop && !latched,
       danger: true,
     });
   }
@@ -301,7 +301,7 @@ function estopButtons(menu, { selected, latched }) {
       label: 'Reset E-STOP',
       group: 'estop',
       active: false,
-      enabled: menu.operator && menu.connected,
+      enabled: may(menu.role, 'reset') && menu.connected,
     });
   }
   return list;

@@ -23,6 +23,7 @@
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
  *   teleop stop, which the teleop loop turns into one zero command if the robot was being driven.
  */
+import { may } from './roles.js';
 import { MAX_STREAM_FPS } from './protocol.js';
 import { menuButtons } from './menu_buttons.js';
 import { MenuOptions } from './menu_options.js';
@@ -55,22 +56,21 @@ import { RobotPages } from './robot_pages.js';
  */
 /** @typedef {{alert: string, text: string, severity: string, robot: string | null}} MenuAlert */
 
+/** @typedef {import('./protocol.js').Role} Role */
+
 export class MenuState {
   constructor() {
     this.open = false;
-    /** @type {Mode} */
-    this.mode = 'free_roam';
-    /** @type {string | null} */
-    this.selected = null;
-    /** @type {Tool} */
-    this.tool = 'none';
+    this.mode = /** @type {Mode} */ ('free_roam');
+    this.selected = /** @type {string | null} */ (null);
+    this.tool = /** @type {Tool} */ ('none');
     this.live = false;
     /** The operator's options: seated, smooth move, overview, scans, gaze press, and the sound's (menu_options.js). */
     this.options = new MenuOptions();
-    /** @type {MenuRobot[]} */
-    this.robots = [];
+    this.robots = /** @type {MenuRobot[]} */ ([]);
     this.robotPages = new RobotPages(); // the VR row's page of robots, in a large fleet (robot_pages.js)
-    this.operator = true;
+    /** This page's role (relay/accounts/roles.py): what the buttons offer (roles.js). @type {Role} */
+    this.role = 'operator';
     this.connected = false;
     /** The selected robot follows a goal (from its status): `Cancel goal` is enabled. */
     this.goalActive = false;
@@ -97,12 +97,11 @@ export class MenuState {
   /**
    * The fleet from `hello` (also after a reconnect: the selection survives when the robot still exists,
    * and a live stream is asked for again on the new connection).
-   * @param {MenuRobot[]} robots @param {boolean} operator
-   * @returns {MenuEffect[]}
+   * @param {MenuRobot[]} robots @param {Role} role @returns {MenuEffect[]}
    */
-  setFleet(robots, operator) {
+  setFleet(robots, role) {
     this.robots = robots.map((r) => ({ ...r }));
-    this.operator = operator;
+    this.role = role;
     this.connected = true;
     /** @type {MenuEffect[]} */
     const effects = [];
@@ -111,7 +110,7 @@ export class MenuState {
     } else if (this.mode === 'pov' && !this.robot(this.selected)?.hasCamera) {
       effects.push(...this.#setMode('free_roam'));
     }
-    if (!operator && this.#moves()) effects.push(...this.#setTool('none'));
+    if (!this.operator && this.#moves()) effects.push(...this.#setTool('none'));
     if (this.live && this.selected) effects.push({ type: 'stream', robot: this.selected, fps: MAX_STREAM_FPS });
     this.#changed();
     return effects;
@@ -163,6 +162,11 @@ export class MenuState {
     if (same(/** @type {any} */ (this)[key], value)) return;
     /** @type {any} */ (this)[key] = value;
     this.#changed();
+  }
+
+  /** Whether this page drives robots (teleop, goals, leases): an operator's or an admin's. */
+  get operator() {
+    return may(this.role, 'drive');
   }
 
   get canCommand() {

@@ -13,6 +13,7 @@ export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel
 export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack", "schedule/add", "schedule/update", "schedule/remove"]);
 export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
 export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert", "schedules"]);
+export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "reset", "stop", "users"], "operator": ["drive", "inspect", "reset", "stop"], "inspector": ["inspect", "stop"], "viewer": []});
 
 /** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unreachable' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */

@@ -196,11 +196,11 @@ test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and
 
 test('the menu offers Inspect in free roam to viewers too, and the picked targets as a mission', () => {
   const menu = new MenuState();
-  menu.setFleet([{ name: 'robot1', hasCamera: true }], false);
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], 'viewer');
   assert.equal(menu.buttons().find((b) => b.id === 'tool:inspect')?.enabled, true, 'viewers review findings');
   menu.press('tool:inspect');
   assert.equal(menu.tool, 'inspect');
-  menu.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], 'operator');
   assert.equal(menu.tool, 'inspect', 'becoming an operator keeps the tool');
   assert.equal(
     menu.buttons().find((b) => b.id === 'mission:picked'),

@@ -12,7 +12,7 @@ test('every menu button gets a rectangle inside the panel, rows do not overlap, 
       { name: 'robot2', hasCamera: false },
       { name: 'robot3', hasCamera: true },
     ],
-    true,
+    'operator',
   );
   const buttons = menu.buttons();
   const rects = layoutMenu(buttons, 1024, 700);
@@ -42,7 +42,7 @@ test('with twenty robots the robot row keeps six wide buttons, its pages a row o
   const menu = new MenuState();
   menu.setFleet(
     Array.from({ length: 20 }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false })),
-    true,
+    'operator',
   );
   menu.select('robot17');
   const buttons = menu.buttons();

@@ -12,7 +12,7 @@ function menu() {
       { name: 'robot2', hasCamera: true },
       { name: 'robot3', hasCamera: false },
     ],
-    true,
+    'operator',
   );
   return m;
 }
@@ -124,7 +124,7 @@ test('Reset E-STOP is offered beside E-STOP while a stop is latched, to operator
   assert.equal(button(m, 'estop:reset')?.enabled, true);
   assert.deepEqual(m.press('estop:reset'), [{ type: 'estop_reset' }]);
   const viewer = new MenuState();
-  viewer.setFleet([{ name: 'robot1', hasCamera: true }], false);
+  viewer.setFleet([{ name: 'robot1', hasCamera: true }], 'viewer');
   viewer.setConnected(true);
   viewer.setLatched(['robot1']);
   assert.equal(button(viewer, 'estop:reset')?.enabled, false);
@@ -146,11 +146,11 @@ test('a reconnect keeps the selection, asks for the live stream again, and drops
         { name: 'robot1', hasCamera: true },
         { name: 'robot2', hasCamera: true },
       ],
-      true,
+      'operator',
     ),
     [{ type: 'stream', robot: 'robot2', fps: MAX_STREAM_FPS }],
   );
-  const effects = m.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  const effects = m.setFleet([{ name: 'robot1', hasCamera: true }], 'operator');
   assert.equal(m.selected, null);
   assert.equal(m.mode, 'free_roam');
   assert.ok(effects.some((e) => e.type === 'stream' && e.fps === 0));
@@ -168,7 +168,7 @@ test('Cancel goal is enabled while the selected robot follows a goal', () => {
 
 test('a viewer cannot command: tools and E-STOP are disabled, and the version moves on every change', () => {
   const m = new MenuState();
-  m.setFleet([{ name: 'robot1', hasCamera: false }], false);
+  m.setFleet([{ name: 'robot1', hasCamera: false }], 'viewer');
   m.press('robot:robot1');
   assert.equal(button(m, 'tool:teleop')?.enabled, false);
   assert.equal(button(m, 'tool:teleop')?.label, 'Teleop (viewer)');
@@ -181,7 +181,7 @@ test('a viewer cannot command: tools and E-STOP are disabled, and the version mo
 
 test('the mission buttons: the demo, every target for the selected robot or the fleet, and its mission controls', () => {
   const menu = new MenuState();
-  menu.setFleet([{ name: 'robot1', hasCamera: true }], true);
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], 'operator');
   menu.setConnected(true);
   assert.deepEqual(menu.press('mission:demo'), [{ type: 'mission', action: 'start', robot: null }]);
   assert.equal(menu.buttons().find((b) => b.id === 'mission:all')?.label, 'All targets: fleet');
@@ -256,7 +256,7 @@ test('open alerts are a row of the menu, the newest two each acknowledged by its
     ['alert:al-2', 'alert:al-1'],
   );
   // A viewer sees them and cannot acknowledge.
-  m.setFleet(m.robots, false);
+  m.setFleet(m.robots, 'viewer');
   assert.ok(
     m
       .buttons()
@@ -295,7 +295,7 @@ function fleetOf(n) {
   const m = new MenuState();
   m.setFleet(
     Array.from({ length: n }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false })),
-    true,
+    'operator',
   );
   return m;
 }
@@ -361,10 +361,32 @@ test('a fleet that shrinks under the page shown shows its last page', () => {
   const m = fleetOf(20);
   m.select('robot20');
   const fewer = Array.from({ length: 8 }, (_, i) => ({ name: `robot${i + 1}`, hasCamera: false }));
-  m.setFleet(fewer, true);
+  m.setFleet(fewer, 'operator');
   assert.deepEqual(robotRow(m), ['robot7', 'robot8']);
   assert.deepEqual(pageRow(m), ['‹', 'robots 7-8 of 8', '›']);
-  m.setFleet(fewer.slice(0, 6), true);
+  m.setFleet(fewer.slice(0, 6), 'operator');
   assert.equal(robotRow(m).length, 6);
   assert.deepEqual(pageRow(m), []);
+});
+
+test('an inspector is offered what the relay accepts from one: E-STOP, missions and alerts, never driving or reset', () => {
+  const m = new MenuState();
+  m.setFleet([{ name: 'robot1', hasCamera: true }], 'inspector');
+  m.setConnected(true);
+  m.press('robot:robot1');
+  m.show('alerts', [{ alert: 'a1', text: 'Past its limit', severity: 'warning' }]);
+  for (const id of ['tool:teleop', 'tool:goal']) {
+    assert.equal(button(m, id)?.enabled, false, id);
+    assert.match(button(m, id)?.label ?? '', /\(inspector\)$/);
+  }
+  for (const id of ['estop', 'estop:robot', 'mission:demo', 'mission:all', 'alert:a1'])
+    assert.equal(button(m, id)?.enabled, true, id);
+  m.setLatched(['robot1']);
+  assert.equal(button(m, 'estop:reset')?.enabled, false, 'an inspector never resets an E-STOP');
+  // An admin has an operator's buttons.
+  const admin = new MenuState();
+  admin.setFleet([{ name: 'robot1', hasCamera: true }], 'admin');
+  admin.setConnected(true);
+  admin.press('robot:robot1');
+  assert.equal(button(admin, 'tool:teleop')?.enabled, true);
 });

@@ -4,6 +4,7 @@
  * can reach the relay) and each message routed (message_router.js decides) with its effects on the views: the fleet
  * and twin rebuilt, notices, scans, goals, E-STOP banners, take-over offers, inspection.
  */
+import { may } from '../roles.js';
 import { displayName } from '../operator_names.js';
 import { estopBanner } from '../estop_banner.js';
 
@@ -90,7 +91,7 @@ export class RelayEffects {
       case 'estop_state': {
         menu.setLatched(effect.latched);
         const robots = [...fleet.robots.keys()];
-        const operator = fleet.role === 'operator';
+        const operator = may(fleet.role, 'reset');
         views.overlay.setBanner(
           estopBanner(effect.latched, robots, this.host.router.estopBy, fleet.clientId, operator, fleet.names),
         );
@@ -125,13 +126,12 @@ export class RelayEffects {
       this.views.desktop.frameFleet();
       this.framed = true;
     }
-    const operator = fleet.role === 'operator';
     const robots = [...fleet.robots.values()].map((r) => ({
       name: r.description.name,
       hasCamera: (r.description.cameras ?? []).length > 0,
     }));
-    this.menuEffects.apply(menu.setFleet(robots, operator));
+    this.menuEffects.apply(menu.setFleet(robots, fleet.role));
     this.menuEffects.syncSelection();
-    this.views.operatorUi.hello(operator);
+    this.views.operatorUi.hello(fleet.role !== 'viewer');
   }
 }

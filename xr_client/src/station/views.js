@@ -5,6 +5,7 @@
  * sound, and the input of both displays (the headset's interaction, the desktop's controls). They also give the
  * station its one way to tell the operator something (notify). dispose() releases them all.
  */
+import { may } from '../roles.js';
 import { operatorToken } from '../connection.js';
 import { InspectionUi } from '../view/inspection_ui.js';
 import { GoalView } from '../view/goal_view.js';
@@ -107,7 +108,7 @@ export class StationViews {
       camera,
       screen: this.hemisphere,
       notify: (text) => this.notify(text, 'info'),
-      operator: () => menu.canCommand,
+      operator: () => may(menu.role, 'inspect') && menu.connected, // findings and targets: inspectors' too
     });
     this.xrInspection = inspect;
     this.interaction = new XRInteraction({

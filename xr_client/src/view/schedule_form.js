@@ -11,6 +11,7 @@
  * message; an `error` stays beside the form, its field marked. Operators only: a viewer's schedule commands are
  * `forbidden`, so a viewer sees the list alone. Behaviour is schedule_draft.js's; this is DOM only.
  */
+import { may } from '../roles.js';
 import { localTime, ScheduleEditor, WEEKDAYS } from '../schedule_draft.js';
 import { missionWords } from '../schedule_list.js';
 
@@ -61,7 +62,7 @@ export class ScheduleForm {
     if (pending && !model.awaiting.has(pending.request) && !model.settled.has(pending.request)) editor.reset();
     editor.settle(model.settled, model.refusals, this.wall());
     editor.sync(model.schedules);
-    this.visible = menu.operator;
+    this.visible = may(menu.role, 'inspect');
     this.robots = menu.robots.map((r) => r.name);
     this.#draw();
   }
