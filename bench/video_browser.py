@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import json
 import time
+from collections.abc import Callable
 from typing import Any
 
 from .bench_client_frame import CHROMIUM, CHROMIUM_ARGS, chromium_missing, press, wait_state
@@ -29,13 +30,13 @@ VIEWPORT = {"width": 960, "height": 600}
 CLOCK_SAMPLES = 15
 
 
-async def page_offset(page: Any) -> tuple[float, float]:
-    """(seconds to add to the page's performance.now()/1000 to get time.monotonic(), half the round trip in s)."""
+async def page_offset(page: Any, clock: Callable[[], float] = time.monotonic) -> tuple[float, float]:
+    """(seconds to add to the page's performance.now()/1000 to get ``clock()``, half the round trip in s)."""
     best: tuple[float, float] | None = None
     for _ in range(CLOCK_SAMPLES):
-        t0 = time.monotonic()
+        t0 = clock()
         at: float = await page.evaluate("performance.now()")
-        t1 = time.monotonic()
+        t1 = clock()
         if best is None or t1 - t0 < 2 * best[1]:
             best = ((t0 + t1) / 2 - at / 1000, (t1 - t0) / 2)
     assert best is not None
@@ -91,7 +92,9 @@ async def measure_codec(browser: Any, port: int, robot: str, codec: str, seconds
             "latency_ms": summary(latencies),
             "clock_error_ms": round(1000 * (max(error, error2) + abs(offset2 - offset) / 2), 3),
             "shown_ms": None if shown is None else round(shown, 2),
-            "measured_last_ms": round(1000 * (last[(len(last) - 1) // 2] + last[len(last) // 2]) / 2, 2) if last else None,
+            "measured_last_ms": round(1000 * (last[(len(last) - 1) // 2] + last[len(last) // 2]) / 2, 2)
+            if last
+            else None,
             "decoded": after["video"]["decoded"] - before["video"]["decoded"] if codec == "h264" else None,
             "decoder_errors": after["video"]["errors"] - before["video"]["errors"],
             # What the page drew meanwhile (its draws hold the main thread, where decode callbacks run too).

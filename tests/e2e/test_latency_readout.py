@@ -2,7 +2,7 @@
 its pose, picture and commands are, each figure in its colour, and the Robot POV's caption the picture's. The picture
 figure is checked against this test's own measurement of the same pictures: each one's publisher stamp against the
 moment the page decoded it (``window.__xrRelay.pictureTimes``), the page's clock mapped onto this process's wall
-clock by the quickest of several round trips, as bench/video_browser.py does."""
+clock by the quickest of several round trips (bench/video_browser.py page_offset)."""
 
 from __future__ import annotations
 
@@ -10,23 +10,11 @@ import statistics
 import time
 from typing import Any
 
+from bench.video_browser import page_offset
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, snapshot_until_uploaded
 
 #: The page keeps its last 15 pictures per robot; the test compares the median of the same ones.
 RECENT = 15
-
-
-async def page_to_wall(page: Any) -> tuple[float, float]:
-    """(s to add to the page's performance.now()/1000 for time.time(), half the quickest round trip in s)."""
-    best: tuple[float, float] | None = None
-    for _ in range(10):
-        t0 = time.time()
-        at: float = await page.evaluate("performance.now()")
-        t1 = time.time()
-        if best is None or t1 - t0 < 2 * best[1]:
-            best = ((t0 + t1) / 2 - at / 1000, (t1 - t0) / 2)
-    assert best is not None
-    return best
 
 
 async def test_the_robot_card_and_the_pov_show_how_late_pose_picture_and_commands_are(
@@ -54,11 +42,11 @@ async def test_the_robot_card_and_the_pov_show_how_late_pose_picture_and_command
     await client.shot("01-latency", "latency.png")
 
     # The same pictures measured here: publisher stamp to decoded, on this process's clock.
-    offset, error = await page_to_wall(page)
+    offset, error = await page_offset(page, time.time)
     state: dict[str, Any] = await page.evaluate("window.__xrRelay.state.latency")
     figures = state["robots"][robot]
     times = await page.evaluate("n => window.__xrRelay.pictureTimes(n)", RECENT)
-    offset2, error2 = await page_to_wall(page)
+    offset2, error2 = await page_offset(page, time.time)
     measured = statistics.median((at / 1000 + (offset + offset2) / 2 - stamp) * 1000 for stamp, at in times)
     # Within 10 %, or within what the two clock mappings may be off by (half their quickest round trips).
     allowed = max(0.1 * measured, 1000 * max(error, error2) + (state["clockError"] or 0) + 2)
