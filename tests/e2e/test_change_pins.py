@@ -10,7 +10,7 @@ from __future__ import annotations
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station
 from tests.helpers.inspection import two_rounds
 
-#: The ok status's pin colour (xr_client/src/inspection_model.js STATUS_COLOURS.ok).
+#: The ok status's pin colour (xr_client/src/change_colour.js STATUS_COLOURS.ok).
 OK_GREEN = "#2e9e4f"
 
 

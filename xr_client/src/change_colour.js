@@ -4,8 +4,19 @@
  * are "what changed since the last round". Pure (no DOM, no three.js): test/change_colour.test.js drives it with the
  * relay's finding messages; view/inspection_view.js applies the colour, the findings panel the filter.
  */
-import { STATUS_COLOURS } from './inspection_model.js';
 import { statusWords } from './wording.js';
+
+/**
+ * Pin colours by status (the report uses the same: relay/inspection/report_html.py). A change is purple, apart from
+ * the red of an anomaly and the amber of a finding to review; a false alarm grey, as nothing anyone must act on.
+ */
+export const STATUS_COLOURS = Object.freeze({
+  ok: '#2e9e4f',
+  anomaly: '#d62d20',
+  needs_review: '#e8a317',
+  changed: '#8e44ad',
+  false_alarm: '#7f8c8d',
+});
 
 /** @typedef {import('./protocol.js').FindingMessage} Finding */
 

@@ -19,18 +19,6 @@ import { sinceLastRound } from './change_colour.js';
  * @typedef {{text: string, kind: 'info' | 'warning' | 'error'}} InspectionNotice
  */
 
-/**
- * Pin colours by status (the report uses the same: relay/inspection/report_html.py). A change is purple, apart from
- * the red of an anomaly and the amber of a finding to review; a false alarm grey, as nothing anyone must act on.
- */
-export const STATUS_COLOURS = Object.freeze({
-  ok: '#2e9e4f',
-  anomaly: '#d62d20',
-  needs_review: '#e8a317',
-  changed: '#8e44ad',
-  false_alarm: '#7f8c8d',
-});
-
 /** Seconds an alert is news: one raised longer ago (sent again after a reconnect) is listed, not told. */
 export const FRESH_ALERT = 120;
 

@@ -8,8 +8,9 @@ import {
   changeStrength,
   isChanged,
   sinceLastRound,
+  STATUS_COLOURS,
 } from '../src/change_colour.js';
-import { InspectionModel, STATUS_COLOURS } from '../src/inspection_model.js';
+import { InspectionModel } from '../src/inspection_model.js';
 
 /** @param {Partial<import('../src/protocol.js').FindingMessage>} fields @returns {import('../src/protocol.js').FindingMessage} */
 function finding(fields) {

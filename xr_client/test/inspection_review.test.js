@@ -1,7 +1,8 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { InspectionModel, STATUS_COLOURS } from '../src/inspection_model.js';
+import { InspectionModel } from '../src/inspection_model.js';
+import { STATUS_COLOURS } from '../src/change_colour.js';
 import { FINDING_STATUSES, InspectionReview, nextName, targetName } from '../src/inspection_review.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../src/finding_card_layout.js';
 import { MenuState } from '../src/menu_state.js';

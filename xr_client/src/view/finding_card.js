@@ -13,7 +13,7 @@ import { fillRounded, fitText, font } from './canvas_text.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../finding_card_layout.js';
 import { drawTrend } from './card_trend.js';
 import { CardImage } from './card_image.js';
-import { STATUS_COLOURS } from '../inspection_model.js';
+import { STATUS_COLOURS } from '../change_colour.js';
 import { statusWords } from '../wording.js';
 
 /** @type {[number, number]} */

@@ -7,7 +7,7 @@
  * segment around that pixel (GrabCut), the outline comes back drawn over the image, and Accept keeps it (Redo: click
  * again). Behaviour is the inspection review's (shared with the VR finding card); this is DOM only.
  */
-import { STATUS_COLOURS } from '../inspection_model.js';
+import { STATUS_COLOURS } from '../change_colour.js';
 import { changeColour } from '../change_colour.js';
 import { FINDING_STATUSES, nextName } from '../inspection_review.js';
 import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
