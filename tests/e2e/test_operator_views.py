@@ -174,9 +174,15 @@ async def test_views_frame_top_down_follow_and_the_wheel_zooms_to_the_cursor(
     assert client.errors == [], client.errors
 
 
-def label_rule(distance: float) -> float:
-    """The label height the client promises at a distance (robot_view.js: 0.035 rad within 0.07..1.5 m)."""
-    return min(1.5, max(0.07, 0.035 * distance))
+#: A label's lines share (1 - 16/150) of its height; each status line's font is 0.56 of a line (label_rule.js).
+TEXT_SHARE, LINE_FONT = 1 - 16 / 150, 0.56
+
+
+def label_rule(distance: float, lines: int, px_per_rad: float = 1100.0) -> float:
+    """The label height the client promises at a distance in a headset (label_rule.js: at least 0.035 rad, and
+    enough for each line to be 12 px on a Quest 3's 1100 px a radian, within 0.07..1.5 m)."""
+    angle = max(0.035, 12 * lines / (TEXT_SHARE * LINE_FONT) / px_per_rad)
+    return min(1.5, max(0.07, angle * distance))
 
 
 async def test_robots_show_footprint_heading_and_readable_labels_and_the_map_its_names_and_scale(
@@ -192,8 +198,9 @@ async def test_robots_show_footprint_heading_and_readable_labels_and_the_map_its
         r = s["robots"][robot]
         # The heading arrow points the way the relay says the robot faces (north at the start).
         assert abs(r["heading"] - _yaw(station, robot)) < 0.05, (robot, r["heading"])
-        # About 2 degrees high whatever the distance: 20-40 px on this page (was 140 px wide over a 12 px robot).
-        assert 18 <= r["labelPixels"] <= 40, (robot, r["labelPixels"])
+        # The same size on the page whatever the distance, each line at least 12 px (was 140 px wide over a 12 px
+        # robot, then 2 degrees with 4-px state lines): 48-72 px high.
+        assert r["labelFont"] >= 12 and r["labelPixels"] <= 90, (robot, r["labelPixels"], r["labelFont"])
     # The scale bar: a round length, 40-120 px.
     assert s["view"]["scale"]["text"].endswith("m") and 40 <= s["view"]["scale"]["px"] <= 120
 
@@ -214,13 +221,14 @@ async def test_robots_show_footprint_heading_and_readable_labels_and_the_map_its
     s = await client.wait("Math.abs(s.robots.robot3.heading) < 0.15 && s", 10)
     await client.shot("05-footprints-and-names", "map-scale.png")
 
-    # In VR (an emulated Quest 3): labels keep ~2 degrees within 0.07-1.5 m, nearer robots get smaller ones.
+    # In VR (an emulated Quest 3): labels keep their angle within 0.07-1.5 m, nearer robots get smaller ones.
     vr = await enter_vr(open_client, station.url)
     s = await vr.state()
     for robot in ROBOTS:
         r = s["robots"][robot]
         d = math.dist(s["eye"], r["position"])  # to the robot's base: the label hangs 0.45 m above it
-        assert abs(r["labelHeight"] - label_rule(d)) <= 0.035 * 0.5, (robot, d, r["labelHeight"])
+        expected = label_rule(d, r["labelLines"])
+        assert abs(r["labelHeight"] - expected) <= 0.035 * 0.5, (robot, d, r["labelHeight"], expected)
     await vr.shot("07-vr-labels", "vr-labels.png")
     assert client.errors == [] and vr.errors == [], (client.errors, vr.errors)
 

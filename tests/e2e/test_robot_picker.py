@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import math
 import shutil
 from collections.abc import AsyncIterator, Awaitable, Callable
 
@@ -202,4 +203,25 @@ async def test_twenty_robots_are_paged_in_the_vr_menu(fleet_of: StartFleet, open
     await set_menu(client, False)
     await set_menu(client, True)
     await client.wait(f"{row('pages')}[1] === 'robots 13-18 of 20'")
+    assert client.errors == [], client.errors
+
+
+async def test_twenty_robots_labels_keep_their_name_and_state_legible_at_ten_metres(
+    fleet_of: StartFleet, open_client: OpenClient
+) -> None:
+    """Every label drawn keeps each of its lines (the name, the state, a goal's progress) at least 12 px on a
+    1280 x 800 page, whatever its distance: measured from the rendered label's height on the page and its layout
+    (label_rule.js). Before, a label was about 2 degrees high at any distance and its state line about 4 px."""
+    relay = await fleet_of(20)
+    client = await open_client(f"{relay.url}/?{SOFTWARE_GL}", "labels-20", 1280, 800)
+    await client.wait("Object.keys(s.robots).length === 20 && Object.values(s.robots).every((r) => r.visible)", 60)
+    await client.drawn(2)
+    s = await client.state()
+    distances = {name: math.dist(s["eye"], r["position"]) for name, r in s["robots"].items()}
+    drawn = {name: r for name, r in s["robots"].items() if r["labelOpacity"] > 0.5}
+    assert len(drawn) >= 10, distances
+    assert max(distances[name] for name in drawn) >= 10, distances  # some of them 10 m away or more
+    small = {name: r["labelFont"] for name, r in drawn.items() if r["labelFont"] < 12}
+    assert small == {}, small
+    await client.shot("01-labels", "labels-20.png")
     assert client.errors == [], client.errors

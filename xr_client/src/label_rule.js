@@ -20,9 +20,35 @@ export const LABEL_MAX = 1.5;
 export const FADE_START = 16;
 export const FADE_END = 24;
 
-/** The label's height (m) at a distance (m) from the viewer. @param {number} distance */
-export function labelHeight(distance) {
-  return Math.min(LABEL_MAX, Math.max(LABEL_MIN, LABEL_ANGLE * distance));
+/** The smallest text a label may show (its font, px on the screen): issue #31's 12 px, name and status alike. */
+export const LEGIBLE_PX = 12;
+/** drawLabel's layout (view/label_sprite.js): the share of a label's height its lines share between them, and each
+ * line's font as a share of the line (the name's, then the status lines'). */
+export const TEXT_SHARE = 1 - 16 / 150;
+export const NAME_FONT = 0.62;
+export const LINE_FONT = 0.56;
+/** A Quest 3's pixels per radian at the middle of the view (2064 px an eye over about 100 degrees): VR labels are
+ * sized for the headset, not for an emulator's window. */
+export const HEADSET_PX_PER_RAD = 1100;
+
+/**
+ * The angle (rad) of a label of `lines` lines whose every line is at least LEGIBLE_PX on a screen of `pxPerRad`
+ * pixels per radian; never under LABEL_ANGLE. A 1280 x 800 desktop view (60 degrees high, 693 px/rad): 0.069 rad
+ * for two lines, 48 px; a Quest 3: 0.044 rad.
+ * @param {number} lines @param {number} pxPerRad
+ */
+export function labelAngle(lines, pxPerRad) {
+  return Math.max(LABEL_ANGLE, (LEGIBLE_PX * lines) / (TEXT_SHARE * LINE_FONT) / pxPerRad);
+}
+
+/** The smallest font (px) of a label `heightPx` tall with `lines` lines (its status lines'). */
+export function smallestFont(/** @type {number} */ heightPx, /** @type {number} */ lines) {
+  return ((heightPx * TEXT_SHARE) / lines) * LINE_FONT;
+}
+
+/** The label's height (m) at a distance (m) from the viewer. @param {number} distance @param {number} [angle] */
+export function labelHeight(distance, angle = LABEL_ANGLE) {
+  return Math.min(LABEL_MAX, Math.max(LABEL_MIN, angle * distance));
 }
 
 /**

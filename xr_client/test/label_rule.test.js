@@ -4,11 +4,17 @@ import assert from 'node:assert/strict';
 import {
   FADE_END,
   FADE_START,
+  HEADSET_PX_PER_RAD,
   LABEL_ANGLE,
   LABEL_MAX,
   LABEL_MIN,
+  LEGIBLE_PX,
+  LINE_FONT,
+  NAME_FONT,
+  labelAngle,
   labelHeight,
   labelOpacity,
+  smallestFont,
 } from '../src/label_rule.js';
 
 test('a label keeps about two degrees on screen, within its limits in metres', () => {
@@ -29,4 +35,23 @@ test('labels fade out beyond a range, except the selected robot and a warning', 
   assert.equal(labelOpacity(100, true), 1);
   // The demo facility is 18 x 10 m: its three robots keep their labels from anywhere on the site.
   assert.ok(FADE_START >= Math.hypot(18, 10) * 0.75);
+});
+
+test('every line of a label is at least 12 px: two lines on a 1280 x 800 desktop, three on a Quest 3', () => {
+  const desktop = 800 / 2 / Math.tan(Math.PI / 6); // a 60-degree view 800 px high: 693 px a radian
+  for (const lines of [2, 3]) {
+    for (const pxPerRad of [desktop, HEADSET_PX_PER_RAD]) {
+      const angle = labelAngle(lines, pxPerRad);
+      assert.ok(angle >= LABEL_ANGLE);
+      // At 10 m (and 3 m), the label's height on the screen and its smallest font.
+      for (const distance of [3, 10]) {
+        const px = (labelHeight(distance, angle) / distance) * pxPerRad;
+        assert.ok(smallestFont(px, lines) >= LEGIBLE_PX - 1e-9, `${lines} lines at ${distance} m: ${px} px`);
+      }
+    }
+  }
+  // The name is drawn larger than the lines under it; a screen sharp enough keeps the 2-degree rule.
+  assert.ok(NAME_FONT > LINE_FONT);
+  assert.equal(labelAngle(2, 100_000), LABEL_ANGLE);
+  assert.ok(labelAngle(3, desktop) > labelAngle(2, desktop));
 });

@@ -4,6 +4,7 @@
  * fleet, goals and the display's input and HUD are updated, and the stage is drawn (outside VR at most maxFps times a
  * second), with the JS time of each drawn frame recorded.
  */
+import { HEADSET_PX_PER_RAD } from '../label_rule.js';
 import * as THREE from 'three';
 import { FrameTimer } from '../frame_timer.js';
 
@@ -59,6 +60,10 @@ export class FrameLoop {
       freshness: router.freshness,
       link,
       scans: menu.options.scans,
+      // Labels keep 12-px lines: on the desktop's canvas as drawn, in a headset as a Quest 3 shows them.
+      pxPerRad: stage.presenting
+        ? HEADSET_PX_PER_RAD
+        : stage.renderer.domElement.clientHeight / 2 / Math.tan((camera.fov * Math.PI) / 360),
     });
     views.goalView.update(fleet, this.host.goals, start, router.paths);
     if (stage.presenting) {

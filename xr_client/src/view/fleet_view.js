@@ -103,11 +103,12 @@ export class FleetView {
    * @param {{fleet: import('../fleet_model.js').FleetModel,
    *   smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
-   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean}} state
+   *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean,
+   *   pxPerRad: number}} state
    *   `link`: the relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans
-   *   switch
+   *   switch; `pxPerRad`: the screen's pixels per radian (labels keep their lines legible on it)
    */
-  update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans }) {
+  update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans, pxPerRad }) {
     this.annotations.update(fleet);
     const t = fleet.scene.mapToScene;
     const n = this.order.length;
@@ -137,7 +138,7 @@ export class FleetView {
       view.setDetailed(this.detailed.has(i));
       this.instances.place(i, shown ? view.group.position : null, view.yaw, !view.detailed);
       const distance = eye.distanceTo(view.group.position);
-      const height = view.scaleLabel(distance);
+      const height = view.scaleLabel(distance, pxPerRad);
       this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
       this.atlas.place(i, shown ? this.anchor : null, height, labelOpacity(distance, view.keepLabel));
     }

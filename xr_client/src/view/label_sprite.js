@@ -3,6 +3,7 @@
  * A text label as a sprite on a canvas texture. The canvas is redrawn only when the text changes (never
  * per frame), and the texture is reused.
  */
+import { LINE_FONT, NAME_FONT } from '../label_rule.js';
 import * as THREE from 'three';
 import { fitText, font, roundRect, warningIcon } from './canvas_text.js';
 
@@ -83,10 +84,10 @@ export function drawLabel(ctx, x, y, width, height, lines, style) {
   }
   ctx.textAlign = 'left';
   ctx.textBaseline = 'middle';
-  const lineHeight = (height - 16 * k) / lines.length;
+  const lineHeight = (height - 16 * k) / lines.length; // TEXT_SHARE of the height (label_rule.js)
   lines.forEach((line, i) => {
     ctx.fillStyle = style.dim ? '#aaa' : i === 0 ? '#fff' : '#c8d0dc';
-    const px = i === 0 ? lineHeight * 0.62 : lineHeight * 0.5;
+    const px = lineHeight * (i === 0 ? NAME_FONT : LINE_FONT); // label_rule.js sizes labels by these
     fitText(ctx, line, x + 28 * k, y + 8 * k + lineHeight * (i + 0.5), width - 48 * k, px, i === 0 ? 700 : 500);
   });
 }

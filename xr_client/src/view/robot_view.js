@@ -17,7 +17,7 @@ import { adoptMaterials } from './model_materials.js';
 import { WarningSprite } from './label_sprite.js';
 import { LABEL_ASPECT } from './label_atlas.js';
 import { MAX_SCAN_POINTS, scanToPoints } from '../scan.js';
-import { LABEL_ANGLE, LABEL_MAX, LABEL_MIN, labelHeight } from '../label_rule.js';
+import { HEADSET_PX_PER_RAD, LABEL_ANGLE, LABEL_MAX, LABEL_MIN, labelAngle, labelHeight } from '../label_rule.js';
 
 export { LABEL_ANGLE, LABEL_MAX, LABEL_MIN };
 const GREY = new THREE.Color('#777777');
@@ -71,6 +71,8 @@ export class RobotView {
     this.group.add(sprite);
     /** @type {{sprite: THREE.Sprite, key: string}} */
     this.label = { sprite, key: '' };
+    /** Its lines (name, state, and a goal's progress when it has one): a taller label keeps each line legible. */
+    this.labelLines = 2;
     /** The label is kept whatever the distance (the selected robot's, a warning's): label_rule.js. */
     this.keepLabel = false;
     this.warning = new WarningSprite(shared.warningMaterial);
@@ -130,11 +132,12 @@ export class RobotView {
   }
 
   /**
-   * The label keeps about the same size on screen (label_rule.js); the atlas draws it, the proxy sprite follows.
-   * @param {number} distance from the viewer, metres
+   * The label keeps about the same size on screen (label_rule.js), each of its lines at least 12 px; the atlas
+   * draws it, the proxy sprite follows.
+   * @param {number} distance from the viewer, metres @param {number} [pxPerRad] the screen's pixels per radian
    */
-  scaleLabel(distance) {
-    const h = labelHeight(distance);
+  scaleLabel(distance, pxPerRad = HEADSET_PX_PER_RAD) {
+    const h = labelHeight(distance, labelAngle(this.labelLines, pxPerRad));
     this.label.sprite.scale.set(h * LABEL_ASPECT, h, 1);
     return h;
   }
@@ -234,6 +237,7 @@ export class RobotView {
         ? `offline${state.age !== null ? ` · ${formatAge(state.age)}` : ''}`
         : `${state.mode}${state.controller ? ` · ${state.controller}` : ''}`;
     const lines = state.nav ? [state.name, second, state.nav] : [state.name, second];
+    this.labelLines = lines.length;
     const style = { accent: `#${this.colour.getHexString()}`, dim: old };
     const key = JSON.stringify([lines, style]);
     if (key !== this.label.key) {

@@ -4,6 +4,7 @@
  * (menu, selection, rig pose, goal pointer, teleop, Robot POV uploads, video decoding, frame timing) and what a
  * developer reads in a console. Building it changes nothing.
  */
+import { smallestFont } from '../label_rule.js';
 import * as THREE from 'three';
 import { mapToScene, sceneYawToMap } from '../frames.js';
 
@@ -153,6 +154,9 @@ export function snapshotState(app) {
           labelOpacity: app.stage.fleetView.atlas.opacities.getX(v.index),
           detailed: v.detailed,
           labelPixels: app.presenting ? null : labelPixels(app, v),
+          labelLines: v.labelLines,
+          // The label's smallest font on this page (px): its status lines' (label_rule.js smallestFont).
+          labelFont: app.presenting ? null : smallestFont(labelPixels(app, v), v.labelLines),
         },
       ]),
     ),
