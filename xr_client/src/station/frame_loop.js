@@ -64,6 +64,9 @@ export class FrameLoop {
       pxPerRad: stage.presenting
         ? HEADSET_PX_PER_RAD
         : stage.renderer.domElement.clientHeight / 2 / Math.tan((camera.fov * Math.PI) / 360),
+      screen: stage.presenting
+        ? null
+        : { camera, width: stage.renderer.domElement.clientWidth, height: stage.renderer.domElement.clientHeight },
     });
     views.goalView.update(fleet, this.host.goals, start, router.paths);
     if (stage.presenting) {

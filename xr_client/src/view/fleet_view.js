@@ -10,11 +10,12 @@
  * for STATUS_PER_FRAME robots a frame in turn, all of them in a few frames: text the eye reads, not a per-frame
  * rebuild of 100 strings (and the selection ring at once, every frame).
  */
+import { declutter } from '../label_declutter.js';
 import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView, LABEL_ANCHOR } from './robot_view.js';
 import { FleetInstances } from './fleet_instances.js';
-import { LabelAtlas } from './label_atlas.js';
+import { LABEL_ASPECT, LabelAtlas } from './label_atlas.js';
 import { FleetScans } from './fleet_scans.js';
 import { labelOpacity } from '../label_rule.js';
 import { DETAILED_MAX, nearestDetailed } from '../level_of_detail.js';
@@ -51,6 +52,10 @@ export class FleetView {
     world.add(this.instances.group, this.atlas.mesh, this.scans.points);
     /** Per robot (by index): the viewer's distance this frame (Infinity: not a candidate for the full model). */
     this.distances = new Float64Array(0);
+    /** Each label's rectangle on the desktop's screen (x0, y0, x1, y1 px; NaN: not drawn) and its declutter factor
+     * (label_declutter.js): a label a more important one covers is a ghost. */
+    this.labelRects = new Float32Array(0);
+    this.uncovered = new Float32Array(0);
     /** @type {Set<number>} */
     this.detailed = new Set();
     /** @type {RobotView[]} by index */
@@ -70,6 +75,8 @@ export class FleetView {
     this.atlas = new LabelAtlas(n);
     this.world.add(this.instances.group, this.atlas.mesh);
     this.distances = new Float64Array(n).fill(Infinity);
+    this.labelRects = new Float32Array(4 * n).fill(NaN);
+    this.uncovered = new Float32Array(n).fill(1);
     this.order = [];
     this.scans.changed = true;
     for (const entry of fleet.robots.values()) this.add(entry.description, this.order.length);
@@ -104,11 +111,12 @@ export class FleetView {
    *   smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
    *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean,
-   *   pxPerRad: number}} state
+   *   pxPerRad: number, screen: {camera: THREE.Camera, width: number, height: number} | null}} state
    *   `link`: the relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans
-   *   switch; `pxPerRad`: the screen's pixels per radian (labels keep their lines legible on it)
+   *   switch; `pxPerRad`: the screen's pixels per radian (labels keep their lines legible on it); `screen`: the
+   *   desktop's view, where labels that would cover each other are decluttered (null in VR)
    */
-  update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans, pxPerRad }) {
+  update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans, pxPerRad, screen }) {
     this.annotations.update(fleet);
     const t = fleet.scene.mapToScene;
     const n = this.order.length;
@@ -132,20 +140,53 @@ export class FleetView {
       this.distances[i] = view.group.visible && view.hasModel ? eye.distanceTo(view.group.position) : Infinity;
     }
     nearestDetailed(this.distances, this.detailedMax, this.detailed);
+    const heights = this.#labels(eye, pxPerRad, screen);
     for (let i = 0; i < n; i++) {
       const view = this.order[i];
       const shown = view.group.visible;
       view.setDetailed(this.detailed.has(i));
       this.instances.place(i, shown ? view.group.position : null, view.yaw, !view.detailed);
       const distance = eye.distanceTo(view.group.position);
-      const height = view.scaleLabel(distance, pxPerRad);
       this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
-      this.atlas.place(i, shown ? this.anchor : null, height, labelOpacity(distance, view.keepLabel));
+      const opacity = labelOpacity(distance, view.keepLabel) * this.uncovered[i];
+      this.atlas.place(i, shown ? this.anchor : null, heights[i], opacity);
     }
     this.instances.placed();
     this.atlas.placed();
     this.atlas.flush(this.renderer, now);
     this.scans.update(this.order, scans, now);
+  }
+
+  /**
+   * Each label's height (m) for this frame, and on the desktop which labels are ghosts: their rectangles on the
+   * screen, decluttered the selected robot's and a warning's first, then the nearest.
+   * @param {THREE.Vector3} eye @param {number} pxPerRad
+   * @param {{camera: THREE.Camera, width: number, height: number} | null} screen
+   */
+  #labels(eye, pxPerRad, screen) {
+    const n = this.order.length;
+    const heights = new Float64Array(n);
+    const far = new Float64Array(n);
+    for (let i = 0; i < n; i++) {
+      const view = this.order[i];
+      const distance = eye.distanceTo(view.group.position);
+      far[i] = distance;
+      heights[i] = view.scaleLabel(distance, pxPerRad);
+      this.labelRects[4 * i] = NaN;
+      if (!screen || !view.group.visible || labelOpacity(distance, view.keepLabel) === 0) continue;
+      this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
+      this.anchor.project(screen.camera);
+      if (this.anchor.z > 1) continue; // behind the camera
+      const x = ((this.anchor.x + 1) / 2) * screen.width;
+      const y = ((1 - this.anchor.y) / 2) * screen.height;
+      const h = (heights[i] / Math.max(distance, 1e-6)) * pxPerRad;
+      this.labelRects.set([x - (h * LABEL_ASPECT) / 2, y - 1.35 * h, x + (h * LABEL_ASPECT) / 2, y - 0.35 * h], 4 * i);
+    }
+    const order = [...Array(n).keys()].sort(
+      (a, b) => Number(this.order[b].keepLabel) - Number(this.order[a].keepLabel) || far[a] - far[b],
+    );
+    declutter(this.labelRects, order, this.uncovered);
+    return heights;
   }
 
   /**

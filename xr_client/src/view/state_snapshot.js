@@ -155,6 +155,9 @@ export function snapshotState(app) {
           detailed: v.detailed,
           labelPixels: app.presenting ? null : labelPixels(app, v),
           labelLines: v.labelLines,
+          // Where its label is on the desktop's screen (x0, y0, x1, y1 px), and whether another covers it (a ghost).
+          labelRect: app.presenting ? null : [...app.stage.fleetView.labelRects.slice(4 * v.index, 4 * v.index + 4)],
+          labelGhost: app.stage.fleetView.uncovered[v.index] < 1,
           // The label's smallest font on this page (px): its status lines' (label_rule.js smallestFont).
           labelFont: app.presenting ? null : smallestFont(labelPixels(app, v), v.labelLines),
         },
