@@ -12,8 +12,9 @@ from tests.conftest import SHARED_DATA
 
 KINECT = "pcl_grabber_sequences_kinect"
 VELODYNE = "fast_gicp_velodyne_pair"
-#: The first Kinect frame's timestamp, in each of its file names.
-KINECT_FRAME = "20121214T142255.814212"
+#: The Kinect frames' timestamps, in each of their file names (0.25 s apart, the camera still).
+KINECT_FRAMES = ("20121214T142255.814212", "20121214T142256.068683", "20121214T142256.332395")
+KINECT_FRAME = KINECT_FRAMES[0]
 #: The Velodyne pair: 251371071 is fast_gicp's *source*, 251370668 its *target*; relative.txt maps source to target.
 VELODYNE_TARGET, VELODYNE_SOURCE = "251370668.pcd", "251371071.pcd"
 
