@@ -157,7 +157,7 @@ class VoxelMap:
         since = -1 if reset else version
         fresh = self.blocks[self.block_version > since]
         blocks = list(self._views(fresh))
-        if not reset:
+        if not reset and version > 0:  # a new client has nothing to drop
             gone = [(key, v) for key, v in self.removed.items() if v > since]
             blocks += [_empty_block(key, v) for key, v in sorted(gone)]
         return Changes(self.version, reset, tuple(blocks))
