@@ -5,6 +5,7 @@ and every wrong layout named in a short message."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -137,3 +138,26 @@ def test_a_wrong_layout_is_named_in_a_short_message(broken: PointCloud2Fields, n
     with pytest.raises(CloudError, match=named.replace("(", r"\(")) as caught:
         decode_pointcloud2(broken)
     assert len(str(caught.value)) < 2 * NAME_LIMIT + 100
+
+
+def test_an_ascii_pcd_reads_as_the_binary_one(tmp_path: Path) -> None:
+    """PCD's DATA ascii (what PCL's pcl_convert_pcd_ascii_binary writes): the first points of the Velodyne scan."""
+    binary = read_pcd(pointcloud_data(VELODYNE) / VELODYNE_TARGET)
+    head = binary.points[:50]
+    lines = [" ".join(repr(float(p[name])) for name in ("x", "y", "z", "intensity")) for p in head]
+    text = (
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\n"
+        "TYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 50\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 50\nDATA ascii\n"
+    )
+    path = tmp_path / "head.pcd"
+    path.write_text(text + "\n".join(lines) + "\n")
+    ascii_cloud = read_pcd(path).cloud()
+    assert np.array_equal(ascii_cloud.xyz, binary.cloud().xyz[:50])
+    assert ascii_cloud.intensity is not None and np.array_equal(ascii_cloud.intensity, head["intensity"])
+
+
+def test_a_pcd_this_reader_cannot_read_is_named(tmp_path: Path) -> None:
+    path = tmp_path / "odd.pcd"
+    path.write_bytes(b"VERSION 0.7\nFIELDS x\nSIZE 4\nTYPE F\nCOUNT 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA lzma\n")
+    with pytest.raises(CloudError, match="DATA 'lzma' not read"):
+        read_pcd(path)
