@@ -62,8 +62,10 @@ class RangeImage:
         sine = z / (distance + tiny)
         turn = y / (np.abs(x) + np.abs(y) + tiny)
         turn = np.where(x >= 0, turn, 2 - turn) + 1  # 0 .. 4
-        column = (turn * np.float32(self.columns / 4)).astype(np.intp) % self.columns
-        row = np.clip(((sine + 1) * np.float32(self.rows / 2)).astype(np.intp), 0, self.rows - 1)
+        # Both are at least 0; only the top edge (turn 4 is turn 0, sine 1) needs bounding. np.clip and % took a third
+        # of a fusion's time.
+        column = np.minimum((turn * np.float32(self.columns / 4)).astype(np.intp), self.columns - 1)
+        row = np.minimum(((sine + 1) * np.float32(self.rows / 2)).astype(np.intp), self.rows - 1)
         return distance, row, column
 
     def seen_through(self, centres: Columns, voxel: float, margin: float, range_margin: float) -> NDArray[np.bool_]:
@@ -71,7 +73,9 @@ class RangeImage:
         distance, row, column = self._polar(centres)
         # Level n where the voxel spans 2**n to 2**(n+1) finest bins: found among the levels' distances.
         limits = voxel / (self.resolution * 2.0 ** np.arange(LEVELS - 1, 0, -1))
-        level = (LEVELS - 1) - np.searchsorted(limits.astype(np.float32), distance, side="left")
+        level = np.zeros(len(distance), dtype=np.intp)
+        for limit in limits.astype(np.float32).tolist():  # five comparisons: quicker than a search per voxel
+            level += distance <= limit
         beyond = self._read(level, row, column)
         seen: NDArray[np.bool_] = distance + margin + range_margin * distance < beyond
         return seen
