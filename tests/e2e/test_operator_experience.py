@@ -99,9 +99,8 @@ async def test_vr_estop_within_reach_on_a_button_and_the_wrist(station: Station,
     await press_menu_button(client, "estop:reset")
     notice = await client.wait("s.notice.startsWith('Reset the E-STOP') && s.notice", 10)
     assert "pressed by you on all robots" in notice and "again to confirm" in notice, notice
-    await client.frames(3)
     assert latched(station) == list(ROBOTS), "one press reset the E-STOP: no confirmation"
-    await press_menu_button(client, "estop:reset")
+    await reset_in_vr(client, armed=True)
     await wait_until(lambda: latched(station) == [], 5, "released from the menu")
     await client.wait("!s.estop.vr")
     await set_menu(client, False)
