@@ -24,9 +24,10 @@ import pytest
 import trimesh
 
 from relay.config import FleetConfig, load_config, parse_config
-from tests.conftest import ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
+from tests.conftest import LOAD_SLACK, ROOT, SHARED_DATA, RunningRelay, relay_process, start_relay
 from tests.gltf_validate import validate_glb
 from tests.helpers.ros import Peer, start_peer
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -457,9 +458,10 @@ async def test_cameras_that_cannot_be_video_say_why_by_name_and_the_other_stream
         yuyv = await client.wait_for(lambda m: m["identifier"] == "error" and "alpha/camera/yuyv" in m["message"], 45)
         assert yuyv["code"] == "unsupported" and "yuv422_yuy2" in yuyv["message"], yuyv
         seen = len(client.frames)
-        await asyncio.sleep(2.0)  # 15 fps asked: ~30 frames of the good camera
+        # 15 fps asked: ~30 frames of the good camera in 2 s on a quiet machine; under load (a CI runner beside a
+        # CPU hog) fewer, later: what matters is that they keep coming, not their rate (the benchmark's).
+        await wait_until(lambda: len(client.frames) - seen >= 10, 2.0 + 10 * LOAD_SLACK, "the good camera's video")
         later = [h for _, h, _ in client.frames[seen:]]
-        assert len(later) >= 10, "the good camera's video went on"
         assert {h["identifier"] for h in later} == {"alpha/camera/front"} and all(
             h["encoding"] == "h264" for h in later
         ), "nothing of the failed cameras, all of the good one"

@@ -81,7 +81,9 @@ async def test_odometry_tf_sensor_and_camera_reach_the_operator_field_by_field(r
             router.put(static_key, tf(transform("map", "odom", 1.0, 2.0, now)), i)
             router.put(tf_key, tf(transform("odom", "base_link", 0.5, 0.25, now)), i)
             router.put(gas_key, gas, i)
-            if client.pose("alpha") and client.pose("beta") and client.latest.get("alpha/sensor/gas"):
+            # beta's pose is in the map frame once the static map -> odom has arrived too (before it, in odom).
+            beta = client.pose("beta")
+            if client.pose("alpha") and beta and beta["frame"] == "map" and client.latest.get("alpha/sensor/gas"):
                 break
             await asyncio.sleep(0.05)
         a, b = client.pose("alpha"), client.pose("beta")
