@@ -6,8 +6,10 @@
  */
 import { displayName } from '../operator_names.js';
 
-/** In VR a Reset E-STOP press is confirmed by a second press within this (ms): long enough to read the question. */
-export const RESET_CONFIRM_MS = 6000;
+/** In VR a Reset E-STOP press is confirmed by a second press within this (ms): long enough to read the question,
+ * and for a second press where frames come slowly (6 s was too short for an emulated headset on SwiftShader at a
+ * frame a second: each press re-armed the question). Resetting stays a deliberate pair of presses. */
+export const RESET_CONFIRM_MS = 15000;
 
 /**
  * @typedef {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
