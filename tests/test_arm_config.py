@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from relay.config import ArmLimits, parse_config
+from relay.config import Limits, parse_config
 from relay.errors import ConfigError
 
 ROBOT = """\
@@ -43,7 +43,7 @@ def test_a_good_entry_parses_with_the_defaults(folder: Path) -> None:
         None,
         None,
     )
-    assert arm.limits == ArmLimits(0.1, 0.5)
+    assert arm.limits == Limits(0.1, 0.5)
     assert (arm.workspace.min, arm.workspace.max) == ((-0.1, -0.3, 0.0), (0.4, 0.3, 0.5))
     assert arm.joint_margin == 0.1  # MoveIt Servo's joint_limit_margin
     topics = arm.topics

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from relay.arm.rules import ArmBounds, ArmGate, clamp_twist, step_refusal
-from relay.config import ArmLimits, Workspace
+from relay.config import Limits, Workspace
 from tests.helpers.arm import planar
 
-LIMITS = ArmLimits(linear=0.1, angular=0.5)
+LIMITS = Limits(linear=0.1, angular=0.5)
 EVERYWHERE = Workspace((-1.0, -1.0, -1.0), (1.0, 1.0, 1.0))
 
 

@@ -10,7 +10,7 @@ from relay.arm.kinematics import forward
 from relay.arm.rules import ArmBounds
 from relay.arm.sim_arm import NAMED_SPEED_SCALE, SimArm
 from relay.arm.srdf import load_group_states
-from relay.config import ArmLimits, Workspace
+from relay.config import Limits, Workspace
 from tests.helpers.arm import omx, tb3_manipulation
 
 HOME = (0.0, -1.0, 0.7, 0.3)
@@ -20,7 +20,7 @@ PERIOD = 0.02  # the simulator's physics rate, 50 Hz
 
 def sim_arm(positions: tuple[float, ...] = HOME, workspace: Workspace = WORKSPACE) -> SimArm:
     poses = load_group_states(tb3_manipulation("config", "turtlebot3_manipulation.srdf"))
-    return SimArm(omx(), ArmLimits(0.1, 0.5), ArmBounds(workspace, 0.1), poses, timeout=0.5, positions=positions)
+    return SimArm(omx(), Limits(0.1, 0.5), ArmBounds(workspace, 0.1), poses, timeout=0.5, positions=positions)
 
 
 def run(arm: SimArm, start: float, seconds: float) -> tuple[float, list[str]]:

@@ -22,7 +22,7 @@ from typing import Final
 
 import numpy as np
 
-from ..config import Arm, ArmLimits, Workspace
+from ..config import Arm, Limits, Workspace
 from .kinematics import Values, Vector, forward, points
 from .model import ArmModel
 
@@ -42,7 +42,7 @@ class ClampedTwist:
     clamped: bool  # True when either was reduced (or was not finite)
 
 
-def clamp_twist(linear: Sequence[float], angular: Sequence[float], limits: ArmLimits) -> ClampedTwist:
+def clamp_twist(linear: Sequence[float], angular: Sequence[float], limits: Limits) -> ClampedTwist:
     """The twist within ``limits``: each vector scaled down as a whole to its limit; non-finite ones are zeros."""
     lin, lin_clamped = _clamp_vector(linear, limits.linear)
     ang, ang_clamped = _clamp_vector(angular, limits.angular)

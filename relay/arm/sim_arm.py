@@ -13,7 +13,7 @@ from typing import Final
 
 import numpy as np
 
-from ..config import ArmLimits
+from ..config import Limits
 from .kinematics import Vector, velocity_step
 from .model import ArmModel
 from .rules import ESTOP_REFUSAL, ArmBounds, ArmGate, ClampedTwist, clamp_twist, step_refusal
@@ -41,7 +41,7 @@ class SimArm:
     def __init__(
         self,
         model: ArmModel,
-        limits: ArmLimits,
+        limits: Limits,
         bounds: ArmBounds,
         poses: Mapping[str, Mapping[str, Mapping[str, float]]],
         timeout: float,

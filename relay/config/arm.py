@@ -14,8 +14,8 @@ from pathlib import Path
 
 from yaml.nodes import Node
 
-from .model import Arm, ArmLimits, ArmTopics, Workspace
-from .reader import _FRAME, _Reader, _topic, resolve_topic
+from .model import Arm, ArmTopics, Workspace
+from .reader import _FRAME, _Reader, _topic, resolve_topic, speed_limits
 
 ARM_FIELDS = (
     "urdf", "base_link", "tip_link", "gripper_joint", "topics", "limits", "workspace", "joint_margin", "camera",
@@ -48,7 +48,7 @@ def arm(reader: _Reader, node: Node, path: str, namespace: str, base_dir: Path |
         tip_link=frame(f["tip_link"], f"{path}.tip_link"),
         gripper_joint=reader.get(f, "gripper_joint", path, frame, None),
         topics=_topics(reader, f.get("topics"), f"{path}.topics", namespace),
-        limits=_limits(reader, f["limits"], f"{path}.limits"),
+        limits=speed_limits(reader, f["limits"], f"{path}.limits"),
         workspace=_workspace(reader, f["workspace"], f"{path}.workspace"),
         joint_margin=reader.get(
             f, "joint_margin", path, lambda n, p: reader.number(n, p, non_negative=True), Arm.joint_margin
@@ -78,14 +78,6 @@ def _topics(reader: _Reader, node: Node | None, path: str, namespace: str) -> Ar
         for key, default in TOPIC_DEFAULTS.items()
     }
     return ArmTopics(**topics)
-
-
-def _limits(reader: _Reader, node: Node, path: str) -> ArmLimits:
-    f = reader.mapping(node, path, ("linear", "angular"), required=("linear", "angular"))
-    return ArmLimits(
-        linear=reader.number(f["linear"], f"{path}.linear", positive=True),
-        angular=reader.number(f["angular"], f"{path}.angular", positive=True),
-    )
 
 
 def _workspace(reader: _Reader, node: Node, path: str) -> Workspace:

@@ -85,14 +85,6 @@ class ModelSource:
 
 
 @dataclass(frozen=True)
-class ArmLimits:
-    """The tip's speed limits, clamped in the relay before a twist reaches MoveIt Servo (relay.arm.rules)."""
-
-    linear: float  # m/s
-    angular: float  # rad/s
-
-
-@dataclass(frozen=True)
 class Workspace:
     """The box the arm's tip must stay in, in the arm's base link frame (metres)."""
 
@@ -122,7 +114,7 @@ class Arm:
     tip_link: str
     gripper_joint: str | None
     topics: ArmTopics
-    limits: ArmLimits
+    limits: Limits  # the tip's speeds, clamped in the relay before a twist reaches MoveIt Servo (relay.arm.rules)
     workspace: Workspace
     #: A joint may not move closer than this to its limit (rad or m); MoveIt Servo's joint_limit_margin.
     joint_margin: float = 0.1

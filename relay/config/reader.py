@@ -11,6 +11,7 @@ from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from ..errors import ConfigError
+from .model import Limits
 
 _TOPIC = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 _FRAME = re.compile(r"^[A-Za-z0-9_./-]{1,128}$")
@@ -126,3 +127,12 @@ def resolve_topic(namespace: str, name: str) -> str:
     if name.startswith("/"):
         return name
     return f"{namespace.rstrip('/')}/{name}"
+
+
+def speed_limits(reader: _Reader, node: Node, path: str) -> Limits:
+    """``{linear: m/s, angular: rad/s}``, both required and positive: a base's velocity limits, an arm tip's."""
+    f = reader.mapping(node, path, ("linear", "angular"), required=("linear", "angular"))
+    return Limits(
+        linear=reader.number(f["linear"], f"{path}.linear", positive=True),
+        angular=reader.number(f["angular"], f"{path}.angular", positive=True),
+    )

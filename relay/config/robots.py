@@ -27,7 +27,7 @@ from .model import (
     Robot,
     Sensor,
 )
-from .reader import _COLOUR, _FRAME, _TOPIC, _Reader, _topic, resolve_topic
+from .reader import _COLOUR, _FRAME, _TOPIC, _Reader, _topic, resolve_topic, speed_limits
 
 _ROBOT_FIELDS = (
     "name",
@@ -230,12 +230,7 @@ def _sensors(reader: _Reader, f: dict[str, Node], path: str, namespace: str) -> 
 
 def _limits(reader: _Reader, f: dict[str, Node], path: str) -> tuple[Limits, Pose2D]:
     """Velocity limits (required) and the simulator's initial pose."""
-    lp = f"{path}.limits"
-    lim = reader.mapping(f["limits"], lp, ("linear", "angular"), required=("linear", "angular"))
-    limits = Limits(
-        linear=reader.number(lim["linear"], f"{lp}.linear", positive=True),
-        angular=reader.number(lim["angular"], f"{lp}.angular", positive=True),
-    )
+    limits = speed_limits(reader, f["limits"], f"{path}.limits")
     initial = Pose2D(0.0, 0.0, 0.0)
     if "initial_pose" in f:
         ip = f"{path}.initial_pose"
