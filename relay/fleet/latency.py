@@ -44,7 +44,3 @@ class StageLatency:
     def medians(self) -> dict[tuple[str, Stage], float]:
         """(robot, stage) -> the median of its recent figures (s), for every pair measured."""
         return {key: statistics.median(values) for key, values in sorted(self._samples.items()) if values}
-
-    def forget(self, robot: str) -> None:
-        for key in [k for k in self._samples if k[0] == robot]:
-            del self._samples[key]
