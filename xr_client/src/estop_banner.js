@@ -43,7 +43,10 @@ export function estopBanner(latched, robots, by, me, operator, names = new Map()
 function resetQuestion(latched, fleet, presserOf) {
   /** @type {Map<string, string[]>} */
   const groups = new Map();
-  for (const robot of latched) groups.set(presserOf(robot), [...(groups.get(presserOf(robot)) ?? []), robot]);
+  for (const robot of latched) {
+    const who = presserOf(robot);
+    groups.set(who, [...(groups.get(who) ?? []), robot]);
+  }
   const after = ' They can move again as soon as they are commanded.';
   if (groups.size === 1) {
     const [[who, stopped]] = groups;

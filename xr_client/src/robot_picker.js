@@ -4,7 +4,7 @@
  * (its status, battery, mission, open alerts), the robots a search finds, best match first, in natural order
  * (robot2 before robot10) or by status (what needs the operator first). Pure: test/robot_picker.test.js.
  */
-import { count } from './wording.js';
+import { count, nameNumber } from './wording.js';
 
 /**
  * What the picker knows of a robot; null where the relay has not told it (no status yet, no battery sensor).
@@ -58,7 +58,7 @@ export function matchOf(name, query) {
   const q = folded(query);
   if (!q) return 0;
   const n = folded(name);
-  if (n === q || (/^\d+$/.test(q) && Number(n.match(/(\d+)$/)?.[1] ?? NaN) === Number(q))) return 0;
+  if (n === q || (/^\d+$/.test(q) && nameNumber(n) === Number(q))) return 0;
   if (n.startsWith(q)) return 1;
   return n.includes(q) ? 2 : null;
 }

@@ -14,6 +14,7 @@
  * (`VoiceConfirm.confirm` is there for a pinch or a trigger to confirm too, once hands are wired). What was heard
  * is always returned, with the command or the reason it was refused.
  */
+import { nameNumber } from './wording.js';
 
 /** How long a motion command waits for its confirmation (ms). */
 export const CONFIRM_MS = 8000;
@@ -135,12 +136,6 @@ function joinNumbers(w) {
     } else out.push(w[i] === 'hundred' ? '100' : w[i]);
   }
   return out;
-}
-
-/** The number a robot's name ends in (robot1 -> 1), or null. @param {string} name */
-function nameNumber(name) {
-  const m = /(\d+)$/.exec(name);
-  return m ? Number(m[1]) : null;
 }
 
 /**

@@ -1,7 +1,8 @@
 // @ts-check
 /**
  * Counts in words the operator reads ("1 step", "3 steps"): a message that says "(1 steps)" reads as a bug, and
- * every count shown in the page or the headset goes through here. Pure: test/wording.test.js.
+ * every count shown in the page or the headset goes through here; and the number a robot is called by. Pure:
+ * test/wording.test.js.
  */
 
 /**
@@ -26,4 +27,10 @@ const STATUS_WORDS = Object.freeze({
  */
 export function statusWords(status) {
   return STATUS_WORDS[/** @type {keyof typeof STATUS_WORDS} */ (status)] ?? status.replaceAll('_', ' ');
+}
+
+/** The number a robot's name ends in (robot17 -> 17), or null: what "robot 17" says and "17" searches for. */
+export function nameNumber(/** @type {string} */ name) {
+  const m = /(\d+)$/.exec(name);
+  return m ? Number(m[1]) : null;
 }

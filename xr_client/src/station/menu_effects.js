@@ -105,7 +105,7 @@ export class MenuEffects {
       }
       return;
     }
-    void this.views.inspectionUi.confirm.ask(question, 'Reset E-STOP').then((yes) => {
+    void this.views.confirm.ask(question, 'Reset E-STOP').then((yes) => {
       if (yes) sender.estopReset();
     });
   }

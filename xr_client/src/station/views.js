@@ -5,6 +5,7 @@
  * sound, and the input of both displays (the headset's interaction, the desktop's controls). They also give the
  * station its one way to tell the operator something (notify). dispose() releases them all.
  */
+import { ConfirmDialog } from '../view/confirm_dialog.js';
 import { may } from '../roles.js';
 import { operatorToken } from '../connection.js';
 import { InspectionUi } from '../view/inspection_ui.js';
@@ -49,6 +50,10 @@ export class StationViews {
     this.teleportView = new TeleportView();
     world.add(this.teleportView.group);
     const token = operatorToken(window.location, window.sessionStorage);
+    /** The page's own yes-or-no question (never window.confirm): removing a schedule, resetting an E-STOP. */
+    this.confirm = new ConfirmDialog(
+      /** @type {HTMLDialogElement | null} */ (document.getElementById('confirm-dialog')),
+    );
     this.inspectionUi = new InspectionUi({
       world,
       model: host.inspection,
@@ -56,6 +61,7 @@ export class StationViews {
       panel: document.getElementById('findings'),
       token,
       transform: () => fleet.scene.mapToScene,
+      confirm: this.confirm,
     });
     this.vignette = new Vignette();
     camera.add(this.vignette.mesh);
@@ -175,6 +181,7 @@ export class StationViews {
     this.hud.dispose();
     this.hemisphere.dispose();
     this.inspectionUi.dispose();
+    this.confirm.dispose();
     this.findingCard.dispose();
   }
 }

@@ -56,6 +56,11 @@ export class FleetView {
      * (label_declutter.js): a label a more important one covers is a ghost. */
     this.labelRects = new Float32Array(0);
     this.uncovered = new Float32Array(0);
+    /** This frame's label heights (m) and distances (m), and the labels most important first: kept, not allocated
+     * each frame. @type {number[]} */
+    this.labelOrder = [];
+    this.labelHeights = new Float64Array(0);
+    this.labelFar = new Float64Array(0);
     /** @type {Set<number>} */
     this.detailed = new Set();
     /** @type {RobotView[]} by index */
@@ -77,6 +82,9 @@ export class FleetView {
     this.distances = new Float64Array(n).fill(Infinity);
     this.labelRects = new Float32Array(4 * n).fill(NaN);
     this.uncovered = new Float32Array(n).fill(1);
+    this.labelOrder = [...Array(n).keys()];
+    this.labelHeights = new Float64Array(n);
+    this.labelFar = new Float64Array(n);
     this.order = [];
     this.scans.changed = true;
     for (const entry of fleet.robots.values()) this.add(entry.description, this.order.length);
@@ -140,16 +148,15 @@ export class FleetView {
       this.distances[i] = view.group.visible && view.hasModel ? eye.distanceTo(view.group.position) : Infinity;
     }
     nearestDetailed(this.distances, this.detailedMax, this.detailed);
-    const heights = this.#labels(eye, pxPerRad, screen);
+    this.#labels(eye, pxPerRad, screen);
     for (let i = 0; i < n; i++) {
       const view = this.order[i];
       const shown = view.group.visible;
       view.setDetailed(this.detailed.has(i));
       this.instances.place(i, shown ? view.group.position : null, view.yaw, !view.detailed);
-      const distance = eye.distanceTo(view.group.position);
       this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
-      const opacity = labelOpacity(distance, view.keepLabel) * this.uncovered[i];
-      this.atlas.place(i, shown ? this.anchor : null, heights[i], opacity);
+      const opacity = labelOpacity(this.labelFar[i], view.keepLabel) * this.uncovered[i];
+      this.atlas.place(i, shown ? this.anchor : null, this.labelHeights[i], opacity);
     }
     this.instances.placed();
     this.atlas.placed();
@@ -158,21 +165,20 @@ export class FleetView {
   }
 
   /**
-   * Each label's height (m) for this frame, and on the desktop which labels are ghosts: their rectangles on the
-   * screen, decluttered the selected robot's and a warning's first, then the nearest.
+   * Each label's distance and height (m) for this frame, and on the desktop which labels are ghosts: their
+   * rectangles on the screen, decluttered the selected robot's and a warning's first, then the nearest.
    * @param {THREE.Vector3} eye @param {number} pxPerRad
    * @param {{camera: THREE.Camera, width: number, height: number} | null} screen
    */
   #labels(eye, pxPerRad, screen) {
     const n = this.order.length;
-    const heights = new Float64Array(n);
-    const far = new Float64Array(n);
+    const { labelHeights: heights, labelFar: far, labelRects: rects } = this;
     for (let i = 0; i < n; i++) {
       const view = this.order[i];
       const distance = eye.distanceTo(view.group.position);
       far[i] = distance;
       heights[i] = view.scaleLabel(distance, pxPerRad);
-      this.labelRects[4 * i] = NaN;
+      rects[4 * i] = NaN;
       if (!screen || !view.group.visible || labelOpacity(distance, view.keepLabel) === 0) continue;
       this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
       this.anchor.project(screen.camera);
@@ -180,13 +186,15 @@ export class FleetView {
       const x = ((this.anchor.x + 1) / 2) * screen.width;
       const y = ((1 - this.anchor.y) / 2) * screen.height;
       const h = (heights[i] / Math.max(distance, 1e-6)) * pxPerRad;
-      this.labelRects.set([x - (h * LABEL_ASPECT) / 2, y - 1.35 * h, x + (h * LABEL_ASPECT) / 2, y - 0.35 * h], 4 * i);
+      const w = (h * LABEL_ASPECT) / 2;
+      rects[4 * i] = x - w;
+      rects[4 * i + 1] = y - 1.35 * h;
+      rects[4 * i + 2] = x + w;
+      rects[4 * i + 3] = y - 0.35 * h;
     }
-    const order = [...Array(n).keys()].sort(
-      (a, b) => Number(this.order[b].keepLabel) - Number(this.order[a].keepLabel) || far[a] - far[b],
-    );
-    declutter(this.labelRects, order, this.uncovered);
-    return heights;
+    const views = this.order;
+    this.labelOrder.sort((a, b) => Number(views[b].keepLabel) - Number(views[a].keepLabel) || far[a] - far[b]);
+    declutter(rects, this.labelOrder, this.uncovered);
   }
 
   /**

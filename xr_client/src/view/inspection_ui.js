@@ -8,7 +8,6 @@
 import { InspectionView } from './inspection_view.js';
 import { FindingsPanel } from './findings_panel.js';
 import { TargetDialog } from './target_dialog.js';
-import { ConfirmDialog } from './confirm_dialog.js';
 import { ScheduleForm } from './schedule_form.js';
 import { InspectionReview, nextName } from '../inspection_review.js';
 import { sinceLastRound } from '../change_colour.js';
@@ -17,7 +16,8 @@ export class InspectionUi {
   /**
    * @param {{world: import('three').Group, model: import('../inspection_model.js').InspectionModel,
    *   sender: import('../command_sender.js').CommandSender, panel: HTMLElement | null, token: string | null,
-   *   transform: () => import('../frames.js').MapToScene}} parts
+   *   transform: () => import('../frames.js').MapToScene, confirm: import('./confirm_dialog.js').ConfirmDialog}} parts
+   *   `confirm`: the page's own yes-or-no question (the station's views own it: the E-STOP reset asks it too)
    */
   constructor(parts) {
     this.model = parts.model;
@@ -28,9 +28,7 @@ export class InspectionUi {
     /** Names a new target in the page (never window.prompt: it held the page, and E-STOP's keys with it). */
     this.names = new TargetDialog(/** @type {HTMLDialogElement | null} */ (document.getElementById('target-dialog')));
     /** Asks before a schedule is removed (never window.confirm, for the same reason). */
-    this.confirm = new ConfirmDialog(
-      /** @type {HTMLDialogElement | null} */ (document.getElementById('confirm-dialog')),
-    );
+    this.confirm = parts.confirm;
     this.scheduleForm = parts.panel ? new ScheduleForm(parts.model, parts.sender, this.confirm) : null;
     this.panel = parts.panel
       ? new FindingsPanel(
@@ -155,7 +153,6 @@ export class InspectionUi {
 
   dispose() {
     this.names.dispose();
-    this.confirm.dispose();
     this.view.dispose();
   }
 }

@@ -150,16 +150,8 @@ export function snapshotState(app) {
           // Heading: the footprint arrow's direction in the map frame (rad, CCW from east); label: its height (m) and
           // on the desktop page (px).
           heading: headingOf(app, v),
-          labelHeight: v.label.sprite.scale.y,
-          labelOpacity: app.stage.fleetView.atlas.opacities.getX(v.index),
           detailed: v.detailed,
-          labelPixels: app.presenting ? null : labelPixels(app, v),
-          labelLines: v.labelLines,
-          // Where its label is on the desktop's screen (x0, y0, x1, y1 px), and whether another covers it (a ghost).
-          labelRect: app.presenting ? null : [...app.stage.fleetView.labelRects.slice(4 * v.index, 4 * v.index + 4)],
-          labelGhost: app.stage.fleetView.uncovered[v.index] < 1,
-          // The label's smallest font on this page (px): its status lines' (label_rule.js smallestFont).
-          labelFont: app.presenting ? null : smallestFont(labelPixels(app, v), v.labelLines),
+          ...labelState(app, v),
         },
       ]),
     ),
@@ -280,6 +272,25 @@ export function mapToPage(app, x, y, z = 0) {
 function headingOf(app, view) {
   const d = new THREE.Vector3(1, 0, 0).transformDirection(view.heading.matrixWorld);
   return sceneYawToMap(app.fleet.scene.mapToScene, Math.atan2(-d.z, d.x));
+}
+
+/**
+ * A robot's label: its height (m), opacity, lines; on the desktop page its height (px), smallest font (px, its
+ * status lines': label_rule.js smallestFont), where it is (x0, y0, x1, y1 px) and whether another covers it (a ghost).
+ * @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view
+ */
+function labelState(app, view) {
+  const fleetView = app.stage.fleetView;
+  const pixels = app.presenting ? null : labelPixels(app, view);
+  return {
+    labelHeight: view.label.sprite.scale.y,
+    labelOpacity: fleetView.atlas.opacities.getX(view.index),
+    labelLines: view.labelLines,
+    labelPixels: pixels,
+    labelFont: pixels === null ? null : smallestFont(pixels, view.labelLines),
+    labelRect: pixels === null ? null : [...fleetView.labelRects.slice(4 * view.index, 4 * view.index + 4)],
+    labelGhost: fleetView.uncovered[view.index] < 1,
+  };
 }
 
 /**
