@@ -28,6 +28,8 @@ const PENDING = 64;
 export class ClockSync {
   /** @type {{offset: number, rtt: number}[]} */
   #samples = [];
+  /** The quickest of them, chosen at each pong (every pose asks). @type {{offset: number, rtt: number} | null} */
+  #best = null;
 
   /**
    * A pong: the ping left at `sent` and its answer came at `received` (page ms); the relay said `serverTime` (s).
@@ -37,18 +39,17 @@ export class ClockSync {
     if (!(received >= sent) || !Number.isFinite(serverTime)) return;
     this.#samples.push({ offset: serverTime - (sent + received) / 2000, rtt: received - sent });
     if (this.#samples.length > PINGS) this.#samples.shift();
+    this.#best = this.#samples.reduce((a, b) => (b.rtt < a.rtt ? b : a));
   }
 
   /** The relay's time (s) at page time `at` (ms), or null before the first pong. @param {number} at */
   relayTime(at) {
-    if (this.#samples.length === 0) return null;
-    const best = this.#samples.reduce((a, b) => (b.rtt < a.rtt ? b : a));
-    return at / 1000 + best.offset;
+    return this.#best === null ? null : at / 1000 + this.#best.offset;
   }
 
   /** How far off the mapping may be, ms (half the quickest round trip), or null. */
   get error() {
-    return this.#samples.length === 0 ? null : Math.min(...this.#samples.map((s) => s.rtt)) / 2;
+    return this.#best === null ? null : this.#best.rtt / 2;
   }
 }
 
