@@ -40,15 +40,36 @@ TARGET_BIG_CPU = 0.80
 
 
 async def fanout_cell(
-    server: str, robots: int, clients: int, *, window: float, warmup: float, report: Report, rate: float = RATE
+    server: str,
+    robots: int,
+    clients: int,
+    *,
+    window: float,
+    warmup: float,
+    report: Report,
+    rate: float = RATE,
+    extra: tuple[str, ...] = (),
 ) -> JsonDict:
-    """One (server, R, C) measurement; never raises for a server that fails: the cell records why."""
+    """One (server, R, C) measurement, ``extra`` arguments to the server; never raises for a server that fails: the
+    cell records why."""
     kind = "foxglove" if server == "foxglove" else "xr"
     path = "/" if kind == "foxglove" else f"/ws?batch=1&token={TOKEN}" if server == "xr" else f"/ws?token={TOKEN}"
     process = "xr" if server == "xr-single" else server
     child = await Child.start(
         f"fanout-{server}-{robots}x{clients}",
-        ["-m", "bench.relay_proc", "--server", process, "--robots", str(robots), "--rate", str(rate), "--token", TOKEN],
+        [
+            "-m",
+            "bench.relay_proc",
+            "--server",
+            process,
+            "--robots",
+            str(robots),
+            "--rate",
+            str(rate),
+            "--token",
+            TOKEN,
+            *extra,
+        ],
     )
     recorder = Recorder()
     conns: list[Any] = []

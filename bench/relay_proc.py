@@ -260,9 +260,13 @@ class Counter:
         self.sink(event)
 
 
-def relay_options(backend: str, token: str | None, zenoh_connect: str | None = None) -> Options:
+def relay_options(
+    backend: str, token: str | None, zenoh_connect: str | None = None, record_session: str | None = None
+) -> Options:
     names = {f.name for f in dataclasses.fields(Options)}
     kwargs: dict[str, Any] = {"backend": backend, "audit_log": None}
+    if record_session and "record_session" in names:
+        kwargs["record_session"] = record_session
     if token and "token" in names:
         kwargs["token"] = token
     if zenoh_connect:
@@ -292,7 +296,9 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
             return synthetic
         return create_backend(cfg, counter, options)
 
-    options = relay_options("sim" if args.backend == "synthetic" else args.backend, args.token, args.zenoh_connect)
+    options = relay_options(
+        "sim" if args.backend == "synthetic" else args.backend, args.token, args.zenoh_connect, args.record_session
+    )
     # The benchmarks' publishers stamp with time.monotonic() (bench/ros_pub.py, the synthetic backend): it is the
     # relay's clock of record here, so that the latency it exports and the page shows compare the same clocks.
     app = create_app(config, options, backend_factory=counting_backend, wall_clock=time.monotonic)
@@ -539,6 +545,7 @@ def main() -> None:
     parser.add_argument("--camera-size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"))
     parser.add_argument("--camera-rate", type=float, default=30.0)
     parser.add_argument("--token", default=None)
+    parser.add_argument("--record-session", default=None, help="record the session to this MCAP file (xr only)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
 

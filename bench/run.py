@@ -25,6 +25,7 @@ from . import (
     bench_estop,
     bench_foxglove_peer,
     bench_pose_fanout,
+    bench_recording,
     bench_ros_ingest,
     bench_slow_clients,
     bench_video,
@@ -41,6 +42,7 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_foxglove_peer,
     bench_video,
     bench_estop,
+    bench_recording,
 )
 
 

@@ -77,10 +77,15 @@ async def measure_codec(browser: Any, port: int, robot: str, codec: str, seconds
         after: JsonDict = await page.evaluate("window.__xrRelay.state")
         end = time.monotonic()
         offset2, error2 = await page_offset(page)
-        times: list[list[float]] = await page.evaluate("window.__xrRelay.pictureTimes(2000)")
         # What the operator is shown at the end of the window (the robot card's and the POV's picture figure, the
-        # median of its last 15 pictures: xr_client/src/latency.js), beside this measure of the same 15 pictures.
-        shown = (await page.evaluate("window.__xrRelay.state.latency.robots"))[robot]["picture"]
+        # median of its last 15 pictures: xr_client/src/latency.js), beside this measure of the same 15 pictures:
+        # read in one look, so no picture arrives between the two.
+        times: list[list[float]]
+        robots: JsonDict
+        times, robots = await page.evaluate(
+            "[window.__xrRelay.pictureTimes(2000), window.__xrRelay.state.latency.robots]"
+        )
+        shown = robots[robot]["picture"]
         last = sorted(at / 1000 + offset2 - stamp for stamp, at in times[-15:])
         # The clocks' mapping at both ends: their drift over the window is part of the error.
         mapping = (offset + offset2) / 2

@@ -54,3 +54,7 @@ class AuditLogUnavailable(RelayError):
 
 class BackendUnavailable(RelayError):
     """The backend cannot run on this machine; the message says how to fix it."""
+
+
+class RecordingError(RelayError):
+    """The session's recording could not start (relay/replay/recorder.py): the message names the file and why."""

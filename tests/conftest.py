@@ -35,6 +35,7 @@ from relay.cli.options import Options
 from relay.config import FleetConfig, load_config
 from relay.net.server import RELAY_KEY, create_app, open_runner
 from relay.station.core import Relay
+from tests.helpers.hang_report import MARGIN_S, HangReport, quote, stacks_file
 from tests.helpers.shared_memory import memory_report, remove_orphaned_segments
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -273,14 +274,38 @@ pytest_sessionstart = pytest_sessionfinish = _remove_orphaned_segments
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_handlecrashitem(crashitem: str, report: pytest.TestReport, sched: Any) -> None:
-    """A worker died under a test (pytest-xdist): the memory at that moment goes with the failure."""
+    """A worker died under a test (pytest-xdist): the memory at that moment goes with the failure, and where the
+    worker waited when the test ran into pytest-timeout's bound (tests/helpers/hang_report.py)."""
     report.sections.append(("memory when the worker died", memory_report()))
+    stacks = quote(report.node.gateway.id)
+    if stacks:
+        report.sections.append((f"where the worker was {MARGIN_S:.0f} s before its test's timeout", stacks))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    marker = item.get_closest_marker("timeout")
+    bound = float(marker.args[0] if marker and marker.args else item.config.getini("timeout") or 0)
+    if bound <= MARGIN_S:
+        yield
+        return
+    report = HangReport(
+        stacks_file(os.environ.get("PYTEST_XDIST_WORKER", "main")), bound - MARGIN_S, lambda: list(_TIMED)
+    )
+    report.start()
+    try:
+        yield
+    finally:
+        report.cancel()
 
 
 def pytest_configure(config: pytest.Config) -> None:
     # One random offset for the whole run, drawn before xdist starts its workers (they inherit the environment):
     # the workers' domains are disjoint, and a run beside another (a second checkout's) rarely meets its domains.
     os.environ.setdefault("XR_TEST_DOMAIN_OFFSET", str(random.randrange(len(_DOMAIN_RANGE))))
+    if "XR_TEST_STACKS" not in os.environ:  # the controller's folder, inherited by the workers
+        os.environ["XR_TEST_STACKS"] = tempfile.mkdtemp(prefix="xr-relay-stacks-")
+        atexit.register(shutil.rmtree, os.environ["XR_TEST_STACKS"], True)
 
 
 def _domains() -> Iterator[int]:

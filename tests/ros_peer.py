@@ -3,13 +3,15 @@
     python tests/ros_peer.py CONFIG.json
 
 The JSON says what to publish: ``odom``/``amcl``/``pose`` poses, planned paths (nav_msgs/Path), sensor values,
-raw and compressed images (from a real image file), and which command topics to echo. Every received command is
+raw and compressed images (from a real image file), any message serialized to a file (``raw``: CDR, restamped as it
+is sent), and which command topics to echo. Every received command is
 printed to stdout as one JSON line with the receive time on the shared monotonic clock, so the test can time the
 deadman.
 """
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import sys
@@ -18,11 +20,12 @@ from typing import Any
 
 import cv2
 import rclpy
-from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry, Path
 from rclpy.executors import ExternalShutdownException
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CompressedImage, Image, Temperature
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import CompressedImage, Image, JointState, Temperature
 from std_msgs.msg import Float32
 
 
@@ -104,6 +107,19 @@ def main() -> int:
         raw.header.frame_id = "camera"
         publishers.append((node.create_publisher(Image, item["topic"], reliable), raw))
 
+    for item in spec.get("joint_states", []):  # an arm's joints, as joint_state_broadcaster publishes them
+        joints = JointState()
+        joints.name = list(item["names"])
+        joints.position = [float(v) for v in item["positions"]]
+        publishers.append((node.create_publisher(JointState, item["topic"], reliable), joints))
+
+    for item in spec.get("raw", []):  # any message, serialized (CDR) by the test: a PointCloud2, a depth Image
+        package, _, name = item["type"].rpartition("/")
+        cls = getattr(importlib.import_module(package.replace("/", ".")), name)
+        with open(item["file"], "rb") as cdr:
+            message = deserialize_message(cdr.read(), cls)
+        publishers.append((node.create_publisher(cls, item["topic"], reliable), message))
+
     def publish_all() -> None:
         stamp = node.get_clock().now().to_msg()
         for publisher, message in publishers:
@@ -118,6 +134,22 @@ def main() -> int:
             Twist,
             topic,
             lambda m, t=topic: emit({"topic": t, "t": time.monotonic(), "linear": m.linear.x, "angular": m.angular.z}),
+            reliable,
+        )
+    for topic in spec.get("echo_twist_stamped", []):  # MoveIt Servo's delta_twist_cmds
+        node.create_subscription(
+            TwistStamped,
+            topic,
+            lambda m, t=topic: emit(
+                {
+                    "topic": t,
+                    "t": time.monotonic(),
+                    "frame": m.header.frame_id,
+                    "stamp": m.header.stamp.sec + m.header.stamp.nanosec * 1e-9,
+                    "linear": [m.twist.linear.x, m.twist.linear.y, m.twist.linear.z],
+                    "angular": [m.twist.angular.x, m.twist.angular.y, m.twist.angular.z],
+                }
+            ),
             reliable,
         )
     for topic in spec.get("echo_goal", []):

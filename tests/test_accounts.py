@@ -16,12 +16,10 @@ import time
 from collections.abc import AsyncIterator
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, cast
+from typing import cast
 
-import aiohttp
 import orjson
 import pytest
-from yarl import URL
 
 from relay.accounts.passwords import verify
 from relay.accounts.roles import ROLES, may
@@ -33,10 +31,9 @@ from relay.errors import ConfigError
 from relay.net.access import FREE_FAILURES
 from relay.net.account_watch import CLOSE_CODE as ACCOUNT_CHANGED
 from relay.net.account_watch import PERIOD as WATCH_PERIOD
-from relay.net.sign_in import COOKIE, CSRF_HEADER
 from tests.conftest import LOAD_SLACK, ROOT, RunningRelay, own_files, start_relay
+from tests.helpers.people import Person
 from tests.helpers.waiting import wait_until
-from tests.wsclient import TestClient
 
 MINIMAL = "robots:\n  - name: alpha\n    limits: {linear: 0.5, angular: 1.0}\n"
 PASSWORDS = {
@@ -166,42 +163,9 @@ async def site(
         await running.runner.cleanup()
 
 
-class Person:
-    """A browser of one person: its cookie jar and, once signed in, the CSRF token its page read."""
-
-    def __init__(self, relay: RunningRelay) -> None:
-        self.relay = relay
-        self.http = aiohttp.ClientSession(cookie_jar=aiohttp.CookieJar(unsafe=True))  # unsafe: 127.0.0.1 cookies
-        self.csrf = ""
-
-    async def post(self, path: str, body: dict[str, Any] | None = None, *, csrf: bool = True) -> tuple[int, Any]:
-        headers = {"Origin": self.relay.url}
-        if csrf and self.csrf:
-            headers[CSRF_HEADER] = self.csrf
-        async with self.http.post(self.relay.url + path, data=orjson.dumps(body or {}), headers=headers) as response:
-            text = await response.text()
-            return response.status, (orjson.loads(text) if response.content_type == "application/json" else text)
-
-    async def sign_in(self, user: str, password: str | None = None) -> dict[str, Any]:
-        status, body = await self.post("/signin", {"user": user, "password": password or PASSWORDS[user]})
-        assert status == 200, body
-        self.csrf = body["csrf"]
-        return dict(body)
-
-    async def page(self) -> TestClient:
-        cookie = self.http.cookie_jar.filter_cookies(URL(self.relay.url)).get(COOKIE)
-        headers = {"Origin": self.relay.url, **({"Cookie": f"{COOKIE}={cookie.value}"} if cookie else {})}
-        client = await TestClient.open(self.relay.ws_url, additional_headers=headers)
-        await client.hello()
-        return client
-
-    async def close(self) -> None:
-        await self.http.close()
-
-
 @pytest.fixture
 async def people(site: tuple[RunningRelay, Path]) -> AsyncIterator[dict[str, Person]]:
-    made = {name: Person(site[0]) for name in (*PASSWORDS, "Eve")}
+    made = {name: Person(site[0], PASSWORDS) for name in (*PASSWORDS, "Eve")}
     try:
         yield made
     finally:

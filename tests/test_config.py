@@ -133,6 +133,14 @@ def test_navigation_defaults_to_nav2_beside_the_namespace_and_every_key_can_be_s
     )  # fmt: skip
 
 
+def test_a_robot_is_in_the_team_robots_yaml_names_or_in_none() -> None:
+    text = (
+        "robots:\n  - {name: a, team: North crew, limits: {linear: 1, angular: 1}}\n"
+        "  - {name: b, limits: {linear: 1, angular: 1}}\n"
+    )
+    assert [(r.name, r.team) for r in parse_config(text).robots] == [("a", "North crew"), ("b", None)]
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
@@ -185,6 +193,10 @@ def test_navigation_defaults_to_nav2_beside_the_namespace_and_every_key_can_be_s
         (
             "robots:\n  - name: a\n    colour: blue\n    limits: {linear: 1, angular: 1}\n",
             'robots.yaml:3: robots[0].colour: expected a colour like #e6194b, got "blue"',
+        ),
+        (
+            "robots:\n  - name: a\n    team: north/east\n    limits: {linear: 1, angular: 1}\n",
+            'robots.yaml:3: robots[0].team: expected a team name of 1-32 letters, digits, spaces, _ and -, got "north/',
         ),
         (
             "robots:\n  - name: a\n    pose: gps\n    limits: {linear: 1, angular: 1}\n",

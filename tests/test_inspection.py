@@ -102,6 +102,9 @@ async def test_bad_missions_are_refused_before_any_robot_moves(fleet_config: Fle
             ({"robot": "robot1", "steps": [{"goto": {"x": 60.0, "y": 6.0}}]}, "no_path", "outside the map"),
             ({"robot": "robot9", "steps": [{"dwell": 1}]}, "unknown_robot", "robot9"),
             ({"robot": "robot1", "steps": "spill"}, "bad_request", "steps must be a list"),
+            ({"targets": ["spill"], "robots": ["robot2", "robot9"]}, "unknown_robot", "unknown robot(s) robot9"),
+            ({"targets": ["spill"], "robots": []}, "bad_request", "field 'robots' must be a list of 1 to 200"),
+            ({"file": "broken", "robots": ["robot1"]}, "bad_request", "robots (a group) go with targets"),
         ]  # fmt: skip
         for fields, code, text in cases:
             reply = await client.request({"identifier": "mission/start", **fields}, timeout=30)
@@ -116,6 +119,25 @@ async def test_bad_missions_are_refused_before_any_robot_moves(fleet_config: Fle
         ):
             assert (await viewer.request(fields))["code"] == "forbidden"
         await viewer.close()
+        await client.close()
+    finally:
+        await running.runner.cleanup()
+
+
+async def test_targets_for_a_group_go_to_its_robots_alone(fleet_config: FleetConfig, tmp_path: Path) -> None:
+    """A team's or a room's robots (``robots``): the targets are shared out among them, nearest first, and the
+    robot outside the group, though it stands nearest to the spill, is not sent."""
+    running = await relay_with_database(fleet_config, tmp_path)
+    try:
+        client = await operator(running)
+        group = ["robot2", "robot3"]
+        reply = await client.request(
+            {"identifier": "mission/start", "targets": ["spill", "leak"], "robots": group, "name": "east"}, timeout=30
+        )
+        assert reply["identifier"] == "ack", reply
+        await client.wait_for(lambda m: m["identifier"] == "mission" and m["state"] == "running")
+        sent = {m["robot"]: m for m in missions(client).values()}
+        assert sorted(sent) == group, sent
         await client.close()
     finally:
         await running.runner.cleanup()

@@ -19,9 +19,13 @@ from relay.accounts.users import UserBook
 from relay.cli.main import oidc_refusal
 from relay.cli.options import Options
 from relay.config import FleetConfig
+from relay.net.account_watch import CLOSE_CODE as ACCOUNT_CHANGED
+from relay.net.account_watch import PERIOD as WATCH_PERIOD
 from relay.net.sign_in import COOKIE
-from tests.conftest import RunningRelay, start_relay
+from tests.conftest import LOAD_SLACK, RunningRelay, start_relay
 from tests.helpers.oidc import CLIENT_ID, SECRET, Provider
+from tests.helpers.people import Person
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 
@@ -137,6 +141,29 @@ async def test_an_unknown_or_replayed_callback_and_an_unreachable_provider_sign_
         await lost.runner.cleanup()
 
 
+async def test_the_relay_asks_the_provider_over_one_session_that_closes_with_the_relay(
+    fleet_config: FleetConfig, provider: Provider, tmp_path: Path
+) -> None:
+    """Two sign-ins ask the provider four times (its discovery document and keys are kept): over one kept-alive
+    connection of the relay's one client session, not a session (and a connection) a request as before; the
+    session is closed when the relay is, and with it the connection."""
+    book = UserBook(tmp_path / "users.sqlite")
+    options = Options(users=str(book.path), database=str(tmp_path / "k.sqlite"), oidc_issuer=provider.issuer,
+                      oidc_client_id=CLIENT_ID, oidc_secret=SECRET)  # fmt: skip
+    relay = await start_relay(fleet_config, options=options)
+    try:
+        for _ in range(2):
+            async with browser() as http:
+                assert (await sign_in(relay, http))[2]["user"] == "ana@site.example"
+        assert provider.tokens_issued == 2
+        assert len(provider.relay_connections) == 1, provider.relay_connections
+    finally:
+        await relay.runner.cleanup()
+    await wait_until(
+        lambda: all(c.is_closing() for c in provider.relay_connections), 5.0, "the relay's connection closed"
+    )
+
+
 def test_the_command_line_refuses_a_provider_in_clear_without_a_secret_or_without_accounts() -> None:
     assert oidc_refusal(None, True, "") is None
     assert oidc_refusal("https://id.site.example/realms/plant", True, "s") is None
@@ -149,6 +176,43 @@ def test_the_command_line_refuses_a_provider_in_clear_without_a_secret_or_withou
 def test_a_change_of_the_users_file_leaves_the_providers_sessions_alone() -> None:
     sessions = Sessions()
     local = sessions.open("ana", "operator", 0.0)
-    provided = sessions.open("ana", "operator", 0.0, via="oidc")
+    provided = sessions.open("ana", "operator", 0.0, provider="oidc")
+    code = sessions.pairing_code(provided, 0.0)
+    headset = sessions.claim(code, 0.5)  # a headset paired to the provider's session is the provider's too
+    assert headset is not None and (headset.via, headset.provider) == ("paired", "oidc")
     assert sessions.end_changed({}) == {"ana"}  # ana left the users file
     assert sessions.get(local.id, 1.0) is None and sessions.get(provided.id, 1.0) is not None
+    assert sessions.get(headset.id, 1.0) is not None
+
+
+async def test_a_local_account_removed_closes_its_own_pages_and_not_the_providers_person_of_that_name(
+    site: RunningRelay, provider: Provider, tmp_path: Path
+) -> None:
+    """The users file's Root and the provider's root are two people: Root removed from the file is signed out and
+    his page closed; the provider's root, signed in with a page and a paired headset, stays."""
+    provider.person = {"sub": "u-9", "preferred_username": "root", "roles": ["operator"]}
+    local = Person(site, {"Root": "root-admin-pw"})
+    async with browser() as http:
+        try:
+            who = (await sign_in(site, http))[2]
+            assert who["user"] == "root" and who["role"] == "operator", who
+            cookie = http.cookie_jar.filter_cookies(URL(site.url)).get(COOKIE)
+            assert cookie is not None
+            provided = await TestClient.open(
+                site.ws_url, additional_headers={"Origin": site.url, "Cookie": f"{COOKIE}={cookie.value}"}
+            )
+            await provided.hello()
+            assert (await local.sign_in("Root"))["role"] == "admin"
+            own = await local.page()
+            book = UserBook(tmp_path / "users.sqlite")
+            await asyncio.to_thread(book.add, "Ops", "admin", "ops-admin-pw")  # Root is not the last admin
+            await asyncio.to_thread(book.remove, "Root")
+            await wait_until(lambda: own.closed_code is not None, 3 * WATCH_PERIOD + LOAD_SLACK, "Root's page closed")
+            assert own.closed_code == ACCOUNT_CHANGED
+            await asyncio.sleep(2 * WATCH_PERIOD)  # longer than the watch's look: the other root's page stays
+            assert provided.closed_code is None
+            seen = len(provided.messages)
+            await provided.wait_for(lambda m: m["identifier"].endswith("/pose"), 10, seen)  # still fed
+            await provided.close()
+        finally:
+            await local.close()

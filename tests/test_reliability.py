@@ -131,7 +131,8 @@ async def test_a_client_that_stops_reading_costs_bounded_memory(relay_server: Ru
         # It is stalled (values were replaced and frames dropped for it), and its lanes hold at most one value
         # per state key and two frames however long it lasts.
         assert counters.frames_dropped > 0 and counters.state_coalesced > 0
-        state_keys = 3 * (1 + 3 + 1 + 1)  # per robot: pose, three sensors, status, laser scan
+        # Per robot: pose, three sensors, status, laser scan; and an arm's joints (robot3's, with the shared data).
+        state_keys = 3 * (1 + 3 + 1 + 1) + len(relay.arms.loaded.arms)
         assert channel.queued <= state_keys + 2
         # Meanwhile the others keep receiving the 30 Hz poses and their stream.
         for client in clients:

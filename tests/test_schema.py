@@ -19,11 +19,16 @@ from typing import Any, get_type_hints, is_typeddict
 
 import pytest
 
+from relay.arm import wire as arm_wire
 from relay.errors import ProtocolError
+from relay.fleet.events import ValveEvent
 from relay.inspection import messages as inspection_messages
 from relay.session import protocol
+from relay.sim import valve_wire
 from relay.station import messages
+from relay.study import wire as study_wire
 from relay.wire import messages as station_messages
+from relay.wire import viewer
 from relay.wire.declare import WireForm, wire_forms
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -40,9 +45,16 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "alert": "a-20261122-230140-3f9a21c07b5e44d8", "schedule": "nightly",
                            "start": 1795388400.0, "repeat": 3600, "windows": [{"days": ["mon"], "hours": [8, 17]}],
                            "blackouts": [{"start": 1795400000, "end": 1795403600}], "priority": 1,
-                           "on_busy": "skip"}  # fmt: skip
+                           "on_busy": "skip", "robots": ["robot1"], "frame": "tip", "state": "open",
+                           "position": 0.01, "participant": "P01", "questionnaire": "tlx",
+                           "answers": [50, 40, 30, 60, 55, 20], "probe": "corridor",
+                           "head": {"position": [1.0, 2.0, 1.6], "look": [1.0, 0.0, 0.0]},
+                           "hands": [{"hand": "right", "position": [1.2, 1.8, 1.1], "ray": [0.0, 0.6, -0.8]}],
+                           }  # fmt: skip
 #: A schedule's ``mission`` is mission/start's form, where mission/* commands name a mission by id.
 SCHEDULE_SAMPLES: dict[str, Any] = {**SAMPLES, "mission": {"targets": ["spill"]}}
+#: An arm's twist is two vectors, where cmd_vel's linear and angular are numbers.
+ARM_SAMPLES: dict[str, Any] = {**SAMPLES, "linear": [0.05, 0.0, 0.0], "angular": [0.0, 0.0, 0.2]}
 
 
 def _forms() -> list[tuple[str, WireForm]]:
@@ -64,6 +76,7 @@ def test_each_commands_wire_form_is_what_the_parser_accepts(identifier: str, for
     optional = [key for key, _, needed in form.fields if not needed]
     samples = {**SAMPLES, "action": "reset"} if identifier == "estop" else SAMPLES
     samples = SCHEDULE_SAMPLES if identifier.startswith("schedule/") else samples
+    samples = ARM_SAMPLES if identifier.startswith("robot1/arm/") else samples
     full = {"identifier": identifier, **{k: samples[k] for k in required + optional}}
     protocol.parse_command(protocol_bytes(full), ROBOTS)
     protocol.parse_command(protocol_bytes({"identifier": identifier, **{k: samples[k] for k in required}}), ROBOTS)
@@ -99,6 +112,16 @@ BUILT: list[tuple[type, Any]] = [
         messages.SensorMessage,
         messages.sensor_message("robot1", name="gas", value=1.0, unit="ppm", warning=False, stamp=1.0),
     ),
+    (study_wire.StudyMessage, study_wire.study_message(study="s", phase="waiting", participants=["P01"])),
+    (
+        messages.AvatarMessage,
+        messages.avatar_message("c1", "Ana", 1.0, ((1.0, 2.0, 1.6), (1.0, 0.0, 0.0)), [("left", (1, 2, 1), (0, 1, 0))]),
+    ),
+    (
+        messages.VoxelMapMessage,
+        messages.voxel_map_message(version=3, since=0, reset=True, voxel=0.05, blocks=2, frames=1),
+    ),
+    (valve_wire.ValveMessage, valve_wire.valve_message(ValveEvent(15.6, 7.25, 0.2, -1.5708, 0.05, 0.0, False, False))),
 ]
 
 
@@ -111,11 +134,11 @@ def test_every_server_message_is_in_the_union_and_in_the_generated_file() -> Non
     union = {t.__name__ for t in typing.get_args(messages.ServerMessage)}
     declared = {
         name
-        for module in (station_messages, inspection_messages)
+        for module in (station_messages, inspection_messages, arm_wire, study_wire, viewer, valve_wire)
         for name, value in vars(module).items()
         if name.endswith("Message") and is_typeddict(value) and value.__module__ == module.__name__
     }
-    assert union == declared and len(union) == 25
+    assert union == declared and len(union) == 30
     generated = _generator().render()
     for name in union | {form.name for _, form in FORMS}:
         assert f"}} {name} */" in generated, name
@@ -173,7 +196,14 @@ def _server_type(identifier: str) -> type:
     if kind.startswith("camera/"):
         return messages.FrameHeader
     name = "".join(part.capitalize() for part in kind.split("_")) + "Message"
-    cls: type = getattr(station_messages, name, None) or getattr(inspection_messages, name)
+    cls: type = (
+        getattr(station_messages, name, None)
+        or getattr(inspection_messages, name, None)
+        or getattr(arm_wire, name, None)
+        or getattr(study_wire, name, None)
+        or getattr(viewer, name, None)
+        or getattr(valve_wire, name)
+    )
     return cls
 
 

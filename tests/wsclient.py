@@ -26,6 +26,8 @@ class TestClient:
         self.ws = ws
         self.messages: list[tuple[float, dict[str, Any]]] = []
         self.frames: list[tuple[float, dict[str, Any], bytes]] = []
+        #: Binary frames of the 3D map's block records (docs/protocol.md, "Voxel map blocks"), as received.
+        self.voxel_frames: list[bytes] = []
         self.latest: dict[str, dict[str, Any]] = {}
         #: The size of every batch received (text frames that were JSON arrays).
         self.batches: list[int] = []
@@ -43,7 +45,9 @@ class TestClient:
         try:
             async for data in self.ws:
                 now = time.monotonic()
-                if isinstance(data, bytes):
+                if isinstance(data, bytes) and data[:4] == b"XRVB":
+                    self.voxel_frames.append(data)
+                elif isinstance(data, bytes):
                     header, payload = decode_frame(data)
                     self.frames.append((now, header, payload))
                 else:

@@ -1,7 +1,8 @@
 """Write xr_client/src/protocol.js from the relay's wire schema, so the browser never retypes it.
 
 The browser gets the protocol constants, the error codes, a JSDoc typedef of every message in both directions
-(the server's from the TypedDicts of relay/wire/ and relay/inspection/messages.py, named as there; the client's
+(the server's from the TypedDicts of relay/wire/, relay/inspection/messages.py, relay/arm/wire.py and
+relay/study/wire.py, named as there; the client's
 from each command's one declaration, relay.session.protocol.COMMANDS, ``<Name>Command`` or its ``FORMS``), the unions
 ``ServerMessage`` and ``ClientMessage``, and the identifier helpers. Run after changing the schema:
 ``python tools/gen_protocol_js.py``; a test fails while the committed file differs from what this prints.
@@ -20,12 +21,15 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from relay.accounts import roles  # noqa: E402
+from relay.arm import wire as arm_wire  # noqa: E402
 from relay.control import safety  # noqa: E402
 from relay.inspection import messages as inspection_messages  # noqa: E402
 from relay.inspection import records  # noqa: E402
 from relay.session import protocol  # noqa: E402
+from relay.sim import valve_wire  # noqa: E402
 from relay.station import messages  # noqa: E402
-from relay.wire import descriptions, frames  # noqa: E402
+from relay.study import wire as study_wire  # noqa: E402
+from relay.wire import descriptions, frames, viewer  # noqa: E402
 from relay.wire import messages as station_messages  # noqa: E402
 from relay.wire.declare import WireForm, wire_forms  # noqa: E402
 
@@ -179,7 +183,9 @@ def render() -> str:
     lines += ["", "/** @typedef {" + " | ".join(f"'{c}'" for c in sorted(codes.values())) + "} ErrorCodeValue */"]
     lines += [f"/** @typedef {{{js_type(alias, expand=True)}}} {name} */" for name, alias in ALIASES.items()]
     lines += ["", "// Server to client"]
-    for module in (descriptions, station_messages, frames, inspection_messages):
+    for module in (
+        descriptions, station_messages, frames, inspection_messages, arm_wire, study_wire, viewer, valve_wire
+    ):  # fmt: skip
         lines += [typedef(t) for t in _typeddicts(module)]
     lines.append(union("ServerMessage", messages.ServerMessage, "Every text frame the relay sends."))
     lines += ["", "// Client to server"]

@@ -44,6 +44,9 @@ class Session:
     seen: float
     #: "desktop", or "paired" for a headset that took it by code.
     via: str = "desktop"
+    #: Who vouches for the person: "local" (the users file) or "oidc" (the site's OpenID Connect provider, whose
+    #: people are not in the users file: a change of that file never ends their sessions). A paired headset keeps it.
+    provider: str = "local"
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,8 +60,8 @@ class Sessions:
         self._sessions: OrderedDict[str, Session] = OrderedDict()
         self._codes: dict[str, _Code] = {}
 
-    def open(self, user: str, role: Role, now: float, via: str = "desktop") -> Session:
-        session = Session(secrets.token_urlsafe(32), user, role, secrets.token_urlsafe(24), now, now, via)
+    def open(self, user: str, role: Role, now: float, via: str = "desktop", provider: str = "local") -> Session:
+        session = Session(secrets.token_urlsafe(32), user, role, secrets.token_urlsafe(24), now, now, via, provider)
         self._sessions[session.id] = session
         while len(self._sessions) > MAX_SESSIONS:
             self._sessions.popitem(last=False)
@@ -83,7 +86,7 @@ class Sessions:
 
     def close_user(self, user: str) -> int:
         """End every session of the users file's ``user`` (removed, or their role changed); how many there were."""
-        ended = [s.id for s in self._sessions.values() if s.via != "oidc" and s.user.lower() == user.lower()]
+        ended = [s.id for s in self._sessions.values() if s.provider == "local" and s.user.lower() == user.lower()]
         for session_id in ended:
             self.close(session_id)
         return len(ended)
@@ -92,7 +95,9 @@ class Sessions:
         """End the sessions of users no longer in ``roles`` (user name in lower case -> role) or whose role is not
         the one they signed in with; the names of the users whose sessions ended. A session of the site's OpenID
         Connect provider is the provider's to end (its people are not in the users file)."""
-        ended = {s.user for s in self._sessions.values() if s.via != "oidc" and roles.get(s.user.lower()) != s.role}
+        ended = {
+            s.user for s in self._sessions.values() if s.provider == "local" and roles.get(s.user.lower()) != s.role
+        }
         for user in ended:
             self.close_user(user)
         return ended
@@ -117,7 +122,7 @@ class Sessions:
         desktop = self.get(entry.session, now)
         if desktop is None:
             return None
-        return self.open(desktop.user, desktop.role, now, via="paired")
+        return self.open(desktop.user, desktop.role, now, via="paired", provider=desktop.provider)
 
     def _expire_codes(self, now: float) -> None:
         self._codes = {c: code for c, code in self._codes.items() if code.until > now}

@@ -1,5 +1,6 @@
 """Backends connect the relay to robots: ``sim`` (built in), ``ros`` (rclpy), ``bag`` (recordings) and ``zenoh``
-(ROS 2 over Zenoh, no ROS install).
+(ROS 2 over Zenoh, no ROS install); and ``replay``, a recorded station session (``xr-relay replay FILE``,
+relay/replay/backend.py), which is not a choice of ``--backend``.
 
 ``create_backend`` imports the chosen one lazily, so that ROS is only needed when it is used.
 """
@@ -33,4 +34,8 @@ def create_backend(config: FleetConfig, sink: EventSink, options: Options) -> Ba
         from .zenoh import ZenohBackend
 
         return ZenohBackend(config, sink, options.zenoh)
+    if name == "replay":
+        from ..replay.backend import ReplayBackend
+
+        return ReplayBackend(config, sink, options.replay)
     raise BackendUnavailable(f"unknown backend {name!r}; expected one of {', '.join(BACKENDS)}")

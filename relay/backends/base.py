@@ -13,6 +13,8 @@ from ..fleet.events import EventSink, FrameEvent
 from ..fleet.occupancy import OccupancyGrid
 from ..session.protocol import ErrorCode
 
+Vec3 = tuple[float, float, float]
+
 
 class Backend(abc.ABC):
     """A source of robot events and a sink of robot commands.
@@ -54,9 +56,31 @@ class Backend(abc.ABC):
         """Stop navigating (the robot stops where it is)."""
 
     async def stop_robot(self, robot: str) -> None:
-        """Zero velocity and no goal: what a take-over, a lease's end, a mission's pause and shutdown use."""
+        """Zero velocity, no goal and a still arm: what a take-over, a lease's end, a mission's pause, an estop and
+        shutdown use."""
         await self.cancel(robot)
         await self.send_velocity(robot, 0.0, 0.0)
+        await self.stop_arm(robot)
+
+    # -- an arm (issue #32; relay/control/arm_control.py checks every command before it comes here) ------------
+
+    async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
+        """The arm's tip at this velocity (m/s, rad/s, in the arm's base link), until the next twist or a stop.
+        Raises CommandRejected (``arm_refused``) with the robot side's reason when it refuses."""
+        raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/twist: the {self.name} backend moves no arm")
+
+    async def send_arm_pose(self, robot: str, pose: str) -> None:
+        """Move the arm to a named pose (its SRDF's group state); CommandRejected says why not."""
+        raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/pose: the {self.name} backend moves no arm")
+
+    async def send_gripper(self, robot: str, command: str | float) -> None:
+        """Open or close the gripper (``"open"``, ``"close"``) or move it to a position; CommandRejected says why
+        not."""
+        raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/gripper: the {self.name} backend moves no arm")
+
+    async def stop_arm(self, robot: str) -> None:  # noqa: B027 - optional hook: a robot without an arm has none
+        """The arm still at once (zero twist, a named pose and the gripper stop where they are). Awaits nothing
+        the robot answers: it is on every stop's path."""
 
     async def estop_robot(self, robot: str) -> None:
         """An emergency stop: as ``stop_robot``, and a robot with a watchdog latches it (its gate's ``estop``).
@@ -76,6 +100,19 @@ class Backend(abc.ABC):
     def set_jpeg(self, robot: str, camera: str, wanted: bool) -> None:  # noqa: B027 - optional hook
         """Whether a streamed camera's frames need their JPEG (False: only H.264 viewers, which take the frame's
         ``pixels``); a backend may then skip the JPEG encode. Snapshots always get one."""
+
+    def place_refusal(self, robot: str, x: float, y: float) -> CommandRejected | None:
+        """Why ``robot`` cannot be placed at (x, y), or None when :meth:`place` can: asked before anything moves."""
+        return CommandRejected(
+            ErrorCode.UNSUPPORTED, f"{robot}: the {self.name} backend cannot place robots (only the sim backend can)"
+        )
+
+    async def place(self, robot: str, x: float, y: float, yaw: float) -> None:
+        """Put ``robot`` at (x, y, yaw) in the map frame, stopped (a study task's start state). Only a simulated
+        robot can be placed: CommandRejected says why not (:meth:`place_refusal`)."""
+        refusal = self.place_refusal(robot, x, y)
+        if refusal is not None:
+            raise refusal
 
     def command_refusal(self, robot: str) -> str | None:
         """Why ``robot`` cannot be commanded at all (e.g. it is a recording), or None when it can."""

@@ -31,6 +31,7 @@ from ..ros.tf import TfPose
 from ..session.protocol import MAX_SCAN_RATE, ErrorCode
 from .base import Backend
 from .cameras import OnDemandCameras
+from .cloud_intake import CloudIntake, cloud_intake, cloud_topics
 from .ingest import Inbox, RawDecoder, pose_reader
 from .navigation import Navigation, NavTransport
 from .raw_readers import Warn, read_scan, read_tf
@@ -68,6 +69,8 @@ class LiveBackend(Backend):
         # Goals, their outcomes and the watchdogs' gates (relay/backends/navigation.py).
         self._nav = Navigation(config, sink, nav)
         self._tasks: list[asyncio.Task[None]] = []
+        #: The robots' own clouds for the 3D map (robots.yaml ``clouds``), once started; decoded on its thread.
+        self._clouds: CloudIntake | None = None
 
     # -- what a live backend adds -----------------------------------------------------------------
 
@@ -115,7 +118,8 @@ class LiveBackend(Backend):
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
         self._inbox = Inbox(self._loop, self._deliver)
-        await asyncio.to_thread(self._connect)
+        self._clouds = cloud_intake(self.config, self._post, self._decode_raw)
+        await asyncio.to_thread(self._connect)  # failing, the relay exits: the intake's daemon thread with it
         if any(robot.watchdog_topic is not None for robot in self.config.robots):
             self._spawn(self._beat(), "heartbeat")
         self._nav.start()
@@ -134,6 +138,8 @@ class LiveBackend(Backend):
         await self._nav.close(wait=0.5)  # Nav2's answers to the cancels, while the node or session still runs
         await self._disconnect()
         self._pool.shutdown(wait=False, cancel_futures=True)
+        if self._clouds is not None:
+            await asyncio.to_thread(self._clouds.stop)
 
     async def _beat(self) -> None:
         """The heartbeat the watchdogs wait for, published from the event loop: a loop that cannot run (a frozen
@@ -155,6 +161,8 @@ class LiveBackend(Backend):
         """THE crossing from another thread to the loop; ``event`` is immutable."""
         if self._inbox is not None:
             self._inbox.put(event)
+        if self._clouds is not None and isinstance(event, PoseEvent):
+            self._clouds.pose(event)  # every pose, before the inbox keeps only the newest: clouds are placed by them
 
     def _hop(self, call: Callable[[], None]) -> None:
         """The same crossing for a call: a camera encoder's finished frame, Nav2's answer, another relay's estop."""
@@ -201,6 +209,13 @@ class LiveBackend(Backend):
 
     def _on_tf(self, robot: str, data: bytes) -> None:
         read_tf(robot, self._tf[robot], data, self._decode_raw, self._post, warn=self._warn)
+
+    def _cloud_topics(self, robot: Robot) -> list[tuple[str, str, Callable[[bytes], None]]]:
+        """The subscriptions of the robot's clouds (none without robots.yaml's ``cloud``): topic, type, raw callback."""
+        return [] if self._clouds is None else cloud_topics(robot, self._clouds, self._decode_raw)
+
+    def cloud_health(self) -> dict[str, object]:  # /healthz's ``clouds``
+        return {} if self._clouds is None else self._clouds.health()
 
     def _on_scan(self, robot: str, data: bytes) -> None:
         read_scan(robot, self._scan_cap, data, self._decode_raw, self._post, warn=self._warn)

@@ -19,16 +19,19 @@ import contextlib
 import importlib
 import logging
 import os
+import time
 from collections.abc import Callable
 from typing import Any
 
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..fleet.events import EventSink, PathEvent, RobotModelEvent, SensorEvent
+from ..fleet.events import EventSink, JointStateEvent, PathEvent, RobotModelEvent, SensorEvent
 from ..fleet.geometry import yaw_to_quaternion
 from ..ros.ros_env import load_rclpy
 from ..ros.rosmsg import POSE_MESSAGES, SENSOR_TYPES, message_stamp
 from . import dds_profile
+from .base import Vec3
+from .cloud_intake import CAMERA_INFO, TF_MESSAGE, message_type, static_topic
 from .ingest import RawDecoder
 from .live import LiveBackend
 from .ros_nav2 import RosNav2, needed_messages
@@ -57,10 +60,19 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
         needed.setdefault("std_msgs.msg.String", ("std_msgs.msg", "String", "robot models from robot_description"))
     for module, cls, who in needed_messages(config.robots):
         needed.setdefault(f"{module}.{cls}", (module, cls, who))
+    for robot in config.robots if config.cloud is not None else ():
+        for source in robot.clouds:
+            for type_name in (message_type(source), CAMERA_INFO if source.camera_info else None):
+                if type_name is not None:
+                    needed.setdefault(_key(type_name), (*_class(type_name), f"{robot.name}: cloud '{source.name}'"))
+        if static_topic(robot) is not None:
+            who = f"{robot.name}: a cloud without a mount (placed through {static_topic(robot)})"
+            needed.setdefault(_key(TF_MESSAGE), (*_class(TF_MESSAGE), who))
     for module, cls in (
         ("geometry_msgs.msg", "Twist"),
         ("geometry_msgs.msg", "TwistStamped"),
         ("geometry_msgs.msg", "PoseStamped"),
+        ("sensor_msgs.msg", "JointState"),
         ("sensor_msgs.msg", "Image"),
         ("sensor_msgs.msg", "CompressedImage"),
         ("sensor_msgs.msg", "LaserScan"),
@@ -79,13 +91,23 @@ def check_messages(config: FleetConfig) -> dict[str, Any]:
             hint = ""
             if package == "tf2_msgs":
                 hint = (
-                    " (the PyPI ROS wheels do not include it): use pose source odom, amcl_pose or pose "
-                    "in robots.yaml, or source a ROS 2 installation that has tf2_msgs"
+                    " (the PyPI ROS wheels do not include it): use pose source odom, amcl_pose or pose and give "
+                    "clouds a mount in robots.yaml, or source a ROS 2 installation that has tf2_msgs"
                 )
             problems.append(f"{who} needs the message package {package}, which is not installed{hint}")
     if problems:
         raise BackendUnavailable("; ".join(problems))
     return classes
+
+
+def _class(type_name: str) -> tuple[str, str]:
+    """The rclpy module and class of a message type: ``sensor_msgs/msg/Image`` -> (``sensor_msgs.msg``, ``Image``)."""
+    package, _, name = type_name.rpartition("/")
+    return package.replace("/", "."), name
+
+
+def _key(type_name: str) -> str:
+    return ".".join(_class(type_name))
 
 
 def _stamp(header: Any, when: float) -> None:
@@ -110,6 +132,7 @@ class RosBackend(LiveBackend):
         self._spinner: Spinner | None = None
         self._cmd_pubs: dict[str, Any] = {}
         self._goal_pubs: dict[str, Any] = {}
+        self._arm_pubs: dict[str, Any] = {}  # MoveIt Servo's delta_twist_cmds of each robot with an arm
         self._heartbeat_pub: Any = None
         #: The Fast DDS profile in effect (dds_profile.apply), for /healthz.
         self.dds_profile = ""
@@ -158,7 +181,7 @@ class RosBackend(LiveBackend):
         return self._node is not None
 
     def health(self) -> dict[str, object]:
-        return {"dds_profile": self.dds_profile}
+        return {"dds_profile": self.dds_profile, **self.cloud_health()}
 
     def _executor_failed(self, why: str) -> None:
         if self._node is not None:
@@ -253,6 +276,10 @@ class RosBackend(LiveBackend):
                 lambda m, r=name: self._post(RobotModelEvent(r, str(m.data))),
                 self._qos("map"),
             )
+        for topic, type_name, callback in self._cloud_topics(robot):
+            # Raw: the executor thread hands the bytes on; the intake's thread decodes (relay/backends/cloud_intake.py).
+            qos = self._qos("map" if type_name == TF_MESSAGE else "images")
+            node.create_subscription(self._msg(*_class(type_name)), topic, callback, qos, raw=True)
         if robot.watchdog_topic is not None:
             # The watchdog (relay/watchdog) forwards fresh commands to cmd_vel and stops the robot without us.
             twist_cls = self._msg("geometry_msgs.msg", "TwistStamped")
@@ -263,6 +290,19 @@ class RosBackend(LiveBackend):
         self._goal_pubs[name] = node.create_publisher(
             self._msg("geometry_msgs.msg", "PoseStamped"), robot.goal_topic, self._qos("commands")
         )
+        if robot.arm is not None:  # the arm: its joints in, MoveIt Servo's twists out (relay/config/arm.py's topics)
+            topics = robot.arm.topics
+            self._arm_pubs[name] = node.create_publisher(
+                self._msg("geometry_msgs.msg", "TwistStamped"), topics.delta_twist_cmds, self._qos("commands")
+            )
+            node.create_subscription(
+                self._msg("sensor_msgs.msg", "JointState"),
+                topics.joint_states,
+                lambda m, r=name: self._post(
+                    JointStateEvent(r, message_stamp(m), tuple(m.name), tuple(m.position), tuple(m.velocity))
+                ),
+                self._qos("sensors"),
+            )
 
     def _map_message(self, data: Any) -> Any:
         return data  # rclpy's message
@@ -282,6 +322,22 @@ class RosBackend(LiveBackend):
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)
         self._cmd_pubs[spec.name].publish(message)
+
+    async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
+        publisher, spec = self._arm_pubs.get(robot), self._robot(robot)
+        if publisher is None or spec.arm is None:
+            await super().send_arm_twist(robot, linear, angular)
+            return
+        message = self._msg("geometry_msgs.msg", "TwistStamped")()
+        _stamp(message.header, time.time())  # MoveIt Servo drops a twist older than its incoming_command_timeout
+        message.header.frame_id = spec.arm.base_link  # its robot_link_command_frame
+        message.twist.linear.x, message.twist.linear.y, message.twist.linear.z = (float(v) for v in linear)
+        message.twist.angular.x, message.twist.angular.y, message.twist.angular.z = (float(v) for v in angular)
+        publisher.publish(message)
+
+    async def stop_arm(self, robot: str) -> None:
+        if robot in self._arm_pubs:
+            await self.send_arm_twist(robot, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         message = self._msg("geometry_msgs.msg", "PoseStamped")()

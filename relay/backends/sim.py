@@ -11,6 +11,14 @@ Cameras: each camera of robots.yaml sees the scene's glTF through its lens, ray 
 :class:`relay.sim.camera.SimCamera` in a worker thread (about 65-115 ms for 480x480 with Embree on 2 cores).
 A stream renders at most one frame at a time per camera, at up to the rate asked for; renders (streams and
 snapshots) share one rendering thread with a bounded queue (relay.station.work).
+
+Arms (relay.sim.arms): every robot whose ``arm:`` could be read carries a simulated arm, stepped with the world and
+its joints published at ``JOINT_STATE_RATE``; one whose files are absent runs without it (the log and /healthz's
+``arms`` say why). Every stop of a robot (``stop_robot``: a take-over, a lease's end, shutdown; an estop) stops its
+arm too, and an estop latches it until the reset.
+
+Depth (issue #33, with robots.yaml's ``cloud``): every robot's depth camera casts its rays against the same scene
+(relay.backends.sim_feeds).
 """
 
 from __future__ import annotations
@@ -23,21 +31,24 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
+from ..arm.fleet_arms import FleetArms, load_fleet_arms
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
-from ..fleet.events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, ScanEvent, SensorEvent
+from ..fleet.events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, SensorEvent
 from ..fleet.geometry import yaw_to_quaternion
 from ..fleet.occupancy import OccupancyGrid
-from ..fleet.scan import decimate_ranges
 from ..media.lens import LensModel
 from ..session.budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..session.protocol import ErrorCode
+from ..sim.arms import JOINT_STATE_RATE, SimArms
 from ..sim.camera import SimCamera, rgb_to_jpeg
+from ..sim.depth_camera import SimDepthCamera
 from ..sim.laser import LaserScanner
 from ..sim.world import Goal, NoPathError, Outcome, SimWorld
 from ..station.work import Busy, WorkPool
 from ..twin.frames import map_to_scene_matrix
-from .base import Backend
+from .base import Backend, Vec3
+from .sim_feeds import SweepFeed, depth_feed, scan_feed
 
 logger = logging.getLogger(__name__)
 
@@ -59,11 +70,11 @@ class SimBackend(Backend):
         cameras = sum(len(robot.cameras) for robot in config.robots)
         self._planning = WorkPool("planning", workers=1, queue=4)
         self._rendering = WorkPool("rendering", workers=1, queue=cameras + SNAPSHOTS_AT_ONCE)
-        # One sweep of every robot's scan at a time: when it is slower than the period, scans come less often.
-        self._scanning = WorkPool("scanning", workers=1, queue=1)
-        self._scanner: LaserScanner | None = None
+        # Scans and depth clouds: one sweep of every robot at a time (relay.backends.sim_feeds), made in start().
         self._scanned = [r.name for r in config.robots if r.scan_topic is not None]
-        self._scan_task: asyncio.Task[None] | None = None
+        self._feeds: list[SweepFeed[Any]] = []
+        self._arms = SimArms({}, FleetArms(), config.safety.deadman_timeout)  # read in start()
+        self._depth_rate = config.cloud.sim_depth_rate if config.cloud is not None else 0.0  # issue #33
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
         self.sink(NavEvent(robot, navigating, goal, outcome, message))
@@ -82,11 +93,14 @@ class SimBackend(Backend):
             self._world = await asyncio.to_thread(SimWorld, self.config, self._on_nav)
         except ValueError as exc:
             raise BackendUnavailable(f"the simulated world cannot be loaded: {exc}") from None
+        robots = {r.name: r for r in self.config.robots}
+        loaded = await asyncio.to_thread(load_fleet_arms, self.config.robots)  # parsing URDFs: off the loop
+        self._arms = SimArms(robots, loaded, self.config.safety.deadman_timeout)
         glb = self.world.scene_glb
         cameras = [(r, c) for r in self.config.robots for c in r.cameras]
-        if cameras and glb is None:
+        if (cameras or self._depth_rate) and glb is None:
             logger.warning("sim: no scene glTF to look at (sim.world); the simulated cameras stay dark")
-        elif cameras and glb is not None:
+        elif (cameras or self._depth_rate) and glb is not None:
             m = self.config.scene.map_to_scene
             self.camera = await asyncio.to_thread(
                 SimCamera.load, glb, map_to_scene=map_to_scene_matrix(m.x, m.y, m.z, m.yaw)
@@ -97,20 +111,22 @@ class SimBackend(Backend):
         loop = asyncio.get_running_loop()
         self._task = loop.create_task(self._run(), name="sim-backend")
         if self._scanned:
-            self._scanner = LaserScanner(self.world.grid)
-            self._scan_task = loop.create_task(self._scan(), name="sim-scans")
+            scanned = partial(self._poses_of, self._scanned)
+            rate = self.config.sim.scan_rate
+            self._feeds.append(scan_feed(LaserScanner(self.world.grid), rate, scanned, self.sink))
+        if self._depth_rate > 0 and self.camera is not None:
+            every = partial(self._poses_of, list(self.world.robots))
+            self._feeds.append(depth_feed(SimDepthCamera(self.camera), self._depth_rate, every, self.sink))
 
     async def stop(self) -> None:
         for _, task in self._streams.values():
             task.cancel()
         self._streams.clear()
-        if self._scan_task is not None:
-            self._scan_task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._scan_task
+        for feed in self._feeds:
+            await feed.stop()
+        self._feeds.clear()
         self._planning.shutdown()
         self._rendering.shutdown()
-        self._scanning.shutdown()
         if self._world is None:
             return
         for name in self.world.robots:
@@ -144,6 +160,50 @@ class SimBackend(Backend):
 
     async def cancel(self, robot: str) -> None:
         self.world.cancel(robot)
+
+    # -- arms -------------------------------------------------------------------------------------
+
+    def place_refusal(self, robot: str, x: float, y: float) -> CommandRejected | None:
+        if not self.world.grid.is_free(x, y):
+            return CommandRejected(ErrorCode.NO_PATH, f"{robot}: ({x:.2f}, {y:.2f}) is inside a wall or an obstacle")
+        return None
+
+    async def place(self, robot: str, x: float, y: float, yaw: float) -> None:
+        refusal = self.place_refusal(robot, x, y)
+        if refusal is not None:
+            raise refusal
+        self.world.place(robot, x, y, yaw)
+        # Its pose at once, so that nothing above judges the robot by where it stood before.
+        qx, qy, qz, qw = yaw_to_quaternion(yaw)
+        self.sink(PoseEvent(robot, time.time(), "map", x, y, 0.0, qx, qy, qz, qw))
+
+    async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
+        arm = self._arms.arm(robot, f"{robot}/arm/twist")
+        _refused(f"{robot}/arm/twist", arm.servo(linear, angular, asyncio.get_running_loop().time()))
+
+    async def send_arm_pose(self, robot: str, pose: str) -> None:
+        _refused(f"{robot}/arm/pose", self._arms.arm(robot, f"{robot}/arm/pose").named(pose))
+
+    async def send_gripper(self, robot: str, command: str | float) -> None:
+        _refused(f"{robot}/arm/gripper", self._arms.arm(robot, f"{robot}/arm/gripper").gripper(command))
+
+    async def stop_arm(self, robot: str) -> None:
+        self._arms.stop(robot)
+
+    async def estop_robot(self, robot: str) -> None:
+        arm = self._arms.arms.get(robot)
+        if arm is not None:
+            arm.estop()  # latched on the robot's side too, as MoveIt Servo's halt
+        await self.stop_robot(robot)
+
+    def release_estop(self, robot: str) -> None:
+        arm = self._arms.arms.get(robot)
+        if arm is not None:
+            arm.reset_estop()
+
+    def health(self) -> dict[str, object]:
+        arms = self._arms.loaded.health()
+        return {"arms": arms} if arms else {}
 
     # -- cameras ----------------------------------------------------------------------------------
 
@@ -195,12 +255,23 @@ class SimBackend(Backend):
         dt = 1.0 / max(sim_cfg.physics_rate, 50.0)
         pose_period = 1.0 / sim_cfg.pose_rate
         sensor_period = 1.0 / sim_cfg.sensor_rate
+        joints_period = 1.0 / JOINT_STATE_RATE
         now = loop.time()
-        next_tick = next_pose = next_sensor = now
+        next_tick = next_pose = next_sensor = next_joints = now
         while True:
             self.world.step(dt)
             stamp = time.time()
             now = loop.time()
+            self._arms.step(now)  # the loop's clock: the one twists arrive on (send_arm_twist)
+            if self.world.valve is not None:  # the gripper of an arm beside it turns it (relay/sim/valve.py)
+                self._arms.turn(self.world.valve, {name: self._pose_of(name) for name in self._arms}, self.world.time)
+            if now >= next_joints:
+                next_joints = max(next_joints + joints_period, now - joints_period)
+                for event in self._arms.states(stamp):
+                    self.sink(event)
+                valve = self.world.valve.report() if self.world.valve is not None else None
+                if valve is not None:  # the twin draws it turning (docs/protocol.md, valve)
+                    self.sink(valve)
             if now >= next_pose:
                 next_pose = max(next_pose + pose_period, now - pose_period)
                 self._publish_poses(stamp)
@@ -216,22 +287,8 @@ class SimBackend(Backend):
                 delay = 0.0
             await asyncio.sleep(max(0.0, delay))
 
-    async def _scan(self) -> None:
-        """Every robot's scan from where it is now, at ``sim.scan_rate`` (or slower when a sweep takes longer)."""
-        loop = asyncio.get_running_loop()
-        period = 1.0 / self.config.sim.scan_rate
-        scanner = self._scanner
-        assert scanner is not None
-        while True:
-            started = loop.time()
-            # Plain floats cross to the worker thread: the world keeps moving on the loop meanwhile.
-            poses = [(name, *self._pose_of(name)) for name in self._scanned]
-            stamp = time.time()
-            with contextlib.suppress(Busy):
-                for name, ranges in await self._scanning.run(partial(_sweep, scanner, poses)):
-                    frame, increment = f"{name}/base_scan", scanner.angle_increment
-                    self.sink(ScanEvent(name, stamp, frame, scanner.angle_min, increment, scanner.range_max, ranges))
-            await asyncio.sleep(max(0.0, period - (loop.time() - started)))
+    def _poses_of(self, robots: list[str]) -> list[tuple[str, float, float, float]]:
+        return [(name, *self._pose_of(name)) for name in robots]
 
     def _pose_of(self, robot: str) -> tuple[float, float, float]:
         state = self.world.robots[robot].state
@@ -248,10 +305,6 @@ class SimBackend(Backend):
                 self.sink(SensorEvent(name, sensor, value, stamp))
 
 
-def _sweep(scanner: LaserScanner, poses: list[tuple[str, float, float, float]]) -> list[tuple[str, tuple[float, ...]]]:
-    """Each robot's ranges as ScanEvent carries them (no return: NaN), all of it in the worker thread."""
-    sweep = []
-    for name, x, y, yaw in poses:
-        ranges, _ = decimate_ranges(scanner.scan(x, y, yaw), scanner.range_min, scanner.range_max)
-        sweep.append((name, tuple(ranges.tolist())))
-    return sweep
+def _refused(identifier: str, reason: str | None) -> None:
+    if reason is not None:
+        raise CommandRejected(ErrorCode.ARM_REFUSED, f"{identifier}: refused: {reason}")

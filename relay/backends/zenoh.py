@@ -37,6 +37,7 @@ from ..fleet.events import Event, EventSink, PoseEvent
 from ..logs.budget import BudgetedLog
 from ..ros.rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
 from .cdr_encode import HEADER, POSE_STAMPED, TWIST, TWIST_STAMPED, CommandEncoder
+from .cloud_intake import TF_MESSAGE
 from .ingest import RawDecoder
 from .live import LiveBackend
 from .raw_readers import PATH_TYPE, STRING_TYPE, read_model, read_path, read_sensor
@@ -205,7 +206,8 @@ class ZenohBackend(LiveBackend):
                 "mode": s.mode, "connect": list(s.connect), "keys": s.keys, "domain": s.domain,
                 "relay_id": self._fleet.relay_id, "connected": link, "silent": self.silent(),
                 "fleet": self._fleet.health(),
-            }
+            },
+            **self.cloud_health(),
         }  # fmt: skip
 
     def _send_heartbeat(self, when: float) -> None:
@@ -236,6 +238,8 @@ class ZenohBackend(LiveBackend):
             on_model = lambda d: read_model(name, d, self._decode_raw, self._post, warn=self._warn)  # noqa: E731
             what = f"{name} robot description"
             add(subscribe(what, robot.model_source.topic, STRING_TYPE, on_model, history=True))
+        for topic, type_name, callback in self._cloud_topics(robot):
+            add(subscribe(f"{name} cloud {topic}", topic, type_name, callback, history=type_name == TF_MESSAGE))
         if robot.watchdog_topic is not None:
             self._cmd[name] = topics.publisher(robot.watchdog_topic, TWIST_STAMPED)
         else:

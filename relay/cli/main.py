@@ -16,12 +16,12 @@ from .. import __version__
 from ..accounts.users import AccountError, UserBook
 from ..backends import BACKENDS
 from ..config import load_config
-from ..errors import AuditLogUnavailable, BackendUnavailable, ConfigError
+from ..errors import AuditLogUnavailable, BackendUnavailable, ConfigError, RecordingError
 from ..inspection.kml import KmlError
 from ..inspection.store import StoreError
 from ..logs.redaction import redact_logs
 from ..net.access import MIN_TOKEN_BITS, weak_token
-from .options import BagOptions, Options, ZenohOptions
+from .options import BagOptions, Options, ReplayOptions, ZenohOptions
 
 EXIT_USAGE = 2
 
@@ -40,11 +40,15 @@ def oidc_refusal(issuer: str | None, accounts: bool, secret: str) -> str | None:
     return None
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(*, replay: bool = False) -> argparse.ArgumentParser:
+    """The relay's options; ``replay``: those of ``xr-relay replay FILE`` (a recorded session instead of a backend)."""
     parser = argparse.ArgumentParser(
-        prog="xr-relay",
+        prog="xr-relay replay" if replay else "xr-relay",
         description=(
-            "WebXR operator station relay: bridges a ROS 2 robot fleet (or the built-in simulated fleet) to "
+            "Serves a session recorded with --record-session to browsers and headsets, played back on the page's "
+            "timeline (pause, seek, speed); nothing reaches a robot (docs/study.md)."
+            if replay
+            else "WebXR operator station relay: bridges a ROS 2 robot fleet (or the built-in simulated fleet) to "
             "browsers and headsets over one WebSocket, and serves the WebXR client on the same port."
         ),
         epilog="Open the printed URL in a browser. `xr-relay record --out DIR` records the fleet's topics from a "
@@ -52,20 +56,20 @@ def build_parser() -> argparse.ArgumentParser:
         "(see `xr-relay watchdog --help`). Protocol: docs/protocol.md; configuration: "
         "docs/configuration.md; security: docs/security.md.",
     )
+    if replay:
+        parser.add_argument("session", metavar="FILE", help="the session recording (an MCAP of --record-session)")
+        parser.set_defaults(backend="replay", bag=[], zenoh_connect=[], zenoh_mode=None, zenoh_config=None)
+        parser.set_defaults(relay_id=None)
+    else:
+        parser.set_defaults(session=None)
     parser.add_argument(
         "--config",
         type=Path,
         default=Path("robots.yaml"),
         help="fleet configuration file (default: ./robots.yaml)",
     )
-    parser.add_argument(
-        "--backend",
-        choices=BACKENDS,
-        default="sim",
-        help="where robots come from: sim = built-in simulated fleet (default, no ROS needed), "
-        "ros = a live ROS 2 graph through rclpy, bag = recorded topics, zenoh = ROS 2 over a Zenoh network "
-        "(rmw_zenoh or zenoh-bridge-ros2dds; no ROS install needed)",
-    )
+    if not replay:
+        _add_backend_option(parser)
     parser.add_argument(
         "--host",
         default="127.0.0.1",
@@ -87,6 +91,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="append every command accepted or refused to this JSON-lines file, rotated at 10 MB "
         "(default ./xr-relay-audit.jsonl; '' turns it off)",
     )
+    parser.add_argument(
+        "--record-session",
+        metavar="FILE",
+        help="record the session to this MCAP file (never overwritten): every message the relay sends and every "
+        "frame it is sent, with the client's id (docs/study.md)",
+    )
+    parser.add_argument(
+        "--study",
+        metavar="FILE",
+        help="run the user study of this file (docs/study.md): participants join and do its tasks from their page; "
+        "xr-relay study check FILE checks it first",
+    )
+    parser.add_argument(
+        "--study-runs",
+        default="xr-relay-studies",
+        metavar="DIR",
+        help="where the study's runs are kept, one JSON file per participant (default ./xr-relay-studies; "
+        "xr-relay study export --runs reads them)",
+    )
     inspection = parser.add_argument_group("inspection (missions, captures, findings)")
     inspection.add_argument(
         "--database",
@@ -104,10 +127,24 @@ def build_parser() -> argparse.ArgumentParser:
     inspection.add_argument("--targets", metavar="FILE", help="a targets file besides the facility's own targets")
     _add_access_options(parser.add_argument_group("access (docs/security.md)"))
     _add_tls_options(parser.add_argument_group("TLS, for headsets on the LAN (WebXR needs https except on localhost)"))
-    _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
-    _add_zenoh_options(parser.add_argument_group("Zenoh (--backend zenoh; docs/zenoh.md)"))
+    if replay:
+        _add_playback_options(parser.add_argument_group("playback"), "session")
+    else:
+        _add_bag_options(parser.add_argument_group("recordings (--backend bag)"))
+        _add_zenoh_options(parser.add_argument_group("Zenoh (--backend zenoh; docs/zenoh.md)"))
     parser.add_argument("--version", action="version", version=f"xr-relay {__version__}")
     return parser
+
+
+def _add_backend_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="sim",
+        help="where robots come from: sim = built-in simulated fleet (default, no ROS needed), "
+        "ros = a live ROS 2 graph through rclpy, bag = recorded topics, zenoh = ROS 2 over a Zenoh network "
+        "(rmw_zenoh or zenoh-bridge-ros2dds; no ROS install needed); a recorded session: xr-relay replay FILE",
+    )
 
 
 def _add_access_options(access: argparse._ArgumentGroup) -> None:
@@ -213,9 +250,13 @@ def _add_bag_options(bag: argparse._ArgumentGroup) -> None:
         "robot of the config, otherwise a bag of un-namespaced topics plays as the first robot not yet bound. "
         "Repeat for several robots",
     )
-    bag.add_argument("--rate", type=float, default=1.0, help="replay speed factor (default 1.0)")
-    bag.add_argument("--loop", action="store_true", help="start over at the end of the recordings")
-    bag.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help="start this far into the recordings")
+    _add_playback_options(bag, "recordings")
+
+
+def _add_playback_options(group: argparse._ArgumentGroup, what: str) -> None:
+    group.add_argument("--rate", type=float, default=1.0, help="replay speed factor (default 1.0)")
+    group.add_argument("--loop", action="store_true", help=f"start over at the end of the {what}")
+    group.add_argument("--start", type=float, default=0.0, metavar="SECONDS", help=f"start this far into the {what}")
 
 
 def _add_zenoh_options(zenoh: argparse._ArgumentGroup) -> None:
@@ -257,6 +298,11 @@ def main(argv: list[str] | None = None) -> int:
         from ..inspection.schedule_cli import main as schedule_main
 
         return schedule_main(argv[1:])
+    if argv and argv[0] == "study":
+        # `xr-relay study check|export`: a study file checked, its runs exported (relay/study/cli.py).
+        from ..study.cli import main as study_main
+
+        return study_main(argv[1:])
     if argv and argv[0] == "users":
         # `xr-relay users add|passwd|role|remove|list`: the accounts people sign in with (relay/accounts/cli.py).
         from ..accounts.cli import main as users_main
@@ -267,7 +313,11 @@ def main(argv: list[str] | None = None) -> int:
         from ..watchdog.node import main as watchdog_main
 
         return watchdog_main(argv[1:])
-    args = build_parser().parse_args(argv)
+    if argv and argv[0] == "replay":
+        # `xr-relay replay FILE`: a session recorded with --record-session, served for review (relay/replay/).
+        args = build_parser(replay=True).parse_args(argv[1:])
+    else:
+        args = build_parser().parse_args(argv)
     logging.basicConfig(
         level=getattr(logging, args.log_level.upper()),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -295,6 +345,14 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         log.error("%s", exc)
         return EXIT_USAGE
+    if args.study:
+        from ..study.study_file import load_study
+
+        try:
+            load_study(args.study)  # read again at start (relay/study/service.py), with the fleet's robots checked
+        except ConfigError as exc:
+            log.error("--study: %s", exc)
+            return EXIT_USAGE
     # After the configuration: a start that fails on it makes no account.
     accounts = bool(args.users) and not args.no_accounts
     if accounts:
@@ -347,6 +405,7 @@ def main(argv: list[str] | None = None) -> int:
             max_message_rate=args.max_message_rate,
             lease_timeout=args.lease_timeout,
             bag=BagOptions(bags=tuple(args.bag), rate=args.rate, loop=args.loop, start=args.start),
+            replay=ReplayOptions(session=args.session, rate=args.rate, loop=args.loop, start=args.start),
             zenoh=ZenohOptions(
                 connect=tuple(args.zenoh_connect),
                 mode=args.zenoh_mode,
@@ -354,12 +413,15 @@ def main(argv: list[str] | None = None) -> int:
                 relay_id=args.relay_id,
             ),
             audit_log=args.audit_log or None,
+            record_session=args.record_session,
+            study=args.study,
+            study_runs=args.study_runs,
             database=args.database,
             images=args.images,
             targets=args.targets,
         )
         asyncio.run(serve(config, options))
-    except (BackendUnavailable, AuditLogUnavailable, StoreError, KmlError, ConfigError) as exc:
+    except (BackendUnavailable, AuditLogUnavailable, StoreError, KmlError, ConfigError, RecordingError) as exc:
         log.error("%s", exc)
         return EXIT_USAGE
     except OSError as exc:

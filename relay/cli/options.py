@@ -18,6 +18,16 @@ class BagOptions:
 
 
 @dataclass(frozen=True)
+class ReplayOptions:
+    """``xr-relay replay FILE``: a recorded station session (relay/replay/) and how it is played."""
+
+    session: str | None = None
+    rate: float = 1.0
+    loop: bool = False
+    start: float = 0.0  # seconds from the session's start
+
+
+@dataclass(frozen=True)
 class ZenohOptions:
     """``--backend zenoh``: command-line settings that override robots.yaml's ``zenoh`` section."""
 
@@ -34,8 +44,15 @@ class Options:
     port: int = 8080
     bag: BagOptions = field(default_factory=BagOptions)
     zenoh: ZenohOptions = field(default_factory=ZenohOptions)
+    replay: ReplayOptions = field(default_factory=ReplayOptions)
     #: JSON-lines file of every command accepted or refused (relay/station/audit.py); None: no audit log.
     audit_log: str | None = None
+    #: An MCAP file the session is recorded to (relay/replay/recorder.py); None: not recorded.
+    record_session: str | None = None
+    #: A study file the relay runs (relay/study/service.py, docs/study.md); None: no study.
+    study: str | None = None
+    #: Where a study's runs are kept (a folder per study, a JSON file per participant).
+    study_runs: str = "xr-relay-studies"
     #: Seconds without commands after which an idle robot's lease is released.
     lease_timeout: float = 30.0
     #: The operator token; None: no token needed (library use and tests; the command line always sets one).

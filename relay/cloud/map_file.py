@@ -8,14 +8,13 @@ file that is not such a map (truncated, another .npz, arrays of the wrong kind o
 
 from __future__ import annotations
 
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any, Final
 
 import numpy as np
 
+from ..atomic_file import write_atomically
 from .errors import CloudError
 
 #: The file's format; another is refused rather than misread.
@@ -36,17 +35,7 @@ _BLOCK_ARRAYS: Final = ("blocks", "block_version", "block_seen")
 
 def write(path: Path, arrays: dict[str, Any]) -> None:
     """Write ``arrays`` (:data:`ARRAYS`, ``voxel``, ``version``) to ``path`` atomically."""
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as out:
-            np.savez(out, format=np.int64(FORMAT), **arrays)
-            out.flush()
-            os.fsync(out.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_atomically(Path(path), lambda out: np.savez(out, format=np.int64(FORMAT), **arrays))
 
 
 def read(path: Path) -> dict[str, Any]:

@@ -16,12 +16,12 @@ import re
 import zoneinfo
 from pathlib import Path
 
-import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode
 
 from ..errors import ConfigError
 from ..inspection.kml import Georeference
 from ..session.protocol import MAX_SCAN_RATE
+from .cloud import cloud
 from .model import (
     LENS_MODELS,
     POSE_SOURCES,
@@ -31,6 +31,8 @@ from .model import (
     Arm,
     ArmTopics,
     Camera,
+    Cloud,
+    CloudSource,
     Field,
     FleetConfig,
     Hazard,
@@ -39,6 +41,7 @@ from .model import (
     Limits,
     MapToScene,
     ModelSource,
+    Mount,
     Pose2D,
     PoseSource,
     PoseSourceKind,
@@ -51,12 +54,14 @@ from .model import (
     Sim,
     Site,
     SpillGrowth,
+    Valve,
     Webhook,
     Workspace,
     Zenoh,
 )
-from .reader import _Reader, _topic, resolve_topic
+from .reader import _Reader, _topic, compose, resolve_topic
 from .robots import _robot
+from .valve import valve
 from .webhooks import webhooks
 
 __all__ = [
@@ -66,6 +71,8 @@ __all__ = [
     "Arm",
     "ArmTopics",
     "Camera",
+    "Cloud",
+    "CloudSource",
     "Field",
     "FleetConfig",
     "Hazard",
@@ -74,6 +81,7 @@ __all__ = [
     "Limits",
     "MapToScene",
     "ModelSource",
+    "Mount",
     "Pose2D",
     "PoseSource",
     "PoseSourceKind",
@@ -86,6 +94,7 @@ __all__ = [
     "Sim",
     "Site",
     "SpillGrowth",
+    "Valve",
     "Webhook",
     "Workspace",
     "Zenoh",
@@ -111,20 +120,14 @@ def load_config(path: str | Path) -> FleetConfig:
 def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = None) -> FleetConfig:
     """Validate robots.yaml text; ``file`` names it in errors, ``base_dir`` resolves relative paths."""
     reader = _Reader(file)
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.MarkedYAMLError as exc:
-        line = exc.problem_mark.line + 1 if exc.problem_mark is not None else None
-        raise ConfigError(file, line, "", f"not valid YAML: {exc.problem}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(file, None, "", f"not valid YAML: {exc}") from None
+    root = compose(text, file)
     if root is None:
         raise ConfigError(file, None, "", "the file is empty; it needs at least a 'robots' list")
 
     top = reader.mapping(
         root,
         "",
-        ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference", "inspection", "site"),
+        ("robots", "scene", "map", "sim", "safety", "ros", "zenoh", "georeference", "inspection", "site", "cloud"),
         required=("robots",),
     )
     scene = _scene(reader, top["scene"]) if "scene" in top else Scene(None, MapToScene())
@@ -140,6 +143,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
     georeference = _georeference(reader, top["georeference"]) if "georeference" in top else None
     inspection = _inspection(reader, top["inspection"]) if "inspection" in top else InspectionSettings()
     site = _site(reader, top["site"]) if "site" in top else Site()
+    cloud_settings = cloud(reader, top["cloud"]) if "cloud" in top else None
 
     robots: list[Robot] = []
     for index, node in reader.sequence(top["robots"], "robots"):
@@ -151,7 +155,7 @@ def parse_config(text: str, file: str = "robots.yaml", base_dir: Path | None = N
         raise reader.fail(top["robots"], "robots", "expected at least one robot")
     return FleetConfig(
         source=file, robots=tuple(robots), scene=scene, map=map_path, sim=sim, safety=safety, ros=ros,
-        zenoh=zenoh, georeference=georeference, inspection=inspection, site=site,
+        zenoh=zenoh, georeference=georeference, inspection=inspection, site=site, cloud=cloud_settings,
     )  # fmt: skip
 
 
@@ -182,7 +186,9 @@ def _scene(reader: _Reader, node: Node) -> Scene:
 
 def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
     path = "sim"
-    keys = ("world", "physics_rate", "pose_rate", "sensor_rate", "scan_rate", "hazards", "fields", "spill_growth")
+    keys = (
+        "world", "physics_rate", "pose_rate", "sensor_rate", "scan_rate", "hazards", "fields", "spill_growth", "valve",
+    )  # fmt: skip
     f = reader.mapping(node, path, keys)
     world: Path | None = None
     if "world" in f and reader.value(f["world"]) is not None:
@@ -240,6 +246,7 @@ def _sim(reader: _Reader, node: Node, base_dir: Path | None) -> Sim:
         hazards=tuple(hazards),
         fields=tuple(fields),
         spill_growth=_spill_growth(reader, f["spill_growth"]) if "spill_growth" in f else SpillGrowth(),
+        valve=valve(reader, f["valve"]) if "valve" in f else None,
     )
 
 

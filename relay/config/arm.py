@@ -19,6 +19,7 @@ from .reader import _FRAME, _Reader, _topic, resolve_topic, speed_limits
 
 ARM_FIELDS = (
     "urdf", "base_link", "tip_link", "gripper_joint", "topics", "limits", "workspace", "joint_margin", "camera",
+    "srdf", "optional",
 )  # fmt: skip
 #: The ``topics`` keys and their defaults, relative to the robot's namespace (the module's docstring says whence).
 TOPIC_DEFAULTS = {
@@ -38,12 +39,15 @@ def arm(reader: _Reader, node: Node, path: str, namespace: str, base_dir: Path |
     def frame(n: Node, p: str) -> str:
         return reader.string(n, p, pattern=_FRAME, expected="a link name of the URDF")
 
+    # ``optional``: the arm's files may be absent (shared data outside the repository); the robot then runs without
+    # its arm and the backend says so (relay/arm/fleet_arms.py), instead of the whole file being refused.
+    optional = reader.get(f, "optional", path, reader.boolean, False)
     camera = reader.get(f, "camera", path, lambda n, p: reader.string(n, p, expected="a camera name"), None)
     if camera is not None and camera not in cameras:
         known = ", ".join(cameras) if cameras else "none"
         raise reader.fail(f["camera"], f"{path}.camera", f'no camera "{camera}" on this robot (its cameras: {known})')
     return Arm(
-        urdf=_urdf(reader, f["urdf"], f"{path}.urdf", base_dir),
+        urdf=_urdf(reader, f["urdf"], f"{path}.urdf", base_dir, optional),
         base_link=frame(f["base_link"], f"{path}.base_link"),
         tip_link=frame(f["tip_link"], f"{path}.tip_link"),
         gripper_joint=reader.get(f, "gripper_joint", path, frame, None),
@@ -54,19 +58,26 @@ def arm(reader: _Reader, node: Node, path: str, namespace: str, base_dir: Path |
             f, "joint_margin", path, lambda n, p: reader.number(n, p, non_negative=True), Arm.joint_margin
         ),
         camera=camera,
+        srdf=_file(reader, f["srdf"], f"{path}.srdf", base_dir, optional, "an SRDF's path") if "srdf" in f else None,
+        optional=optional,
     )
 
 
-def _urdf(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Path | None:
-    value = reader.string(node, path, expected=f"a URDF file's path or {ROBOT_DESCRIPTION}")
-    if value == ROBOT_DESCRIPTION:
+def _urdf(reader: _Reader, node: Node, path: str, base_dir: Path | None, optional: bool) -> Path | None:
+    expected = f"a URDF file's path or {ROBOT_DESCRIPTION}"
+    if reader.string(node, path, expected=expected) == ROBOT_DESCRIPTION:
         return None
-    urdf = Path(value)
-    if base_dir is not None and not urdf.is_absolute():
-        urdf = base_dir / urdf
-    if not urdf.is_file():
-        raise reader.fail(node, path, f"no such file: {urdf}")
-    return urdf
+    return _file(reader, node, path, base_dir, optional, expected)
+
+
+def _file(reader: _Reader, node: Node, path: str, base_dir: Path | None, optional: bool, expected: str) -> Path:
+    """A file's path relative to robots.yaml; it must exist unless the arm is ``optional``."""
+    file = Path(reader.string(node, path, expected=expected))
+    if base_dir is not None and not file.is_absolute():
+        file = base_dir / file
+    if not optional and not file.is_file():
+        raise reader.fail(node, path, f"no such file: {file}")
+    return file
 
 
 def _topics(reader: _Reader, node: Node | None, path: str, namespace: str) -> ArmTopics:

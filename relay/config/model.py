@@ -119,6 +119,41 @@ class Arm:
     #: A joint may not move closer than this to its limit (rad or m); MoveIt Servo's joint_limit_margin.
     joint_margin: float = 0.1
     camera: str | None = None  # the name of the robot's camera on the arm, if one is
+    srdf: Path | None = None  # MoveIt's SRDF: the named poses (home, the gripper's open and close)
+    #: The URDF and SRDF may be absent: the robot then runs without its arm (relay/arm/fleet_arms.py says why).
+    optional: bool = False
+
+
+CloudKind = Literal["pointcloud2", "depth"]
+CLOUD_KINDS: tuple[CloudKind, ...] = ("pointcloud2", "depth")
+
+
+@dataclass(frozen=True)
+class Mount:
+    """Where a sensor's frame sits on the robot: its pose in the robot's base frame (m, rad; roll, pitch, yaw about
+    the base's x, y, z in that order, as URDF's ``rpy``)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
+class CloudSource:
+    """A robot's source of 3D points for the live map (robots.yaml ``clouds:``; relay/config/clouds.py): a
+    sensor_msgs/PointCloud2 topic, or a depth image (16UC1 mm, 32FC1 m) with its CameraInfo."""
+
+    name: str
+    kind: CloudKind
+    topic: str  # absolute
+    camera_info: str | None = None  # absolute; depth only
+    #: The sensor's frame on the robot; None: from TF (the message's frame through /tf_static to the base frame).
+    mount: Mount | None = None
+    rate: float = 2.0  # Hz: the most clouds of this source decoded a second (the others are not even read)
+    stride: int = 1  # depth: every n-th pixel of every n-th row
 
 
 @dataclass(frozen=True)
@@ -153,6 +188,11 @@ class Robot:
     #: (teleop stops either way).
     on_relay_lost: RelayLost = "hold"
     arm: Arm | None = None  # an arm on the robot, moved by the operator's hand
+    #: The team the robot works in (robots.yaml ``team``): the page groups robots by it, and by room, for commands
+    #: and missions. None: in no team.
+    team: str | None = None
+    #: Its point clouds and depth images for the live 3D map (issue #33; used with robots.yaml's ``cloud``).
+    clouds: tuple[CloudSource, ...] = ()
 
     def __post_init__(self) -> None:
         # Frozen: the namespace's defaults are filled in once, here, for entries built without them.
@@ -242,6 +282,30 @@ class Sim:
     hazards: tuple[Hazard, ...] = ()
     fields: tuple[Field, ...] = ()
     spill_growth: SpillGrowth = field(default_factory=SpillGrowth)
+    valve: Valve | None = None  # a valve wheel an arm turns to shut a leak (issue #32)
+
+
+@dataclass(frozen=True)
+class Valve:
+    """A valve wheel of the simulated facility, turned by a gripper (robots.yaml ``sim.valve``; relay/sim/valve.py)."""
+
+    x: float  # the wheel's centre, map frame (m)
+    y: float
+    z: float
+    hazard: str  # the sensor field whose nearby sources it shuts
+    yaw: float = 0.0  # rad: its axis (the way its face looks), horizontal
+    radius: float = 0.05  # m, its rim
+    fade: float = 8.0  # s: once shut, the leak's reading falls to e^-1 of its excess in this time
+
+
+@dataclass(frozen=True)
+class Cloud:
+    """robots.yaml's ``cloud``: the live 3D map fused from the robots' clouds (issue #33; relay/config/cloud.py)."""
+
+    voxel: float = 0.05  # m, a voxel's side
+    budget_blocks: int = 20_000  # blocks of 16^3 voxels kept at most (least recently seen dropped first)
+    save_every: float = 60.0  # s between saves of the map beside the database (and once at shutdown)
+    sim_depth_rate: float = 2.0  # Hz, each simulated robot's depth camera (0: none)
 
 
 @dataclass(frozen=True)
@@ -356,6 +420,8 @@ class FleetConfig:
     georeference: Any = None
     inspection: InspectionSettings = field(default_factory=InspectionSettings)
     site: Site = field(default_factory=Site)
+    #: The live 3D map (issue #33); None: no fusion, no streaming, no simulated depth cameras.
+    cloud: Cloud | None = None
 
     def robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)

@@ -7,6 +7,7 @@ import re
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
+import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
@@ -111,6 +112,18 @@ class _Reader:
         if node is None:
             return default
         return read(node, _join(path, key))
+
+
+def compose(text: str, file: str) -> Node | None:
+    """The YAML text's node tree (None for an empty file); YAML that does not parse is a ConfigError naming the line."""
+    try:
+        node: Node | None = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.MarkedYAMLError as exc:
+        line = exc.problem_mark.line + 1 if exc.problem_mark is not None else None
+        raise ConfigError(file, line, "", f"not valid YAML: {exc.problem}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(file, None, "", f"not valid YAML: {exc}") from None
+    return node
 
 
 def _join(path: str, key: str) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import NamedTuple, cast
 
@@ -10,6 +11,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 from ..ros.rosmsg import SENSOR_TYPES
 from ..session.protocol import ROBOT_NAME_PATTERN
 from .arm import arm
+from .clouds import clouds
 from .model import (
     LENS_MODELS,
     NAV_INTERFACES,
@@ -45,7 +47,11 @@ _ROBOT_FIELDS = (
     "plan",
     "navigation",
     "arm",
+    "team",
+    "clouds",
 )
+#: A team's name: what a site calls its crews ("North crew", "night-shift", "B2"), short enough for a button.
+_TEAM = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _-]{0,31}$")
 
 
 def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Robot:
@@ -72,7 +78,11 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
     navigation = _navigation(reader, f, path, namespace, (cmd_vel_topic, watchdog_topic))
     camera_names = tuple(c.name for c in cameras)
     robot_arm = arm(reader, f["arm"], f"{path}.arm", namespace, base_dir, camera_names) if "arm" in f else None
+    team_name = "a team name of 1-32 letters, digits, spaces, _ and -"
+    team = reader.get(f, "team", path, lambda n, p: reader.string(n, p, pattern=_TEAM, expected=team_name), None)
+    sources = clouds(reader, f["clouds"], f"{path}.clouds", namespace) if "clouds" in f else ()
     return Robot(
+        clouds=sources,
         model_source=model_source,
         scan_topic=scan_topic,
         plan_topic=plan_topic,
@@ -94,6 +104,7 @@ def _robot(reader: _Reader, node: Node, path: str, base_dir: Path | None) -> Rob
         autonomy_topic=navigation.autonomy,
         on_relay_lost=navigation.on_relay_lost,
         arm=robot_arm,
+        team=team,
     )
 
 

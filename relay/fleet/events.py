@@ -133,6 +133,18 @@ class ScanEvent:
 
 
 @dataclass(frozen=True, slots=True)
+class CloudEvent:
+    """A robot's point cloud (issue #33): ``points`` (N, 3) float32 in the sensor's frame, ``pose`` (4x4) that frame
+    in the map at ``stamp``, ``rgb`` (N, 3) uint8 or None. Arrays the backend no longer touches."""
+
+    robot: str
+    stamp: float
+    points: Any = field(compare=False, repr=False)
+    pose: Any = field(compare=False, repr=False)
+    rgb: Any = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True, slots=True)
 class MapEvent:
     """A new occupancy grid of the fleet's map (fleet-wide: ``robot`` is empty).
 
@@ -166,6 +178,47 @@ class PlaybackEvent:
     robot: str = ""
 
 
+@dataclass(frozen=True, slots=True)
+class JointStateEvent:
+    """An arm's joints as sensor_msgs/JointState carries them (the chain's, the gripper's and its mimics'): rad or m,
+    and rad/s or m/s (empty when the source gives none)."""
+
+    robot: str
+    stamp: float
+    names: tuple[str, ...]
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class AvatarEvent:
+    """Where an operator looked from (a replayed session's ``viewer`` frames, relay/wire/viewer.py): the head's position
+    and facing, each hand's position and ray (map frame), at ``stamp``; fleet-wide (``robot`` is empty)."""
+
+    client: str
+    name: str | None
+    stamp: float
+    head: tuple[tuple[float, float, float], tuple[float, float, float]]
+    hands: tuple[tuple[Literal["left", "right"], tuple[float, float, float], tuple[float, float, float]], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ValveEvent:
+    """The simulated facility's valve wheel (robots.yaml ``sim.valve``; fleet-wide: ``robot`` is empty): its centre
+    (map frame, m), axis (rad) and rim (m), how far it has been turned (rad), whether a gripper holds it and whether
+    it is shut."""
+
+    x: float
+    y: float
+    z: float
+    yaw: float
+    radius: float
+    angle: float
+    held: bool
+    shut: bool
+    robot: str = ""
+
+
 Event = (
     PoseEvent
     | SensorEvent
@@ -177,8 +230,12 @@ Event = (
     | FrameEvent
     | CameraError
     | ScanEvent
+    | CloudEvent
     | MapEvent
     | PlaybackEvent
     | RobotModelEvent
+    | JointStateEvent
+    | AvatarEvent
+    | ValveEvent
 )
 EventSink = Callable[[Event], None]

@@ -82,8 +82,11 @@ class Captures:
         map_grid: Callable[[], OccupancyGrid | None],
         clock: Callable[[], float],
         wall_clock: Callable[[], float] = time.time,
+        marked: Callable[[str | None], None] = lambda target: None,
     ) -> None:
+        """``marked``: told the target of every finding an operator marks (None: a capture of no target)."""
         self.robots = robots
+        self._marked = marked
         self._backend, self._fleet, self._outbox, self._book, self._store = backend, fleet, outbox, book, store
         self._alert = alert
         self._map_grid, self._clock, self._wall = map_grid, clock, wall_clock
@@ -195,6 +198,7 @@ class Captures:
             )  # fmt: skip
             await self._announce(await self._store(lambda s: s.add_finding(finding), command.id), capture)
             self._alert_of(finding)
+            self._marked(finding.target)
             return
         assert command.finding is not None
         finding_id = command.finding

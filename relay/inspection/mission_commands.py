@@ -81,7 +81,8 @@ class MissionCommands:
                     f"the site has {len(targets)} targets (the `targets` list)",
                     command.id,
                 )
-            free = {r: self._position(r) for r in self._robots if self._free(client, r, now)}
+            among = command.robots if command.robots is not None else self._robots  # a team's or a room's, or all
+            free = {r: self._position(r) for r in among if self._free(client, r, now)}
             positions = {r: p for r, p in free.items() if p is not None}
             robots = await self._planning.assign(plan.targets, positions, command.id)
         else:

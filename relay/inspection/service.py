@@ -97,7 +97,9 @@ class Inspection:
         map_grid: Callable[[], OccupancyGrid | None],
         clock: Callable[[], float],
         wall_clock: Callable[[], float] = time.time,
+        marked: Callable[[str | None], None] = lambda target: None,
     ) -> None:
+        """``marked``: told the target of every finding an operator marks (a study's task, relay.study.service)."""
         self.config, self.options = config, options
         self.robots = {r.name: r for r in config.robots}
         self.control, self.outbox = control, outbox
@@ -117,7 +119,7 @@ class Inspection:
         self.alerts = Alerts(outbox, self._storage, self.webhooks.notify, wall_clock=wall_clock)
         self.captures = Captures(
             self.robots, backend=backend, fleet=fleet, outbox=outbox, book=self.book, store=self._storage.call,
-            alert=self.raise_alert, map_grid=map_grid, clock=clock, wall_clock=wall_clock,
+            alert=self.raise_alert, map_grid=map_grid, clock=clock, wall_clock=wall_clock, marked=marked,
         )  # fmt: skip
         self.missions = MissionCommands(
             self.robots, backend=backend, control=control, fleet=fleet, outbox=outbox, book=self.book,

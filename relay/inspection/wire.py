@@ -32,12 +32,12 @@ MAX_ACK_NOTE = 200
 @dataclass(frozen=True, slots=True)
 class MissionStart(WireCommand):
     """A mission from a file of the relay's missions directory (by name, "demo"), from steps for one robot, or
-    from targets for the fleet."""
+    from targets for the fleet or a group of it (``robots``: a team's or a room's, as the page groups them)."""
 
     FORMS: ClassVar[Forms] = {
         "MissionFileCommand": (("mission/start",), ("file",), ()),
         "MissionStepsCommand": (("mission/start",), ("robot", "steps"), ("name",)),
-        "MissionTargetsCommand": (("mission/start",), ("targets",), ("name",)),
+        "MissionTargetsCommand": (("mission/start",), ("targets",), ("name", "robots")),
     }
     id: RequestId = request()
     file: str | None = text(required=False)
@@ -45,6 +45,7 @@ class MissionStart(WireCommand):
     steps: Any = custom(lambda value, _, __: value, "Object<string, unknown>[]")  # checked by missions.steps_from_wire
     targets: tuple[str, ...] | None = custom(lambda value, field, ident: _strings(value, field, ident), "string[]")
     name: str | None = text(required=False)
+    robots: tuple[str, ...] | None = custom(lambda value, field, ident: _strings(value, field, ident), "string[]")
 
     def check(self, frame: Frame) -> None:
         if sum(given is not None for given in (self.file, self.steps, self.targets)) != 1:
@@ -53,6 +54,15 @@ class MissionStart(WireCommand):
             raise ProtocolError(
                 ErrorCode.BAD_REQUEST, f"{frame.identifier}: steps need a robot, and a robot needs steps"
             )
+        if self.robots is not None:
+            if self.targets is None:
+                raise ProtocolError(ErrorCode.BAD_REQUEST, f"{frame.identifier}: robots (a group) go with targets")
+            unknown = [r for r in self.robots if r not in frame.robots]
+            if unknown:
+                raise ProtocolError(
+                    ErrorCode.UNKNOWN_ROBOT,
+                    f"{frame.identifier}: unknown robot(s) {', '.join(r[:64] for r in unknown[:5])}",
+                )
 
 
 @command(*(f"mission/{action}" for action in MISSION_ACTIONS))

@@ -12,8 +12,10 @@ code flow with PKCE, the relay a confidential client.
   without one signs in. Then a session opens as with a password (relay/net/sign_in.py) and the browser goes to ``/``.
 
 Every answer from the provider is bounded (:data:`MAX_ANSWER` bytes, :data:`TIMEOUT` s); a failure says what failed,
-never a token. The client secret comes from ``$XR_RELAY_OIDC_SECRET``, never the command line (other users of the
-machine can read a process's arguments).
+never a token. The provider is asked through one HTTP client session, its connections kept alive (a sign-in asks up
+to three times), made at the first question and closed with the relay (:meth:`OidcSignIn.closing`, a cleanup context).
+The client secret comes from ``$XR_RELAY_OIDC_SECRET``, never the command line (other users of the machine can read a
+process's arguments).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import logging
 import secrets
 import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from typing import Any, Final
 from urllib.parse import urlencode
@@ -78,6 +80,15 @@ class OidcSignIn:
         self._pending: OrderedDict[str, _Pending] = OrderedDict()
         self._discovery: tuple[float, dict[str, Any]] | None = None
         self._keys: tuple[float, jwt.PyJWKSet] | None = None
+        #: Made at the first question to the provider (a session belongs to a running event loop), closed by closing.
+        self._http: aiohttp.ClientSession | None = None
+
+    async def closing(self, app: web.Application) -> AsyncIterator[None]:
+        """cleanup_ctx: the HTTP client session to the provider, closed with the relay."""
+        yield
+        if self._http is not None:
+            await self._http.close()
+            self._http = None
 
     # -- routes -----------------------------------------------------------------------------------
 
@@ -116,7 +127,7 @@ class OidcSignIn:
         except OidcError as exc:
             logger.warning("OpenID Connect sign-in from %s refused: %s", request.remote, exc)
             return _refused(403, str(exc))
-        session = self._sign_in.sessions.open(user, role, self._clock(), via="oidc")
+        session = self._sign_in.sessions.open(user, role, self._clock(), provider="oidc")
         logger.info("%s signed in as %s with %s from %s", user, role, self.settings.issuer, request.remote)
         response = web.HTTPFound("/")
         self._sign_in.set_cookie(response, session)
@@ -126,7 +137,7 @@ class OidcSignIn:
 
     async def _signed_in(self, code: str, pending: _Pending) -> tuple[str, Role]:
         document = await self._document()
-        answer = await _json(
+        answer = await self._json(
             "the token endpoint",
             "POST",
             str(document["token_endpoint"]),
@@ -167,7 +178,7 @@ class OidcSignIn:
         for fresh in (False, True):  # a key not known yet: the provider may have rotated them
             if fresh or self._keys is None or now - self._keys[0] > CACHE:
                 try:
-                    self._keys = (now, jwt.PyJWKSet.from_dict(await _json("the provider's keys", "GET", uri)))
+                    self._keys = (now, jwt.PyJWKSet.from_dict(await self._json("the provider's keys", "GET", uri)))
                 except jwt.PyJWTError as exc:
                     raise OidcError(f"the provider's keys cannot be read: {exc}") from None
             for key in self._keys[1].keys:
@@ -179,12 +190,33 @@ class OidcSignIn:
         now = self._clock()
         if self._discovery is None or now - self._discovery[0] > CACHE:
             url = self.settings.issuer.rstrip("/") + "/.well-known/openid-configuration"
-            document = await _json("the provider's discovery document", "GET", url)
+            document = await self._json("the provider's discovery document", "GET", url)
             for field in ("authorization_endpoint", "token_endpoint", "jwks_uri"):
                 if not isinstance(document.get(field), str):
                     raise OidcError(f"the provider's discovery document has no {field}")
             self._discovery = (now, document)
         return self._discovery[1]
+
+    async def _json(self, what: str, method: str, url: str, **kwargs: Any) -> dict[str, Any]:
+        """One request to the provider: its JSON object, or OidcError naming ``what`` failed."""
+        if self._http is None or self._http.closed:
+            self._http = aiohttp.ClientSession(timeout=aiohttp.ClientTimeout(total=TIMEOUT))
+        try:
+            async with self._http.request(method, url, **kwargs) as response:
+                body = await response.content.read(MAX_ANSWER + 1)
+                if len(body) > MAX_ANSWER:
+                    raise OidcError(f"{what} answered more than {MAX_ANSWER // 1024} KiB")
+                if response.status != 200:
+                    raise OidcError(f"{what} answered HTTP {response.status}")
+        except (TimeoutError, aiohttp.ClientError) as exc:
+            raise OidcError(f"{what} cannot be reached ({type(exc).__name__})") from None
+        try:
+            answer = json.loads(body)
+        except ValueError:
+            raise OidcError(f"{what} did not answer JSON") from None
+        if not isinstance(answer, dict):
+            raise OidcError(f"{what} did not answer a JSON object")
+        return answer
 
     def _role(self, claims: dict[str, Any]) -> Role:
         named = claims.get(self.settings.role_claim)
@@ -213,29 +245,6 @@ def _name(claims: dict[str, Any]) -> str:
 
 def _challenge(verifier: str) -> str:
     return base64.urlsafe_b64encode(hashlib.sha256(verifier.encode()).digest()).rstrip(b"=").decode()
-
-
-async def _json(what: str, method: str, url: str, **kwargs: Any) -> dict[str, Any]:
-    """One request to the provider: its JSON object, or OidcError naming ``what`` failed."""
-    try:
-        async with (
-            aiohttp.ClientSession(timeout=aiohttp.ClientTimeout(total=TIMEOUT)) as http,
-            http.request(method, url, **kwargs) as response,
-        ):
-            body = await response.content.read(MAX_ANSWER + 1)
-            if len(body) > MAX_ANSWER:
-                raise OidcError(f"{what} answered more than {MAX_ANSWER // 1024} KiB")
-            if response.status != 200:
-                raise OidcError(f"{what} answered HTTP {response.status}")
-    except (TimeoutError, aiohttp.ClientError) as exc:
-        raise OidcError(f"{what} cannot be reached ({type(exc).__name__})") from None
-    try:
-        answer = json.loads(body)
-    except ValueError:
-        raise OidcError(f"{what} did not answer JSON") from None
-    if not isinstance(answer, dict):
-        raise OidcError(f"{what} did not answer a JSON object")
-    return answer
 
 
 def _refused(status: int, text: str) -> web.Response:

@@ -198,7 +198,11 @@ async def websocket_handler(request: web.Request) -> web.StreamResponse:
     request.app[GUARD_KEY].admitted(request.protocol)
     request.app[SOCKETS_KEY].add(ws)
     watch = request.app[SIGN_IN_KEY].watch
-    forget_page = watch.attach(user, lambda code, why: ws.close(code=code, message=why)) if watch and user else None
+    # Only the users file's accounts change under a running relay: the provider's people are the provider's to end.
+    local = session is not None and session.provider == "local"
+    forget_page = (
+        watch.attach(user, lambda code, why: ws.close(code=code, message=why)) if watch and user and local else None
+    )
     batch = request.query.get("batch") == "1"  # the client reads JSON arrays of state messages (relay.station.hub)
     client: Client = relay.connect(AiohttpTransport(ws), role=role, address=address, batch=batch, user=user)
     # Each frame is dated by the read that brought it, a read after a stall of the loop to the stall's start: a
@@ -286,6 +290,7 @@ async def healthz(request: web.Request) -> web.Response:
             # How late the loop's 10 ms beat ran (relay.net.loop_lag): the delay any estop could have met just now.
             "loop_lag": relay.loop_lag.stats.report(),
             **relay.backend.health(),  # e.g. the bag backend's playback position and duration
+            **({"voxel_map": relay.fusion.health()} if relay.fusion is not None else {}),  # issue #33
         }
     )
 
@@ -409,13 +414,15 @@ def create_app(
     options: Options | None = None,
     *,
     backend_factory: BackendFactory | None = None,
+    clock: Callable[[], float] = time.monotonic,
     wall_clock: Callable[[], float] = time.time,
 ) -> web.Application:
     """``backend_factory``: a backend of the caller's (the benchmarks' synthetic fleet), else the one options name;
-    ``wall_clock``: the time of day (tests move a schedule's time by hand)."""
+    ``clock``: the relay's (tests move a study's time by hand); ``wall_clock``: the time of day (tests move a
+    schedule's time by hand)."""
     options = options or Options()
     app = web.Application(middlewares=[_guarded])
-    app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory, wall_clock=wall_clock)
+    app[RELAY_KEY] = Relay(config, options, backend_factory=backend_factory, clock=clock, wall_clock=wall_clock)
     book = UserBook(options.users) if options.users else None  # the command line names it only when it holds anyone
     accounts = book is not None
     app[ACCESS_KEY] = Access(
@@ -426,7 +433,9 @@ def create_app(
     add_sign_in_routes(app, app[SIGN_IN_KEY])
     if accounts and options.oidc_issuer:
         oidc = OidcSettings(options.oidc_issuer, options.oidc_client_id, options.oidc_secret, options.oidc_role_claim)
-        add_oidc_routes(app, OidcSignIn(oidc, app[SIGN_IN_KEY]))
+        oidc_sign_in = OidcSignIn(oidc, app[SIGN_IN_KEY])
+        add_oidc_routes(app, oidc_sign_in)
+        app.cleanup_ctx.append(oidc_sign_in.closing)
         app[SIGN_IN_KEY].oidc_issuer = options.oidc_issuer
     app[GUARD_KEY] = ConnectionGuard(options.header_timeout, options.max_unadmitted)
     # Every response, errors included: the CSP the client and the report pass, nosniff, no referrer, no framing.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import secrets
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -61,3 +61,8 @@ class Client:
     def cancel_tasks(self) -> None:
         for task in list(self.tasks):
             task.cancel()
+
+
+def roster(clients: Mapping[str, Client]) -> dict[str, str]:
+    """Client id -> name, of the connected clients that gave one."""
+    return {cid: c.name for cid, c in clients.items() if c.name is not None}

@@ -18,8 +18,10 @@ import time
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass
 
+from ..arm.wire import ArmTwist
 from ..backends.base import Backend
 from ..config import Robot
+from ..control.arm_control import ArmControl
 from ..control.control import Control
 from ..control.safety import check_goal, check_goal_clear, clamp_velocity
 from ..errors import CommandRejected, ProtocolError
@@ -32,13 +34,17 @@ from ..media.streams import CameraStreams
 from ..station.audit import CommandAudit
 from ..station.messages import pong_message
 from ..station.outbox import Outbox
+from ..study.service import StudyService
 from ..wire.commands import Cancel, CmdVel, EStop, GoalPose, Lease, Name, Ping, Playback, Snapshot, Stream
-from .clients import Client
+from ..wire.viewer import Viewer
+from .clients import Client, roster
 from .protocol import (
+    ArmCommands,
     Command,
     ErrorCode,
     InspectionCommands,
     RequestId,
+    StudyCommands,
     command_identifier,
     parse_command,
     robot_identifier,
@@ -67,6 +73,9 @@ class CommandHandler:
     snapshots: Snapshots
     #: How late each robot's commands reach its backend (relay.fleet.latency), for /metrics.
     latency: StageLatency
+    #: The arms' commands and deadman (relay.control.arm_control).
+    arms: ArmControl
+    study: StudyService  # relay.study.service: the study's commands
     wall_clock: Callable[[], float] = time.time
 
     def handle_binary(self, client: Client) -> None:
@@ -96,13 +105,18 @@ class CommandHandler:
             # Dropped before it can reach a robot; an estop is never held back.
             self._rate_limited(client, request_id, command_identifier(command), command, now)
             return
-        if isinstance(command, (Snapshot, *InspectionCommands)):
+        if isinstance(command, Viewer):
+            return  # checked; kept by the session's recording (relay/station/core.py), no reply, no audit record
+        if isinstance(command, (Snapshot, *InspectionCommands, *StudyCommands)):
             self._run_apart_admitted(client, command, now)
             return
         if isinstance(command, GoalPose):
             # Planning takes a while too: the same client's estop, cancel or release must not wait behind it (an
             # estop was once acknowledged 16 s late). Anything that overtakes the goal supersedes it.
             client.spawn(self._run_apart(client, command, self._goal(client, command, now, arrived)))
+            return
+        if isinstance(command, ArmTwist) and command.moves:  # checked on a worker: apart too, a stop voids it
+            client.spawn(self._run_apart(client, command, self.arms.handle(client, command, now, now - arrived)))
             return
         try:
             await self._dispatch(client, command, now, received, arrived)
@@ -118,11 +132,8 @@ class CommandHandler:
     ) -> None:
         """Refuse a frame over the client's rate. Its audit record is budgeted like every refusal (relay.station.audit),
         so that a flood cannot rotate the real records away."""
-        error = ProtocolError(
-            ErrorCode.RATE_LIMITED,
-            f"more than {client.allowance.rate:g} messages a second; this one was dropped",
-            request_id,
-        )
+        says = f"more than {client.allowance.rate:g} messages a second; this one was dropped"
+        error = ProtocolError(ErrorCode.RATE_LIMITED, says, request_id)
         self.outbox.error(client, request_id, error.code, error.message)
         if command is not None:
             self.audit.command(client, command, error)
@@ -130,12 +141,14 @@ class CommandHandler:
             self.audit.frame(client, identifier, request_id, None, error)
 
     def _run_apart_admitted(self, client: Client, command: Command, now: float) -> None:
-        """Snapshots and the inspection commands take a while (rendering, waiting for a camera's next frame,
-        planning every step of a mission, segmenting a region): they run beside the client's later frames (an
-        estop among them), and what takes a picture spends the snapshots' budget."""
+        """Snapshots, the inspection and study commands take a while (rendering, waiting for a camera's next frame,
+        planning every step of a mission, segmenting a region, placing a study task's robots): they run beside the
+        client's later frames (an estop among them), and what takes a picture spends the snapshots' budget."""
         work: Awaitable[None]
         if isinstance(command, Snapshot):
             work = self.snapshots.take(client, command)
+        elif isinstance(command, StudyCommands):  # a task's start waits for its robots to be placed
+            work = self.study.handle(client, command, now)
         else:
             work = self._inspection(client, command, now)
         if isinstance(command, Snapshot) or (isinstance(command, TargetAdd) and command.robot is not None):
@@ -144,14 +157,11 @@ class CommandHandler:
             except ProtocolError as exc:
                 if inspect.iscoroutine(work):
                     work.close()
-                self._refused(client, command, exc)
+                self.outbox.error(client, exc.request_id, exc.code, exc.message)
+                self.audit.command(client, command, exc)
                 return
             work = self.snapshots.within(client, work)
         client.spawn(self._run_apart(client, command, work))
-
-    def _refused(self, client: Client, command: Command, error: ProtocolError) -> None:
-        self.outbox.error(client, error.request_id, error.code, error.message)
-        self.audit.command(client, command, error)
 
     async def _inspection(self, client: Client, command: Command, now: float) -> None:
         if isinstance(command, MissionStart):
@@ -181,6 +191,9 @@ class CommandHandler:
             await self._estop(client, command, now)
         elif isinstance(command, CmdVel):
             await self._cmd_vel(client, command, now, received, arrived)
+        elif isinstance(command, ArmCommands):
+            # Its age as a cmd_vel's without a client stamp: since the relay read it, or since a stall began.
+            await self.arms.handle(client, command, now, now - arrived)
         elif isinstance(command, Cancel):
             self.control.gate.require_commandable(
                 client, command.robot, robot_identifier(command.robot, "cancel"), command.id, now
@@ -205,14 +218,10 @@ class CommandHandler:
                 )
             client.name = command.name
             self.outbox.ack(client, command.id)
-            self.outbox.operators(self.roster())
+            self.outbox.operators(roster(self.clients))
         else:
             # A declared command with no handler here would otherwise go unanswered.
             raise ProtocolError(ErrorCode.INTERNAL, f"{command.identifier}: this relay carries out no such command")
-
-    def roster(self) -> dict[str, str]:
-        """Client id -> name, of the connected clients that gave one."""
-        return {cid: c.name for cid, c in self.clients.items() if c.name is not None}
 
     async def _estop(self, client: Client, command: EStop, now: float) -> None:
         resets = command.action == "reset"

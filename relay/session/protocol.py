@@ -15,7 +15,9 @@ import math
 from collections.abc import Collection
 from typing import Final, TypeAlias
 
+from ..arm.wire import ARM_COMMANDS, ArmCommand
 from ..inspection.wire import INSPECTION_COMMANDS, InspectionCommand
+from ..study.wire import STUDY_COMMANDS, StudyCommand
 from ..wire.commands import MAX_CLIENT_CLOCK as MAX_CLIENT_CLOCK
 from ..wire.commands import MAX_NAME_LENGTH as MAX_NAME_LENGTH
 from ..wire.commands import MAX_PLAYBACK_RATE as MAX_PLAYBACK_RATE
@@ -45,12 +47,15 @@ from ..wire.json_frame import peek_request_id as peek_request_id
 from ..wire.messages import Mode as Mode
 from ..wire.messages import Role as Role
 from ..wire.table import CommandTable
+from ..wire.viewer import VIEWER_COMMANDS, Viewer
 
 PROTOCOL_VERSION: Final = 1
 
 #: Every command a client may send: the station's own and each feature's. A new command is declared once (a
 #: dataclass with its fields' wire rules, relay/wire/declare.py) and listed here or in its feature's list.
-COMMANDS: Final = CommandTable((*STATION_COMMANDS, *INSPECTION_COMMANDS))
+COMMANDS: Final = CommandTable(
+    (*STATION_COMMANDS, *VIEWER_COMMANDS, *INSPECTION_COMMANDS, *ARM_COMMANDS, *STUDY_COMMANDS)
+)
 #: Robot-scoped kinds a client may send (``<robot>/<kind>``), and global identifiers a client may send.
 CLIENT_ROBOT_KINDS: Final = COMMANDS.robot_kinds
 CLIENT_GLOBAL_KINDS: Final = COMMANDS.global_kinds
@@ -69,7 +74,11 @@ MAX_SCAN_RATE: Final = 10.0
 
 #: The inspection feature's commands: the session hands them to relay.inspection.
 InspectionCommands: Final = INSPECTION_COMMANDS
-Command: TypeAlias = StationCommand | InspectionCommand
+#: The arm's commands: the session hands them to relay.control.arm_control.
+ArmCommands: Final = ARM_COMMANDS
+#: A study's commands: the session hands them to relay.study.service.
+StudyCommands: Final = STUDY_COMMANDS
+Command: TypeAlias = StationCommand | Viewer | InspectionCommand | ArmCommand | StudyCommand
 
 
 def parse_command(data: str | bytes, robots: Collection[str]) -> Command:

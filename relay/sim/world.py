@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
@@ -29,6 +29,7 @@ from .hazards import HazardSource, SensorField
 from .kinematics import DiffDriveState, DriveLimits, step
 from .planner import NoPathError, Planner
 from .spill import GrownSpill, grow_sources
+from .valve import ValveWheel
 
 logger = logging.getLogger(__name__)
 
@@ -108,6 +109,8 @@ class SimWorld:
         self.fields = build_fields(config, scene_hazards)
         #: Simulated seconds since the world was built: the sum of ``step``'s dt (tests move it by hand).
         self.time = 0.0
+        #: The valve wheel an arm turns to shut a leak (robots.yaml ``sim.valve``), if there is one.
+        self.valve = ValveWheel(config.sim.valve) if config.sim.valve is not None else None
         # The scene's spill is the demo facility's decal (scenes/facility.yaml is generated from that floor plan
         # and carries no decals of its own).
         self._spill = next((d for d in demo_facility().decals if d.kind == "spill"), None)
@@ -176,6 +179,11 @@ class SimWorld:
             self._end_navigation(sim, "cancelled", "cancelled")
         sim.command = (0.0, 0.0)
 
+    def place(self, robot: str, x: float, y: float, yaw: float) -> None:
+        """Put the robot at (x, y, yaw), stopped, its goal given up (a study task's start state)."""
+        self.cancel(robot)
+        self.robots[robot].state = DiffDriveState(x, y, yaw, 0.0, 0.0)
+
     def _end_navigation(self, sim: SimRobot, outcome: Outcome, message: str) -> None:
         goal = sim.goal
         sim.follower = None
@@ -217,7 +225,9 @@ class SimWorld:
     def readings(self, robot: str) -> list[tuple[str, float]]:
         """(sensor name, value) for each sensor of the robot that has a field."""
         sim = self.robots[robot]
-        fields = self.fields_now()
+        fields: Mapping[str, SensorField] = self.fields_now()
+        if self.valve is not None:  # a shut valve's leak fades (relay/sim/valve.py)
+            fields = self.valve.shut(fields, self.time)
         out = []
         for sensor in sim.spec.sensors:
             field = fields.get(sensor.hazard)

@@ -162,12 +162,21 @@ class AuditLog:
 class CommandAudit:
     """Records commands as their outcome is known; a relay without an audit log records nothing."""
 
-    def __init__(self, log: AuditLog | None, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        log: AuditLog | None,
+        clock: Callable[[], float] = time.monotonic,
+        outcomes: Callable[[Command, ProtocolError | None], None] = lambda command, error: None,
+    ) -> None:
+        """``outcomes``: told every command's outcome too, logged or not (a study's task counts them,
+        relay.study.service)."""
         self.log = log
         self._clock = clock
+        self._outcomes = outcomes
         self._quiet: dict[str, tuple[TokenBucket, int]] = {}  # client id -> (allowance, records not written)
 
     def command(self, client: Client, command: Command, error: ProtocolError | None) -> None:
+        self._outcomes(command, error)
         if self.log is None or isinstance(command, Ping):
             return  # pings are keep-alives, not commands
         values = {k: v for k, v in dataclasses.asdict(command).items() if k not in ("robot", "id", "sent")}

@@ -23,6 +23,7 @@ def describe_robot(robot: Robot, model_url: str | None = None) -> RobotDescripti
     return {
         "name": robot.name,
         "colour": robot.colour,
+        "team": robot.team,
         "model": model_url or robot.model or "",
         "cameras": [
             {

@@ -8,14 +8,18 @@ import logging
 from collections.abc import Callable, Mapping
 
 from ..config import Robot
+from ..control.arm_control import ArmControl
 from ..control.control import Control
 from ..fleet.events import (
+    AvatarEvent,
     CameraError,
     CancelAnswerEvent,
+    CloudEvent,
     Event,
     FrameEvent,
     GateStateEvent,
     Goal,
+    JointStateEvent,
     MapEvent,
     NavEvent,
     NavFeedbackEvent,
@@ -25,6 +29,7 @@ from ..fleet.events import (
     RobotModelEvent,
     ScanEvent,
     SensorEvent,
+    ValveEvent,
 )
 from ..fleet.latency import StageLatency
 from ..fleet.occupancy import OccupancyGrid
@@ -32,11 +37,13 @@ from ..fleet.state import FleetState
 from ..inspection.service import Inspection
 from ..media.streams import CameraStreams
 from ..session.protocol import camera_identifier
+from ..sim.valve_wire import ValveMessage, valve_message
 from .assets import GeneratedAssets
 from .messages import (
     GoalDescription,
     NavFeedback,
     PlaybackMessage,
+    avatar_message,
     nav_message,
     path_message,
     playback_message,
@@ -59,7 +66,13 @@ class EventRouter:
         inspection: Inspection,
         latency: StageLatency,
         clock: Callable[[], float],
+        arms: ArmControl,
+        clouds: Callable[[CloudEvent], None] | None = None,
+        *,
+        reached: Callable[[str], None] = lambda robot: None,
     ) -> None:
+        """``clouds``: where the robots' clouds go (the 3D map's fusion, relay.mapping); None: nowhere. ``reached``:
+        told each robot that reached a goal (a study's task, relay.study.service)."""
         self.robots = robots
         self.fleet = fleet
         self.outbox = outbox
@@ -69,8 +82,12 @@ class EventRouter:
         self.inspection = inspection
         self.latency = latency
         self.clock = clock
+        self.arms = arms
+        self.clouds = clouds
+        self.reached = reached
         self.live_map: OccupancyGrid | None = None  # from the backend's /map
         self.playback: PlaybackMessage | None = None  # the latest `playback` message (bag backend)
+        self.valve: ValveMessage | None = None  # the latest `valve` message (sim backend), for clients that connect
 
     def on_event(self, event: Event) -> None:
         if isinstance(event, PlaybackEvent):
@@ -78,6 +95,11 @@ class EventRouter:
             del fields["robot"]  # fleet-wide
             self.playback = playback_message(**fields)
             self.outbox.state(self.playback)
+        elif isinstance(event, AvatarEvent):
+            self.outbox.broadcast(avatar_message(event.client, event.name, event.stamp, event.head, event.hands))
+        elif isinstance(event, ValveEvent):
+            self.valve = valve_message(event)
+            self.outbox.broadcast(self.valve)
         elif isinstance(event, MapEvent):
             self.live_map = event.grid
             logger.info("map received: %dx%d cells, bounds %s", event.grid.width, event.grid.height, event.grid.bounds)
@@ -110,6 +132,8 @@ class EventRouter:
                 )
             )  # fmt: skip
             self.inspection.on_nav(event)
+            if event.outcome == "reached":
+                self.reached(event.robot)
         elif isinstance(event, NavFeedbackEvent):
             goal = _goal(event.goal)
             if goal == self.fleet.goal(event.robot):  # the goal it follows now, not one being given up
@@ -142,6 +166,13 @@ class EventRouter:
                 ranges=event.ranges,
             )
             self.outbox.state(scan)
+        elif isinstance(event, JointStateEvent):
+            joints = self.arms.on_joints(event)
+            if joints is not None:
+                self.outbox.broadcast(joints)
+        elif isinstance(event, CloudEvent):
+            if self.clouds is not None:
+                self.clouds(event)
         elif isinstance(event, FrameEvent):
             self.latency.stamped(event.robot, "picture", event.stamp)
             self.streams.on_frame(event, now)

@@ -14,6 +14,8 @@ client. Per client there are three lanes, drained by one writer task:
   needs every one before it back to a keyframe, so nothing is dropped from the middle: when the lane is full,
   the new packet is dropped and that stream takes nothing more until its next keyframe (the caller asks its
   encoder for one). A client that starts a video stream also waits for a keyframe. JPEG and video take turns.
+- **map**: the live 3D map's blocks (relay/station/map_lane.py), one batch at most, sent when every other lane is
+  empty.
 
 The writer awaits each send, so a client that stops reading blocks only its own writer (aiohttp waits for
 the socket to drain past its high-water mark) while the lanes above keep its memory bounded. The server keeps
@@ -40,6 +42,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from ..session.protocol import take_frame
+from .map_lane import MapLane
 
 logger = logging.getLogger(__name__)
 
@@ -113,6 +116,8 @@ class Channel:
         self.streams: dict[str, tuple[float, float]] = {}
         #: camera identifier -> codec of this client's stream of it ("jpeg" or "h264")
         self.codecs: dict[str, str] = {}
+        #: The live 3D map's blocks (relay/station/map_lane.py): sent when every other lane is empty.
+        self.map = MapLane()
 
     # -- lanes ------------------------------------------------------------------------------------
 
@@ -127,6 +132,7 @@ class Channel:
             self._state.clear()
             self._frames.clear()
             self._video.clear()
+            self.map.clear()
             asyncio.get_running_loop().create_task(
                 self.transport.close(CLOSE_NOT_READING, "client is not reading its replies")
             )
@@ -169,13 +175,20 @@ class Channel:
         self._wake.set()
         return True
 
+    def put_map(self, frames: list[tuple[bool, bytes]], version: int) -> bool:
+        """A batch of the 3D map's frames bringing the client to ``version``; False while the last one waits."""
+        if self.closed or not self.map.put(frames, version):
+            return False
+        self._wake.set()
+        return True
+
     def start_video(self, identifier: str) -> None:
         """A video stream starts (or restarts): a decoder needs a keyframe first."""
         self._broken.add(identifier)
 
     @property
     def queued(self) -> int:
-        return len(self._priority) + len(self._state) + len(self._frames) + len(self._video)
+        return len(self._priority) + len(self._state) + len(self._frames) + len(self._video) + len(self.map)
 
     def _next(self) -> tuple[bool, bytes, int] | None:
         """The next frame to send: (binary, bytes, how many messages it carries)."""
@@ -194,6 +207,8 @@ class Channel:
                 return False, *self._take_batch()
             key = next(iter(self._state))
             return False, self._state.pop(key), 1
+        if self.map:
+            return *self.map.pop(), 1
         return None
 
     def _take_batch(self) -> tuple[bytes, int]:

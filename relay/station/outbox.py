@@ -11,7 +11,7 @@ on their own lanes, except a snapshot's picture, which is a reply (:meth:`Outbox
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any, Final, cast
 
 from ..fleet.state import FleetState
@@ -35,7 +35,9 @@ from .messages import (
 logger = logging.getLogger(__name__)
 
 #: The kinds a client keeps only the newest of (relay/station/hub.py's state lane, per ``state_key``).
-STATE_KINDS: Final = frozenset({"pose", "sensor", "status", "scan", "nav", "path", "scene", "playback"})
+STATE_KINDS: Final = frozenset(
+    {"pose", "sensor", "status", "scan", "nav", "path", "scene", "playback", "joints", "avatar", "valve"}
+)
 
 
 def is_state(message: ServerMessage | Mapping[str, Any]) -> bool:
@@ -44,10 +46,17 @@ def is_state(message: ServerMessage | Mapping[str, Any]) -> bool:
     return identifier.rpartition("/")[2] in STATE_KINDS
 
 
+#: Where a copy of every JSON message goes when the session is recorded: ``record(topic, data)``, never blocking
+#: (relay/replay/recorder.py). Topics: ``/out/<identifier>`` for what every client gets, ``/out/<client id>`` for a
+#: client's own replies.
+Record = Callable[[str, bytes], None]
+
+
 class Outbox:
-    def __init__(self, hub: Hub, fleet: FleetState) -> None:
+    def __init__(self, hub: Hub, fleet: FleetState, record: Record | None = None) -> None:
         self.hub = hub
         self.fleet = fleet
+        self.record = record
         #: Whether each robot was online in the last status sent, so that a change is announced at once.
         self._was_online: dict[str, bool] = {}
 
@@ -55,21 +64,29 @@ class Outbox:
 
     def to(self, client: Client, message: ServerMessage) -> None:
         """One message to one client, in the lane of its kind."""
+        data = encode(message)
+        if self.record is not None:
+            self.record(f"/out/{client.client_id}", data)
         if is_state(message):
-            client.channel.put_state(state_key(cast(StateMessage, message)), encode(message))
+            client.channel.put_state(state_key(cast(StateMessage, message)), data)
         else:
-            client.channel.put_priority(encode(message))
+            client.channel.put_priority(data)
 
     def broadcast(self, message: ServerMessage) -> None:
         """One message to every client, encoded once, in the lane of its kind."""
+        data = encode(message)
+        if self.record is not None:
+            self.record(f"/out/{message['identifier']}", data)
         if is_state(message):
-            self.hub.publish_state(state_key(cast(StateMessage, message)), encode(message))
+            self.hub.publish_state(state_key(cast(StateMessage, message)), data)
         else:
-            self.hub.broadcast_priority(encode(message))
+            self.hub.broadcast_priority(data)
 
     def to_channels(self, channels: Iterable[Channel], message: ServerMessage) -> None:
         """One message, encoded once, to the clients of these channels (a camera's viewers)."""
         data = encode(message)
+        if self.record is not None:
+            self.record(f"/out/{message['identifier']}", data)
         for channel in channels:
             if is_state(message):
                 channel.put_state(state_key(cast(StateMessage, message)), data)

@@ -12,6 +12,7 @@ import logging
 from collections.abc import Callable, Sequence
 
 from ..backends.base import Backend
+from ..control.arm_control import ArmControl
 from ..control.control import Control
 from .outbox import Outbox
 
@@ -31,12 +32,14 @@ class Supervisor:
         robots: Sequence[str],
         backend: Backend,
         control: Control,
+        arms: ArmControl,
         outbox: Outbox,
         clock: Callable[[], float],
     ) -> None:
         self._robots = list(robots)
         self._backend = backend
         self._control = control
+        self._arms = arms
         self._outbox = outbox
         self._clock = clock
         self._next_status = -float("inf")
@@ -55,6 +58,7 @@ class Supervisor:
 
     async def tick(self, now: float) -> None:
         await self._control.expire(now)
+        await self._arms.expire(now)
         for robot in self._robots:
             if self._outbox.online_changed(robot, now):
                 self._outbox.status(robot, now)

@@ -42,6 +42,7 @@ class RobotDescription(TypedDict):
     cameras: list[CameraDescription]
     sensors: list[SensorDescription]
     limits: Limits
+    team: str | None  # robots.yaml's team, None: in none
 
 
 class Transform2D(TypedDict):

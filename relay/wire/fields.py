@@ -47,6 +47,8 @@ class ErrorCode:
     BUSY: Final = "busy"  # the snapshot budget or a work pool (planning, rendering) is full: try again shortly
     OCCUPIED: Final = "occupied"  # a goal on or next to another robot (safety.GOAL_CLEARANCE)
     UNREACHABLE: Final = "unreachable"  # nothing on the robot's side subscribes to the command's topic
+    NO_ARM: Final = "no_arm"  # an arm command for a robot without an arm (or whose arm's files are absent)
+    ARM_REFUSED: Final = "arm_refused"  # the arm's rules refuse the motion (joint limit, workspace, self-collision)
 
     ALL: Final = (
         BAD_REQUEST,
@@ -69,6 +71,8 @@ class ErrorCode:
         BUSY,
         OCCUPIED,
         UNREACHABLE,
+        NO_ARM,
+        ARM_REFUSED,
     )
 
 

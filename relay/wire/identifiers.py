@@ -11,11 +11,11 @@ from typing import Final
 ROBOT_NAME_PATTERN: Final = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,63}$")
 
 #: Robot-scoped kinds the server sends.
-SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "nav", "path", "lease", "model")
+SERVER_ROBOT_KINDS: Final = ("pose", "sensor", "status", "scan", "nav", "path", "lease", "model", "joints")
 #: Global identifiers the server sends.
 SERVER_GLOBAL_KINDS: Final = (
     "hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission",
-    "finding", "findings", "region", "operators", "alert", "schedules",
+    "finding", "findings", "region", "operators", "alert", "schedules", "voxel_map", "study", "avatar", "valve",
 )  # fmt: skip
 
 

@@ -193,6 +193,19 @@ class HelloMessage(TypedDict):
     backend: BackendMessage
 
 
+class VoxelMapMessage(TypedDict):
+    """The live 3D map's news (issue #33): ``blocks`` block records follow in ``frames`` binary frames, taking a
+    client that held the map at ``since`` (0: nothing) to ``version``; ``reset``: drop every block held first."""
+
+    identifier: Literal["voxel_map"]
+    version: int
+    since: int
+    reset: bool
+    voxel: float
+    blocks: int
+    frames: int
+
+
 #: Every message the station's own parts send as a text frame (relay/station/messages.py adds the features').
 StationMessage = (
     HelloMessage
@@ -212,6 +225,7 @@ StationMessage = (
     | LeaseMessage
     | ModelMessage
     | OperatorsMessage
+    | VoxelMapMessage
 )
 
 #: The messages of a client's state lane (relay/station/hub.py): a slow client gets only the newest of each coalescing
@@ -232,6 +246,8 @@ def state_key(message: StateMessage) -> str:
     """The coalescing key of a state message, for ``Hub.publish_state``: its identifier, except that each sensor
     of a robot keeps its own newest reading (``relay.session.protocol.sensor_key``), as docs/protocol.md promises."""
     identifier = message["identifier"]
+    if identifier == "avatar":  # a replay's operators (relay/wire/viewer.py): each keeps their newest viewpoint
+        return f"avatar/{cast(Mapping[str, Any], message)['client']}"
     robot, _, kind = identifier.partition("/")
     if kind == "sensor":
         return sensor_key(robot, cast(SensorMessage, message)["name"])
@@ -442,3 +458,11 @@ def lease_message(robot: str, *, holder: str | None, previous: str | None, reaso
 def estop_message(robots: list[str], client_id: str | None, *, latched: bool = True) -> EstopMessage:
     """Broadcast to every client when an emergency stop was carried out (``latched``) or reset (not)."""
     return {"identifier": "estop", "robots": robots, "by": client_id, "latched": latched}
+
+
+def voxel_map_message(
+    *, version: int, since: int, reset: bool, voxel: float, blocks: int, frames: int
+) -> VoxelMapMessage:
+    """What the binary frames after it carry of the voxel map (docs/protocol.md, "Voxel map blocks")."""
+    return {"identifier": "voxel_map", "version": version, "since": since, "reset": reset, "voxel": voxel,
+            "blocks": blocks, "frames": frames}  # fmt: skip

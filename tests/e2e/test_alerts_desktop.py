@@ -1,5 +1,6 @@
 """The desktop's alerts list (issue 30, item 2): an alert the relay raises appears above the findings with a count
-badge, and its Acknowledge button sends alert/ack under the page's operator name; the alert then leaves the list.
+badge, and its Acknowledge button sends alert/ack under the page's operator name; the alert then leaves the list, and
+after a reload only the others are listed again.
 However many alerts the menu lists, its E-STOP stays where the operator can click it."""
 
 from __future__ import annotations
@@ -35,3 +36,8 @@ async def test_an_alert_is_acknowledged_from_the_desktop_list(station: Station, 
     assert await page.inner_text("#findings .badge") == "4"
     acknowledged = await stored_alert(station.running, alert.id)
     assert acknowledged is not None and acknowledged.acked_by == "Tess"
+    # A reload is a new connection: the four nobody acknowledged are listed again, the acknowledged one is not.
+    await page.reload()
+    await page.wait_for_selector("#findings .badge:text('4')", timeout=30_000)
+    assert await page.locator("#findings li[data-alert]").count() == 4
+    assert await page.locator(item).count() == 0

@@ -14,7 +14,7 @@ import pytest
 from bench.bench_client_frame import fleet_yaml
 from relay.config import parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import HEADSET, SOFTWARE_GL, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient
 
 ROBOTS = 100
 
@@ -36,7 +36,7 @@ async def test_a_hundred_robots_stay_connected_drawn_and_labelled(
     hundred: RunningRelay, open_client: OpenClient
 ) -> None:
     # The full models of the nearest robots are what is checked here: asked for (SwiftShader draws none by itself).
-    client = await open_client(f"{hundred.url}/?{HEADSET}&{SOFTWARE_GL}&detail=4", "hundred", 640, 400)
+    client = await open_client(f"{hundred.url}/?{HEADSET}&{SOFTWARE_GL}&detail=4", "hundred", *VR_VIEW)
     await client.wait("s.vr.available", 30)
     await client.page.click("#enter-vr")
     await client.wait("s.presenting", 60)
@@ -62,7 +62,9 @@ async def test_a_hundred_robots_stay_connected_drawn_and_labelled(
     eye = s["eye"]
     nearest = min(s["robots"], key=lambda n: math.dist(eye, s["robots"][n]["position"]))
     assert nearest in detailed, (nearest, detailed)
-    # The labels of robots within the fade range are fully drawn.
+    # The labels of robots within the fade range are fully drawn, but for those another label covers (ghosts,
+    # decluttered as the headset sees them: src/label_declutter.js).
     near = [r for r in s["robots"].values() if math.dist(eye, r["position"]) < 10]
-    assert near and all(r["labelOpacity"] == 1 for r in near)
+    shown = [r for r in near if not r["labelGhost"]]
+    assert shown and all(r["labelOpacity"] == 1 for r in shown), near
     assert client.errors == [], client.errors

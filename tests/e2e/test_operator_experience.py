@@ -13,6 +13,7 @@ from pathlib import Path
 
 from playwright.async_api import Browser
 
+from relay.session.clients import roster
 from tests.conftest import relay_process
 from tests.helpers.browser import (
     SOFTWARE_GL,
@@ -334,7 +335,7 @@ async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent
     await ben.page.fill("#name-dialog input", "Ben")
     await ben.page.click("#name-dialog button[value=ok]")
     await wait_until(
-        lambda: sorted(station.running.relay.commands.roster().values()) == ["Ana", "Ben"], 10, "both named"
+        lambda: sorted(roster(station.running.relay.commands.clients).values()) == ["Ana", "Ben"], 10, "both named"
     )
     assert await ben.page.evaluate("() => localStorage.getItem('xr-relay-operator-name')") == "Ben"
 

@@ -19,18 +19,11 @@ from tests.conftest import ROOT, start_relay
 from tests.helpers import browser as pages
 from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, native_dialogs, wait_until
 from tests.helpers.inspection import TOKEN, operator
+from tests.helpers.schedule_form import FORM, fill_schedule
 
-FORM = "#findings .schedule-form"
 ROW = "#findings li[data-schedule='rounds']"
 DEMO_TARGETS = ("spill", "panels", "leak")
 CHANGEABLE = ("mission", "start", "repeat", "windows", "blackouts", "priority", "on_busy")
-#: A local time as a datetime-local input takes it, `seconds` from now on the page's clock.
-LOCAL_TIME = """(seconds) => {
-  const d = new Date(Date.now() + seconds * 1000);
-  const two = (n) => String(n).padStart(2, '0');
-  return `${d.getFullYear()}-${two(d.getMonth() + 1)}-${two(d.getDate())}T` +
-    `${two(d.getHours())}:${two(d.getMinutes())}:${two(d.getSeconds())}`;
-}"""
 
 
 async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
@@ -50,16 +43,10 @@ async def test_a_schedule_is_made_runs_is_changed_and_removed_from_the_desktop(
 
     schedules.change = spy  # type: ignore[method-assign,assignment]
     await client.wait("s.inspection.targets >= 3 && s.inspection.scheduleForm.visible")
-    await page.click("#findings button[data-schedule-new]")
 
     # The demo's targets, in order, on robot1, every minute from 3 s from now: listed once the relay says so, and the
     # form is cleared and closed.
-    await page.fill(f"{FORM} input[name='schedule']", "rounds")
-    for target in DEMO_TARGETS:
-        await page.check(f"{FORM} input[name='target'][value='{target}']")
-    await page.select_option(f"{FORM} select[name='robot']", "robot1")
-    await page.fill(f"{FORM} input[name='repeat']", "1")
-    await page.fill(f"{FORM} input[name='start']", await page.evaluate(LOCAL_TIME, 3))
+    await fill_schedule(page, "rounds", DEMO_TARGETS, "robot1", "1", 3)
     await page.click(f"{FORM} button[data-act='save']")
     await page.wait_for_selector(ROW)
     await client.wait("!s.inspection.scheduleForm.pending && !s.inspection.scheduleForm.open")

@@ -4,9 +4,11 @@ first gesture started its AudioContext."""
 
 from __future__ import annotations
 
+import asyncio
+import warnings
 from typing import Any
 
-from tests.helpers.browser import SOFTWARE_GL, OpenClient, Station, confirm_reset, wait_until
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, confirm_reset, wait_until
 
 #: Renders one earcon with the listener at head height looking north (-z in the scene) and the source 3 m to the
 #: given side, half a metre ahead; returns each channel's energy.
@@ -24,13 +26,39 @@ async ([kind, x]) => {
 """
 
 
+#: An offline rendering takes 0.02-0.5 s (the first loads Chromium's HRTF database), 2 s on a loaded machine.
+RENDER_BOUND_S = 60.0
+
+
+async def render(open_client: OpenClient, url: str, kind: str, x: float | None, pages: list[Client]) -> list[float]:
+    """One earcon rendered offline; a rendering that never finishes is tried once more in a new page.
+
+    Three CI runs lost a worker in this test (pytest-timeout ends the process after 300 s, without a word in the
+    run's output); the one call here without a timeout of its own is the offline rendering, which is Chromium's,
+    not the station's (its graph is the one measured): one that does not finish in 60 s is said, and tried again
+    once in a new page."""
+    for attempt in (1, 2):
+        try:
+            result: list[float] = await asyncio.wait_for(pages[-1].page.evaluate(RENDER, [kind, x]), RENDER_BOUND_S)
+            return result
+        except TimeoutError:
+            if attempt == 2:
+                raise AssertionError(f"Chromium's offline rendering of {kind} at {x} hung twice") from None
+            warnings.warn(
+                f"Chromium's offline rendering of {kind} at {x} hung for {RENDER_BOUND_S} s: a new page", stacklevel=2
+            )
+            pages.append(await open_client(url, f"sound-offline-{len(pages)}"))
+    raise AssertionError("unreachable")
+
+
 async def test_an_earcon_is_heard_from_the_robots_side(station: Station, open_client: OpenClient) -> None:
-    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "sound-offline")
+    url = f"{station.url}/?{SOFTWARE_GL}"
+    pages = [await open_client(url, "sound-offline")]
     energies: dict[str, Any] = {}
     for kind in ("warning", "estop", "goal_refused"):
-        right = await client.page.evaluate(RENDER, [kind, 3.0])
-        left = await client.page.evaluate(RENDER, [kind, -3.0])
-        everywhere = await client.page.evaluate(RENDER, [kind, None])
+        right = await render(open_client, url, kind, 3.0, pages)
+        left = await render(open_client, url, kind, -3.0, pages)
+        everywhere = await render(open_client, url, kind, None, pages)
         energies[kind] = {"right": right, "left": left, "everywhere": everywhere}
         assert min(right + left) > 1.0, f"{kind}: the earcon makes a sound ({right}, {left})"
         # HRTF: a source on the right is louder in the right ear, and the other way round. The head shadows high
@@ -40,7 +68,7 @@ async def test_an_earcon_is_heard_from_the_robots_side(station: Station, open_cl
         assert right[1] > ratio * right[0], (kind, right)
         assert left[0] > ratio * left[1], (kind, left)
         assert abs(everywhere[0] - everywhere[1]) < 0.01 * everywhere[0], "unpanned: both ears alike"
-    assert client.errors == [], client.errors
+    assert [error for client in pages for error in client.errors] == []
 
 
 async def test_the_page_plays_the_estop_earcon_after_the_first_gesture_and_mutes_by_key(

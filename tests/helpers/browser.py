@@ -59,6 +59,11 @@ SOFTWARE_GL = "quality=low&maxfps=2"
 #: The emulated headset (IWER), unpaced. Paced at 5 frames/s (?xrfps=5, xr_client/src/emulator_pace.js) a VR test
 #: took 36 s instead of 54, but test_vr_goal_and_teleop then missed its goal at the backend in 2 of 3 loaded runs.
 HEADSET = "emulate=quest3"
+#: The page size of a VR test (IWER draws both eyes into it). In CI every one of its XR frames is drawn by SwiftShader
+#: as fast as it can: a VR page alone drew 13.3 frames a second at 640x400 and 21.4 at 320x200 (the machine busy
+#: either way), and two browsers share two cores: 13 VR tests took 276 s at 640x400 and 210 s at 320x200, two at
+#: once. Rays, hovers and label sizes are the scene's, not the page's pixels. The pictures docs/ shows: 640x400.
+VR_VIEW = (640, 400) if UPDATE_DOC_IMAGES else (320, 200)
 
 
 @dataclasses.dataclass
@@ -267,3 +272,20 @@ async def snapshot_until_uploaded(
             return
         if time.monotonic() > deadline:
             raise AssertionError(f"no snapshot within {timeout} s: {answered}")
+
+
+async def open_wipe(client: Client) -> None:
+    """The open changed finding's before/after box, both images loaded and the change outlined over the after."""
+    page = client.page
+    loaded = "() => [...document.querySelectorAll('#findings .wipe img')].every((i) => i.naturalWidth > 0)"
+    await page.wait_for_selector("#findings .wipe img.before")
+    await page.wait_for_function(loaded, timeout=30_000)
+    await page.wait_for_selector("#findings .wipe .after polygon")
+
+
+async def wiped(client: Client, position: int) -> bytes:
+    """Move the before/after slider to ``position`` (0-100) and take the box's picture once the clip is painted."""
+    await client.page.locator("#findings input[data-wipe]").fill(str(position))
+    await client.wait(f"s.inspection.card.wipe === {position}")
+    await client.page.wait_for_timeout(100)  # the clip painted
+    return await client.page.locator("#findings .capture.wipe").screenshot()

@@ -5,8 +5,9 @@ from __future__ import annotations
 import asyncio
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pytest
 
@@ -23,6 +24,7 @@ from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.wsclient import TestClient
 
 TOKEN = "op"
+T = TypeVar("T")
 
 
 async def relay_with_database(fleet_config: FleetConfig, tmp_path: Path, **options: Any) -> RunningRelay:
@@ -48,16 +50,25 @@ def missions(client: TestClient) -> dict[str, dict[str, Any]]:
 
 
 async def stored_alert(running: RunningRelay, alert_id: str) -> AlertRecord | None:
-    """An alert as the relay's database holds it, read on a connection of the test's own (the relay's connection
-    is its store thread's)."""
+    """An alert as the relay's database holds it."""
+    return await _stored(running, lambda store: store.alert(alert_id))
+
+
+async def stored_finding(running: RunningRelay, finding_id: str) -> FindingRecord | None:
+    """A finding as the relay's database holds it."""
+    return await _stored(running, lambda store: store.finding(finding_id))
+
+
+async def _stored(running: RunningRelay, read: Callable[[Store], T]) -> T:
+    """Read the relay's database on a connection of the test's own (the relay's connection is its store thread's)."""
     store = running.relay.inspection.store
     assert store is not None, "the relay has no database"
 
-    def read() -> AlertRecord | None:
+    def on_own() -> T:
         with Store.open(store.name, store.images) as own:
-            return own.alert(alert_id)
+            return read(own)
 
-    return await asyncio.to_thread(read)
+    return await asyncio.to_thread(on_own)
 
 
 #: The spill's standoff, facing north (the demo round's view of it), and the simulated camera's lens.

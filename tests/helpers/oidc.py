@@ -4,10 +4,12 @@ and its PKCE verifier checked) and its keys (RS256). ``Provider.forge`` makes it
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import hashlib
 import secrets
 import time
+from collections.abc import Awaitable, Callable
 from typing import Any
 from urllib.parse import urlencode
 
@@ -29,11 +31,13 @@ class Provider:
         self.forge: str | None = None
         self.codes: dict[str, tuple[str, str, str]] = {}
         self.tokens_issued = 0
+        #: The connections the relay asked over (discovery, token, keys; not the browser's /authorize).
+        self.relay_connections: set[asyncio.BaseTransport] = set()
         self.runner: web.AppRunner | None = None
         self.issuer = ""
 
     async def start(self) -> Provider:
-        app = web.Application()
+        app = web.Application(middlewares=[self._seen])
         app.router.add_get("/.well-known/openid-configuration", self._discovery)
         app.router.add_get("/authorize", self._authorize)
         app.router.add_post("/token", self._token)
@@ -49,6 +53,14 @@ class Provider:
     async def close(self) -> None:
         if self.runner is not None:
             await self.runner.cleanup()
+
+    @web.middleware
+    async def _seen(
+        self, request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
+    ) -> web.StreamResponse:
+        if request.path != "/authorize" and request.transport is not None:
+            self.relay_connections.add(request.transport)
+        return await handler(request)
 
     async def _discovery(self, request: web.Request) -> web.Response:
         return web.json_response({

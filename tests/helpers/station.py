@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 
 import orjson
 
-from relay.backends.base import Backend
+from relay.backends.base import Backend, Vec3
 from relay.config import FleetConfig
 from relay.fleet.events import EventSink, FrameEvent
 from relay.station.core import Relay
@@ -32,6 +32,7 @@ class FakeBackend(Backend):
         #: When set, goals are "planned" until the test sets it (a slow A* in a worker, as the sim does).
         self.planning: asyncio.Event | None = None
         self.stamps: list[float | None] = []  # of each velocity: when the operator's command reached the relay
+        self.arm_calls: list[Call] = []  # apart from ``calls``: every stop of a robot stops its arm too
 
     async def start(self) -> None:
         self.calls.append(("start",))
@@ -61,6 +62,22 @@ class FakeBackend(Backend):
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
         return self.frame
+
+    async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
+        self.arm_calls.append(("arm_twist", robot, linear, angular))
+
+    async def send_arm_pose(self, robot: str, pose: str) -> None:
+        self.arm_calls.append(("arm_pose", robot, pose))
+
+    async def send_gripper(self, robot: str, command: str | float) -> None:
+        self.arm_calls.append(("gripper", robot, command))
+
+    async def stop_arm(self, robot: str) -> None:
+        self.arm_calls.append(("arm_stop", robot))
+
+    def arm_moves(self, robot: str) -> list[Call]:
+        """The arm commands and stops ``robot`` received, in order."""
+        return [c for c in self.arm_calls if c[1] == robot]
 
     def moves(self, robot: str) -> list[Call]:
         """The velocities and goals ``robot`` received, in order."""
@@ -126,11 +143,14 @@ class Station:
         """Let the hub's writers (and, with ``apart``, commands running apart: snapshots, goals) finish:
         scheduling, no timing."""
         for _ in range(200):
-            tasks = apart and any(t for c in self.relay._clients.values() for t in c.tasks)
+            tasks = [t for c in self.relay._clients.values() for t in c.tasks] if apart else []
             busy = any(c.queued for c in self.relay.hub) or tasks
             if not busy:
                 # One more turn: a writer that just took the last item may still be in its send.
                 await asyncio.sleep(0)
                 return
+            if tasks:
+                # Some wait on a worker thread (an arm twist's check): loop turns alone do not finish them.
+                await asyncio.wait(tasks, timeout=10.0)
             await asyncio.sleep(0)
         raise AssertionError("the relay did not settle in 200 loop turns")

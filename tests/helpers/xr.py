@@ -8,7 +8,7 @@ from typing import Any
 
 from playwright.async_api import TimeoutError as PlaywrightTimeout
 
-from tests.helpers.browser import HEADSET, SOFTWARE_GL, Client, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, Client, OpenClient
 
 # In the corridor, in sight of where VR starts (the relay's vantage: the corridor's west end, facing the fleet).
 GOAL = (7.0, 2.0)
@@ -239,9 +239,44 @@ async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] |
 
 
 async def enter_vr(open_client: OpenClient, url: str) -> Client:
-    client = await open_client(f"{url}/?{HEADSET}&{SOFTWARE_GL}", "vr", 640, 400)
+    # Paced at 12 XR frames a second (src/emulator_pace.js): unpaced, SwiftShader draws back to back and a VR page
+    # takes a whole core from the browser beside it; 13 VR tests took 170 s paced, 210 s unpaced, two at once. (At 5 a
+    # second a goal was dropped as stale in 2 of 3 loaded runs; goal_at_backend now sends one again, as an operator
+    # would.)
+    return await present(await open_client(f"{url}/?{HEADSET}&{SOFTWARE_GL}&xrfps=12", "vr", *VR_VIEW))
+
+
+async def present(client: Client) -> Client:
+    """Enter VR on a page opened with the emulated headset."""
     await client.wait("s.vr.available", 10)
     await client.page.click("#enter-vr")
     await client.wait("s.presenting && s.rig.position[2] !== 0")
     await client.frames(5)
     return client
+
+
+async def point_and_select(client: Client, point: list[float], hover: str) -> None:
+    """Aim the right controller at a world point until its ray names ``hover``, and pull the trigger."""
+    await aim(client, "right", point)
+    await client.wait("s.xr.hover.right === arg", 20, hover)
+    await click(client, "right")
+
+
+async def open_finding_card(client: Client, finding: str, x: float, y: float) -> dict[str, Any]:
+    """With robot1's Inspect tool, point at the pin of ``finding`` (at map x, y) and select it: its card, loaded."""
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot1")
+    await press_menu_button(client, "tool:inspect")
+    await client.wait("s.menu.tool === 'inspect'")
+    await set_menu(client, False)
+    await client.wait("arg in s.inspection.pinLooks", 30, finding)
+    pin = await client.page.evaluate("([x, y]) => window.__xrRelay.mapToScene(x, y, 1.25)", [x, y])
+    await point_and_select(client, pin, f"insp:finding:{finding}")
+    card: dict[str, Any] = await client.wait("(c => c.visible && c.image && c)(s.inspection.card)", 30)
+    return card
+
+
+async def press_card_button(client: Client, button: str) -> None:
+    """Point at a button of the open finding card and select it."""
+    points = await client.page.evaluate("() => window.__xrRelay.cardPoints(null)")
+    await point_and_select(client, points[button], f"insp:card:{button}")

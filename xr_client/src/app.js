@@ -15,6 +15,7 @@ import { MessageRouter } from './message_router.js';
 import { CommandSender } from './command_sender.js';
 import { TeleopLoop } from './teleop.js';
 import { TeleopDriver } from './teleop_driver.js';
+import { ArmJog, ArmSender } from './arm_jog.js';
 import { GoalPointer, GoalTracker } from './goal_pointer.js';
 import { SensorHistory } from './sensor_history.js';
 import { ClockSync, Latency } from './latency.js';
@@ -27,6 +28,7 @@ import { ViewModes } from './station/view_modes.js';
 import { MenuEffects } from './station/menu_effects.js';
 import { RelayEffects } from './station/relay_effects.js';
 import { FrameLoop } from './station/frame_loop.js';
+import { isVoxelFrame } from './voxel_map.js';
 
 /** @typedef {import('./command_sender.js').Goal} Goal */
 /**
@@ -37,7 +39,8 @@ import { FrameLoop } from './station/frame_loop.js';
  *   say: (text: string, toast?: boolean) => void,
  *   offerTakeOver: (goal: Goal) => void, goalTo: (robot: string, goal: Goal) => void,
  *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void,
- *   confirmVoice: (how: string) => boolean}} OperatorActions
+ *   confirmVoice: (how: string) => boolean, jogArm: (linear: import('./arm_jog.js').Vec3) => void,
+ *   grip: (state: string | number) => void}} OperatorActions
  */
 
 export class App {
@@ -74,6 +77,9 @@ export class App {
     });
     const warn = (/** @type {string} */ text) => this.views.notify(text, 'warning');
     this.driver = new TeleopDriver(this.teleop, this.sender, this.connection, warn);
+    /** The selected robot's arm moved by the operator's keys (arm_jog.js). */
+    this.armJog = new ArmJog();
+    this.armSender = new ArmSender(this.connection, notSent);
     /** @type {OperatorActions} */
     this.actions = {
       toggleMenu: () => this.menuEffects.apply(this.menu.toggle()),
@@ -91,11 +97,22 @@ export class App {
       apply: (effects) => this.menuEffects.apply(effects),
       talk: (down) => this.views.voice.talk(down),
       confirmVoice: (how) => this.views.voice.confirmByGesture(how),
+      jogArm: (linear) => this.#jogArm(linear),
+      grip: (state) => {
+        const robot = this.#armRobot();
+        if (robot) this.armSender.gripper(robot, state);
+      },
     };
     // -- the station's parts ---------------------------------------------------------------------
     const { fleet, menu } = this;
+    const voxels = this.router.voxels;
     /** @type {Stage} */
-    this.stage = new Stage(container, options, { fleet, menu, onError: (text) => this.views.notify(text, 'error') });
+    this.stage = new Stage(container, options, {
+      fleet,
+      menu,
+      voxels,
+      onError: (text) => this.views.notify(text, 'error'),
+    });
     /** @type {StationViews} */
     this.views = new StationViews(this.stage, {
       fleet,
@@ -110,8 +127,9 @@ export class App {
       sensorPanelData: (now) => this.sensorPanelData(now),
       povText: () => povCaption(this),
       latency: this.latency,
+      study: this.router.study,
+      send: (message, withId) => this.connection.send(message, withId),
     });
-    /** @type {ViewModes} */
     this.modes = new ViewModes(this.stage, this.views, menu);
     const { sender, driver, router, goalPointer } = this;
     /** @type {MenuEffects} */
@@ -155,7 +173,11 @@ export class App {
   #listen() {
     const xr = this.stage.renderer.xr;
     this.#on(this.connection, 'message', (e) => this.relay.onMessage(/** @type {CustomEvent} */ (e).detail));
-    this.#on(this.connection, 'frame', (e) => this.views.feed.push(/** @type {CustomEvent} */ (e).detail));
+    this.#on(this.connection, 'frame', (e) => {
+      const data = /** @type {CustomEvent} */ (e).detail;
+      if (isVoxelFrame(data)) this.relay.onVoxels(data);
+      else this.views.feed.push(data);
+    });
     this.#on(this.connection, 'status', () => this.relay.onLink());
     this.#on(window, 'resize', () => this.stage.resize());
     this.#on(document, 'visibilitychange', () => {
@@ -217,6 +239,28 @@ export class App {
     if (robot && this.menu.tool === 'teleop') this.driver.stick(source, x, y, robot.description, performance.now());
   }
 
+  /**
+   * The selected robot when it has an arm (joint states come from it), no latched E-STOP, and no other operator holds
+   * it (the first twist takes a free lease, as cmd_vel does; the relay refuses one held elsewhere), else null.
+   */
+  #armRobot() {
+    const name = this.menu.selected;
+    const status = this.fleet.robot(name)?.status;
+    const controller = status?.controller ?? null;
+    // An E-STOP's latch holds the arm: no twist would pass (and each would come back as an error).
+    if (!name || !this.router.arms.joints.has(name) || status?.estopped) return null;
+    return controller === null || controller === this.fleet.clientId ? name : null;
+  }
+
+  /**
+   * The arm's keys on the 100 Hz timer: twists at 20 Hz while held, one zero on release.
+   * @param {import('./arm_jog.js').Vec3} linear
+   */
+  #jogArm(linear) {
+    for (const twist of this.armJog.update(this.#armRobot(), linear, [0, 0, 0], performance.now()))
+      this.armSender.twist(twist);
+  }
+
   #teleopTick() {
     this.views.desktop.pollTeleop();
     this.driver.tick(performance.now());
@@ -224,6 +268,7 @@ export class App {
 
   #stopDriving() {
     this.driver.stop(performance.now());
+    for (const twist of this.armJog.stop(performance.now())) this.armSender.twist(twist);
   }
 
   /** What the wrist and corner sensor panels show. @param {number} now */

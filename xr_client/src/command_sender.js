@@ -167,11 +167,11 @@ export class CommandSender {
   }
 
   /**
-   * A mission made in the page: the targets in the order picked, for the fleet (each to the nearest free robot) or
-   * for one robot (inspected in that order).
-   * @param {string[]} targets @param {string | null} robot
+   * A mission made in the page: the targets in the order picked, for the fleet or a group of it (``robots``: each
+   * target to the nearest free robot of them) or for one robot (inspected in that order).
+   * @param {string[]} targets @param {string | null} robot @param {string[] | null} [robots]
    */
-  missionTargets(targets, robot) {
+  missionTargets(targets, robot, robots = null) {
     if (robot)
       return this.#send({
         identifier: 'mission/start',
@@ -179,7 +179,9 @@ export class CommandSender {
         steps: targets.map((t) => ({ inspect: t })),
         name: count(targets.length, 'target'),
       });
-    return this.#send({ identifier: 'mission/start', targets, name: count(targets.length, 'target') });
+    const name = count(targets.length, 'target');
+    if (robots) return this.#send({ identifier: 'mission/start', targets, robots, name });
+    return this.#send({ identifier: 'mission/start', targets, name });
   }
 
   /** @param {'pause' | 'resume' | 'skip' | 'abort'} action @param {string} mission */

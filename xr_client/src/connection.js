@@ -5,7 +5,7 @@
  * disconnected: `send` returns null and the caller shows it; on reconnect `hello` restores the state.
  *
  * Events: `status` (the link changed: `detail` is the ReconnectPolicy), `message` (a parsed JSON object),
- * `frame` (a binary camera frame: `detail` is its ArrayBuffer).
+ * `frame` (a binary frame, a camera's or the 3D map's block records (voxel_map.js): `detail` is its ArrayBuffer).
  *
  * The socket itself lives in a worker when the browser has one (worker_link.js): sending then never waits for the
  * main thread, and the worker repeats the held teleop command at 20 Hz (`hold`) however slow the frames are. The

@@ -32,9 +32,13 @@ export class ControlNews {
     const me = this.fleet.clientId;
     if (lease.previous === me && lease.holder && lease.holder !== me) {
       this.takenOver.add(robot);
+      // The lost lease's earcon and pulses come from this event, not from comparing the fleet's state every 100 ms:
+      // a page busy drawing (a software-rendered frame takes 100-300 ms) read "mine" and "another's" in one look and
+      // never felt the take-over (CI, 2026-11-28).
       return [
         { type: 'stop_teleop' },
         notice(`${robot} was taken over by ${displayName(lease.holder, this.fleet.names, me)}`, 'error'),
+        { type: 'cue', kind: 'lease_lost', robot },
       ];
     }
     if (lease.previous === me && lease.reason === 'expired')

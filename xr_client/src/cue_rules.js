@@ -3,8 +3,9 @@
  * When the station makes a sound or a controller pulse, from what the operator would otherwise have to look for:
  * a sensor crossing its warning level (an earcon at that robot's place, repeated while it stays over), the selected
  * robot's hazard reading as a Geiger-like tick whose rate rises with the reading (when switched on), a goal accepted
- * or refused, a lease lost to another operator, an emergency stop. Pure: the page's state is compared with the
- * previous one, time passed in (view/sound_control.js polls it; test/cue_rules.test.js).
+ * or refused, an emergency stop. Pure: the page's state is compared with the previous one, time passed in
+ * (view/sound_control.js polls it; test/cue_rules.test.js). A lease lost to another operator is a cue too, from the
+ * relay's lease event (control_news.js), which a comparison every 100 ms could miss.
  */
 
 /** A warning repeats this often while its sensor stays over its level (ms). */
@@ -18,9 +19,9 @@ export const HAPTIC_NEAR_M = 5;
 /**
  * @typedef {'warning' | 'goal_accepted' | 'goal_refused' | 'lease_lost' | 'estop'} CueKind
  * @typedef {{kind: CueKind, robot: string | null}} Cue
- * @typedef {{name: string, x: number, y: number, warnings: string[], goal: string | null, controller: string | null,
- *   latched: boolean}} RobotView the state of one robot as the rules read it: its sensors over their levels, its
- *   goal's state ('pending', 'active', 'error' or null), who holds its lease
+ * @typedef {{name: string, x: number, y: number, warnings: string[], goal: string | null, latched: boolean}} RobotView
+ *   the state of one robot as the rules read it: its sensors over their levels, its goal's state ('pending',
+ *   'active', 'error' or null)
  */
 
 /**
@@ -44,10 +45,10 @@ export class CueRules {
   nextTick = null;
 
   /**
-   * Compare the page's state with the previous one. @param {RobotView[]} robots @param {string} me this client's id
-   * @param {number} now ms @returns {Cue[]}
+   * Compare the page's state with the previous one. @param {RobotView[]} robots @param {number} now ms
+   * @returns {Cue[]}
    */
-  update(robots, me, now) {
+  update(robots, now) {
     /** @type {Cue[]} */
     const cues = [];
     const seen = new Set();
@@ -66,8 +67,6 @@ export class CueRules {
         if (before.goal === 'pending' && robot.goal === 'active')
           cues.push({ kind: 'goal_accepted', robot: robot.name });
         if (before.goal !== 'error' && robot.goal === 'error') cues.push({ kind: 'goal_refused', robot: robot.name });
-        if (before.controller === me && robot.controller !== null && robot.controller !== me)
-          cues.push({ kind: 'lease_lost', robot: robot.name });
         if (!before.latched && robot.latched) cues.push({ kind: 'estop', robot: robot.name });
       }
       this.last.set(robot.name, robot);

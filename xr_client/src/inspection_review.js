@@ -15,11 +15,21 @@
  *   | {type: 'target_pixel', target: string, capture: string, u: number, v: number}
  *   | {type: 'target_at', target: string, x: number, y: number}
  *   | {type: 'target_live', target: string, robot: string, u: number, v: number}
- *   | {type: 'mission_targets', targets: string[], robot: string | null}
+ *   | {type: 'mission_targets', targets: string[], robot: string | null, robots: string[] | null}
  *   | {type: 'findings_page', before: number | null} | {type: 'alert_ack', alert: string}} ReviewCommand
  */
 
 export const FINDING_STATUSES = /** @type {const} */ (['anomaly', 'changed', 'needs_review', 'ok', 'false_alarm']);
+/** The longest note the relay keeps (relay/inspection/wire.py MAX_NOTE). */
+export const MAX_NOTE = 1000;
+
+/**
+ * A dictated phrase added to a note: after it, one space apart, the whole within the relay's limit.
+ * @param {string} note @param {string} phrase
+ */
+export function appendNote(note, phrase) {
+  return [note.trim(), phrase.trim()].filter(Boolean).join(' ').slice(0, MAX_NOTE);
+}
 
 /**
  * A target's identifier from what an operator typed: letters, digits, - and _ (the relay's rule), at most 64.
@@ -130,12 +140,12 @@ export class InspectionReview {
   }
 
   /**
-   * The picked targets as a mission, for one robot or for the fleet (null). @param {string | null} robot
-   * @returns {ReviewCommand[]}
+   * The picked targets as a mission, for one robot, for a group of robots (``robots``) or for the fleet (both null).
+   * @param {string | null} robot @param {string[] | null} [robots] @returns {ReviewCommand[]}
    */
-  startPicked(robot) {
+  startPicked(robot, robots = null) {
     if (this.picked.length === 0) return [];
-    return [{ type: 'mission_targets', targets: [...this.picked], robot }];
+    return [{ type: 'mission_targets', targets: [...this.picked], robot, robots }];
   }
 
   /** The mission was sent: the picks are spent. */
@@ -154,13 +164,22 @@ export class InspectionReview {
   }
 
   /**
+   * The note of the open finding (or of ``finding``, for a dictation that ends after the card moved on): up to the
+   * relay's 1000 characters, trimmed; "" clears it.
+   * @param {string} note @param {string | null} [finding] @returns {ReviewCommand[]}
+   */
+  setNote(note, finding = this.selected) {
+    return finding ? [{ type: 'finding_update', finding, fields: { note: note.trim().slice(0, MAX_NOTE) } }] : [];
+  }
+
+  /**
    * Mark the open finding a false alarm, saying why (a shadow, a passer-by): the relay then compares the target's
    * next round with the image accepted before it (docs/inspection.md). An empty note leaves the note as it was.
    * @param {string} note @returns {ReviewCommand[]}
    */
   falseAlarm(note) {
     if (!this.selected) return [];
-    const why = note.trim().slice(0, 1000); // the relay's limit for a note
+    const why = note.trim().slice(0, MAX_NOTE);
     const fields = why
       ? { status: /** @type {const} */ ('false_alarm'), note: why }
       : { status: /** @type {const} */ ('false_alarm') };

@@ -65,8 +65,13 @@ function robotButtons(menu) {
   ];
 }
 
-/** Free Roam, and Robot POV for a selected robot with a camera. @param {MenuState} menu @param {ButtonContext} c */
+/**
+ * Free Roam, Robot POV for a selected robot with a camera, and what the world is drawn from: the live 3D map, the
+ * twin. (In the View row: in the Options row, eight buttons made Close too narrow to pinch by a glance.)
+ * @param {MenuState} menu @param {ButtonContext} c
+ */
 function modeButtons(menu, { selected, pov }) {
+  const options = menu.options;
   return [
     { id: 'mode:free_roam', label: 'Free Roam', group: 'mode', active: !pov, enabled: true },
     {
@@ -77,6 +82,8 @@ function modeButtons(menu, { selected, pov }) {
       active: pov,
       enabled: pov || (selected?.hasCamera ?? false),
     },
+    { id: 'opt:map3d', label: '3D map', group: 'mode', active: options.map3d, enabled: true },
+    { id: 'opt:twin', label: 'Twin', group: 'mode', active: options.twin, enabled: true },
   ];
 }
 
@@ -263,6 +270,7 @@ function optionButtons(menu) {
     { id: 'opt:overview', label: 'Overview', group: 'options', active: options.overview, enabled: true },
     { id: 'opt:scans', label: 'Scans', group: 'options', active: options.scans, enabled: true },
     { id: 'opt:dwell', label: 'Gaze press', group: 'options', active: options.dwellPress, enabled: true },
+    { id: 'opt:hand', label: 'Hand 1:1', group: 'options', active: options.handOneToOne, enabled: true },
     { id: 'opt:mute', label: 'Mute', group: 'sound', active: options.muted, enabled: true },
     {
       id: 'opt:volume-',

@@ -1,8 +1,8 @@
 // @ts-check
 /**
  * The operator's options in the menu: how VR moves and what it shows (seated, smooth move, the overview table, the
- * scans, gaze press) and the station's sound (mute, volume, hazard ticks). No rule of the menu depends on them; the
- * views read them, and the menu's buttons flip them.
+ * scans, gaze press, a held arm's hand scale) and the station's sound (mute, volume, hazard ticks). No rule of the
+ * menu depends on them; the views read them, and the menu's buttons flip them.
  */
 
 /** The menu's volume buttons step in fifths of full volume. */
@@ -17,6 +17,10 @@ export class MenuOptions {
   overview = true;
   /** Laser scans drawn around the robots that have one (an RViz user expects them). */
   scans = true;
+  /** The live 3D map from the robots' sensors drawn (view/voxel_view.js), when the relay streams one. */
+  map3d = true;
+  /** The facility's glTF twin drawn (off: the 3D map alone shows what the robots saw). */
+  twin = true;
   /** Accessibility: resting the head's gaze on a menu button presses it (off: a dwell only marks image points). */
   dwellPress = false;
   /** The station's sounds off (view/sound_control.js follows it; its header button and M set it too). */
@@ -25,6 +29,8 @@ export class MenuOptions {
   volume = 0.6;
   /** The selected robot's hazard ticks (the Geiger-like sonification), shared with the G key. */
   ticks = false;
+  /** A held arm's gripper follows the whole of the hand's motion, not half of it (arm_grab.js). */
+  handOneToOne = false;
 
   /**
    * An option's button (`opt:...`) was pressed: its switch flips, or the volume steps.
@@ -35,9 +41,12 @@ export class MenuOptions {
     else if (id === 'opt:smooth') this.smooth = !this.smooth;
     else if (id === 'opt:overview') this.overview = !this.overview;
     else if (id === 'opt:scans') this.scans = !this.scans;
+    else if (id === 'opt:map3d') this.map3d = !this.map3d;
+    else if (id === 'opt:twin') this.twin = !this.twin;
     else if (id === 'opt:dwell') this.dwellPress = !this.dwellPress;
     else if (id === 'opt:mute') this.muted = !this.muted;
     else if (id === 'opt:ticks') this.ticks = !this.ticks;
+    else if (id === 'opt:hand') this.handOneToOne = !this.handOneToOne;
     else if (id === 'opt:volume-' || id === 'opt:volume+') {
       // Steps of a fifth, landing on them whatever the slider left (0.63 - a step is 0.4, not 0.43).
       const steps = Math.round(this.volume * VOLUME_STEPS) + (id === 'opt:volume+' ? 1 : -1);

@@ -10,6 +10,10 @@ import { PoseSmoother } from './pose_smoother.js';
 import { InspectionModel } from './inspection_model.js';
 import { Freshness, LINK_STALE_MS } from './freshness.js';
 import { ControlNews } from './control_news.js';
+import { VoxelMapModel } from './voxel_map.js';
+import { ArmState } from './arm_state.js';
+import { AvatarModel } from './avatar_model.js';
+import { StudyModel } from './study_model.js';
 
 /**
  * @typedef {import('./protocol.js').ServerMessage} ServerMessage
@@ -20,13 +24,16 @@ import { ControlNews } from './control_news.js';
  *   | import('./protocol.js').TargetsChangedMessage | import('./protocol.js').MissionMessage
  *   | import('./protocol.js').FindingMessage | import('./protocol.js').RegionMessage
  *   | import('./protocol.js').FindingsMessage | import('./protocol.js').OperatorsMessage
- *   | import('./protocol.js').AlertMessage | import('./protocol.js').SchedulesMessage} GlobalMessage the messages
+ *   | import('./protocol.js').AlertMessage | import('./protocol.js').SchedulesMessage
+ *   | import('./protocol.js').VoxelMapMessage | import('./protocol.js').StudyMessage
+ *   | import('./protocol.js').AvatarMessage | import('./protocol.js').ValveMessage} GlobalMessage the messages
  *   whose identifier is a literal, so that a switch on it narrows the type
  * @typedef {'info' | 'error' | 'warning'} NoticeKind
  * @typedef {{type: 'fleet', rebuild: boolean}
  *   | {type: 'scene'}
  *   | {type: 'notify', text: string, kind: NoticeKind, toast: boolean}
  *   | {type: 'stop_teleop'}
+ *   | {type: 'cue', kind: import('./cue_rules.js').CueKind, robot: string | null}
  *   | {type: 'link'}
  *   | {type: 'model', robot: string}
  *   | {type: 'scan', robot: string, scan: import('./protocol.js').ScanMessage}
@@ -36,16 +43,18 @@ import { ControlNews } from './control_news.js';
  *   | {type: 'offer_takeover', robot: string, text: string, goal: import('./protocol.js').GoalDescription | null}
  *   | {type: 'names'}
  *   | {type: 'inspection'}
+ *   | {type: 'voxels'}
+ *   | {type: 'study'}
+ *   | {type: 'arm_refused', robot: string}
  *   | {type: 'nav', robot: string, text: string, kind: NoticeKind, mine: boolean}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,
  *   history: import('./sensor_history.js').SensorHistory, commands: import('./command_sender.js').CommandSender,
- *   inspection?: InspectionModel, latency?: import('./latency.js').Latency}} RouterModels
+ *   inspection?: InspectionModel, latency?: import('./latency.js').Latency, voxels?: VoxelMapModel,
+ *   study?: StudyModel}} RouterModels
  */
 
 export class MessageRouter {
-  /**
-   * The replayed recording (`playback`, bag backend), if any. @type {import('./protocol.js').PlaybackMessage | null}
-   */
+  /** The replayed recording (a bag, a session), if any. @type {import('./protocol.js').PlaybackMessage | null} */
   playback = null;
   /** Pose smoothing per robot, fed here and sampled by the frame loop. @type {Map<string, PoseSmoother>} */
   smoothers = new Map();
@@ -56,10 +65,11 @@ export class MessageRouter {
   hellos = 0;
   /** Each robot's planned path (map frame), while it has one. @type {Map<string, number[][]>} */
   paths = new Map();
-  /**
-   * Who latched each robot's estop, from the `estop` messages (a reset forgets it). @type {Map<string, string | null>}
-   */
+  /** Who latched each robot's estop (`estop`; a reset forgets it). @type {Map<string, string | null>} */
   estopBy = new Map();
+  /** The arms' joints, the valve they turn and their refused motions (arm_state.js). */
+  arms = new ArmState();
+  avatars = new AvatarModel(); // a replayed session's operators (avatar_model.js), drawn by view/avatar_view.js
   /** The fleet description of the last `hello`, to rebuild robot views only when it changed. */
   #robotsKey = '';
 
@@ -74,6 +84,10 @@ export class MessageRouter {
     this.latency = models.latency ?? null;
     /** Who controls a robot, and how its goals end, told to the operator (control_news.js). */
     this.control = new ControlNews(this.fleet, this.goals, this.paths);
+    /** The live 3D map's blocks (voxel_map.js): `voxel_map` here, its binary frames from the app. */
+    this.voxels = models.voxels ?? new VoxelMapModel();
+    /** The study the relay runs, if any (study_model.js): the study panel draws it. */
+    this.study = models.study ?? new StudyModel();
   }
 
   /**
@@ -103,6 +117,10 @@ export class MessageRouter {
       }
       case 'nav':
         return this.control.nav(robot, /** @type {import('./protocol.js').NavMessage} */ (message), now);
+      case 'joints':
+        if (this.fleet.robots.has(robot))
+          this.arms.joints.set(robot, /** @type {import('./protocol.js').JointsMessage} */ (message));
+        return [];
     }
     if (!this.fleet.apply(message)) return [];
     if (kind === 'pose') {
@@ -110,6 +128,7 @@ export class MessageRouter {
       this.smoother(robot).push(pose.x, pose.y, pose.yaw, now);
       this.freshness.seen(robot, now);
       this.latency?.pose(robot, pose.stamp, now);
+      if (this.playback) this.avatars.at(pose.stamp); // a replay's time: operators far from it are gone
     } else if (kind === 'status') {
       const status = /** @type {import('./protocol.js').StatusMessage} */ (message);
       this.goals.status(robot, status.goal, now);
@@ -120,19 +139,8 @@ export class MessageRouter {
     } else if (kind === 'sensor') {
       const reading = /** @type {import('./protocol.js').SensorMessage} */ (message);
       this.freshness.seen(`${robot}/${reading.name}`, now);
-      if (this.history.add(robot, reading.name, reading.value, reading.warning, now)) {
-        // An event, with the value that crossed: the panel goes on showing the live reading, and the two agree.
-        const sensor = this.fleet.robot(robot)?.description.sensors?.find((s) => s.name === reading.name);
-        const limit =
-          sensor?.warn_above != null && reading.value > sensor.warn_above
-            ? `over ${sensor.warn_above}`
-            : sensor?.warn_below != null
-              ? `under ${sensor.warn_below}`
-              : 'past its limit';
-        const then = `${reading.value.toFixed(1)} ${reading.unit} then`;
-        const text = `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${then})`;
-        return [notice(text, 'warning'), { type: 'sensor_warning', robot }];
-      }
+      if (this.history.add(robot, reading.name, reading.value, reading.warning, now))
+        return [notice(crossed(this.fleet, robot, reading), 'warning'), { type: 'sensor_warning', robot }];
     }
     return [];
   }
@@ -192,6 +200,16 @@ export class MessageRouter {
         const told = this.inspection.apply(message).map((n) => notice(n.text, n.kind));
         return [{ type: 'inspection' }, ...told];
       }
+      case 'voxel_map':
+        this.voxels.begin(message);
+        return [{ type: 'voxels' }];
+      case 'study':
+        return this.study.apply(message, now);
+      case 'avatar':
+        return this.avatars.apply(message);
+      case 'valve':
+        this.arms.valve = message;
+        return [];
       default:
         return []; // pong: the connection measures it
     }
@@ -207,6 +225,7 @@ export class MessageRouter {
     this.latency?.reset();
     this.hellos++;
     this.commands.reset();
+    this.avatars.clear();
     this.inspection.reset(); // the relay sends the targets, missions and findings again right after hello
     // Robot views are rebuilt only when the fleet description changed (a reconnect to the same relay
     // keeps them, and with them their loaded models).
@@ -214,6 +233,7 @@ export class MessageRouter {
     const rebuild = key !== this.#robotsKey;
     this.#robotsKey = key;
     if (rebuild) this.smoothers.clear();
+    this.arms.hello(rebuild);
     for (const [name, entry] of this.fleet.robots) {
       if (entry.pose) this.smoother(name).push(entry.pose.x, entry.pose.y, entry.pose.yaw, now);
       if (entry.status) this.goals.status(name, entry.status.goal, now);
@@ -244,7 +264,7 @@ export class MessageRouter {
   /** @param {import('./protocol.js').ErrorMessage} error @param {number} now @returns {RouterEffect[]} */
   #error(error, now) {
     /** @type {RouterEffect[]} */
-    const effects = this.control.refused(error);
+    const effects = [...this.control.refused(error), ...this.arms.refused(error, now)];
     this.commands.failed(error);
     if (error.id !== null) this.latency?.answered(String(error.id), now);
     if (error.id !== null && this.inspection.settle(String(error.id), false, error.message))
@@ -276,6 +296,23 @@ export class MessageRouter {
     if (!s) this.smoothers.set(name, (s = new PoseSmoother()));
     return s;
   }
+}
+
+/**
+ * A sensor's warning as an event, with the value that crossed: the panel goes on showing the live reading, and the
+ * two agree. @param {import('./fleet_model.js').FleetModel} fleet @param {string} robot
+ * @param {import('./protocol.js').SensorMessage} reading @returns {string}
+ */
+function crossed(fleet, robot, reading) {
+  const sensor = fleet.robot(robot)?.description.sensors?.find((s) => s.name === reading.name);
+  const limit =
+    sensor?.warn_above != null && reading.value > sensor.warn_above
+      ? `over ${sensor.warn_above}`
+      : sensor?.warn_below != null
+        ? `under ${sensor.warn_below}`
+        : 'past its limit';
+  const then = `${reading.value.toFixed(1)} ${reading.unit} then`;
+  return `WARNING ${robot}: ${reading.name} crossed ${limit} ${reading.unit} (${then})`;
 }
 
 /** @param {string} text @param {NoticeKind} kind @returns {RouterEffect} */

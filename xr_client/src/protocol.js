@@ -8,14 +8,14 @@ export const MAX_STREAM_FPS = 60.0;
 export const MAX_SCAN_POINTS = 360;
 export const GOAL_CLEARANCE = 0.6;
 export const FRAME_PREFIX_BYTES = 4;
-export const ERROR_CODES = Object.freeze({"AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNREACHABLE": "unreachable", "UNSUPPORTED": "unsupported"});
-export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease"]);
-export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack", "schedule/add", "schedule/update", "schedule/remove"]);
-export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model"]);
-export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert", "schedules"]);
+export const ERROR_CODES = Object.freeze({"ARM_REFUSED": "arm_refused", "AUDIT_UNAVAILABLE": "audit_unavailable", "BAD_REQUEST": "bad_request", "BUSY": "busy", "ESTOPPED": "estopped", "FORBIDDEN": "forbidden", "INTERNAL": "internal", "LEASED": "leased", "NO_ARM": "no_arm", "NO_CAMERA": "no_camera", "NO_PATH": "no_path", "OCCUPIED": "occupied", "OUT_OF_BOUNDS": "out_of_bounds", "RATE_LIMITED": "rate_limited", "RECORDING": "recording", "STALE": "stale", "SUPERSEDED": "superseded", "TOO_LARGE": "too_large", "UNKNOWN_IDENTIFIER": "unknown_identifier", "UNKNOWN_ROBOT": "unknown_robot", "UNREACHABLE": "unreachable", "UNSUPPORTED": "unsupported"});
+export const CLIENT_ROBOT_KINDS = Object.freeze(["goal_pose", "cmd_vel", "cancel", "snapshot", "stream", "lease", "arm/twist", "arm/pose", "arm/gripper"]);
+export const CLIENT_GLOBAL_KINDS = Object.freeze(["estop", "ping", "name", "playback/pause", "playback/resume", "playback/seek", "playback/rate", "viewer", "mission/start", "mission/pause", "mission/resume", "mission/skip", "mission/abort", "finding/mark", "finding/update", "region", "target/add", "findings/page", "alert/ack", "schedule/add", "schedule/update", "schedule/remove", "study/join", "study/start", "study/answer"]);
+export const SERVER_ROBOT_KINDS = Object.freeze(["pose", "sensor", "status", "scan", "nav", "path", "lease", "model", "joints"]);
+export const SERVER_GLOBAL_KINDS = Object.freeze(["hello", "ack", "error", "pong", "estop", "scene", "playback", "backend", "targets", "targets_changed", "mission", "finding", "findings", "region", "operators", "alert", "schedules", "voxel_map", "study", "avatar", "valve"]);
 export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "reset", "stop", "users"], "operator": ["drive", "inspect", "reset", "stop"], "inspector": ["inspect", "stop"], "viewer": []});
 
-/** @typedef {'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unreachable' | 'unsupported'} ErrorCodeValue */
+/** @typedef {'arm_refused' | 'audit_unavailable' | 'bad_request' | 'busy' | 'estopped' | 'forbidden' | 'internal' | 'leased' | 'no_arm' | 'no_camera' | 'no_path' | 'occupied' | 'out_of_bounds' | 'rate_limited' | 'recording' | 'stale' | 'superseded' | 'too_large' | 'unknown_identifier' | 'unknown_robot' | 'unreachable' | 'unsupported'} ErrorCodeValue */
 /** @typedef {string | number} RequestId */
 /** @typedef {'admin' | 'operator' | 'inspector' | 'viewer'} Role */
 /** @typedef {'idle' | 'teleop' | 'navigating'} Mode */
@@ -29,7 +29,7 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{name: string, identifier: string, lens: Lens, width: number, height: number, codecs: string[]}} CameraDescription */
 /** @typedef {{name: string, unit: string, warn_above: number | null, warn_below: number | null}} SensorDescription */
 /** @typedef {{linear: number, angular: number}} Limits */
-/** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits}} RobotDescription */
+/** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits, team: string | null}} RobotDescription */
 /** @typedef {{x: number, y: number, z: number, yaw: number}} Transform2D */
 /** @typedef {{url: string | null, map_to_scene: Transform2D}} SceneDescription */
 /** @typedef {{name: string, title: string, bounds: number[]}} RoomDescription */
@@ -55,6 +55,7 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{identifier: string, holder: string | null, previous: string | null, reason: LeaseReason}} LeaseMessage */
 /** @typedef {{identifier: 'estop', robots: string[], by: string | null, latched: boolean}} EstopMessage */
 /** @typedef {{identifier: 'hello', protocol: number, server: ServerInfo, client_id: string, role: Role, scene: SceneDescription, bounds: number[] | null, vantage: VantageDescription | null, rooms: RoomDescription[], robots: RobotDescription[], state: Object<string, RobotState>, playback: PlaybackMessage | null, backend: BackendMessage}} HelloMessage */
+/** @typedef {{identifier: 'voxel_map', version: number, since: number, reset: boolean, voxel: number, blocks: number, frames: number}} VoxelMapMessage */
 /** @typedef {{identifier: string, seq: number, stamp: number, encoding: string, width: number, height: number, lens: Lens, request_id: string | number | null, keyframe?: boolean, codec?: string}} FrameHeader */
 /** @typedef {{id: string, name: string, kind: string, x: number, y: number, facing: number | null}} TargetDescription */
 /** @typedef {{identifier: 'targets', targets: TargetDescription[]}} TargetsMessage */
@@ -72,9 +73,16 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{slot: number, t: number, outcome: 'started' | 'skipped' | 'missed' | 'failed', mission: string | null, reason: string}} ScheduleRunDescription */
 /** @typedef {{schedule: string, mission: Object<string, unknown>, start: number, repeat: number, windows: WindowDescription[], blackouts: BlackoutDescription[], priority: number, on_busy: 'wait' | 'skip', owner: string, updated: number, next_run: number | null, last_run: ScheduleRunDescription | null, state: 'scheduled' | 'waiting' | 'running' | 'over', reason: string}} ScheduleDescription */
 /** @typedef {{identifier: 'schedules', schedules: ScheduleDescription[]}} SchedulesMessage */
+/** @typedef {{identifier: string, stamp: number, names: string[], positions: number[], points: number[][], gripper: number[]}} JointsMessage */
+/** @typedef {{question: string, robot: string, choices: string[]}} StudyProbe */
+/** @typedef {{identifier: 'study', study: string, phase: 'waiting' | 'ready' | 'task' | 'probe' | 'questions' | 'done', participants: string[], participant: string | null, condition: string | null, settings: Object<string, string>, task: string | null, instruction: string | null, time_limit: number | null, elapsed: number, questionnaire: 'sus' | 'tlx' | null, probe: StudyProbe | null, done: number, total: number}} StudyMessage */
+/** @typedef {{position: number[], look: number[]}} ViewerHead */
+/** @typedef {{hand: 'left' | 'right', position: number[], ray: number[]}} ViewerHand */
+/** @typedef {{identifier: 'avatar', client: string, name: string | null, stamp: number, head: ViewerHead, hands: ViewerHand[]}} AvatarMessage */
+/** @typedef {{identifier: 'valve', x: number, y: number, z: number, yaw: number, radius: number, angle: number, held: boolean, shut: boolean}} ValveMessage */
 /**
  * Every text frame the relay sends.
- * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage | AlertMessage | SchedulesMessage} ServerMessage
+ * @typedef {HelloMessage | PoseMessage | SensorMessage | StatusMessage | ScanMessage | NavMessage | PathMessage | AckMessage | ErrorMessage | PongMessage | EstopMessage | SceneMessage | PlaybackMessage | BackendMessage | LeaseMessage | ModelMessage | OperatorsMessage | VoxelMapMessage | TargetsMessage | TargetsChangedMessage | MissionMessage | FindingMessage | RegionMessage | FindingsMessage | AlertMessage | SchedulesMessage | JointsMessage | StudyMessage | AvatarMessage | ValveMessage} ServerMessage
  */
 
 // Client to server
@@ -90,9 +98,10 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{identifier: 'playback/pause' | 'playback/resume', id: RequestId}} PlaybackCommand */
 /** @typedef {{identifier: 'playback/seek', id: RequestId, t: number}} PlaybackSeekCommand */
 /** @typedef {{identifier: 'playback/rate', id: RequestId, rate: number}} PlaybackRateCommand */
+/** @typedef {{identifier: 'viewer', head: ViewerHead, hands?: ViewerHand[]}} ViewerCommand */
 /** @typedef {{identifier: 'mission/start', id: RequestId, file: string}} MissionFileCommand */
 /** @typedef {{identifier: 'mission/start', id: RequestId, robot: string, steps: Object<string, unknown>[], name?: string}} MissionStepsCommand */
-/** @typedef {{identifier: 'mission/start', id: RequestId, targets: string[], name?: string}} MissionTargetsCommand */
+/** @typedef {{identifier: 'mission/start', id: RequestId, targets: string[], name?: string, robots?: string[]}} MissionTargetsCommand */
 /** @typedef {{identifier: 'mission/pause' | 'mission/resume' | 'mission/skip' | 'mission/abort', id: RequestId, mission: string}} MissionControlCommand */
 /** @typedef {{identifier: 'finding/mark', id: RequestId, capture: string, status: FindingStatus, note?: string, region?: number[][] | null}} FindingMarkCommand */
 /** @typedef {{identifier: 'finding/update', id: RequestId, finding: string, status?: FindingStatus, note?: string, region?: number[][] | null}} FindingUpdateCommand */
@@ -105,9 +114,17 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{identifier: 'schedule/add', id: RequestId, schedule: string, mission: Object<string, unknown>, start: number, repeat: number, windows: {days: string[], hours: number[]}[], blackouts?: {start: number, end: number}[], priority?: number, on_busy?: 'wait' | 'skip'}} ScheduleAddCommand */
 /** @typedef {{identifier: 'schedule/update', id: RequestId, schedule: string, mission?: Object<string, unknown>, start?: number, repeat?: number, windows?: {days: string[], hours: number[]}[], blackouts?: {start: number, end: number}[], priority?: number, on_busy?: 'wait' | 'skip'}} ScheduleUpdateCommand */
 /** @typedef {{identifier: 'schedule/remove', id: RequestId, schedule: string}} ScheduleRemoveCommand */
+/** @typedef {{identifier: string, linear: [number, number, number], angular: [number, number, number], id?: RequestId, frame?: 'base' | 'tip'}} ArmTwistCommand */
+/** @typedef {{identifier: string, id: RequestId, name: string}} ArmPoseCommand */
+/** @typedef {{identifier: string, id: RequestId, state: string}} ArmGripperStateCommand */
+/** @typedef {{identifier: string, id: RequestId, position: number}} ArmGripperPositionCommand */
+/** @typedef {{identifier: 'study/join', id: RequestId, participant: string}} StudyJoinCommand */
+/** @typedef {{identifier: 'study/start', id: RequestId}} StudyStartCommand */
+/** @typedef {{identifier: 'study/answer', id: RequestId, questionnaire: 'sus' | 'tlx', answers: number[]}} StudyQuestionnaireAnswerCommand */
+/** @typedef {{identifier: 'study/answer', id: RequestId, probe: string}} StudyProbeAnswerCommand */
 /**
  * Every text frame a client may send.
- * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand | AlertAckCommand | ScheduleAddCommand | ScheduleUpdateCommand | ScheduleRemoveCommand} ClientMessage
+ * @typedef {GoalPoseCommand | CmdVelCommand | CancelCommand | SnapshotCommand | StreamCommand | LeaseCommand | EStopCommand | PingCommand | NameCommand | PlaybackCommand | PlaybackSeekCommand | PlaybackRateCommand | ViewerCommand | MissionFileCommand | MissionStepsCommand | MissionTargetsCommand | MissionControlCommand | FindingMarkCommand | FindingUpdateCommand | RegionRequestCommand | TargetAddCommand | TargetFromPixelCommand | TargetFromLiveCommand | FindingsPageCommand | AlertAckCommand | ScheduleAddCommand | ScheduleUpdateCommand | ScheduleRemoveCommand | ArmTwistCommand | ArmPoseCommand | ArmGripperStateCommand | ArmGripperPositionCommand | StudyJoinCommand | StudyStartCommand | StudyQuestionnaireAnswerCommand | StudyProbeAnswerCommand} ClientMessage
  */
 
 const GLOBAL_IDENTIFIERS = new Set([...SERVER_GLOBAL_KINDS, ...CLIENT_GLOBAL_KINDS]);

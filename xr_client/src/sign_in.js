@@ -10,38 +10,28 @@
 /**
  * @typedef {{user: string, role: import('./protocol.js').Role, csrf: string}} Account
  * @typedef {{ok: true, account: Account} | {ok: false, reason: string}} SignInResult
+ * @typedef {{account: Account | null | undefined, provider: string | null}} WhoAmI
  */
 
 export const CSRF_HEADER = 'X-CSRF-Token';
 
 /**
- * Who this page is signed in as: an account, `null` when signed out (the relay has accounts), or `undefined` when
- * the relay has none (the operator token, as before) or cannot be asked.
- * @param {string} origin @param {typeof fetch} [fetcher] @returns {Promise<Account | null | undefined>}
+ * The relay's one answer about this page: who it is signed in as (`account`: an account, `null` when signed out on a
+ * relay with accounts, `undefined` when the relay has none, the operator token as before, or cannot be asked) and
+ * the site's OpenID Connect provider when the relay offers sign-in with it (`provider`: its issuer URL, else null).
+ * One request answers both: a page asks once (station/account_flow.js), its sign-in dialog reuses the answer.
+ * @param {string} origin @param {typeof fetch} [fetcher] @returns {Promise<WhoAmI>}
  */
 export async function whoAmI(origin, fetcher = fetch) {
   try {
     const response = await fetcher(`${origin}/whoami`, { credentials: 'same-origin' });
-    if (!response.ok) return undefined;
+    if (!response.ok) return { account: undefined, provider: null };
     const body = await response.json();
-    if (body?.accounts !== true) return undefined;
-    return body.user === null ? null : account(body);
+    const provider = typeof body?.oidc === 'string' ? body.oidc : null;
+    if (body?.accounts !== true) return { account: undefined, provider };
+    return { account: body.user === null ? null : account(body), provider };
   } catch {
-    return undefined;
-  }
-}
-
-/**
- * The site's OpenID Connect provider when the relay offers sign-in with it (its issuer URL), else null.
- * @param {string} origin @param {typeof fetch} [fetcher] @returns {Promise<string | null>}
- */
-export async function signInProvider(origin, fetcher = fetch) {
-  try {
-    const response = await fetcher(`${origin}/whoami`, { credentials: 'same-origin' });
-    const body = response.ok ? await response.json() : null;
-    return typeof body?.oidc === 'string' ? body.oidc : null;
-  } catch {
-    return null;
+    return { account: undefined, provider: null };
   }
 }
 

@@ -25,6 +25,7 @@ export const CONFIRM_MS = 8000;
  *   | {kind: 'goto', robot: string, place: Place}
  *   | {kind: 'stop', robot: string}
  *   | {kind: 'stop_all'}
+ *   | {kind: 'stop_group', group: string, robots: string[]}
  *   | {kind: 'snapshot', robot: string | null}
  *   | {kind: 'mission', action: 'start' | 'pause' | 'resume' | 'abort'}
  *   | {kind: 'teleport', robot: string}
@@ -33,7 +34,8 @@ export const CONFIRM_MS = 8000;
  *   | {kind: 'cancel'}} VoiceCommand
  * @typedef {{heard: string, command: VoiceCommand} | {heard: string, refused: string}} Parsed
  * @typedef {{robots: string[], rooms: {name: string, title: string, bounds: number[]}[],
- *   targets: {name: string, x: number, y: number}[], selected: string | null}} Vocabulary
+ *   targets: {name: string, x: number, y: number}[], selected: string | null,
+ *   groups?: {label: string, robots: string[]}[]}} Vocabulary groups: each team and room with robots (robot_groups.js)
  */
 
 const NUMBERS = new Map(
@@ -182,6 +184,22 @@ function takeRobot(w, robots) {
   return { robot: null, unknown: null, rest: w };
 }
 
+/**
+ * The group whose name the phrase holds (the longest, as for places): "stop north crew", "stop chemical storage".
+ * @param {string[]} w @param {{label: string, robots: string[]}[]} groups
+ */
+function findGroup(w, groups) {
+  const text = ` ${w.join(' ')} `;
+  /** @type {{group: {label: string, robots: string[]}, length: number} | null} */
+  let best = null;
+  for (const group of groups) {
+    const spoken = words(group.label).join(' ');
+    if (spoken && text.includes(` ${spoken} `) && (!best || spoken.length > best.length))
+      best = { group, length: spoken.length };
+  }
+  return best?.group ?? null;
+}
+
 /** @param {string[]} w @param {Vocabulary} vocab @returns {Place | null} */
 function findPlace(w, vocab) {
   /** @type {{place: Place, length: number} | null} */
@@ -237,6 +255,8 @@ export function parse(transcript, vocab) {
   }
   if (stopWord && !has('mission')) {
     if (unknown) return { heard, command: { kind: 'stop_all' } }; // a stop is never refused: an unheard robot stops all
+    const group = robot ? null : findGroup(w, vocab.groups ?? []); // a robot named is that robot, wherever it is
+    if (group) return { heard, command: { kind: 'stop_group', group: group.label, robots: group.robots } };
     const target = robot ?? vocab.selected;
     return { heard, command: target ? { kind: 'stop', robot: target } : { kind: 'stop_all' } };
   }
@@ -334,6 +354,8 @@ export function describe(command) {
       return `stop ${command.robot}`;
     case 'stop_all':
       return 'stop all robots';
+    case 'stop_group':
+      return `stop ${command.group}`;
     case 'snapshot':
       return command.robot ? `snapshot of ${command.robot}` : 'snapshot';
     case 'mission':
@@ -370,7 +392,7 @@ export class VoiceConfirm {
       this.pending = null;
       return [{ type: 'say', text: had ? `cancelled: ${describe(had.command)}` : 'nothing to cancel' }];
     }
-    if (command.kind === 'stop' || command.kind === 'stop_all') {
+    if (command.kind === 'stop' || command.kind === 'stop_all' || command.kind === 'stop_group') {
       this.pending = null; // a stop overrides whatever motion was waiting
       return [{ type: 'run', command }];
     }

@@ -24,3 +24,14 @@ test("the labels carry the times at hand: the before's from a finding about the 
   assert.deepEqual(wipeLabels(finding, held.slice(2), time), { before: 'before', after: 'after (t200)' });
   assert.deepEqual(wipeLabels({ baseline: 'c-1', created: 0 }, [], time), { before: 'before', after: 'after' });
 });
+
+test('rounds in the same minute are told apart by their seconds; minutes apart, the minute is enough', () => {
+  const at = (/** @type {number} */ created) => ({ capture: 'c-1', created });
+  const t0 = 1_800_000_000; // a whole minute
+  const near = wipeLabels({ baseline: 'c-1', created: t0 + 40 }, [at(t0 + 12)]);
+  assert.match(near.before, /^before \(\d{4}-\d\d-\d\d \d\d:\d\d:12\)$/);
+  assert.match(near.after, /^after \(\d{4}-\d\d-\d\d \d\d:\d\d:40\)$/);
+  const far = wipeLabels({ baseline: 'c-1', created: t0 + 3600 }, [at(t0 + 12)]);
+  assert.match(far.before, /^before \(\d{4}-\d\d-\d\d \d\d:\d\d\)$/);
+  assert.match(far.after, /^after \(\d{4}-\d\d-\d\d \d\d:\d\d\)$/);
+});

@@ -12,52 +12,42 @@ import {
 } from '../src/cue_rules.js';
 
 /** @param {Partial<import('../src/cue_rules.js').RobotView>} o @returns {import('../src/cue_rules.js').RobotView} */
-const robot = (o) => ({ name: 'robot1', x: 0, y: 0, warnings: [], goal: null, controller: null, latched: false, ...o });
+const robot = (o) => ({ name: 'robot1', x: 0, y: 0, warnings: [], goal: null, latched: false, ...o });
 
 test('a warning sounds when its sensor crosses, repeats while it stays over, stops when it drops', () => {
   const rules = new CueRules();
-  assert.deepEqual(rules.update([robot({})], 'me', 0), []);
-  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100), [{ kind: 'warning', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({})], 0), []);
+  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 100), [{ kind: 'warning', robot: 'robot1' }]);
   assert.deepEqual(
-    rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS - 1),
+    rules.update([robot({ warnings: ['gas'] })], 100 + WARNING_REPEAT_MS - 1),
     [],
     'not before the repeat',
   );
-  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 'me', 100 + WARNING_REPEAT_MS), [
+  assert.deepEqual(rules.update([robot({ warnings: ['gas'] })], 100 + WARNING_REPEAT_MS), [
     { kind: 'warning', robot: 'robot1' },
   ]);
-  assert.deepEqual(rules.update([robot({})], 'me', 5000), [], 'back under: quiet');
+  assert.deepEqual(rules.update([robot({})], 5000), [], 'back under: quiet');
   assert.deepEqual(
-    rules.update([robot({ warnings: ['gas'] })], 'me', 5100),
+    rules.update([robot({ warnings: ['gas'] })], 5100),
     [{ kind: 'warning', robot: 'robot1' }],
     'over again: at once',
   );
 });
 
-test('goal accepted, goal refused, lease lost, estop: once each, on the change', () => {
+test('goal accepted, goal refused, estop: once each, on the change', () => {
   const rules = new CueRules();
-  rules.update([robot({ goal: 'pending', controller: 'me' })], 'me', 0);
-  assert.deepEqual(rules.update([robot({ goal: 'active', controller: 'me' })], 'me', 10), [
-    { kind: 'goal_accepted', robot: 'robot1' },
-  ]);
-  assert.deepEqual(rules.update([robot({ goal: 'active', controller: 'me' })], 'me', 20), []);
-  assert.deepEqual(rules.update([robot({ goal: 'error', controller: 'me' })], 'me', 30), [
-    { kind: 'goal_refused', robot: 'robot1' },
-  ]);
-  assert.deepEqual(rules.update([robot({ controller: 'tess' })], 'me', 40), [{ kind: 'lease_lost', robot: 'robot1' }]);
-  assert.deepEqual(
-    rules.update([robot({ controller: null })], 'me', 50),
-    [],
-    'released by another: nothing lost by me',
-  );
-  assert.deepEqual(rules.update([robot({ latched: true })], 'me', 60), [{ kind: 'estop', robot: 'robot1' }]);
-  assert.deepEqual(rules.update([robot({ latched: true })], 'me', 70), []);
+  rules.update([robot({ goal: 'pending' })], 0);
+  assert.deepEqual(rules.update([robot({ goal: 'active' })], 10), [{ kind: 'goal_accepted', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({ goal: 'active' })], 20), []);
+  assert.deepEqual(rules.update([robot({ goal: 'error' })], 30), [{ kind: 'goal_refused', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({ latched: true })], 60), [{ kind: 'estop', robot: 'robot1' }]);
+  assert.deepEqual(rules.update([robot({ latched: true })], 70), []);
 });
 
 test('a fleet-wide estop is one earcon, not one per robot', () => {
   const rules = new CueRules();
-  rules.update([robot({}), robot({ name: 'robot2' })], 'me', 0);
-  assert.deepEqual(rules.update([robot({ latched: true }), robot({ name: 'robot2', latched: true })], 'me', 10), [
+  rules.update([robot({}), robot({ name: 'robot2' })], 0);
+  assert.deepEqual(rules.update([robot({ latched: true }), robot({ name: 'robot2', latched: true })], 10), [
     { kind: 'estop', robot: null },
   ]);
 });

@@ -48,9 +48,14 @@ test('targets are picked in order, unpicked by a second select, and sent once as
   review.togglePick('spill');
   assert.deepEqual(review.picked, ['leak', 'panels']);
   assert.deepEqual(review.startPicked('robot2'), [
-    { type: 'mission_targets', targets: ['leak', 'panels'], robot: 'robot2' },
+    { type: 'mission_targets', targets: ['leak', 'panels'], robot: 'robot2', robots: null },
   ]);
-  assert.deepEqual(review.startPicked(null)[0], { type: 'mission_targets', targets: ['leak', 'panels'], robot: null });
+  assert.deepEqual(review.startPicked(null)[0], {
+    type: 'mission_targets',
+    targets: ['leak', 'panels'],
+    robot: null,
+    robots: null,
+  });
   review.picksSent();
   assert.deepEqual(review.startPicked(null), [], 'nothing picked: no mission');
   // A target the relay no longer has is unpicked.
@@ -152,7 +157,7 @@ test('the card maps a ray hit to a capture pixel and back, keeps the aspect, and
   }
   assert.deepEqual(
     layout.buttons.filter((b) => b.active).map((b) => b.id),
-    ['status:anomaly', 'image:region'],
+    ['status:anomaly', 'image:region', 'card:image'],
   );
   const proposed = cardLayout({ status: 'ok', proposal: true, imageAction: 'region', operator: true, imageSize: size });
   assert.ok(proposed.buttons.some((b) => b.id === 'region:accept'));
@@ -324,7 +329,7 @@ test('a change has a colour of its own, and a false alarm is marked with a note 
   });
   assert.deepEqual(
     card.buttons.filter((b) => b.active).map((b) => b.id),
-    ['status:changed', 'image:region'],
+    ['status:changed', 'image:region', 'card:image'],
   );
   for (const a of card.buttons)
     for (const b of card.buttons)

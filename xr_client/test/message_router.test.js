@@ -156,6 +156,7 @@ test('losing a robot to another operator stops teleop; an expiry only informs', 
   assert.deepEqual(router.route(taken, 1), [
     { type: 'stop_teleop' },
     { type: 'notify', text: 'robot1 was taken over by c9-ffffff', kind: 'error', toast: true },
+    { type: 'cue', kind: 'lease_lost', robot: 'robot1' },
   ]);
   const expired = {
     identifier: 'robot1/lease',

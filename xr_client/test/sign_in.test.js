@@ -1,7 +1,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 
-import { claimCode, CSRF_HEADER, pairingCode, signIn, signInProvider, signOut, whoAmI } from '../src/sign_in.js';
+import { claimCode, CSRF_HEADER, pairingCode, signIn, signOut, whoAmI } from '../src/sign_in.js';
 
 /** A relay's answers by path, and every request the page made. */
 function relay(answers) {
@@ -24,26 +24,27 @@ const ORIGIN = 'http://127.0.0.1:8080';
 const ANA = { user: 'Ana', role: 'operator', csrf: 'tok-1' };
 
 test('a page asks who it is: an account, signed out, or a relay without accounts', async () => {
-  assert.deepEqual(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: true, ...ANA }] }).fetcher), ANA);
-  assert.equal(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: true, user: null }] }).fetcher), null);
+  /** @param {Record<string, [number, any]>} answers */
+  const who = async (answers) => (await whoAmI(ORIGIN, relay(answers).fetcher)).account;
+  assert.deepEqual(await who({ '/whoami': [200, { accounts: true, ...ANA }] }), ANA);
+  assert.equal(await who({ '/whoami': [200, { accounts: true, user: null }] }), null);
   // No accounts: the operator token, as before (also an older relay without the route).
-  assert.equal(await whoAmI(ORIGIN, relay({ '/whoami': [200, { accounts: false }] }).fetcher), undefined);
-  assert.equal(await whoAmI(ORIGIN, relay({}).fetcher), undefined);
+  assert.equal(await who({ '/whoami': [200, { accounts: false }] }), undefined);
+  assert.equal(await who({}), undefined);
   const broken = async () => {
     throw new TypeError('network');
   };
-  assert.equal(await whoAmI(ORIGIN, broken), undefined);
+  assert.deepEqual(await whoAmI(ORIGIN, broken), { account: undefined, provider: null });
 });
 
 test("the site's sign-in provider is offered when the relay names one, and only then", async () => {
   const issuer = 'https://id.site.example/realms/plant';
   const signedOut = { accounts: true, user: null };
-  assert.equal(
-    await signInProvider(ORIGIN, relay({ '/whoami': [200, { ...signedOut, oidc: issuer }] }).fetcher),
-    issuer,
-  );
-  assert.equal(await signInProvider(ORIGIN, relay({ '/whoami': [200, { ...signedOut, oidc: null }] }).fetcher), null);
-  assert.equal(await signInProvider(ORIGIN, relay({}).fetcher), null);
+  /** @param {Record<string, [number, any]>} answers */
+  const provider = async (answers) => (await whoAmI(ORIGIN, relay(answers).fetcher)).provider;
+  assert.equal(await provider({ '/whoami': [200, { ...signedOut, oidc: issuer }] }), issuer);
+  assert.equal(await provider({ '/whoami': [200, { ...signedOut, oidc: null }] }), null);
+  assert.equal(await provider({}), null);
 });
 
 test('signing in sends JSON and takes the account; a refusal is the relay own words', async () => {

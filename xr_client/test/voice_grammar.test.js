@@ -115,6 +115,34 @@ test('stop names a robot, or the selected one, or (none selected) all of them', 
   assert.deepEqual(command('robot two stop go to plumbing'), { kind: 'stop', robot: 'robot2' });
 });
 
+test('stop names a group: a team or a room with robots in it; a robot named is that robot', () => {
+  const groups = {
+    ...SELECTED,
+    groups: [
+      { label: 'North crew', robots: ['robot1', 'robot2'] },
+      { label: 'Corridor', robots: ['robot1', 'robot2', 'robot3'] },
+      { label: 'Chemical storage', robots: ['robot3'] },
+    ],
+  };
+  const north = { kind: 'stop_group', group: 'North crew', robots: ['robot1', 'robot2'] };
+  assert.deepEqual(command('stop north crew', groups), north);
+  assert.deepEqual(command('stop team North Crew now', groups), north);
+  assert.deepEqual(command('halt the chemical storage', groups), {
+    kind: 'stop_group',
+    group: 'Chemical storage',
+    robots: ['robot3'],
+  });
+  assert.deepEqual(command('stop robot one in the corridor', groups), { kind: 'stop', robot: 'robot1' });
+  assert.deepEqual(command('stop', groups), { kind: 'stop', robot: 'robot3' }, 'no group named: the selected robot');
+  assert.deepEqual(command('stop all', groups), { kind: 'stop_all' });
+  const group = command('stop north crew', groups);
+  assert.equal(describe(group), 'stop North crew');
+  assert.equal(moves(group), false);
+  // A stop never waits for a confirmation, a group's neither.
+  const v = new VoiceConfirm();
+  assert.deepEqual(v.hear(parse('stop north crew', groups), 0), [{ type: 'run', command: north }]);
+});
+
 test('select, snapshot, views, teleport, missions', () => {
   assert.deepEqual(command('robot two'), { kind: 'select', robot: 'robot2' });
   assert.deepEqual(command('select robot 3'), { kind: 'select', robot: 'robot3' });

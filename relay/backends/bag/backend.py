@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import math
 from collections.abc import Callable, Sequence
@@ -10,9 +11,10 @@ from collections.abc import Callable, Sequence
 from ...cli.options import BagOptions
 from ...config import FleetConfig
 from ...errors import BackendUnavailable, CommandRejected
-from ...fleet.events import EventSink, FrameEvent, RobotModelEvent
+from ...fleet.events import CloudEvent, EventSink, FrameEvent, RobotModelEvent
 from ...session.protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
 from ..base import Backend
+from ..cloud_intake import CloudIntake, cloud_intake
 from .binding import BagContents, BagPlan, BagSpec, _lookup, bind_bags, parse_bag_specs
 from .cameras import BagCameras
 from .clock import PlaybackClock
@@ -44,6 +46,7 @@ class BagBackend(Backend):
         self._bound: dict[str, BagSpec] = {}
         self._player: Player | None = None
         self._cameras = BagCameras(sink)
+        self._clouds: CloudIntake | None = None  # the robots' recorded clouds, with robots.yaml's cloud
 
     # -- lifecycle --------------------------------------------------------------------------------
 
@@ -70,7 +73,14 @@ class BagBackend(Backend):
         fit robots.yaml; nothing keeps running then.
         """
         loop = asyncio.get_running_loop()
-        readers = [_BagReader(spec, loop) for spec in self._specs]
+
+        def emit(event: CloudEvent) -> None:  # the intake's thread to the loop
+            if not loop.is_closed():
+                with contextlib.suppress(RuntimeError):  # closed meanwhile (shutdown)
+                    loop.call_soon_threadsafe(self.sink, event)
+
+        self._clouds = cloud_intake(self.config, emit)
+        readers = [_BagReader(spec, loop, self._clouds) for spec in self._specs]
         for reader in readers:
             reader.start_thread()
         try:
@@ -78,6 +88,8 @@ class BagBackend(Backend):
             plans = bind_bags(self.config, self._specs, contents)
         except BaseException:
             await self._close(readers)
+            if self._clouds is not None:
+                self._clouds.stop()
             raise
         self._readers, self._plans = readers, plans
         duration = max(c.duration for c in contents)
@@ -89,7 +101,9 @@ class BagBackend(Backend):
                 duration,
             )
         clock = PlaybackClock(loop.time, duration, self.options.rate, start)
-        player = self._player = Player(clock, readers, self.sink, self._cameras, loop_at_end=self.options.loop)
+        player = self._player = Player(
+            clock, readers, self.sink, self._cameras, loop_at_end=self.options.loop, clouds=self._clouds
+        )
         for spec, plan in zip(self._specs, plans, strict=True):
             for topics in plan.robots:
                 self._bound[topics.robot.name] = spec
@@ -120,6 +134,8 @@ class BagBackend(Backend):
         readers, self._readers = self._readers, []
         await self._close(readers)
         self._cameras.close()
+        if self._clouds is not None:
+            await asyncio.to_thread(self._clouds.stop)
 
     @staticmethod
     async def _close(readers: Sequence[_BagReader]) -> None:
@@ -162,15 +178,9 @@ class BagBackend(Backend):
     def health(self) -> dict[str, object]:
         if self._player is None:
             return {}
-        clock = self._player.clock
         return {
-            "playback": {
-                "position": round(clock.position(), 3),
-                "duration": round(clock.duration, 3),
-                "rate": clock.rate,
-                "paused": clock.paused,
-                "loop": self.options.loop,
-            },
+            **(self._clouds.health() if self._clouds is not None else {}),
+            "playback": self._player.health(),
             # Names, not paths: /healthz answers anyone, and a path says where the relay keeps its files.
             "bags": [
                 {"name": spec.path.name, "robots": [t.robot.name for t in plan.robots]}

@@ -7,7 +7,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...config import Camera, FleetConfig, Robot, Sensor
+from ...config import Camera, CloudSource, FleetConfig, Robot, Sensor
 from ...errors import BackendUnavailable
 from ...ros.rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
 from ...session.protocol import ROBOT_NAME_PATTERN
@@ -85,6 +85,10 @@ class RobotTopics:
     sensors: tuple[tuple[Sensor, str], ...] = ()
     cameras: tuple[tuple[Camera, str], ...] = ()
     missing: tuple[str, ...] = ()  # what robots.yaml asks for that the bag lacks, for the log
+    #: Its cloud sources (robots.yaml ``clouds``): the source, its topic, and a depth image's CameraInfo topic.
+    clouds: tuple[tuple[CloudSource, str, str | None], ...] = ()
+    #: /tf_static, read for the clouds' frames (also with a pose source other than tf).
+    cloud_static: str | None = None
 
     def describe(self) -> str:
         parts = [f"pose {self.pose}"]
@@ -92,6 +96,7 @@ class RobotTopics:
             parts.append(f"scan {self.scan}")
         parts += [f"{s.name} {t}" for s, t in self.sensors]
         parts += [f"camera {c.name} {t}" for c, t in self.cameras]
+        parts += [f"cloud {c.name} {t}" for c, t, _ in self.clouds]
         if self.missing:
             parts.append("not in the bag: " + ", ".join(self.missing))
         return "; ".join(parts)
@@ -175,7 +180,23 @@ def _robot_topics(config: FleetConfig, robot: Robot, spec: BagSpec, contents: Ba
     cameras = [
         (c, t) for c in robot.cameras if (t := found(c.topic, f"camera {c.name}", image_type(c.compressed))) is not None
     ]
-    return RobotTopics(robot, pose, tf_static, scan, tuple(sensors), tuple(cameras), tuple(missing))
+    clouds: list[tuple[CloudSource, str, str | None]] = []
+    for cloud in robot.clouds if config.cloud is not None else ():
+        kind = "sensor_msgs/msg/PointCloud2" if cloud.kind == "pointcloud2" else image_type(False)
+        topic = found(cloud.topic, f"cloud {cloud.name}", kind)
+        info = None
+        if cloud.camera_info is not None:
+            info = found(cloud.camera_info, f"cloud {cloud.name}'s camera_info", "sensor_msgs/msg/CameraInfo")
+        if topic is not None:
+            clouds.append((cloud, topic, info))
+    cloud_static = tf_static
+    if cloud_static is None and any(cloud.mount is None for cloud, _, _ in clouds):
+        cloud_static = _lookup(f"{robot.namespace}/tf_static", robot, topics, strip)
+        if cloud_static is not None:
+            _check_type(spec, cloud_static, topics[cloud_static], POSE_TYPES["tf"], f"{robot.name}'s static TF")
+    return RobotTopics(
+        robot, pose, tf_static, scan, tuple(sensors), tuple(cameras), tuple(missing), tuple(clouds), cloud_static
+    )
 
 
 def bind_bags(config: FleetConfig, specs: Sequence[BagSpec], contents: Sequence[BagContents]) -> list[BagPlan]:

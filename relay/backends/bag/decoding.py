@@ -7,12 +7,13 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from ...config import Camera, Sensor
 from ...fleet.events import (
     Event,
     MapEvent,
+    PoseEvent,
     SensorEvent,
 )
 from ...fleet.scan import scan_event
@@ -22,7 +23,8 @@ from ...ros.rosmsg import (
     message_stamp,
     pose_event,
 )
-from .binding import BagPlan
+from ..cloud_intake import CloudIntake
+from .binding import BagPlan, RobotTopics
 from .tf_chain import _TfChain
 
 logger = logging.getLogger(__name__)
@@ -42,7 +44,30 @@ class _Image:
     message: Any  # a rosbags sensor_msgs Image or CompressedImage; never mutated
 
 
-Payload = Event | _Image
+@dataclass(frozen=True, slots=True)
+class _Cloud:
+    """A recorded cloud (PointCloud2 or depth Image), for relay/backends/cloud_intake.py at its playback time."""
+
+    robot: str
+    name: str  # its source's, robots.yaml ``clouds``
+    message: Any  # rosbags' message; never mutated
+
+
+class StaticSink(Protocol):
+    def add_static(self, message: Any) -> None: ...
+
+
+class _CloudStatics:
+    """/tf_static to the cloud intake's frames of one robot (beside its _TfChain, with pose source tf)."""
+
+    def __init__(self, clouds: CloudIntake, robot: str) -> None:
+        self.clouds, self.robot = clouds, robot
+
+    def add_static(self, message: Any) -> None:
+        self.clouds.transforms(self.robot, message)
+
+
+Payload = Event | _Image | _Cloud
 Key = tuple[str, ...]
 Handler = Callable[[Any, float], "Payload | None"]
 
@@ -84,6 +109,22 @@ def _camera_handler(robot: str, camera: Camera) -> Handler:
     return handle
 
 
+def _cloud_handler(robot: str, name: str) -> Handler:
+    def handle(message: Any, log_time: float) -> Payload:
+        return _Cloud(robot, name, message)
+
+    return handle
+
+
+def _camera_info_handler(clouds: CloudIntake, robot: str, name: str) -> Handler:
+    """A depth source's CameraInfo, kept by the intake as the bag is read (no payload: nothing to play)."""
+
+    def handle(message: Any, log_time: float) -> None:
+        clouds.camera_info(robot, name, message)
+
+    return handle
+
+
 def _map_handler(topic: str) -> Handler:
     def handle(message: Any, log_time: float) -> Payload:
         return map_event(message, message_stamp(message, log_time), topic)
@@ -94,12 +135,14 @@ def _map_handler(topic: str) -> Handler:
 class _Decoder:
     """Reader thread: routes each message of a plan's topics to the handlers that turn it into payloads."""
 
-    def __init__(self, plan: BagPlan, name: str) -> None:
+    def __init__(self, plan: BagPlan, name: str, clouds: CloudIntake | None = None) -> None:
         self.name = name
+        self.clouds = clouds
         self.routes: dict[str, list[tuple[Key, Handler]]] = collections.defaultdict(list)
-        self.statics: dict[str, list[_TfChain]] = collections.defaultdict(list)
+        self.statics: dict[str, list[StaticSink]] = collections.defaultdict(list)
         self.chains: list[_TfChain] = []
         self._warned: set[str] = set()
+        self.robots = [topics.robot.name for topics in plan.robots]
         for topics in plan.robots:
             robot = topics.robot.name
             if topics.robot.pose.source == "tf":
@@ -116,12 +159,27 @@ class _Decoder:
                 self.routes[topic].append((("sensor", robot, sensor.name), _sensor_handler(robot, sensor)))
             for camera, topic in topics.cameras:
                 self.routes[topic].append((("image", robot, camera.name), _camera_handler(robot, camera)))
+            if clouds is not None:
+                self._add_clouds(clouds, topics)
         if plan.map_topic is not None:
             self.routes[plan.map_topic].append((("map",), _map_handler(plan.map_topic)))
+
+    def _add_clouds(self, clouds: CloudIntake, topics: RobotTopics) -> None:
+        """Routes of a robot's clouds (payloads played at their time) and CameraInfos (kept by the intake now)."""
+        robot = topics.robot.name
+        for source, topic, info in topics.clouds:
+            self.routes[topic].append((("cloud", robot, source.name), _cloud_handler(robot, source.name)))
+            if info is not None:
+                keep = _camera_info_handler(clouds, robot, source.name)
+                self.routes[info].append((("camera_info", robot, source.name), keep))
+        if topics.cloud_static is not None:
+            self.statics[topics.cloud_static].append(_CloudStatics(clouds, robot))
 
     def reset(self) -> None:
         for chain in self.chains:
             chain.reset()
+        if self.clouds is not None:
+            self.clouds.forget_poses(self.robots)
 
     def warn_once(self, topic: str, what: str, exc: BaseException) -> None:
         if topic not in self._warned:
@@ -138,11 +196,13 @@ class _Decoder:
                 continue
             if payload is not None:
                 out.append((key, payload))
+                if isinstance(payload, PoseEvent) and self.clouds is not None:
+                    self.clouds.pose(payload)  # read ahead of playback: the poses around a cloud's stamp are known
         return out
 
 
 def _size(payload: Payload) -> int:
-    if isinstance(payload, _Image):
+    if isinstance(payload, _Image | _Cloud):
         return len(payload.message.data)
     if isinstance(payload, MapEvent):
         return int(payload.grid.occupied.size)

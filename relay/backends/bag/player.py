@@ -1,20 +1,24 @@
-"""Playback on the loop: each bag's events handed on when the clock reaches them, the position reported, seeks, the
-end of the recordings (start over or pause)."""
+"""Playback on the loop: each recording's events handed on when the clock reaches them, the position reported, seeks,
+the end of the recordings (start over or pause). The recordings are rosbag2 bags (relay/backends/bag/reader.py) or a
+station session (relay/replay/reader.py): anything read ahead as a :class:`~relay.backends.bag.read_ahead.ReadAhead`
+is."""
 
 from __future__ import annotations
 
 import asyncio
 import logging
 from collections.abc import Sequence
+from typing import Any
 
 from ...errors import CommandRejected
-from ...fleet.events import EventSink, PlaybackEvent, PoseEvent, ScanEvent
+from ...fleet.events import AvatarEvent, EventSink, PlaybackEvent, PoseEvent, ScanEvent
 from ...fleet.scan import RateCap
 from ...session.protocol import MAX_SCAN_RATE, ErrorCode
+from ..cloud_intake import CloudIntake
 from .cameras import BagCameras
 from .clock import PlaybackClock
-from .decoding import Payload, _Image
-from .reader import _BagReader
+from .decoding import Payload, _Cloud, _Image
+from .read_ahead import ReadAhead
 
 logger = logging.getLogger(__name__)
 
@@ -41,32 +45,35 @@ async def _wait(event: asyncio.Event, delay: float | None) -> None:
 
 
 class Player:
-    """The opened bags played by one clock: one task per bag and a ticker, all on the event loop."""
+    """The opened recordings played by one clock: one task per recording and a ticker, all on the event loop."""
 
     def __init__(
         self,
         clock: PlaybackClock,
-        readers: Sequence[_BagReader],
+        readers: Sequence[ReadAhead[Any, Any]],
         sink: EventSink,
         cameras: BagCameras,
         *,
         loop_at_end: bool,
+        clouds: CloudIntake | None = None,
     ) -> None:
         self.clock = clock
         self._readers = readers
         self._sink = sink
         self._cameras = cameras
         self._loop_at_end = loop_at_end
+        self._clouds = clouds
         self._tasks: list[asyncio.Task[None]] = []
         self._ticker_wake = asyncio.Event()
-        self._last_pose: dict[str, PoseEvent] = {}
+        #: What a paused recording sends again once a second: each robot's pose and each operator's viewpoint.
+        self._last: dict[tuple[str, str], PoseEvent | AvatarEvent] = {}
         self._scan_cap = RateCap(MAX_SCAN_RATE)
 
     def start(self) -> None:
         """Play every bag (each already told where to start), and report where playback is."""
         loop = asyncio.get_running_loop()
         for reader in self._readers:
-            self._tasks.append(loop.create_task(self._play(reader), name=f"bag-play-{reader.spec.path.name}"))
+            self._tasks.append(loop.create_task(self._play(reader), name=f"play-{reader.name}"))
         self._tasks.append(loop.create_task(self._tick(), name="bag-playback"))
         self._emit_playback()  # before any client connects: the first hello already says where playback is
 
@@ -94,10 +101,21 @@ class Player:
         logger.info("playback %s%s", action, f" {value:g}" if value is not None else "")
         self._changed()
 
+    def health(self) -> dict[str, object]:
+        """Where the playback is, as /healthz shows it (the bag and replay backends alike)."""
+        clock = self.clock
+        return {
+            "position": round(clock.position(), 3),
+            "duration": round(clock.duration, 3),
+            "rate": clock.rate,
+            "paused": clock.paused,
+            "loop": self._loop_at_end,
+        }
+
     def _restart(self, position: float) -> None:
         self.clock.seek(position)
         self._scan_cap.clear()
-        self._last_pose.clear()  # the paused re-report must not resend a pose from before the seek
+        self._last.clear()  # the paused re-report must not resend a pose from before the seek
         self._cameras.forget_latest()
         for reader in self._readers:
             reader.restart(position)
@@ -113,8 +131,8 @@ class Player:
         clock = self.clock
         self._sink(PlaybackEvent(clock.position(), clock.duration, clock.rate, clock.paused, self._loop_at_end))
 
-    async def _play(self, reader: _BagReader) -> None:
-        """Deliver one bag's events when the clock reaches them (one task per bag)."""
+    async def _play(self, reader: ReadAhead[Any, Any]) -> None:
+        """Deliver one recording's events when the clock reaches them (one task per recording)."""
         clock = self.clock
         loop = asyncio.get_running_loop()
         slice_end = loop.time() + DELIVERY_SLICE
@@ -141,8 +159,14 @@ class Player:
         if isinstance(payload, _Image):
             self._cameras.offer(payload)
             return
+        if isinstance(payload, _Cloud):
+            if self._clouds is not None:  # at its rate, decoded on the intake's thread
+                self._clouds.offer(payload.robot, payload.name, payload.message)
+            return
         if isinstance(payload, PoseEvent):
-            self._last_pose[payload.robot] = payload
+            self._last["pose", payload.robot] = payload
+        elif isinstance(payload, AvatarEvent):
+            self._last["avatar", payload.client] = payload
         elif isinstance(payload, ScanEvent) and not self._scan_cap.allow(
             payload.robot, asyncio.get_running_loop().time()
         ):
@@ -170,9 +194,10 @@ class Player:
                 next_report = now + PLAYBACK_REPORT_PERIOD
                 self._emit_playback()
                 if clock.paused:
-                    # A paused recording still shows its robots where they are, so they stay online.
-                    for pose in self._last_pose.values():
-                        self._sink(pose)
+                    # A paused recording still shows its robots where they are, so they stay online, and its
+                    # operators where they were, for a page that connects meanwhile.
+                    for last in self._last.values():
+                        self._sink(last)
             timeout = next_report - now
             if not clock.paused:
                 timeout = min(timeout, (clock.duration - clock.position()) / clock.rate)

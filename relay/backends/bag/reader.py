@@ -1,160 +1,50 @@
-"""One reader thread per bag: messages to events, in time order, into a bounded buffer ahead of playback."""
+"""One reader thread per bag (relay/backends/bag/read_ahead.py): messages to events, in time order, into a bounded
+buffer ahead of playback."""
 
 from __future__ import annotations
 
 import asyncio
-import collections
-import concurrent.futures
 import contextlib
 import functools
 import logging
-import threading
 from collections.abc import Callable
 from typing import Any
 
 from ...errors import BackendUnavailable
+from ..cloud_intake import CloudIntake
 from .binding import BagContents, BagPlan, BagSpec
 from .decoding import DEFAULT_TYPESTORE, Key, Payload, _Decoder, _Item, _size
+from .read_ahead import ReadAhead
 
 logger = logging.getLogger(__name__)
 
 #: After a seek, the reader starts this much earlier (s) to know the state at the target: the latest pose,
 #: scan, sensor values and image, and TF's map->odom (AMCL publishes it at ~10 Hz, with gaps of ~3 s).
 PREROLL = 3.0
-#: The reader stays at most this many events, image bytes, or seconds of the recording ahead of playback, and
-#: refills once half of that was played: decoding in chunks, at the pace of playback, never the whole bag.
-MAX_BUFFERED_ITEMS = 5000
-MAX_BUFFERED_BYTES = 64 * 1024 * 1024
-MAX_BUFFERED_SECONDS = 10.0
 
 
-class _BagReader:
-    """One bag: its reader thread and the bounded buffer of events it fills ahead of playback.
+class _BagReader(ReadAhead[BagContents, BagPlan]):
+    """One bag: its reader thread (:class:`ReadAhead`) owning the rosbags reader and the decoder."""
 
-    ``_cond`` guards ``_buffer``, ``_bytes``, ``_generation``, ``_start``, ``_plan`` and ``_stopped``. The thread
-    owns the rosbags reader and the decoder. The loop calls :meth:`play`, :meth:`restart`, :meth:`peek`,
-    :meth:`pop` and :meth:`close`, which hold the lock only for a few operations and never wait. Every seek
-    starts a new generation: the buffer is emptied and the thread abandons its pass and reads from the target.
-    """
-
-    def __init__(self, spec: BagSpec, loop: asyncio.AbstractEventLoop) -> None:
+    def __init__(self, spec: BagSpec, loop: asyncio.AbstractEventLoop, clouds: CloudIntake | None = None) -> None:
+        super().__init__(spec.path.name, spec.shown, loop)
         self.spec = spec
-        self.opened: concurrent.futures.Future[BagContents] = concurrent.futures.Future()
-        #: Set on the loop when the buffer gains an item after being empty, and on every playback change.
-        self.ready = asyncio.Event()
+        self._clouds = clouds
         self.contents: BagContents | None = None
-        self._loop = loop
-        self._cond = threading.Condition()
-        self._buffer: collections.deque[_Item] = collections.deque()
-        self._bytes = 0
-        self._generation = 0
-        self._start = 0.0
-        self._plan: BagPlan | None = None
-        self._stopped = False
-        self._thread = threading.Thread(target=self._run, name=f"bag-{spec.path.name}", daemon=True)
+        self._reader: Any = None
+        self._deserializers: dict[str, Callable[[bytes], Any]] = {}
+        self._decoder: _Decoder | None = None
+        self._connections: list[Any] = []
 
-    # -- loop side --------------------------------------------------------------------------------
+    def _cannot_read(self, exc: BaseException) -> BackendUnavailable:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        return BackendUnavailable(f"{self.spec.shown}: cannot read this bag: {reason}")
 
-    def start_thread(self) -> None:
-        self._thread.start()
+    def _close_file(self) -> None:
+        if self._reader is not None:
+            self._reader.close()
 
-    def play(self, plan: BagPlan, start: float) -> None:
-        with self._cond:
-            self._plan = plan
-            self._start = start
-            self._generation += 1
-            self._cond.notify_all()
-
-    def restart(self, start: float) -> None:
-        """Drop what was read ahead and read again from ``start`` (s from the bag's first message)."""
-        with self._cond:
-            self._generation += 1
-            self._start = start
-            self._buffer.clear()
-            self._bytes = 0
-            self._cond.notify_all()
-        self.ready.set()
-
-    def peek(self) -> _Item | None:
-        with self._cond:
-            return self._buffer[0] if self._buffer else None
-
-    def pop(self) -> None:
-        with self._cond:
-            if self._buffer:
-                self._bytes -= self._buffer.popleft().size
-            if self._room(0.5):
-                self._cond.notify_all()
-
-    def close(self) -> None:
-        with self._cond:
-            self._stopped = True
-            self._cond.notify_all()
-
-    def join(self, timeout: float) -> None:
-        if self._thread.is_alive():
-            self._thread.join(timeout)
-
-    # -- reader thread ----------------------------------------------------------------------------
-
-    def _wake(self) -> None:
-        # The loop may be closed already at shutdown: then nobody waits.
-        with contextlib.suppress(RuntimeError):
-            self._loop.call_soon_threadsafe(self.ready.set)
-
-    def _current(self, generation: int) -> bool:
-        return self._generation == generation and not self._stopped
-
-    def _room(self, fraction: float) -> bool:
-        """Whether the buffer is below ``fraction`` of its limits (call with ``_cond`` held)."""
-        if not self._buffer:
-            return True
-        ahead = self._buffer[-1].position - self._buffer[0].position
-        return (
-            len(self._buffer) < MAX_BUFFERED_ITEMS * fraction
-            and self._bytes < MAX_BUFFERED_BYTES * fraction
-            and ahead < MAX_BUFFERED_SECONDS * fraction
-        )
-
-    def _push(self, generation: int, item: _Item) -> bool:
-        """Append ``item`` once there is room; False when a seek or stop made this pass obsolete."""
-        with self._cond:
-            while self._current(generation) and not self._room(1.0):
-                self._cond.wait()
-            if not self._current(generation):
-                return False
-            was_empty = not self._buffer
-            self._buffer.append(item)
-            self._bytes += item.size
-        if was_empty:
-            self._wake()
-        return True
-
-    def _run(self) -> None:
-        try:
-            reader, deserializers = self._open()
-        except Exception as exc:
-            reason = " ".join(str(exc).split()) or type(exc).__name__
-            self.opened.set_exception(BackendUnavailable(f"{self.spec.shown}: cannot read this bag: {reason}"))
-            return
-        try:
-            assert self.contents is not None
-            self.opened.set_result(self.contents)
-            with self._cond:
-                while self._plan is None and not self._stopped:
-                    self._cond.wait()
-                plan = self._plan
-            if plan is not None:
-                self._serve(reader, deserializers, plan)
-        except Exception as exc:
-            if not self.opened.done():  # start() waits on it: it must always be resolved
-                self.opened.set_exception(BackendUnavailable(f"{self.spec.shown}: cannot read this bag: {exc}"))
-            logger.exception("%s: the bag reader failed; this recording stops here", self.spec.shown)
-        finally:
-            with contextlib.suppress(Exception):
-                reader.close()
-
-    def _open(self) -> tuple[Any, dict[str, Callable[[bytes], Any]]]:
+    def _open(self) -> BagContents:
         # rosbags takes ~0.2 s to import and ~0.4 s to open a bag: both happen here, never on the loop.
         from rosbags.highlevel import AnyReader
         from rosbags.typesys import Stores, get_typestore
@@ -192,14 +82,16 @@ class _BagReader:
                         msgtype,
                     )
             self.contents = BagContents(int(reader.start_time), int(reader.end_time), topics)
-            return reader, deserializers
+            self._reader, self._deserializers = reader, deserializers
+            return self.contents
         except BaseException:
             with contextlib.suppress(Exception):
                 reader.close()
             raise
 
-    def _serve(self, reader: Any, deserializers: dict[str, Callable[[bytes], Any]], plan: BagPlan) -> None:
-        decoder = _Decoder(plan, self.spec.shown)
+    def _prepare(self, plan: BagPlan) -> None:
+        reader, deserializers = self._reader, self._deserializers
+        decoder = self._decoder = _Decoder(plan, self.spec.shown, self._clouds)
         decodable = [c for c in reader.connections if c.msgtype in deserializers]
         # Static transforms hold for the whole recording, wherever they were recorded: read them first.
         statics = [c for c in decodable if c.topic in decoder.statics]
@@ -208,30 +100,13 @@ class _BagReader:
                 message = deserializers[connection.msgtype](raw)
                 for chain in decoder.statics[connection.topic]:
                     chain.add_static(message)
-        connections = [c for c in decodable if c.topic in decoder.routes]
-        done = 0
-        while True:
-            with self._cond:
-                while not self._stopped and self._generation == done:
-                    self._cond.wait()
-                if self._stopped:
-                    return
-                generation, start = self._generation, self._start
-            self._pass(reader, deserializers, decoder, connections, generation, start)
-            done = generation
+        self._connections = [c for c in decodable if c.topic in decoder.routes]
 
-    def _pass(
-        self,
-        reader: Any,
-        deserializers: dict[str, Callable[[bytes], Any]],
-        decoder: _Decoder,
-        connections: list[Any],
-        generation: int,
-        start: float,
-    ) -> None:
+    def _pass(self, plan: BagPlan, generation: int, start: float) -> None:
         """Read from ``start`` to the end (or until a seek), then mark the end."""
-        contents = self.contents
-        assert contents is not None
+        contents, decoder = self.contents, self._decoder
+        assert contents is not None and decoder is not None
+        reader, deserializers, connections = self._reader, self._deserializers, self._connections
         decoder.reset()
         target = contents.start_ns + round(start * 1e9)
         first = max(contents.start_ns, target - round(PREROLL * 1e9))

@@ -13,14 +13,21 @@ export class AccountFlow {
    * @param {{connection: import('../connection.js').RelayConnection, operatorUi: {signedIn: (user: string) => void},
    *   notify: (text: string) => void}} host
    * @param {Document} page @param {string} origin
+   * @param {typeof fetch} [fetcher] the relay's routes are asked with it (test/account_flow.test.js counts them)
    */
-  constructor(host, page, origin) {
+  constructor(host, page, origin, fetcher = (...args) => fetch(...args)) {
     this.host = host;
     this.origin = origin;
+    this.fetcher = fetcher;
     this.dialog = new SignInDialog(
       /** @type {HTMLDialogElement | null} */ (page.getElementById('sign-in-dialog')),
       origin,
+      fetcher,
     );
+    /** The relay's answer to /whoami, asked once a page: on load and by the sign-in dialog, whichever comes first
+     * (a refused connection may open the dialog before the page's own question is answered).
+     * @type {Promise<import('../sign_in.js').WhoAmI> | null} */
+    this.whoami = null;
     this.pairDialog = /** @type {HTMLDialogElement | null} */ (page.getElementById('pair-dialog'));
     this.header = page.getElementById('account');
     /** @type {import('../sign_in.js').Account | null} */
@@ -37,14 +44,20 @@ export class AccountFlow {
 
   /** A page reloaded keeps its cookie: learn who it is (the header, the name). */
   async start() {
-    const account = await whoAmI(this.origin);
+    const { account } = await this.#whoAmI();
     if (account) this.#signedIn(account);
+  }
+
+  #whoAmI() {
+    this.whoami ??= whoAmI(this.origin, this.fetcher);
+    return this.whoami;
   }
 
   #status() {
     const policy = this.host.connection.policy;
     if (policy.state !== 'refused' || !policy.refusal.startsWith('sign in') || this.dialog.open) return;
-    void this.dialog.ask(policy.refusal).then((account) => {
+    const provider = this.#whoAmI().then((answer) => answer.provider);
+    void this.dialog.ask(policy.refusal, provider).then((account) => {
       this.#signedIn(account);
       this.host.connection.retry();
     });
@@ -62,13 +75,13 @@ export class AccountFlow {
 
   async #pair() {
     if (!this.account) return;
-    const answer = await pairingCode(this.origin, this.account);
+    const answer = await pairingCode(this.origin, this.account, this.fetcher);
     if (answer.ok) showPairingCode(this.pairDialog, answer.code, answer.expiresIn);
     else this.host.notify(`no pairing code: ${answer.reason}`);
   }
 
   async #signOut() {
-    if (this.account && (await signOut(this.origin, this.account))) location.reload();
+    if (this.account && (await signOut(this.origin, this.account, this.fetcher))) location.reload();
   }
 
   dispose() {

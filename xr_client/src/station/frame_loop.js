@@ -7,6 +7,7 @@
 import { HEADSET_PX_PER_RAD } from '../label_rule.js';
 import * as THREE from 'three';
 import { FrameTimer } from '../frame_timer.js';
+import { ViewerPacer, viewerMessage } from '../viewer_pose.js';
 
 const TIMING_SAMPLES = 1200;
 
@@ -25,6 +26,8 @@ export class FrameLoop {
   /** Frames run, drawn or not. */
   frameCount = 0;
   lastRender = -Infinity;
+  /** When this page next tells the relay where its operator looks from. */
+  viewer = new ViewerPacer();
 
   /**
    * @param {FrameHost} host @param {import('./stage.js').Stage} stage @param {import('./views.js').StationViews} views
@@ -65,16 +68,24 @@ export class FrameLoop {
         ? HEADSET_PX_PER_RAD
         : stage.renderer.domElement.clientHeight / 2 / Math.tan((camera.fov * Math.PI) / 360),
       screen: stage.presenting
-        ? null
+        ? xrScreen(stage.renderer.xr.getCamera())
         : { camera, width: stage.renderer.domElement.clientWidth, height: stage.renderer.domElement.clientHeight },
     });
     views.goalView.update(fleet, this.host.goals, start, router.paths);
+    views.arms.update(router.arms.joints, stage.robotViews, dt);
+    views.valve.update(router.arms.valve, fleet.scene.mapToScene);
+    views.avatars.update(router.avatars.figures(fleet.scene.mapToScene));
+    if (this.viewer.due(start)) this.#viewpoint(eye);
+    stage.voxels.setVisible(menu.options.map3d);
+    stage.twin.group.visible = menu.options.twin;
     if (stage.presenting) {
+      views.armGrab.update(router.arms, start); // first: the holding hand's trigger is the gripper's, not a select
       views.interaction.update(start, dt);
       views.xrInspection.update(true);
       stage.xrSession.updateSeat();
       const overview = {
         twin: stage.twin,
+        voxels: stage.voxels,
         views: stage.robotViews,
         cursor: views.interaction.goals.wimCursor,
         transform: fleet.scene.mapToScene,
@@ -109,4 +120,39 @@ export class FrameLoop {
       this.renders++;
     }
   }
+
+  /**
+   * Where the operator looks from, for the session's recording (viewer_pose.js): the head, and in VR each hand's or
+   * controller's ray. Not before the relay's `hello` (no fleet, no map frame yet), in a replay (its viewpoints are the
+   * recording's), nor while the link is down.
+   * @param {THREE.Vector3} eye the camera's world position
+   */
+  #viewpoint(eye) {
+    const { router, fleet } = this.host;
+    if (router.hellos === 0 || router.playback || !this.host.linkOk()) return;
+    const direction = this.stage.camera.getWorldDirection(new THREE.Vector3());
+    /** @type {import('../viewer_pose.js').SceneHand[]} */
+    const hands = [];
+    if (this.stage.presenting) {
+      for (const side of /** @type {const} */ (['left', 'right'])) {
+        const slot = this.views.xrInput.side(side);
+        if (!slot) continue;
+        const ray = this.views.xrInput.ray(slot);
+        hands.push({ hand: side, position: ray.origin.toArray(), direction: ray.direction.toArray() });
+      }
+    }
+    const head = { position: eye.toArray(), direction: direction.toArray() };
+    const message = viewerMessage(fleet.scene.mapToScene, head, hands);
+    if (message) this.views.send(message, false); // no id, no reply: the next goes a quarter of a second later
+  }
+}
+
+/**
+ * The picture labels are decluttered on in VR: the XR camera (three.js gives it the left eye's pose and projection,
+ * as of the last frame drawn) and the left eye's viewport, in the XR framebuffer's pixels.
+ * @param {THREE.ArrayCamera} xrCamera
+ */
+function xrScreen(xrCamera) {
+  const viewport = xrCamera.cameras[0]?.viewport;
+  return { camera: xrCamera, width: viewport?.z ?? 0, height: viewport?.w ?? 0 };
 }

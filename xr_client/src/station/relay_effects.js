@@ -44,11 +44,22 @@ export class RelayEffects {
     this.linkText = policy.describe(performance.now()) + (policy.state === 'connected' ? replay : '');
     this.linkOk = policy.state === 'connected';
     this.views.overlay.setLink(this.linkText, this.linkOk);
+    this.views.playbackBar.show(policy.state === 'connected' ? playback : null);
     if (!this.linkOk && menu.connected) {
       // Nothing can reach the relay: stop locally (the relay's deadman stops the robot on its side).
       this.host.driver.stop(performance.now());
       menu.setConnected(false);
     }
+  }
+
+  /** A binary frame of the 3D map's block records. @param {ArrayBuffer} data */
+  onVoxels(data) {
+    try {
+      this.host.router.voxels.frame(data);
+    } catch (error) {
+      console.warn(`3D map frame ignored: ${error instanceof Error ? error.message : error}`);
+    }
+    this.stage.voxels.schedule();
   }
 
   /** @param {import('../protocol.js').ServerMessage} message */
@@ -72,6 +83,9 @@ export class RelayEffects {
         break;
       case 'stop_teleop':
         this.host.driver.stop(performance.now(), true);
+        break;
+      case 'cue':
+        views.sound.cue({ kind: effect.kind, robot: effect.robot });
         break;
       case 'link':
         this.onLink();
@@ -98,6 +112,9 @@ export class RelayEffects {
         views.hud.estop.show(views.overlay.banner, stage.presenting);
         break;
       }
+      case 'arm_refused':
+        views.armGrab.refused(effect.robot);
+        break;
       case 'sensor_warning':
         // A strong pulse on the wrist that carries the panel.
         views.xrInput.pulse(views.xrInput.side('left'), 0.9, 250);
@@ -109,6 +126,12 @@ export class RelayEffects {
       }
       case 'inspection':
         views.inspectionUi.update(menu);
+        break;
+      case 'voxels':
+        stage.voxels.schedule();
+        break;
+      case 'study':
+        views.studyPanel.update();
         break;
       case 'nav':
         if (effect.mine || effect.robot === menu.selected) views.notify(effect.text, effect.kind);

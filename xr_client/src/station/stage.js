@@ -11,6 +11,7 @@ import { FleetView } from '../view/fleet_view.js';
 import { XRSessionController } from '../view/xr_session.js';
 import { Picking } from '../view/picking.js';
 import { TwinPlan } from '../view/twin_plan.js';
+import { VoxelView } from '../view/voxel_view.js';
 
 export class Stage {
   /**
@@ -18,7 +19,8 @@ export class Stage {
    * @param {{lowQuality?: boolean, detailedMax?: number}} options lowQuality: no multisampling, a lower
    *   resolution; detailedMax: robots drawn with their full model at most (render_quality.js)
    * @param {{fleet: import('../fleet_model.js').FleetModel, menu: import('../menu_state.js').MenuState,
-   *   onError: (text: string) => void}} host what the picking and the XR session read, and where their errors go
+   *   voxels: import('../voxel_map.js').VoxelMapModel, onError: (text: string) => void}} host what the picking, the XR
+   *   session and the 3D map read, and where their errors go
    */
   constructor(container, options, host) {
     this.container = container;
@@ -50,7 +52,10 @@ export class Stage {
     this.world.add(this.twin.group);
     this.fleetView = new FleetView(this.world, this.loader, this.renderer, options.detailedMax);
     this.robotViews = this.fleetView.views;
-    this.picking = new Picking(this.twin, this.robotViews, host.fleet);
+    /** The live 3D map (issue #33), in the world beside the twin. */
+    this.voxels = new VoxelView(host.voxels, () => host.fleet.scene.mapToScene);
+    this.world.add(this.voxels.group);
+    this.picking = new Picking(this.twin, this.robotViews, host.fleet, this.voxels);
     const plan = new TwinPlan(this.twin, this.picking, host.fleet);
     this.xrSession = new XRSessionController(
       this.renderer,
@@ -80,6 +85,7 @@ export class Stage {
     this.xrSession.dispose();
     this.fleetView.dispose();
     this.twin.dispose();
+    this.voxels.dispose();
     this.loader.dispose();
     this.renderer.dispose();
     this.renderer.domElement.remove();

@@ -23,8 +23,16 @@ import { OperatorUi } from '../view/operator_ui.js';
 import { DesktopControls } from '../view/desktop_controls.js';
 import { Overlay } from '../view/overlay.js';
 import { fleetFacts } from '../robot_picker.js';
+import { robotGroups } from '../robot_groups.js';
 import { VoiceControl } from '../view/voice_control.js';
+import { Dictation } from '../view/dictation.js';
 import { SoundControl } from '../view/sound_control.js';
+import { ArmViews } from '../view/arm_view.js';
+import { ValveView } from '../view/valve_view.js';
+import { XRArmGrab } from '../view/xr_arm_grab.js';
+import { AvatarView } from '../view/avatar_view.js';
+import { PlaybackBar } from '../view/playback_bar.js';
+import { StudyPanel } from '../view/study_panel.js';
 
 /**
  * What the views read and call besides the stage.
@@ -34,7 +42,8 @@ import { SoundControl } from '../view/sound_control.js';
  *   actions: import('../app.js').OperatorActions,
  *   goalFor: (robot: string, goal: import('../command_sender.js').Goal) => void, link: () => string,
  *   sensorPanelData: (now: number) => import('../view/sensor_drawing.js').SensorPanelData,
- *   povText: () => string, latency: import('../latency.js').Latency}} ViewsHost
+ *   povText: () => string, latency: import('../latency.js').Latency,
+ *   study: import('../study_model.js').StudyModel, send: import('../command_sender.js').Link['send']}} ViewsHost
  */
 
 export class StationViews {
@@ -46,7 +55,18 @@ export class StationViews {
     /** Whether the headset shows the station (else the desktop page does). */
     this.presenting = presenting;
     this.goalView = new GoalView();
-    world.add(this.goalView.group);
+    /** Robots' arms, drawn from their joint states. */
+    this.arms = new ArmViews();
+    /** The facility's valve wheel, where and as far turned as the relay reports it. */
+    this.valve = new ValveView();
+    world.add(this.goalView.group, this.valve.group);
+    /** A replayed session's operators among the robots. */
+    this.avatars = new AvatarView();
+    world.add(this.avatars.group);
+    /** A replay's timeline in the page's header. */
+    this.playbackBar = new PlaybackBar((command) => host.send(command));
+    /** A message to the relay, as the connection sends it (null while disconnected: nothing queues). */
+    this.send = host.send;
     this.teleportView = new TeleportView();
     world.add(this.teleportView.group);
     const token = operatorToken(window.location, window.sessionStorage);
@@ -86,6 +106,12 @@ export class StationViews {
       latency: host.latency,
     });
     const inspection = host.inspection; // voice: its targets are places, its missions can be paused
+    // Each team, and each room with robots in it now: the menu's group row and voice ("stop north crew") stop them.
+    const groups = () =>
+      robotGroups(
+        [...fleet.robots.values()].map((r) => ({ name: r.description.name, team: r.description.team, pose: r.pose })),
+        fleet.rooms,
+      );
     this.voice = new VoiceControl({
       actions,
       menu,
@@ -94,6 +120,7 @@ export class StationViews {
       activeMission: (r) => Boolean(inspection.active(r)),
       presenting,
       toast: (text) => this.notify(text, 'info'),
+      groups,
     });
     this.sound = new SoundControl({
       fleet,
@@ -104,6 +131,10 @@ export class StationViews {
       inputSources: () => renderer.xr.getSession()?.inputSources ?? [],
     });
     this.xrInput = new XRInput(renderer, rig, scene);
+    /** The hand on the selected robot's arm (squeeze near its gripper). */
+    this.armGrab = new XRArmGrab({ input: this.xrInput, menu, robotViews: stage.robotViews, actions, world });
+    /** A note dictated on the VR finding card (its Dictate button). */
+    this.dictation = new Dictation((text) => this.notify(text, 'warning'));
     this.findingCard = new FindingCard(token);
     scene.add(this.findingCard.mesh);
     const inspect = new XRInspection({
@@ -115,6 +146,7 @@ export class StationViews {
       screen: this.hemisphere,
       notify: (text) => this.notify(text, 'info'),
       operator: () => may(menu.role, 'inspect') && menu.connected, // findings and targets: inspectors' too
+      dictation: this.dictation,
     });
     this.xrInspection = inspect;
     this.interaction = new XRInteraction({
@@ -142,6 +174,14 @@ export class StationViews {
       sensorPanelData: host.sensorPanelData,
       povText: host.povText,
       robotFacts: () => fleetFacts(fleet.robots.values(), (r) => inspection.progress(r), inspection.openAlerts()),
+      groups: {
+        menu,
+        groups,
+        // One E-STOP per robot of the group: the relay's own per-robot stop, each latched or refused as the menu's.
+        stop: (robots) => robots.forEach((robot) => sender.estop(robot)),
+        cancel: (robots) => robots.forEach((robot) => sender.cancel(robot)),
+        chosen: (group) => this.inspectionUi.chooseGroup(group),
+      },
     });
     const desktopHost = {
       camera,
@@ -156,6 +196,10 @@ export class StationViews {
       markPov: (/** @type {number} */ x, /** @type {number} */ y) => inspect.clickPov(x, y),
     };
     this.desktop = new DesktopControls(desktopHost, stage.container, this.overlay.povPanel);
+    /** The study the relay runs, on the desktop page: instructions, time left, questionnaires, probes. */
+    this.studyPanel = new StudyPanel(document.getElementById('study'), host.study, sender.link, (text) =>
+      this.notify(text, 'error'),
+    );
   }
 
   /**
@@ -175,6 +219,11 @@ export class StationViews {
     this.interaction.dispose();
     this.xrInput.dispose();
     this.goalView.dispose();
+    this.arms.dispose();
+    this.avatars.dispose();
+    this.playbackBar.dispose();
+    this.valve.dispose();
+    this.armGrab.dispose();
     this.teleportView.dispose();
     this.vignette.dispose();
     this.menuPanel.dispose();
@@ -183,5 +232,6 @@ export class StationViews {
     this.inspectionUi.dispose();
     this.confirm.dispose();
     this.findingCard.dispose();
+    this.studyPanel.dispose();
   }
 }

@@ -82,3 +82,39 @@ export function warningIcon(ctx, cx, cy, size) {
   ctx.textBaseline = 'middle';
   ctx.fillText('!', cx, cy + h * 0.12);
 }
+
+/**
+ * A text broken into lines at spaces (a word longer than a line is cut) that fit ``maxWidth`` in the context's
+ * current font; at most ``maxLines``, the last ending in an ellipsis when the text goes on.
+ * @param {{measureText(text: string): {width: number}}} ctx @param {string} text @param {number} maxWidth
+ * @param {number} maxLines
+ * @returns {string[]}
+ */
+export function wrapLines(ctx, text, maxWidth, maxLines) {
+  const fits = (/** @type {string} */ s) => ctx.measureText(s).width <= maxWidth;
+  /** @type {string[]} */
+  const lines = [];
+  let line = '';
+  for (const word of text.split(/\s+/).filter(Boolean)) {
+    let rest = word;
+    while (rest) {
+      const joined = line ? `${line} ${rest}` : rest;
+      if (fits(joined)) {
+        [line, rest] = [joined, ''];
+      } else if (line) {
+        [lines[lines.length], line] = [line, ''];
+      } else {
+        let n = rest.length - 1; // a word wider than the line: as much of it as fits
+        while (n > 1 && !fits(rest.slice(0, n))) n--;
+        [lines[lines.length], rest] = [rest.slice(0, n), rest.slice(n)];
+      }
+    }
+  }
+  if (line) lines.push(line);
+  if (lines.length <= maxLines) return lines;
+  const kept = lines.slice(0, maxLines);
+  let last = kept[maxLines - 1];
+  while (last && !fits(`${last}…`)) last = last.slice(0, -1);
+  kept[maxLines - 1] = `${last}…`;
+  return kept;
+}

@@ -2,11 +2,14 @@
 /**
  * The desktop's keyboard (and gamepad): Space and Esc are E-STOP from anywhere on the page; H/Home, T and F choose a
  * view (view/desktop_views.js); with Teleop on, WASD/arrows and a gamepad's left stick drive the selected robot
- * through the teleop loop; otherwise WASD/QE and the arrows fly the camera along the ground. Listeners are added in
- * the constructor and removed in dispose().
+ * through the teleop loop; otherwise WASD/QE and the arrows fly the camera along the ground. I/K, J/L and U/O move
+ * the selected robot's arm, [ and ] open and close its gripper (arm_jog.js). Listeners are added in the constructor
+ * and removed in dispose().
  */
 import * as THREE from 'three';
 import { keysToStick } from '../teleop.js';
+import { ARM_KEYS, GRIPPER_KEYS, keysToArmTwist } from '../arm_jog.js';
+import { typingIn } from './typing.js';
 
 const FLY_SPEED = 4; // m/s
 const MOVE_KEYS = ['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE', 'ArrowUp', 'ArrowDown', 'ArrowLeft', 'ArrowRight'];
@@ -29,6 +32,8 @@ export class DesktopKeys {
      * off under a held W must not send the view away). Released, they are forgotten. @type {Set<string>}
      */
     this.driving = new Set();
+    /** Held keys that move the selected robot's arm. @type {Set<string>} */
+    this.arm = new Set();
     /** @type {(() => void)[]} */
     this.unlisten = [];
     const on = (/** @type {string} */ type, /** @type {(e: any) => void} */ fn) => {
@@ -37,13 +42,13 @@ export class DesktopKeys {
     };
     on('keydown', (e) => this.#key(e, true));
     on('keyup', (e) => this.#key(e, false));
-    on('blur', () => (this.keys.clear(), this.driving.clear()));
+    on('blur', () => (this.keys.clear(), this.driving.clear(), this.arm.clear()));
   }
 
   /** @param {KeyboardEvent} e @param {boolean} down */
   #key(e, down) {
     const target = /** @type {HTMLElement} */ (e.target);
-    const typing = Boolean(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA'));
+    const typing = typingIn(target);
     const code = e.code;
     // Space and Esc are E-STOP from anywhere on the page, a dialog open or not (a dialog that kept them would hold
     // the stop back while it waits for an answer). Space types a space only in a field whose text may have one (the
@@ -60,6 +65,17 @@ export class DesktopKeys {
       if (down && !e.repeat && !this.host.presenting()) this.views.choose(view);
       return;
     }
+    if (e.ctrlKey || e.metaKey || e.altKey) return;
+    if (code in ARM_KEYS) {
+      if (down) this.arm.add(code);
+      else this.arm.delete(code);
+      this.pollTeleop();
+      return;
+    }
+    if (code in GRIPPER_KEYS) {
+      if (down && !e.repeat && !this.host.presenting()) this.host.actions.grip(GRIPPER_KEYS[code]);
+      return;
+    }
     if (!MOVE_KEYS.includes(code)) return;
     e.preventDefault();
     if (down) this.keys.add(code);
@@ -71,7 +87,9 @@ export class DesktopKeys {
 
   /** Keyboard and gamepad into the teleop loop: called on key changes and by the station's 100 Hz timer. */
   pollTeleop() {
-    if (this.host.menu.tool !== 'teleop' || this.host.presenting()) return;
+    if (this.host.presenting()) return;
+    this.host.actions.jogArm(keysToArmTwist(this.arm));
+    if (this.host.menu.tool !== 'teleop') return;
     const [kx, ky] = keysToStick(this.keys);
     this.host.actions.driveStick('keyboard', kx, ky);
     const pad = [...(navigator.getGamepads?.() ?? [])].find((g) => g && g.mapping === 'standard' && g.connected);

@@ -3,13 +3,14 @@
  * The finding card in VR: the open finding's capture with its region (or the outline the relay proposes), its
  * note and readings, its reading's trend over the last rounds (a sparkline, the threshold dashed), and buttons to
  * set its status, mark a region (select a point of the image), make a target where a pixel looks, accept or redo a
- * region, and close. A canvas-textured plane placed in front of the
- * operator when a pin is selected; it redraws only when the review, the finding, the hover or the image
- * changed. Where things sit and what a hit means is finding_card_layout.js (pure, tested in node).
+ * region, and close. Note reads the whole note in the image's place, where it is dictated (dictation.js) or
+ * cleared. A canvas-textured plane placed in front of the operator when a pin is selected; it redraws only when the
+ * review, the finding, the hover or the image changed. Where things sit and what a hit means is
+ * finding_card_layout.js (pure, tested in node).
  */
 import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
-import { fillRounded, fitText, font } from './canvas_text.js';
+import { fillRounded, fitText, font, wrapLines } from './canvas_text.js';
 import { CARD_PX, cardHit, cardLayout, pixelToCard } from '../finding_card_layout.js';
 import { drawTrend } from './card_trend.js';
 import { CardImage } from './card_image.js';
@@ -33,6 +34,10 @@ export class FindingCard {
     this.before = new CardImage();
     /** Which of them the card shows: a changed finding's Before and After buttons switch (the desktop's slider). */
     this.showing = /** @type {'after' | 'before'} */ ('after');
+    /** Whether the note is read in the image's place, and the lines the last draw showed of it. */
+    this.reading = false;
+    /** @type {string[]} */
+    this.noteLines = [];
     this.findingId = '';
     /** @type {ReturnType<typeof cardLayout>} */
     this.layout = cardLayout({
@@ -51,7 +56,8 @@ export class FindingCard {
    * Show the review's open finding (hide the card when none), redrawing only what changed.
    * @param {import('../inspection_review.js').InspectionReview} review
    * @param {import('../inspection_model.js').InspectionModel} model
-   * @param {{operator: boolean, presenting: boolean, hover: string | null}} context
+   * @param {{operator: boolean, presenting: boolean, hover: string | null,
+   *   dictation: 'none' | 'ready' | 'listening'}} context
    */
   update(review, model, context) {
     const finding = review.selected ? model.findings.get(review.selected) : null;
@@ -60,10 +66,10 @@ export class FindingCard {
     const query = this.token ? `?token=${encodeURIComponent(this.token)}` : '';
     this.after.load(finding.image ? `${finding.image}${query}` : '');
     this.before.load(finding.before ? `${finding.before}${query}` : '');
-    if (finding.id !== this.findingId) [this.findingId, this.showing] = [finding.id, 'after'];
+    if (finding.id !== this.findingId) [this.findingId, this.showing, this.reading] = [finding.id, 'after', false];
     const version = `${finding.id}|${finding.updated}|${review.version}`;
-    const images = `${this.after.state}|${this.before.state}|${this.showing}`;
-    const key = `${version}|${context.hover}|${context.operator}|${images}`;
+    const images = `${this.after.state}|${this.before.state}|${this.showing}|${this.reading}`;
+    const key = `${version}|${context.hover}|${context.operator}|${images}|${context.dictation}`;
     if (key === this.key) return;
     this.key = key;
     this.layout = cardLayout({
@@ -73,6 +79,8 @@ export class FindingCard {
       operator: context.operator,
       imageSize: this.imageSize,
       before: finding.before ? this.showing : null,
+      note: this.reading,
+      dictation: context.dictation,
     });
     this.#draw(finding, review.outline(model), review.hint(), context.hover);
   }
@@ -84,7 +92,12 @@ export class FindingCard {
 
   /** Show the capture or, for a changed finding, its before image. @param {'after' | 'before'} which */
   show(which) {
-    this.showing = which;
+    [this.showing, this.reading] = [which, false];
+  }
+
+  /** Read the note in the image's place. */
+  read() {
+    this.reading = true;
   }
 
   /**
@@ -107,7 +120,11 @@ export class FindingCard {
     fitText(
       ctx,
       `${finding.target ?? 'finding'} · ${finding.robot} · ${statusWords(finding.status)}` +
-        (finding.before ? ` · ${this.showing === 'before' ? 'before (the last round)' : 'after'}` : ''),
+        (this.reading
+          ? ' · note'
+          : finding.before
+            ? ` · ${this.showing === 'before' ? 'before (the last round)' : 'after'}`
+            : ''),
       64,
       34,
       w - 100,
@@ -115,7 +132,8 @@ export class FindingCard {
       700,
     );
     const box = this.layout.image;
-    if (box && shown.image && shown.size && this.imageSize) {
+    if (this.layout.note) this.#note(ctx, this.layout.note, finding.note);
+    else if (box && shown.image && shown.size && this.imageSize) {
       ctx.drawImage(shown.image, box.x, box.y, box.w, box.h);
       if (outline && outline.length > 2 && shown === this.after) this.#outline(ctx, box, this.imageSize, outline);
     } else {
@@ -157,6 +175,23 @@ export class FindingCard {
     ctx.globalAlpha = 1;
     this.plane.texture.needsUpdate = true;
     this.draws++;
+  }
+
+  /**
+   * The whole note, wrapped: 20 px text (12 mm on the 0.64 m card, 0.9 degrees at its 0.8 m) on 24 px lines fits
+   * 1000 characters of words, 22 lines of 50 or so.
+   * @param {CanvasRenderingContext2D} ctx @param {{x: number, y: number, w: number, h: number}} box
+   * @param {string} note
+   */
+  #note(ctx, box, note) {
+    fillRounded(ctx, [box.x, box.y, box.w, box.h], 14, '#1b2230');
+    ctx.font = font(20);
+    const line = 24;
+    const lines = note ? wrapLines(ctx, note, box.w - 32, Math.floor((box.h - 24) / line)) : [];
+    ctx.fillStyle = note ? '#dfe6f0' : '#9aa5b8';
+    lines.forEach((text, i) => ctx.fillText(text, box.x + 16, box.y + 12 + line * (i + 0.5)));
+    if (!note) fitText(ctx, '(no note yet)', box.x + 16, box.y + 12 + line / 2, box.w - 32, 20);
+    this.noteLines = lines;
   }
 
   /**

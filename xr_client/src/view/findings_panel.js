@@ -9,12 +9,15 @@
  */
 import { STATUS_COLOURS } from '../change_colour.js';
 import { changeColour } from '../change_colour.js';
-import { FINDING_STATUSES, nextName } from '../inspection_review.js';
+import { FINDING_STATUSES, MAX_NOTE, nextName } from '../inspection_review.js';
+import { NoteEditor } from './note_editor.js';
+import { groupTitle } from '../robot_groups.js';
 import { afterClip, WIPE_START, wipeAt, wipeLabels } from '../before_after.js';
 import { reportLinks } from '../report_links.js';
 import { scheduleRows } from '../schedule_list.js';
 import { SPARK_BOX, labelY, polyline, sparkline } from '../sparkline.js';
 import { statusWords } from '../wording.js';
+import { esc } from './html.js';
 
 export class FindingsPanel {
   /** @type {import('../protocol.js').FindingStatus | ''} */
@@ -23,6 +26,11 @@ export class FindingsPanel {
   wipe = WIPE_START;
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
+  /**
+   * The group of robots chosen in the menu (its robots alone get the targets), or null.
+   * @type {import('../robot_groups.js').RobotGroup | null}
+   */
+  group = null;
   /** The "since last round" switch turned (InspectionUi redraws pins, panel and menu). @type {(on: boolean) => void} */
   onSince = (on) => this.model.setSinceLastRound(on);
 
@@ -43,6 +51,7 @@ export class FindingsPanel {
     this.review = review;
     this.run = run;
     this.token = token;
+    this.note = new NoteEditor();
     root.addEventListener('click', (event) =>
       this.#click(/** @type {HTMLElement} */ (event.target), /** @type {MouseEvent} */ (event)),
     );
@@ -60,6 +69,11 @@ export class FindingsPanel {
     );
     // The slider moves the wipe in place: a render per step would reload the images.
     root.addEventListener('input', (event) => {
+      if (event.target instanceof HTMLTextAreaElement && event.target.dataset.findingNote !== undefined) {
+        const f = review.selected ? model.findings.get(review.selected) : null;
+        if (f) this.note.typed(root, f, event.target.value);
+        return;
+      }
       const slider = event.target;
       if (!(slider instanceof HTMLInputElement) || slider.dataset.wipe === undefined) return;
       this.wipe = wipeAt(slider.value);
@@ -95,7 +109,7 @@ export class FindingsPanel {
           `<li data-finding="${esc(f.id)}" class="${f.id === selected ? 'active' : ''}">` +
           `<span class="dot" data-status="${esc(f.status)}" data-colour="${changeColour(f).colour}"></span>` +
           `${esc(f.target ?? f.robot)} · ${esc(f.robot)} · ${esc(statusWords(f.status))}` +
-          `<br><small>${esc(f.note)}</small></li>`,
+          `<br><small>${esc(firstWords(f.note))}</small></li>`,
       )
       .join('');
     // The report and work orders of the mission the selected (else the newest) finding came from, and a range.
@@ -107,14 +121,22 @@ export class FindingsPanel {
     const typing = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
     const note = typing?.value ?? '';
     const focused = typing !== null && typing === document.activeElement;
+    const writing = /** @type {HTMLTextAreaElement | null} */ (this.root.querySelector('textarea[data-finding-note]'));
+    const caret = writing !== null && writing === document.activeElement ? writing.selectionStart : null;
+    const targets = targetList(this.model.targets.values(), this.review.picked, this.robot, this.group);
     this.root.innerHTML =
-      `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${this.#targets()}` +
+      `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${targets}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `${sinceSwitch(this.model.sinceLastRound)}<ol>${items}</ol>${this.#older()}${this.#detail()}`;
     const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
     if (input && note) input.value = note;
     if (input && focused) input.focus();
+    const area = /** @type {HTMLTextAreaElement | null} */ (this.root.querySelector('textarea[data-finding-note]'));
+    if (area && caret !== null) {
+      area.focus();
+      area.setSelectionRange(caret, caret);
+    }
     // Colours through CSSOM: the relay's Content-Security-Policy blocks style attributes in markup (relay/headers.py).
     for (const dot of this.root.querySelectorAll('.dot[data-status]')) {
       const span = /** @type {HTMLElement} */ (dot);
@@ -151,25 +173,6 @@ export class FindingsPanel {
     return `<p><button type="button" data-older="1"${asked ? ' disabled' : ''}>Older findings</button></p>`;
   }
 
-  /** The targets, picked in order for a new mission (click to pick or unpick). */
-  #targets() {
-    const picked = this.review.picked;
-    const rows = [...this.model.targets.values()]
-      .map((t) => {
-        const n = picked.indexOf(t.id);
-        return (
-          `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}">` +
-          `<span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`
-        );
-      })
-      .join('');
-    const who = this.robot ? `with ${esc(this.robot)}` : 'with the fleet';
-    const start = picked.length
-      ? `<button type="button" data-mission="start">Inspect ${picked.length} ${who}</button>`
-      : '<small>pick targets in order</small>';
-    return `<div class="head"><b>Targets</b>${start}</div><ol class="targets">${rows}</ol>`;
-  }
-
   #detail() {
     const review = this.review;
     const f = review.selected ? this.model.findings.get(review.selected) : null;
@@ -198,7 +201,7 @@ export class FindingsPanel {
       .join('');
     const marked = f.status === 'false_alarm' ? ' class="active"' : '';
     const falseAlarm =
-      '<input type="text" data-note maxlength="1000" aria-label="why it is a false alarm" ' +
+      `<input type="text" data-note data-space="text" maxlength="${MAX_NOTE}" aria-label="why it is a false alarm" ` +
       'placeholder="why it is a false alarm (a shadow, a passer-by)">' +
       `<button type="button" data-false-alarm${marked}>False alarm</button>`;
     const mark = 'click the image to mark a region; shift-click: a new target there';
@@ -207,7 +210,7 @@ export class FindingsPanel {
         '<button type="button" data-region="redo">Redo</button>'
       : `<small>${review.pending ? review.hint() : mark}</small>`;
     return (
-      `<section class="finding">${picture}<p>${esc(f.note)}</p><p><small>${readings}</small></p>${trendFigure(f)}` +
+      `<section class="finding">${picture}${this.note.html(f)}<p><small>${readings}</small></p>${trendFigure(f)}` +
       `<p>${buttons}</p><p class="false-alarm">${falseAlarm}</p><p>${regionButtons}</p></section>`
     );
   }
@@ -228,7 +231,8 @@ export class FindingsPanel {
     else if (target.dataset.scheduleEdit) this.schedules?.edit(target.dataset.scheduleEdit);
     else if (target.dataset.scheduleRemove) this.schedules?.remove(target.dataset.scheduleRemove);
     else if (pick) review.togglePick(/** @type {string} */ (pick.getAttribute('data-target')));
-    else if (target.dataset.mission === 'start') this.run(review.startPicked(this.robot));
+    else if (target.dataset.mission === 'start')
+      this.run(review.startPicked(this.group ? null : this.robot, this.group?.robots ?? null));
     else if (target.dataset.older) this.run([{ type: 'findings_page', before: this.model.oldest() }]);
     else if (item) review.select(item.getAttribute('data-finding'));
     else if (target.dataset.status) this.run(review.setStatus(/** @type {any} */ (target.dataset.status)));
@@ -236,7 +240,8 @@ export class FindingsPanel {
       const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
       this.run(review.falseAlarm(input?.value ?? ''));
       if (input) input.value = '';
-    } else if (target.dataset.region === 'accept') this.run(review.accept());
+    } else if (target.dataset.saveNote !== undefined && this.note.draft) this.run(review.setNote(this.note.draft.text));
+    else if (target.dataset.region === 'accept') this.run(review.accept());
     else if (target.dataset.region === 'redo') review.redo();
     else if (target instanceof HTMLImageElement && target.dataset.capture && target.naturalWidth) {
       const rect = target.getBoundingClientRect();
@@ -263,6 +268,37 @@ export class FindingsPanel {
     this.run(this.review.imageClick(this.model, u, v, { target: true, name }));
     this.render();
   }
+}
+
+/**
+ * A note as the list shows it: its first line's worth (the card below holds it whole, up to 1000 characters).
+ * @param {string} note
+ */
+function firstWords(note) {
+  return note.length <= 90 ? note : `${note.slice(0, 90).replace(/\s+\S*$/, '')}…`;
+}
+
+/**
+ * The targets, picked in order for a new mission (click to pick or unpick), and the button that starts it.
+ * @param {Iterable<{id: string, name: string, kind: string}>} targets @param {string[]} picked
+ * @param {string | null} robot the selected robot (a mission for it alone), or null (the fleet)
+ * @param {import('../robot_groups.js').RobotGroup | null} group the group chosen in the menu: its robots alone
+ */
+function targetList(targets, picked, robot, group) {
+  const rows = [...targets]
+    .map((t) => {
+      const n = picked.indexOf(t.id);
+      return (
+        `<li data-target="${esc(t.id)}" class="${n >= 0 ? 'active' : ''}">` +
+        `<span class="order">${n >= 0 ? n + 1 : ''}</span>${esc(t.name)} <small>${esc(t.kind)}</small></li>`
+      );
+    })
+    .join('');
+  const who = group ? `with ${esc(groupTitle(group))}` : robot ? `with ${esc(robot)}` : 'with the fleet';
+  const start = picked.length
+    ? `<button type="button" data-mission="start">Inspect ${picked.length} ${who}</button>`
+    : '<small>pick targets in order</small>';
+  return `<div class="head"><b>Targets</b>${start}</div><ol class="targets">${rows}</ol>`;
 }
 
 /**
@@ -302,11 +338,6 @@ function sinceSwitch(on) {
     `<p class="since"><label><input type="checkbox" data-since${on ? ' checked' : ''}> since last round</label> ` +
     '<small>pins: status colour; changed orange (small) to magenta (large); false alarm grey</small></p>'
   );
-}
-
-/** @param {string} text */
-function esc(text) {
-  return text.replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
 }
 
 /**

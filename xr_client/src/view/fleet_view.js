@@ -10,12 +10,12 @@
  * for STATUS_PER_FRAME robots a frame in turn, all of them in a few frames: text the eye reads, not a per-frame
  * rebuild of 100 strings (and the selection ring at once, every frame).
  */
-import { declutter } from '../label_declutter.js';
+import { declutter, labelRect } from '../label_declutter.js';
 import * as THREE from 'three';
 import { mapToScene, mapYawToScene } from '../frames.js';
 import { RobotView, LABEL_ANCHOR } from './robot_view.js';
 import { FleetInstances } from './fleet_instances.js';
-import { LABEL_ASPECT, LabelAtlas } from './label_atlas.js';
+import { LABEL_ASPECT, LABEL_BOTTOM, LabelAtlas } from './label_atlas.js';
 import { FleetScans } from './fleet_scans.js';
 import { labelOpacity } from '../label_rule.js';
 import { DETAILED_MAX, nearestDetailed } from '../level_of_detail.js';
@@ -52,8 +52,9 @@ export class FleetView {
     world.add(this.instances.group, this.atlas.mesh, this.scans.points);
     /** Per robot (by index): the viewer's distance this frame (Infinity: not a candidate for the full model). */
     this.distances = new Float64Array(0);
-    /** Each label's rectangle on the desktop's screen (x0, y0, x1, y1 px; NaN: not drawn) and its declutter factor
-     * (label_declutter.js): a label a more important one covers is a ghost. */
+    /** Each label's rectangle on the viewer's picture (x0, y0, x1, y1 px of the desktop's page or the headset's left
+     * eye; NaN: not drawn) and its declutter factor (label_declutter.js): a label a more important one covers is a
+     * ghost. */
     this.labelRects = new Float32Array(0);
     this.uncovered = new Float32Array(0);
     /** This frame's label heights (m) and distances (m), and the labels most important first: kept, not allocated
@@ -119,10 +120,11 @@ export class FleetView {
    *   smoothers: Map<string, import('../pose_smoother.js').PoseSmoother>,
    *   history: import('../sensor_history.js').SensorHistory, selected: string | null, eye: THREE.Vector3,
    *   freshness: import('../freshness.js').Freshness, link: 'live' | 'quiet' | 'lost', scans: boolean,
-   *   pxPerRad: number, screen: {camera: THREE.Camera, width: number, height: number} | null}} state
+   *   pxPerRad: number, screen: {camera: THREE.Camera, width: number, height: number}}} state
    *   `link`: the relay answers, is silent on an open socket, or the socket is gone; `scans`: the operator's Scans
    *   switch; `pxPerRad`: the screen's pixels per radian (labels keep their lines legible on it); `screen`: the
-   *   desktop's view, where labels that would cover each other are decluttered (null in VR)
+   *   picture the labels are seen on, where those that would cover each other are decluttered: the desktop's camera
+   *   and page, or in VR the XR camera (its left eye) and that eye's picture
    */
   update(now, { fleet, smoothers, history, selected, eye, freshness, link, scans, pxPerRad, screen }) {
     this.annotations.update(fleet);
@@ -164,36 +166,37 @@ export class FleetView {
     this.scans.update(this.order, scans, now);
   }
 
+  /** The labels' order, most important first: a kept function, not a closure made each frame. */
+  #importance = (/** @type {number} */ a, /** @type {number} */ b) =>
+    Number(this.order[b].keepLabel) - Number(this.order[a].keepLabel) || this.labelFar[a] - this.labelFar[b];
+
   /**
-   * Each label's distance and height (m) for this frame, and on the desktop which labels are ghosts: their
-   * rectangles on the screen, decluttered the selected robot's and a warning's first, then the nearest.
+   * Each label's distance and height (m) for this frame, and which labels are ghosts: their rectangles on the
+   * viewer's picture, decluttered the selected robot's and a warning's first, then the nearest.
    * @param {THREE.Vector3} eye @param {number} pxPerRad
-   * @param {{camera: THREE.Camera, width: number, height: number} | null} screen
+   * @param {{camera: THREE.Camera, width: number, height: number}} screen
    */
   #labels(eye, pxPerRad, screen) {
     const n = this.order.length;
-    const { labelHeights: heights, labelFar: far, labelRects: rects } = this;
+    const { labelHeights: heights, labelFar: far, labelRects: rects, anchor } = this;
+    const { camera, width, height } = screen;
     for (let i = 0; i < n; i++) {
       const view = this.order[i];
       const distance = eye.distanceTo(view.group.position);
       far[i] = distance;
       heights[i] = view.scaleLabel(distance, pxPerRad);
       rects[4 * i] = NaN;
-      if (!screen || !view.group.visible || labelOpacity(distance, view.keepLabel) === 0) continue;
-      this.anchor.copy(view.group.position).y += LABEL_ANCHOR;
-      this.anchor.project(screen.camera);
-      if (this.anchor.z > 1) continue; // behind the camera
-      const x = ((this.anchor.x + 1) / 2) * screen.width;
-      const y = ((1 - this.anchor.y) / 2) * screen.height;
-      const h = (heights[i] / Math.max(distance, 1e-6)) * pxPerRad;
+      if (!view.group.visible || labelOpacity(distance, view.keepLabel) === 0) continue;
+      // The quad as the label atlas draws it: in the camera's view space, facing it, above its anchor.
+      anchor.copy(view.group.position).y += LABEL_ANCHOR;
+      this.world.localToWorld(anchor).applyMatrix4(camera.matrixWorldInverse);
+      const h = heights[i];
       const w = (h * LABEL_ASPECT) / 2;
-      rects[4 * i] = x - w;
-      rects[4 * i + 1] = y - 1.35 * h;
-      rects[4 * i + 2] = x + w;
-      rects[4 * i + 3] = y - 0.35 * h;
+      const bottom = anchor.y + LABEL_BOTTOM * h;
+      const m = camera.projectionMatrix.elements;
+      labelRect(m, anchor.x - w, bottom, anchor.x + w, bottom + h, anchor.z, width, height, rects, i);
     }
-    const views = this.order;
-    this.labelOrder.sort((a, b) => Number(views[b].keepLabel) - Number(views[a].keepLabel) || far[a] - far[b]);
+    this.labelOrder.sort(this.#importance);
     declutter(rects, this.labelOrder, this.uncovered);
   }
 

@@ -78,7 +78,7 @@ export class InspectionUi {
       } else if (c.type === 'alert_ack') {
         sender.alertAck(c.alert);
       } else if (c.type === 'mission_targets') {
-        if (sender.missionTargets(c.targets, c.robot)) this.review.picksSent();
+        if (sender.missionTargets(c.targets, c.robot, c.robots)) this.review.picksSent();
       } else if (c.type === 'region') {
         const request = sender.region(c.capture, c.u, c.v);
         if (request) {
@@ -87,6 +87,16 @@ export class InspectionUi {
         }
       }
     }
+  }
+
+  /**
+   * The desktop's group of robots chosen (view/group_bar.js), or null: the picked targets go to its robots alone.
+   * @param {import('../robot_groups.js').RobotGroup | null} group
+   */
+  chooseGroup(group) {
+    if (!this.panel) return;
+    this.panel.group = group;
+    this.panel.render();
   }
 
   /**

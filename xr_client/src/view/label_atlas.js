@@ -24,7 +24,7 @@ const UPLOAD_HZ = 4;
 const WHOLE_SHARE = 0.25;
 /** Where the quad sits relative to its anchor, in label heights (a sprite's `center` of (0.5, -0.35)): above the
  * robot's top, beside the robot when seen from above, its footprint and heading left visible. */
-const BOTTOM = 0.35;
+export const LABEL_BOTTOM = 0.35;
 
 const ORIGIN = new THREE.Vector3();
 
@@ -70,7 +70,7 @@ export class LabelAtlas {
     /** The atlas as the source of partial uploads (never drawn, never uploaded itself). */
     this.source = new THREE.Texture(this.canvas);
     this.source.flipY = false;
-    const plane = new THREE.PlaneGeometry(1, 1).translate(0, 0.5 + BOTTOM, 0);
+    const plane = new THREE.PlaneGeometry(1, 1).translate(0, 0.5 + LABEL_BOTTOM, 0);
     const n = Math.max(1, this.layout.capacity);
     this.cells = new THREE.InstancedBufferAttribute(new Float32Array(n * 4), 4);
     this.opacities = new THREE.InstancedBufferAttribute(new Float32Array(n), 1).setUsage(THREE.DynamicDrawUsage);

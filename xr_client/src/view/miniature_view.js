@@ -67,6 +67,10 @@ export class MiniatureView {
     this.copy = null;
     this.floorY = 0;
     this.inverse = new THREE.Matrix4();
+    /** The full-size 3D map's mesh the table mirrors, and its mirror. @type {THREE.InstancedMesh | null} */
+    this.mapSource = null;
+    /** @type {THREE.InstancedMesh | null} */
+    this.mapMirror = null;
   }
 
   /**
@@ -92,6 +96,33 @@ export class MiniatureView {
     const radius = Math.hypot(size.x, size.z) * this.scale * 0.55;
     this.table.scale.set(radius, 0.02, radius);
     this.table.position.set(0, -0.011, 0);
+  }
+
+  /**
+   * The live 3D map on the table too (issue #33), drawn from the full-size map's own instances: one more draw call,
+   * its matrices and colours shared, nothing copied or packed again. The twin's copy hides when the twin does, so
+   * that the table shows what the full-size view shows.
+   * @param {import('./voxel_view.js').VoxelView} voxels @param {boolean} twinShown
+   */
+  follow(voxels, twinShown) {
+    if (this.copy) this.copy.visible = twinShown;
+    const source = voxels.group.visible && this.copy ? voxels.mesh : null;
+    if (source !== this.mapSource) {
+      this.mapMirror?.removeFromParent();
+      this.mapMirror = null;
+      this.mapSource = source;
+      if (source) {
+        const mirror = new THREE.InstancedMesh(source.geometry, source.material, source.instanceMatrix.count);
+        mirror.instanceMatrix = source.instanceMatrix;
+        mirror.instanceColor = source.instanceColor;
+        mirror.name = 'miniature-voxels';
+        mirror.frustumCulled = false;
+        mirror.raycast = () => {}; // the table is read as a map: a ray meets its floor plane
+        this.model.add(mirror);
+        this.mapMirror = mirror;
+      }
+    }
+    if (this.mapMirror && source) this.mapMirror.count = source.count;
   }
 
   /**

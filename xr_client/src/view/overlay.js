@@ -7,6 +7,7 @@
 import { drawSensorPanel } from './sensor_drawing.js';
 import { PagePanels } from './page_panels.js';
 import { RobotPicker } from './robot_picker.js';
+import { GroupBar } from './group_bar.js';
 import { ROBOTS_PER_PAGE } from '../robot_pages.js';
 
 /** @param {string} id */
@@ -41,7 +42,8 @@ export class Overlay {
   /**
    * @param {{menu: import('../menu_state.js').MenuState, actions: import('../app.js').OperatorActions,
    *   sensorPanelData: (now: number) => import('./sensor_drawing.js').SensorPanelData, povText: () => string,
-   *   robotFacts: () => import('../robot_picker.js').RobotFacts[]}} host
+   *   robotFacts: () => import('../robot_picker.js').RobotFacts[],
+   *   groups: ConstructorParameters<typeof GroupBar>[0]}} host what the page shows, and the group row's own host
    */
   constructor(host) {
     this.host = host;
@@ -56,6 +58,8 @@ export class Overlay {
     this.estopBanner = el('estop-banner');
     /** The menu's robot row in a fleet larger than a row of buttons (view/robot_picker.js). */
     this.picker = new RobotPicker({ menu: host.menu, actions: host.actions, facts: host.robotFacts });
+    /** The menu's row for groups of robots (view/group_bar.js), under the robots. */
+    this.groupBar = new GroupBar(host.groups);
     /** Which panels are open (menu, sensors, help), compact in small windows. */
     this.panels = new PagePanels(window.localStorage, { width: window.innerWidth, height: window.innerHeight });
     /**
@@ -194,6 +198,11 @@ export class Overlay {
     }
     if (menu.mode === 'pov') this.povInfo.textContent = this.host.povText();
     if (menu.robots.length > ROBOTS_PER_PAGE && !hidden) this.picker.update(now);
+    if (!hidden) {
+      const shown = this.groupBar.visible;
+      this.groupBar.update(now);
+      if (shown !== this.groupBar.visible) this.#drawMenu();
+    }
   }
 
   #drawMenu() {
@@ -203,6 +212,7 @@ export class Overlay {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
       if (picking && (button.group === 'robots' || button.group === 'pages')) {
         groups.set('robots', this.picker.element); // the picker lists every robot: no page of buttons
+        if (this.groupBar.visible) groups.set('group', this.groupBar.element);
         continue;
       }
       let row = groups.get(button.group);
@@ -210,6 +220,7 @@ export class Overlay {
         row = document.createElement('div');
         row.className = `row ${button.group}`;
         groups.set(button.group, row);
+        if (button.group === 'robots' && this.groupBar.visible) groups.set('group', this.groupBar.element);
       }
       const b = document.createElement('button');
       b.type = 'button';
@@ -247,6 +258,7 @@ export class Overlay {
     clearTimeout(this.messageTimer);
     this.panels.dispose();
     this.picker.dispose();
+    this.groupBar.dispose();
     for (const off of this.unlisten) off();
   }
 }

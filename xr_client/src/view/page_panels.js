@@ -7,6 +7,7 @@
  * (view/desktop_views.js reads their rectangles).
  */
 import { isCompact } from '../layout.js';
+import { typingIn } from './typing.js';
 
 const KEY = 'xr-relay.panels';
 /** @typedef {{menu: boolean, sensors: boolean, help: boolean}} PanelsOpen */
@@ -37,8 +38,7 @@ export class PagePanels {
     };
     const onKey = (/** @type {KeyboardEvent} */ e) => {
       const target = /** @type {HTMLElement} */ (e.target);
-      if (e.key === '?' && !(target && (target.tagName === 'INPUT' || target.tagName === 'TEXTAREA')))
-        this.toggle('help');
+      if (e.key === '?' && !typingIn(target)) this.toggle('help');
     };
     const onResize = () => {
       document.body.classList.toggle('compact', isCompact({ width: window.innerWidth, height: window.innerHeight }));

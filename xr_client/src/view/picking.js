@@ -5,7 +5,7 @@
  */
 import * as THREE from 'three';
 import { arcPoints } from '../arc.js';
-import { sceneToMap } from '../frames.js';
+import { mapToScene, sceneToMap } from '../frames.js';
 import { goalVerdict, robotSpots } from '../goal_verdict.js';
 
 export class Picking {
@@ -13,9 +13,11 @@ export class Picking {
    * @param {import('./twin_view.js').TwinView} twin
    * @param {Map<string, import('./robot_view.js').RobotView>} robotViews
    * @param {import('../fleet_model.js').FleetModel} fleet for the map-to-scene transform
+   * @param {import('./voxel_view.js').VoxelView} [voxels] the live 3D map, which pointing meets where it is shown
    */
-  constructor(twin, robotViews, fleet) {
+  constructor(twin, robotViews, fleet, voxels) {
     this.twin = twin;
+    this.voxels = voxels ?? null;
     this.robotViews = robotViews;
     this.fleet = fleet;
     this.raycaster = new THREE.Raycaster();
@@ -32,12 +34,24 @@ export class Picking {
   }
 
   /**
-   * The first thing of the twin a ray meets, and whether it counts as floor: the `floor` node, or anything
-   * flat lying on it (a spill, a puddle). A goal or a teleport needs visible floor: a wall in the way blocks it.
+   * The first thing of the twin or of the live 3D map a ray meets, of those shown (the menu's `Twin` and `3D map`:
+   * an operator points at what they see), and whether it counts as floor. A goal or a teleport needs visible floor:
+   * a wall in the way blocks it.
    * @param {THREE.Raycaster} raycaster
    * @returns {{point: THREE.Vector3, floor: boolean} | null}
    */
   pickTwin(raycaster) {
+    const twin = this.twin.group.visible ? this.#twinHit(raycaster) : null;
+    const voxels = this.#voxelHit(raycaster);
+    const hit = voxels && (!twin || voxels.distance < twin.distance) ? voxels : twin;
+    return hit && { point: hit.point, floor: hit.floor };
+  }
+
+  /**
+   * The twin's: the `floor` node, or anything flat lying on it (a spill, a puddle), counts as floor.
+   * @param {THREE.Raycaster} raycaster @returns {{point: THREE.Vector3, floor: boolean, distance: number} | null}
+   */
+  #twinHit(raycaster) {
     const content = this.twin.content;
     const hit = raycaster.intersectObjects(
       content ? [content, ...this.twin.floorTargets] : this.twin.floorTargets,
@@ -52,7 +66,26 @@ export class Picking {
       const up = hit.face.normal.clone().transformDirection(hit.object.matrixWorld).y;
       floor = up > 0.7 && hit.point.y <= this.twin.box.min.y + 0.1;
     }
-    return { point: hit.point, floor };
+    return { point: hit.point, floor, distance: hit.distance };
+  }
+
+  /**
+   * The live 3D map's, walked voxel by voxel in the map frame (VoxelMapModel.raycast): the top of a voxel at most two
+   * voxels above the map's floor (z = 0) counts as floor.
+   * @param {THREE.Raycaster} raycaster @returns {{point: THREE.Vector3, floor: boolean, distance: number} | null}
+   */
+  #voxelHit(raycaster) {
+    const view = this.voxels;
+    if (!view || !view.group.visible || view.drawn === 0) return null;
+    const t = this.fleet.scene.mapToScene;
+    const { origin: o, direction: d } = raycaster.ray;
+    const from = sceneToMap(t, o.x, o.y, o.z);
+    const to = sceneToMap(t, o.x + d.x, o.y + d.y, o.z + d.z);
+    const hit = view.model.raycast(from, [to[0] - from[0], to[1] - from[1], to[2] - from[2]], raycaster.far);
+    if (!hit || hit.distance < raycaster.near) return null;
+    const [x, y, z] = hit.point;
+    const floor = hit.normal[2] > 0.5 && z <= 2 * view.model.voxel + 1e-6;
+    return { point: new THREE.Vector3(...mapToScene(t, x, y, z)), floor, distance: hit.distance };
   }
 
   /**

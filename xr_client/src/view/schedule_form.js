@@ -14,6 +14,7 @@
 import { may } from '../roles.js';
 import { localTime, ScheduleEditor, WEEKDAYS } from '../schedule_draft.js';
 import { missionWords } from '../schedule_list.js';
+import { esc } from './html.js';
 
 export class ScheduleForm {
   /** Whether this client may change schedules (an operator; a viewer sees the list only). */
@@ -291,9 +292,4 @@ function blackoutRow(b, n) {
     `value="${esc(b.end)}" aria-label="blackout ${n + 1} to"> ` +
     `<button type="button" data-act="drop-blackout" data-n="${n}" aria-label="drop blackout ${n + 1}">×</button></div>`
   );
-}
-
-/** @param {string} text */
-function esc(text) {
-  return text.replace(/[&<>"']/g, (c) => `&#${c.charCodeAt(0)};`);
 }

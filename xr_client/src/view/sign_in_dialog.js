@@ -5,7 +5,7 @@
  * page (target_dialog.js), so E-STOP stays reachable; it stays open until the relay accepts, showing the relay's own
  * words when it does not ("wrong user name or password"). And the dialog that shows a pairing code.
  */
-import { claimCode, signIn, signInProvider } from '../sign_in.js';
+import { claimCode, signIn } from '../sign_in.js';
 
 export class SignInDialog {
   /**
@@ -33,22 +33,24 @@ export class SignInDialog {
 
   /**
    * Ask until the relay accepts; resolves with the account. @param {string} why the relay's refusal, shown first
+   * @param {Promise<string | null>} provider the site's sign-in provider (issuer URL), as the page's one /whoami
+   *   answered it (sign_in.js whoAmI): the dialog does not ask the relay again
    * @returns {Promise<import('../sign_in.js').Account>}
    */
-  ask(why) {
+  ask(why, provider) {
     const element = this.element;
     if (!element) return new Promise(() => {}); // no page: nobody to ask
     this.#error(why.replace(/^sign in:\s*/, ''));
     if (!element.open) element.show();
-    void this.#offerProvider(element);
+    void this.#offerProvider(element, provider);
     this.#field('user')?.focus();
     return new Promise((resolve) => (this.resolve = resolve));
   }
 
   /** The site's sign-in provider, when the relay has one: a link that leaves for it and comes back signed in. */
-  async #offerProvider(/** @type {HTMLDialogElement} */ element) {
+  async #offerProvider(/** @type {HTMLDialogElement} */ element, /** @type {Promise<string | null>} */ provider) {
     const link = /** @type {HTMLAnchorElement | null} */ (element.querySelector('a.oidc'));
-    const issuer = link ? await signInProvider(this.origin, this.fetcher) : null;
+    const issuer = link ? await provider : null;
     if (!link || !issuer) return;
     link.textContent = `Sign in with ${new URL(issuer).host}`;
     link.hidden = false;

@@ -1,15 +1,17 @@
 // @ts-check
 /**
  * Sound and haptics on the page: every 100 ms (a timer, off the render path) the fleet's state goes through
- * cue_rules.js; its cues play as earcons at their robots' places (sound.js) and pulse the controllers in VR. The
- * AudioContext is made on the operator's first gesture (browsers allow sound only after one). The listener follows
- * the camera (the headset in VR). The header's Sound button, the menu's Mute (VR too) and M mute; the header's
- * slider and the menu's Volume − and + (VR too) set the volume; G
- * switches the Geiger-like ticking of the selected robot's hazard reading (its first sensor with a warning level).
+ * cue_rules.js, and the relay's events bring cues of their own (`cue`: a lease lost); cues play as earcons at their
+ * robots' places (sound.js) and pulse the controllers in VR. The AudioContext is made on the operator's first gesture
+ * (browsers allow sound only after one). The listener follows the camera (the headset in VR). The header's Sound
+ * button, the menu's Mute (VR too) and M mute; the header's slider and the menu's Volume − and + (VR too) set the
+ * volume; G switches the Geiger-like ticking of the selected robot's hazard reading (its first sensor with a warning
+ * level).
  */
 import * as THREE from 'three';
 import { CueRules, hapticFor } from '../cue_rules.js';
 import { Soundscape } from './sound.js';
+import { typingIn } from './typing.js';
 
 const POLL_MS = 100;
 
@@ -18,6 +20,7 @@ const POLL_MS = 100;
  *   goals: import('../goal_pointer.js').GoalTracker, camera: THREE.Camera,
  *   robotViews: Map<string, import('./robot_view.js').RobotView>, inputSources: () => Iterable<XRInputSource>}}
  *   SoundHost
+ * @typedef {import('../cue_rules.js').Cue} Cue
  */
 
 export class SoundControl {
@@ -42,7 +45,7 @@ export class SoundControl {
     window.addEventListener('pointerdown', start, { capture: true });
     window.addEventListener('keydown', start, { capture: true });
     this.onKey = (/** @type {KeyboardEvent} */ e) => {
-      if (e.target instanceof HTMLInputElement || e.repeat) return;
+      if (typingIn(e.target) || e.repeat) return;
       if (e.key === 'm' || e.key === 'M') this.setMuted(!this.muted);
       if (e.key === 'g' || e.key === 'G') this.setGeiger(!this.geiger);
     };
@@ -116,39 +119,49 @@ export class SoundControl {
         y: entry.pose?.y ?? 0,
         warnings,
         goal: goals.goals.get(name)?.state ?? null,
-        controller: entry.status?.controller ?? null,
         latched: menu.latched.includes(name),
       });
     }
-    const cues = this.rules.update(robots, fleet.clientId, now);
-    const scape = this.scape;
-    if (scape) {
-      const camera = this.host.camera;
-      const at = camera.getWorldPosition(new THREE.Vector3());
-      const forward = camera.getWorldDirection(new THREE.Vector3());
-      const up = new THREE.Vector3(0, 1, 0).applyQuaternion(camera.getWorldQuaternion(new THREE.Quaternion()));
-      scape.listen(at, forward, up);
-    }
+    const cues = this.rules.update(robots, now);
+    if (this.scape) this.#listen(this.scape);
+    for (const cue of cues) this.#sound(cue);
     const selected = menu.selected ? fleet.robot(menu.selected) : null;
-    for (const cue of cues) {
-      this.played[cue.kind] = (this.played[cue.kind] ?? 0) + 1;
-      scape?.play(cue.kind, cue.robot ? this.#place(cue.robot) : null);
-      const robot = cue.robot ? fleet.robot(cue.robot) : null;
-      const pulse = hapticFor(cue, {
-        selected:
-          selected?.pose && menu.selected ? { name: menu.selected, x: selected.pose.x, y: selected.pose.y } : null,
-        at: robot?.pose ?? null,
-      });
-      if (pulse) this.#pulse(pulse);
-    }
     if (this.geiger && selected && menu.selected) {
       const sensor = selected.description.sensors.find((s) => s.warn_above !== null);
       const reading = sensor ? selected.sensors.get(sensor.name) : undefined;
       if (sensor && reading && sensor.warn_above !== null && this.rules.tick(reading.value, sensor.warn_above, now)) {
         this.ticks++;
-        scape?.play('tick', this.#place(menu.selected));
+        this.scape?.play('tick', this.#place(menu.selected));
       }
     }
+  }
+
+  /** A cue told by an event (control_news.js: a lease lost): heard and felt at once. @param {Cue} cue */
+  cue(cue) {
+    if (this.scape) this.#listen(this.scape);
+    this.#sound(cue);
+  }
+
+  /** The listener where the camera (the headset in VR) is, looking where it looks. @param {Soundscape} scape */
+  #listen(scape) {
+    const camera = this.host.camera;
+    const at = camera.getWorldPosition(new THREE.Vector3());
+    const forward = camera.getWorldDirection(new THREE.Vector3());
+    const up = new THREE.Vector3(0, 1, 0).applyQuaternion(camera.getWorldQuaternion(new THREE.Quaternion()));
+    scape.listen(at, forward, up);
+  }
+
+  /** Play a cue at its robot and pulse the controllers for it. @param {Cue} cue */
+  #sound(cue) {
+    const { fleet, menu } = this.host;
+    this.played[cue.kind] = (this.played[cue.kind] ?? 0) + 1;
+    this.scape?.play(cue.kind, cue.robot ? this.#place(cue.robot) : null);
+    const selected = menu.selected ? fleet.robot(menu.selected) : null;
+    const near =
+      selected?.pose && menu.selected ? { name: menu.selected, x: selected.pose.x, y: selected.pose.y } : null;
+    const robot = cue.robot ? fleet.robot(cue.robot) : null;
+    const pulse = hapticFor(cue, { selected: near, at: robot?.pose ?? null });
+    if (pulse) this.#pulse(pulse);
   }
 
   /** @param {{intensity: number, ms: number, pulses: number}} pulse */

@@ -14,9 +14,53 @@ export function snapshotState(app) {
   const { hemisphere, interaction } = app.views;
   const menu = app.menu;
   const decoder = app.views.feed.jpeg;
+  const groupBar = app.views.overlay.groupBar;
   return {
     connected: app.relay.linkOk,
     link: app.relay.linkText,
+    // A replay's position as the page shows it, and its operators drawn (view/avatar_view.js, view/playback_bar.js).
+    playback: app.router.playback,
+    replay: {
+      bar: !app.views.playbackBar.bar.hidden,
+      avatars: [...app.views.avatars.figures].filter(([, f]) => f.group.visible).map(([client]) => client),
+    },
+    // The desktop menu's groups of robots (each team, each room with robots in it) and the one chosen.
+    groups: { list: groupBar.groups.map((g) => ({ id: g.id, robots: g.robots })), chosen: groupBar.chosenId },
+    // Each arm's newest joint positions, and whether it is drawn on its robot (view/arm_view.js).
+    arms: Object.fromEntries(
+      [...app.router.arms.joints].map(([robot, joints]) => [
+        robot,
+        {
+          positions: joints.positions,
+          drawn: app.views.arms.views.get(robot)?.group.parent != null,
+          // Where the gripper is drawn (world), and whether a hand holds the arm (VR).
+          tip: app.views.arms.views.get(robot)?.balls.at(-1)?.getWorldPosition(new THREE.Vector3()).toArray() ?? null,
+          held: app.views.armGrab.grab.held !== null && app.menu.selected === robot,
+          // The hand's scale on it, and why its last motion was refused while that is shown (VR).
+          scale: app.views.armGrab.grab.scale,
+          refusal: app.router.arms.refusal(robot, performance.now()),
+        },
+      ]),
+    ),
+    // The study the relay runs (study_model.js): where it is, and the answers being given.
+    study: app.router.study.message && {
+      phase: app.router.study.message.phase,
+      participant: app.router.study.message.participant,
+      task: app.router.study.message.task,
+      questionnaire: app.router.study.message.questionnaire,
+      done: app.router.study.message.done,
+      sus: app.router.study.sus,
+      tlx: app.router.study.tlx,
+    },
+    // The facility's valve wheel as reported, and where it is drawn (world; view/valve_view.js).
+    valve: app.router.arms.valve && {
+      angle: app.router.arms.valve.angle,
+      held: app.router.arms.valve.held,
+      shut: app.router.arms.valve.shut,
+      drawn: app.views.valve.group.visible && app.views.valve.group.parent != null,
+      turned: app.views.valve.spin.rotation.x,
+      centre: app.views.valve.group.getWorldPosition(new THREE.Vector3()).toArray(),
+    },
     inspection: {
       targets: app.views.inspectionUi.model.targets.size,
       missions: Object.fromEntries([...app.views.inspectionUi.model.missions.values()].map((m) => [m.robot, m.state])),
@@ -58,6 +102,9 @@ export function snapshotState(app) {
         showing: app.views.findingCard.showing,
         before: app.views.findingCard.before.state,
         draws: app.views.findingCard.draws,
+        // The note read on the VR card: the lines drawn, and whether a phrase is being dictated.
+        note: app.views.findingCard.reading ? app.views.findingCard.noteLines : null,
+        dictation: app.views.dictation.state,
         wipe: app.views.inspectionUi.panel?.wipe ?? null, // the desktop card's before/after slider (0-100)
       },
     },
@@ -109,6 +156,9 @@ export function snapshotState(app) {
       scale: app.views.hud.miniature.scale,
       position: app.views.hud.miniature.group.position.toArray(),
       radius: app.views.hud.miniature.table.scale.x,
+      /** Voxels of the 3D map drawn on the table, and whether the twin's copy shows there. */
+      voxels: app.views.hud.miniature.mapMirror?.count ?? 0,
+      twin: app.views.hud.miniature.copy?.visible ?? false,
     },
     /** Where VR started (map frame; start_pose.js), and what it saw from there. */
     start: app.stage.xrSession.plan.last,
@@ -124,6 +174,13 @@ export function snapshotState(app) {
       yaw: app.stage.rig.rotation.y,
     },
     world: app.stage.world.visible,
+    voxels: {
+      version: app.router.voxels.version,
+      held: app.router.voxels.count,
+      drawn: app.stage.voxels.drawn,
+      visible: app.stage.voxels.group.visible,
+      twin: app.stage.twin.group.visible,
+    },
     labels: {
       capacity: app.stage.fleetView.atlas.layout.capacity,
       whole: app.stage.fleetView.atlas.uploads.whole,
@@ -275,8 +332,9 @@ function headingOf(app, view) {
 }
 
 /**
- * A robot's label: its height (m), opacity, lines; on the desktop page its height (px), smallest font (px, its
- * status lines': label_rule.js smallestFont), where it is (x0, y0, x1, y1 px) and whether another covers it (a ghost).
+ * A robot's label: its height (m), opacity, lines; on the desktop page its height (px) and smallest font (px, its
+ * status lines': label_rule.js smallestFont); where it is (x0, y0, x1, y1 px on the desktop's page, in VR on the left
+ * eye's picture) and whether another covers it (a ghost).
  * @param {import('../app.js').App} app @param {import('./robot_view.js').RobotView} view
  */
 function labelState(app, view) {
@@ -288,7 +346,7 @@ function labelState(app, view) {
     labelLines: view.labelLines,
     labelPixels: pixels,
     labelFont: pixels === null ? null : smallestFont(pixels, view.labelLines),
-    labelRect: pixels === null ? null : [...fleetView.labelRects.slice(4 * view.index, 4 * view.index + 4)],
+    labelRect: [...fleetView.labelRects.slice(4 * view.index, 4 * view.index + 4)],
     labelGhost: fleetView.uncovered[view.index] < 1,
   };
 }

@@ -8,21 +8,16 @@
  * (Firefox, Quest Browser today), the button says so and is disabled.
  */
 import { CONFIRM_MS, VoiceConfirm, describe, parse } from '../voice_grammar.js';
+import { onePhrase, recognizerClass } from './dictation.js';
+import { typingIn } from './typing.js';
 
 /**
- * @typedef {{start(): void, stop(): void, abort(): void, lang: string, continuous: boolean, interimResults: boolean,
- *   onresult: ((event: any) => void) | null, onerror: ((event: any) => void) | null, onend: (() => void) | null}}
- *   Recognition
+ * @typedef {import('./dictation.js').Recognition} Recognition
  * @typedef {{actions: import('../app.js').OperatorActions, menu: import('../menu_state.js').MenuState,
  *   fleet: import('../fleet_model.js').FleetModel, targets: () => {name: string, x: number, y: number}[],
- *   activeMission: (robot: string) => boolean, presenting: () => boolean, toast: (text: string) => void}} VoiceHost
+ *   activeMission: (robot: string) => boolean, presenting: () => boolean, toast: (text: string) => void,
+ *   groups: () => import('../robot_groups.js').RobotGroup[]}} VoiceHost
  */
-
-/** The browser's recogniser class, or null. @returns {(new () => Recognition) | null} */
-function recognizerClass() {
-  const w = /** @type {any} */ (window);
-  return w.SpeechRecognition ?? w.webkitSpeechRecognition ?? null;
-}
 
 export class VoiceControl {
   /** @param {VoiceHost} host */
@@ -64,12 +59,11 @@ export class VoiceControl {
       }
     }
     window.addEventListener('keydown', (e) => {
-      if ((e.key === 'v' || e.key === 'V') && !e.repeat && !(e.target instanceof HTMLInputElement)) this.talk(true);
+      if ((e.key === 'v' || e.key === 'V') && !e.repeat && !typingIn(e.target)) this.talk(true);
     });
     window.addEventListener('keydown', (e) => {
       // Enter confirms a spoken command that waits (the desktop's pinch); typing in a field is not a confirmation.
-      if (e.key === 'Enter' && !e.repeat && !(e.target instanceof HTMLInputElement) && this.confirmByGesture('Enter'))
-        e.preventDefault();
+      if (e.key === 'Enter' && !e.repeat && !typingIn(e.target) && this.confirmByGesture('Enter')) e.preventDefault();
     });
     window.addEventListener('keyup', (e) => {
       if (e.key === 'v' || e.key === 'V') this.talk(false);
@@ -88,24 +82,15 @@ export class VoiceControl {
       if (!this.available && down) this.#show('', 'voice: this browser has no speech recognition');
       return;
     }
-    const recognition = new this.Recognizer();
-    recognition.lang = 'en-US';
-    recognition.continuous = false;
-    recognition.interimResults = false;
-    recognition.onresult = (event) => {
-      for (let i = event.resultIndex ?? 0; i < event.results.length; i++) {
-        const result = event.results[i];
-        if (result.isFinal !== false) this.hear(String(result[0]?.transcript ?? ''));
-      }
-    };
-    recognition.onerror = (event) => {
-      if (event?.error !== 'no-speech' && event?.error !== 'aborted')
-        this.#show('', `voice: ${event?.error ?? 'recognition failed'}`);
-    };
-    recognition.onend = () => {
-      this.listening = false;
-      this.#paintButton();
-    };
+    const recognition = onePhrase(
+      this.Recognizer,
+      (text) => this.hear(text),
+      (error) => this.#show('', `voice: ${error}`),
+      () => {
+        this.listening = false;
+        this.#paintButton();
+      },
+    );
     this.recognition = recognition;
     this.listening = true;
     this.#paintButton();
@@ -125,6 +110,7 @@ export class VoiceControl {
       rooms: fleet.rooms,
       targets: this.host.targets(),
       selected: menu.selected,
+      groups: this.host.groups(),
     };
     const parsed = parse(transcript, vocab);
     for (const effect of this.confirm.hear(parsed, performance.now())) this.#effect(effect, parsed.heard);
@@ -182,6 +168,9 @@ export class VoiceControl {
       case 'stop_all':
         actions.apply([{ type: 'estop' }]);
         return 'emergency stop of every robot';
+      case 'stop_group':
+        actions.apply(c.robots.map((robot) => ({ type: /** @type {const} */ ('estop'), robot })));
+        return `emergency stop of ${c.group}: ${c.robots.join(', ')}`;
       case 'snapshot':
         if (!c.robot) return 'snapshot: select a robot first ("robot one")';
         if (menu.selected !== c.robot) actions.selectRobot(c.robot);

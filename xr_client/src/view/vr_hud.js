@@ -33,7 +33,8 @@ export class VRHud {
    * @param {number} now ms @param {{carrier: import('three').Object3D, hand: boolean} | null} wrist what carries the
    *   panel: the left controller's grip or the left hand's wrist (xr_input.js)
    * @param {import('./sensor_drawing.js').SensorPanelData} data
-   * @param {{twin: import('./twin_view.js').TwinView, views: Map<string, import('./robot_view.js').RobotView>,
+   * @param {{twin: import('./twin_view.js').TwinView, voxels: import('./voxel_view.js').VoxelView,
+   *   views: Map<string, import('./robot_view.js').RobotView>,
    *   cursor: {point: {x: number, y: number}, verdict: import('../goal_verdict.js').GoalVerdict} | null,
    *   transform: import('../frames.js').MapToScene, show: boolean}} overview
    */
@@ -47,6 +48,7 @@ export class VRHud {
     this.toast.update(now, true);
     const table = this.miniature;
     table.setTwin(overview.twin);
+    table.follow(overview.voxels, overview.twin.group.visible);
     // The headset's pose reaches the camera with the session's first rendered frames: the table waits for it
     // (a few frames at most; 'local' spaces may report the head at the origin, hence the count).
     if (this.placeTable && (this.camera.position.lengthSq() > 1e-6 || ++this.waited > 5)) {

@@ -15,7 +15,7 @@ const SLOTS = 4;
 /**
  * @typedef {{index: number, controller: THREE.XRTargetRaySpace, grip: THREE.XRGripSpace, hand: THREE.XRHandSpace,
  *   ray: THREE.Line, cursor: THREE.Mesh, source: XRInputSource | null, events: ('selectstart' | 'selectend')[],
- *   selecting: boolean, pointer: boolean, mode: XRTargetRayMode | null}} InputSlot
+ *   selecting: boolean, squeezing: boolean, pointer: boolean, mode: XRTargetRayMode | null}} InputSlot
  */
 
 export class XRInput {
@@ -65,6 +65,7 @@ export class XRInput {
         source: null,
         events: [],
         selecting: false,
+        squeezing: false, // the grip button held: takes a robot's arm near the hand (xr_arm_grab.js)
         pointer: false,
         mode: null,
       };
@@ -79,6 +80,7 @@ export class XRInput {
       });
       this.#listen(controller, 'disconnected', () => {
         if (slot.selecting) slot.events.push('selectend');
+        slot.squeezing = false;
         slot.source = null;
         slot.pointer = false;
         ray.visible = false;
@@ -92,6 +94,8 @@ export class XRInput {
         slot.selecting = false;
         slot.events.push('selectend');
       });
+      this.#listen(controller, 'squeezestart', () => (slot.squeezing = true));
+      this.#listen(controller, 'squeezeend', () => (slot.squeezing = false));
     }
   }
 
@@ -153,6 +157,11 @@ export class XRInput {
   /** @param {InputSlot | null} slot @param {number} index xr-standard button index */
   pressed(slot, index) {
     return Boolean(slot?.source?.gamepad?.buttons[index]?.pressed);
+  }
+
+  /** How far the trigger (xr-standard button 0) is pulled: 0 at rest .. 1. @param {InputSlot | null} slot */
+  trigger(slot) {
+    return Number(slot?.source?.gamepad?.buttons[0]?.value ?? 0);
   }
 
   /** Select events since the last call. @param {InputSlot} slot */

@@ -16,14 +16,15 @@
  * and an operator in the corridor reviews the rooms' findings without walking into each.
  */
 import { Raycaster, Vector2 } from 'three';
-import { nextName } from '../inspection_review.js';
+import { appendNote, nextName } from '../inspection_review.js';
 
 export class XRInspection {
   /**
    * @param {{ui: import('./inspection_ui.js').InspectionUi, card: import('./finding_card.js').FindingCard,
    *   picking: import('./picking.js').Picking, menu: import('../menu_state.js').MenuState,
    *   screen: import('./hemisphere_screen.js').HemisphereScreen,
-   *   camera: import('three').Camera, notify: (text: string) => void, operator: () => boolean}} host
+   *   camera: import('three').Camera, notify: (text: string) => void, operator: () => boolean,
+   *   dictation: import('./dictation.js').Dictation}} host
    */
   constructor(host) {
     this.host = host;
@@ -157,9 +158,18 @@ export class XRInspection {
   #button(button) {
     const review = this.host.ui.review;
     if (button === 'card:close') review.select(null);
-    else if (button === 'card:before' || button === 'card:after')
+    else if (button === 'card:before' || button === 'card:after' || button === 'card:image')
       this.host.card.show(button === 'card:before' ? 'before' : 'after');
-    else if (button.startsWith('status:'))
+    else if (button === 'card:note') this.host.card.read();
+    else if (button === 'note:clear') this.host.ui.run(review.setNote(''));
+    else if (button === 'note:dictate') {
+      const finding = review.selected;
+      // The phrase is added to the note as the relay has it then; the card may have moved on meanwhile.
+      this.host.dictation.start((text) => {
+        const note = finding ? this.host.ui.model.findings.get(finding)?.note : undefined;
+        if (finding && note !== undefined) this.host.ui.run(review.setNote(appendNote(note, text), finding));
+      });
+    } else if (button.startsWith('status:'))
       this.host.ui.run(review.setStatus(/** @type {any} */ (button.slice('status:'.length))));
     else if (button === 'region:accept') this.host.ui.run(review.accept());
     else if (button === 'region:redo') review.redo();
@@ -174,6 +184,7 @@ export class XRInspection {
       this.placedFor = ui.review.selected;
       if (presenting && this.placedFor) card.place(this.host.camera);
     }
-    card.update(ui.review, ui.model, { operator: this.host.operator(), presenting, hover: this.hover });
+    const dictation = this.host.dictation.state;
+    card.update(ui.review, ui.model, { operator: this.host.operator(), presenting, hover: this.hover, dictation });
   }
 }

@@ -1,0 +1,1 @@
+"""Station sessions recorded as MCAP, for review and replay (issue #34)."""

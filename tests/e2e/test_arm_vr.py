@@ -1,0 +1,60 @@
+"""robot3's arm by the hand in VR (issue #32), on IWER's emulated Quest 3: with robot3 selected, a squeeze of the
+right controller at the arm's gripper takes it, the gripper follows the controller's motion (half of it) while the
+squeeze is held, and letting go stops the arm. Needs the shared data (turtlebot3_manipulation_description)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from relay.arm.kinematics import forward
+from tests.helpers.arm import tb3_manipulation
+from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.xr import button, enter_vr, press_menu_button, set_menu
+
+#: The right controller at a world point: the reference space is the rig's (position, turn), as tests/helpers/xr.py
+#: aims; returns where it was put in the reference space.
+_HOLD_AT = """
+async ([world]) => {
+  const THREE = await import('three');
+  const s = window.__xrRelay.state;
+  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
+  const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
+    .applyQuaternion(rigRotation.invert());
+  window.__iwer.controllers.right.position.set(local.x, local.y, local.z);
+  return local.toArray();
+}
+"""
+
+
+def tip_height(station: Station) -> float:
+    backend: Any = station.running.relay.backend
+    arm = backend._arms.arms["robot3"]
+    return float(forward(arm.model, arm.positions)[2, 3])
+
+
+async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_hand(
+    station: Station, open_client: OpenClient
+) -> None:
+    tb3_manipulation("turtlebot3_manipulation.urdf")
+    client = await enter_vr(open_client, station.url)
+    await set_menu(client, True)
+    await press_menu_button(client, "robot:robot3")
+    await client.wait("s.menu.selected === 'robot3'")
+    await set_menu(client, False)
+    tip = await client.wait("s.arms.robot3 && s.arms.robot3.drawn && s.arms.robot3.tip", 20)
+    held = await client.page.evaluate(_HOLD_AT, [tip])
+    await client.frames(3)
+    await button(client, "right", "squeeze", 1)
+    await client.wait("s.arms.robot3.held", 10)
+    start = tip_height(station)
+    # The hand 10 cm up: the gripper goes 5 cm up.
+    await client.page.evaluate("(p) => window.__iwer.controllers.right.position.set(p[0], p[1] + 0.1, p[2])", held)
+    await wait_until(lambda: tip_height(station) > start + 0.03, 30, "robot3's gripper following the hand up")
+    await button(client, "right", "squeeze", 0)
+    await client.wait("!s.arms.robot3.held", 10)
+    await client.frames(3)
+    after = tip_height(station)
+    await client.frames(6)
+    assert abs(tip_height(station) - after) < 0.003, "the arm went on moving after the hand let go"
+    assert tip_height(station) < start + 0.06, "the gripper went further than half the hand's motion"
+    await client.shot("01-arm-by-hand")

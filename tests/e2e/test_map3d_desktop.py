@@ -1,0 +1,74 @@
+"""The live 3D map on the desktop (issue #33): three sim robots drive into their rooms, their depth cameras' clouds
+are fused by the relay and streamed, and the page draws the voxels; the menu's `Twin` hides the glTF twin so that the
+map alone shows what the robots saw, and `3D map` hides the map. The screenshot is docs/client.md's."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import math
+
+from relay.config import Cloud, load_config
+from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, wait_until
+from tests.helpers.map3d import GOALS, goal_at_relay, map_spots
+
+
+async def test_the_map_is_drawn_and_the_twin_switches_off(open_client: OpenClient) -> None:
+    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
+    # 10 cm voxels: SwiftShader draws a few thousand boxes in a frame it can screenshot; at 5 cm the same drive made
+    # 95 000 (1.1 M triangles: seconds a frame on a loaded CI machine).
+    running = await start_relay(dataclasses.replace(config, cloud=Cloud(voxel=0.1, sim_depth_rate=2.0)))
+    try:
+        fusion = running.relay.fusion
+        assert fusion is not None
+        for robot, (x, y) in GOALS.items():
+            await running.relay.backend.send_goal(robot, x, y, None)
+        client = await open_client(f"{running.url}/?{SOFTWARE_GL}", "map3d", 1280, 760)
+        await wait_until(lambda: fusion.counters.integrated >= 9, 60, "9 clouds fused")
+        # The page holds the map the relay has, drawn: thousands of voxels, one instanced mesh.
+        await client.wait("s.voxels.drawn > 1000 && s.voxels.visible && s.voxels.twin", 30)
+        await client.page.keyboard.press("t")  # the top view: every room's walls at once
+        await client.wait("s.view.mode === 'top'", 5)
+        await client.drawn(2)
+        await client.shot("01-map-with-twin")
+        await client.page.click('#menu button[data-button="opt:twin"]')
+        await client.wait("!s.voxels.twin", 5)
+        await client.drawn(2)
+        await client.shot("02-map-alone", "desktop-3d-map.png")
+        await goals_are_set_on_the_map(client, running)
+        # Later changes come too: robot1 turns on the spot (the robots have stopped in their rooms, and a map seen
+        # from where it was seen does not change), and the page's version follows the relay's.
+        version = (await client.state())["voxels"]["version"]
+        await running.relay.backend.send_velocity("robot1", 0.0, 1.0)
+        await client.wait("s.voxels.version > arg", 20, version)
+        await client.page.click('#menu button[data-button="opt:map3d"]')
+        await client.wait("!s.voxels.visible", 5)
+        assert client.errors == [], client.errors
+    finally:
+        await running.runner.cleanup()
+
+
+async def goals_are_set_on_the_map(client: Client, running: RunningRelay) -> None:
+    """With the twin hidden, the goal pointer meets the map (issue #33: goals set on it): a click on floor the robots
+    saw sends the goal there; a click on the facility's floor where the map has nothing sends none."""
+    fusion = running.relay.fusion
+    assert fusion is not None
+    occupied = await fusion.run(lambda voxels: voxels.occupied())
+    patches, unseen = await asyncio.to_thread(map_spots, running, occupied, fusion.voxel)
+    seen = patches[0]
+    page = client.page
+    await page.click('#menu button[data-button="robot:robot1"]')
+    await page.click('#menu button[data-button="tool:goal"]')
+    await client.wait("s.menu.tool === 'goal' && s.menu.selected === 'robot1'", 10)
+    before = (await client.state())["goal"]["sent"]
+    px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", list(unseen))
+    await page.mouse.click(px, py)
+    await client.drawn(2)
+    assert (await client.state())["goal"]["sent"] == before, f"a goal was sent at {unseen}, where the map has nothing"
+    top = fusion.voxel  # the floor voxels' top face
+
+    x, y = await page.evaluate("([x, y, z]) => window.__xrRelay.mapToPage(x, y, z)", [*seen, top])
+
+    sent = await goal_at_relay(client, running, "robot1", lambda: page.mouse.click(x, y))
+    assert sent is not None and math.dist((sent["x"], sent["y"]), seen) < 2 * fusion.voxel, (sent, seen)

@@ -1,0 +1,117 @@
+// @ts-check
+/**
+ * Taking a robot's arm by the hand in VR: a squeeze (the grip button) near the arm's gripper takes it; while held,
+ * the gripper follows the hand's motion from where the squeeze began, scaled down for precision; letting go (or the
+ * hand leaving tracking) releases it, and the arm stops. Positions are in the arm's base link (metres; x forward,
+ * y left, z up): the view turns the hand's pose into that frame through the robot's body, so the robot's pose, its
+ * heading and the twin's scale are already in them. No DOM, no WebGL: test/arm_grab.test.js drives it.
+ *
+ * The twist is a position loop, not the hand's velocity: it drives the tip toward where the hand puts it, so a
+ * refused or clamped motion never accumulates an offset, and the tip stops where the hand stops. The hand's motion is
+ * scaled by half unless the operator asks for 1:1 (the menu's **Hand 1:1**). While the hand holds the arm, its
+ * trigger is the gripper (GripperTrigger): its travel from rest to fully pulled is the gripper's from open to closed,
+ * from the moment the hand takes the arm (a trigger at rest opens it).
+ */
+
+/** How near the gripper (m) a squeeze must begin to take the arm: about a hand's width. */
+export const GRAB_RADIUS = 0.15;
+/** The tip moves this much per metre of the hand's motion: half, for precision (1 with the menu's Hand 1:1). */
+export const HAND_SCALE = 0.5;
+/** Of the distance between where the tip is and where the hand puts it, this much a second (1/s). */
+export const FOLLOW_GAIN = 3;
+/** Closer than this (m) the tip is where the hand puts it: no twist (the joint states' rounding is 0.1 mm). */
+export const DEAD_BAND = 0.002;
+/** The trigger moves the gripper at most this often (ms): 10 commands a second, each acknowledged by the relay. */
+export const GRIP_PERIOD_MS = 100;
+/** A change of the trigger smaller than this (of its travel) is not sent, except to reach either end. */
+export const GRIP_STEP = 0.05;
+/**
+ * A trigger held still sends its position again this often (ms): a command the relay dropped (stale after a stall,
+ * refused while another hand held the robot) is not left standing while the trigger says otherwise.
+ */
+export const GRIP_REFRESH_MS = 1000;
+
+/** @typedef {[number, number, number]} Vec3 */
+
+export class ArmGrab {
+  /** The hand holding the arm (its input slot), where it and the tip were when it took it. */
+  /** @type {{slot: number, hand: Vec3, tip: Vec3} | null} */
+  held = null;
+  /** The tip's motion per metre of the hand's. */
+  scale = HAND_SCALE;
+
+  /**
+   * Scale the hand's motion by `scale` from now: a held arm is taken again where the hand and the tip are, so the
+   * change never makes the tip jump. @param {number} scale @param {Vec3 | null} hand @param {Vec3 | null} tip
+   */
+  setScale(scale, hand, tip) {
+    if (scale === this.scale) return;
+    this.scale = scale;
+    if (this.held && hand && tip) this.held = { slot: this.held.slot, hand: [...hand], tip: [...tip] };
+  }
+
+  /**
+   * A squeeze began: the hand of `slot` takes the arm when it is within GRAB_RADIUS of the tip (and no other hand
+   * holds it). @param {number} slot @param {Vec3} hand @param {Vec3} tip @returns {boolean} whether it took it
+   */
+  squeeze(slot, hand, tip) {
+    if (this.held !== null || distance(hand, tip) > GRAB_RADIUS) return false;
+    this.held = { slot, hand: [...hand], tip: [...tip] };
+    return true;
+  }
+
+  /**
+   * The tip's velocity (m/s) toward where the held hand puts it now; zeros when nothing holds it.
+   * @param {Vec3} hand @param {Vec3} tip @returns {Vec3}
+   */
+  follow(hand, tip) {
+    if (this.held === null) return [0, 0, 0];
+    const { hand: hand0, tip: tip0 } = this.held;
+    const error = /** @type {Vec3} */ ([0, 1, 2].map((i) => tip0[i] + this.scale * (hand[i] - hand0[i]) - tip[i]));
+    if (distance(error, [0, 0, 0]) < DEAD_BAND) return [0, 0, 0];
+    return /** @type {Vec3} */ (error.map((e) => FOLLOW_GAIN * e));
+  }
+
+  /** The hand of `slot` let go (or left tracking): whether it held the arm. @param {number} slot */
+  release(slot) {
+    if (this.held?.slot !== slot) return false;
+    this.held = null;
+    return true;
+  }
+}
+
+/** The held arm's gripper by the trigger: what to send as it is pulled and let go. */
+export class GripperTrigger {
+  /** The trigger's travel last sent (NaN: nothing yet: the hand that takes the arm sets its gripper at once). */
+  sent = NaN;
+  lastSent = -Infinity;
+
+  /**
+   * The gripper's position to send now for the trigger at `value` (0 at rest .. 1 pulled), or null: a change of
+   * GRIP_STEP or more (or to either end), at most every GRIP_PERIOD_MS; what the rate holds back goes at the next;
+   * the same position again after GRIP_REFRESH_MS.
+   * @param {number} value @param {number[]} range the gripper's [open, close] (`<robot>/joints`' `gripper`)
+   * @param {number} now ms @returns {number | null}
+   */
+  update(value, range, now) {
+    const v = Math.min(1, Math.max(0, value));
+    if (range.length !== 2 || now - this.lastSent < GRIP_PERIOD_MS) return null;
+    const refresh = now - this.lastSent >= GRIP_REFRESH_MS;
+    if (v === this.sent && !refresh) return null;
+    if (Math.abs(v - this.sent) < GRIP_STEP && v !== 0 && v !== 1 && !refresh) return null;
+    this.sent = v;
+    this.lastSent = now;
+    return range[0] + v * (range[1] - range[0]);
+  }
+
+  /** The hand let go of the arm: the next hold sets the gripper afresh. */
+  reset() {
+    this.sent = NaN;
+    this.lastSent = -Infinity;
+  }
+}
+
+/** @param {number[]} a @param {number[]} b */
+function distance(a, b) {
+  return Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+}

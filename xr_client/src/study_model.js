@@ -1,0 +1,175 @@
+// @ts-check
+/**
+ * The study the relay runs (docs/study.md), as the page shows it: the relay's `study` message, the time left counted
+ * on the page's clock from the message's `elapsed`, and the participant's answers being given (the SUS's ten items
+ * 1-5, the raw NASA-TLX's six scales 0-100) until they are sent. Pure: `apply` returns effects (as
+ * message_router.js does), the answers return the command to send or why not; view/study_panel.js draws it and
+ * test/study_model.test.js drives it.
+ */
+
+/**
+ * @typedef {import('./protocol.js').StudyMessage} StudyMessage
+ * @typedef {{type: 'study'}
+ *   | {type: 'notify', text: string, kind: 'info' | 'error' | 'warning', toast: boolean}} StudyEffect
+ * @typedef {Omit<import('./protocol.js').StudyJoinCommand, 'id'>
+ *   | Omit<import('./protocol.js').StudyStartCommand, 'id'>
+ *   | Omit<import('./protocol.js').StudyQuestionnaireAnswerCommand, 'id'>
+ *   | Omit<import('./protocol.js').StudyProbeAnswerCommand, 'id'>} StudyCommand
+ */
+
+/** The System Usability Scale's items (Brooke, 1996), answered 1 (strongly disagree) to 5 (strongly agree). */
+export const SUS_ITEMS = Object.freeze([
+  'I think that I would like to use this system frequently.',
+  'I found the system unnecessarily complex.',
+  'I thought the system was easy to use.',
+  'I think that I would need the support of a technical person to be able to use this system.',
+  'I found the various functions in this system were well integrated.',
+  'I thought there was too much inconsistency in this system.',
+  'I would imagine that most people would learn to use this system very quickly.',
+  'I found the system very cumbersome to use.',
+  'I felt very confident using the system.',
+  'I needed to learn a lot of things before I could get going with this system.',
+]);
+
+/** The raw NASA-TLX's scales (Hart, 2006), 0-100 in steps of 5, with their ends as the form words them. */
+export const TLX_SCALES = Object.freeze([
+  { name: 'mental', question: 'How mentally demanding was the task?', low: 'Very low', high: 'Very high' },
+  { name: 'physical', question: 'How physically demanding was the task?', low: 'Very low', high: 'Very high' },
+  { name: 'temporal', question: 'How hurried or rushed was the pace of the task?', low: 'Very low', high: 'Very high' },
+  {
+    name: 'performance',
+    question: 'How successful were you in accomplishing what you were asked to do?',
+    low: 'Perfect',
+    high: 'Failure',
+  },
+  {
+    name: 'effort',
+    question: 'How hard did you have to work to accomplish your level of performance?',
+    low: 'Very low',
+    high: 'Very high',
+  },
+  {
+    name: 'frustration',
+    question: 'How insecure, discouraged, irritated, stressed and annoyed were you?',
+    low: 'Very low',
+    high: 'Very high',
+  },
+]);
+/** Where a TLX slider starts: the middle, so that an untouched scale is visible as one. */
+export const TLX_START = 50;
+
+export class StudyModel {
+  /** The relay's newest `study` message (null: the relay runs no study). @type {StudyMessage | null} */
+  message = null;
+  /** When it came (page ms): the time left counts on from its `elapsed`. */
+  receivedAt = 0;
+  /** The SUS answers given so far (null: not yet). @type {(number | null)[]} */
+  sus = SUS_ITEMS.map(() => null);
+  /** The TLX scales as set. @type {number[]} */
+  tlx = TLX_SCALES.map(() => TLX_START);
+  /** The participant picked to join. */
+  participant = '';
+
+  /**
+   * @param {StudyMessage} message @param {number} now page ms @returns {StudyEffect[]}
+   */
+  apply(message, now) {
+    const before = this.message;
+    this.message = message;
+    this.receivedAt = now;
+    if (!this.participant || !message.participants.includes(this.participant))
+      this.participant = message.participant ?? message.participants[0] ?? '';
+    const asked = message.phase === 'questions' ? message.questionnaire : null;
+    const wasAsked = before?.phase === 'questions' ? before.questionnaire : null;
+    if (asked !== wasAsked || before?.task !== message.task || before?.condition !== message.condition) this.#fresh();
+    /** @type {StudyEffect[]} */
+    const effects = [{ type: 'study' }];
+    if (before?.phase === 'task' && message.phase === 'questions' && message.questionnaire !== null)
+      effects.push({
+        type: 'notify',
+        text: `Task ${before.task} over: please answer the questions`,
+        kind: 'info',
+        toast: true,
+      });
+    if (before?.phase === 'task' && message.phase === 'probe')
+      effects.push({
+        type: 'notify',
+        text: 'A question about the robots: the task is paused',
+        kind: 'info',
+        toast: true,
+      });
+    return effects;
+  }
+
+  /** New answers for a new questionnaire. */
+  #fresh() {
+    this.sus = SUS_ITEMS.map(() => null);
+    this.tlx = TLX_SCALES.map(() => TLX_START);
+  }
+
+  /** Seconds left in the task running now (counted on the page's clock), else null. @param {number} now page ms */
+  timeLeft(now) {
+    const m = this.message;
+    if (!m || m.phase !== 'task' || m.time_limit === null) return null;
+    return Math.max(0, m.time_limit - m.elapsed - (now - this.receivedAt) / 1000);
+  }
+
+  /** @param {string} participant */
+  choose(participant) {
+    this.participant = participant;
+  }
+
+  /** @returns {StudyCommand | null} */
+  join() {
+    return this.participant ? { identifier: 'study/join', participant: this.participant } : null;
+  }
+
+  /** @returns {StudyCommand | null} */
+  start() {
+    return this.message?.phase === 'ready' ? { identifier: 'study/start' } : null;
+  }
+
+  /** @param {number} item 0-9 @param {number} answer 1-5 */
+  setSus(item, answer) {
+    if (item >= 0 && item < SUS_ITEMS.length && Number.isInteger(answer) && answer >= 1 && answer <= 5)
+      this.sus[item] = answer;
+  }
+
+  /** @param {number} scale 0-5 @param {number} value 0-100 */
+  setTlx(scale, value) {
+    if (scale >= 0 && scale < TLX_SCALES.length && Number.isFinite(value))
+      this.tlx[scale] = Math.min(100, Math.max(0, Math.round(value / 5) * 5));
+  }
+
+  /** The questionnaire asked now: its answers to send, or why they cannot be yet. @returns {{command: StudyCommand}
+   *   | {missing: string}} */
+  answer() {
+    const asked = this.message?.phase === 'questions' ? this.message.questionnaire : null;
+    if (asked === null || asked === undefined) return { missing: 'no questionnaire is asked now' };
+    if (asked === 'tlx')
+      return { command: { identifier: 'study/answer', questionnaire: 'tlx', answers: [...this.tlx] } };
+    const unanswered = this.sus.flatMap((a, i) => (a === null ? [i + 1] : []));
+    if (unanswered.length)
+      return { missing: `please answer item${unanswered.length > 1 ? 's' : ''} ${unanswered.join(', ')}` };
+    return { command: { identifier: 'study/answer', questionnaire: 'sus', answers: this.sus.map(Number) } };
+  }
+
+  /** @param {string} choice @returns {StudyCommand | null} */
+  answerProbe(choice) {
+    const probe = this.message?.phase === 'probe' ? this.message.probe : null;
+    return probe && probe.choices.includes(choice) ? { identifier: 'study/answer', probe: choice } : null;
+  }
+}
+
+/** Seconds as m:ss. @param {number} seconds @returns {string} */
+export function clockText(seconds) {
+  const s = Math.ceil(seconds);
+  return `${Math.floor(s / 60)}:${String(s % 60).padStart(2, '0')}`;
+}
+
+/** A probe's question in words. @param {import('./protocol.js').StudyProbe} probe @returns {string} */
+export function probeQuestion(probe) {
+  if (probe.question === 'room') return `Which room is ${probe.robot} in?`;
+  if (probe.question === 'mode') return `What is ${probe.robot} doing?`;
+  return `Which robot is nearest to ${probe.robot}?`;
+}

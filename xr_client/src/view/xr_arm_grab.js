@@ -1,0 +1,122 @@
+// @ts-check
+/**
+ * The hand on the selected robot's arm, in VR: a squeeze (grip button) with the hand near the arm's gripper takes
+ * it, the gripper then follows the hand (arm_grab.js; half its motion, or all of it with the menu's **Hand 1:1**) as
+ * arm twists at the teleop rate (the station's jogArm: arm_jog.js), and letting go, or the hand leaving tracking,
+ * stops it. While held, the hand's trigger is the gripper (its travel from open to closed, `GripperTrigger`) and
+ * selects nothing else. A tick of haptics says the arm was taken; a motion the relay refuses (a joint limit, the
+ * workspace's edge, the arm reaching into its base) pulses the holding hand and shows why beside the gripper.
+ * The hand's position is read in the robot's body (RobotView.body), so the robot's pose, heading and the twin's scale
+ * are in it; the body's glTF frame (y up, z back) is turned into the arm's base link (x forward, y left, z up).
+ */
+import * as THREE from 'three';
+import { ArmGrab, GripperTrigger, HAND_SCALE } from '../arm_grab.js';
+import { LabelSprite } from './label_sprite.js';
+
+const world = new THREE.Vector3();
+/** The refusal's line hangs this far over the gripper (m). */
+const LABEL_ABOVE = 0.07;
+
+/**
+ * @typedef {{input: import('./xr_input.js').XRInput, menu: import('../menu_state.js').MenuState,
+ *   robotViews: Map<string, import('./robot_view.js').RobotView>,
+ *   actions: import('../app.js').OperatorActions, world: THREE.Object3D}} ArmGrabHost
+ */
+
+export class XRArmGrab {
+  /** @param {ArmGrabHost} host */
+  constructor(host) {
+    this.host = host;
+    this.grab = new ArmGrab();
+    this.trigger = new GripperTrigger();
+    /** Whether each slot squeezed at the last frame (a squeeze starts on the frame it is first seen). */
+    this.squeezed = [false, false, false, false];
+    /** Whether the last frame asked the arm to move (a release sends the one zero). */
+    this.moving = false;
+    /** Why the arm's last motion was refused, beside its gripper while it is news. */
+    this.label = new LabelSprite({ width: 768, height: 96, worldHeight: 0.045, onTop: true });
+    this.label.sprite.visible = false;
+    host.world.add(this.label.sprite);
+  }
+
+  /**
+   * Once a frame in VR, before the rays' selects (the holding hand's trigger is the gripper's).
+   * @param {import('../arm_state.js').ArmState} arms the arms' joints and refusals @param {number} now ms
+   */
+  update(arms, now) {
+    const { input, menu, robotViews, actions } = this.host;
+    const robot = menu.selected;
+    const joints = robot ? arms.joints.get(robot) : undefined;
+    const body = robot ? robotViews.get(robot)?.body : undefined;
+    const tip = /** @type {[number, number, number] | undefined} */ (joints?.points.at(-1));
+    for (const slot of input.slots) {
+      const hand = body && tip && slot.source ? this.#hand(slot, body) : null;
+      const began = slot.squeezing && !this.squeezed[slot.index];
+      this.squeezed[slot.index] = slot.squeezing;
+      if (hand && tip && began && this.grab.squeeze(slot.index, hand, tip)) input.pulse(slot, 0.5, 40);
+      if (this.grab.held?.slot === slot.index && (!slot.squeezing || !hand)) this.#release(slot.index);
+    }
+    const held = this.grab.held ? input.slots[this.grab.held.slot] : null;
+    const hand = held && body ? this.#hand(held, body) : null;
+    this.grab.setScale(menu.options.handOneToOne ? 1 : HAND_SCALE, hand, tip ?? null);
+    if (held && hand && tip && joints) {
+      input.takeEvents(held); // its trigger closes the gripper: it selects nothing under its ray meanwhile
+      const position = this.trigger.update(input.trigger(held), joints.gripper ?? [], now);
+      if (position !== null) actions.grip(position);
+      actions.jogArm(this.grab.follow(hand, tip));
+      this.moving = true;
+    } else if (this.moving) {
+      this.grab.held = null; // the robot was deselected or its arm went: the hand holds nothing
+      this.trigger.reset();
+      actions.jogArm([0, 0, 0]);
+      this.moving = false;
+    }
+    this.#showRefusal(robot ? arms.refusal(robot, now) : null, body, tip);
+  }
+
+  /** The relay refused a motion of `robot`'s arm: the hand holding it feels it. @param {string} robot */
+  refused(robot) {
+    const held = this.grab.held;
+    if (held && robot === this.host.menu.selected) this.host.input.pulse(this.host.input.slots[held.slot], 0.8, 80);
+  }
+
+  /** @param {number} slot */
+  #release(slot) {
+    this.grab.release(slot);
+    this.trigger.reset();
+  }
+
+  /**
+   * The refusal's reason over the gripper, while it is news.
+   * @param {string | null} reason @param {THREE.Object3D | undefined} body @param {number[] | undefined} tip
+   */
+  #showRefusal(reason, body, tip) {
+    const sprite = this.label.sprite;
+    sprite.visible = reason !== null && body !== undefined && tip !== undefined;
+    if (!sprite.visible || !body || !tip) return;
+    this.label.set(['Refused', /** @type {string} */ (reason)], { accent: '#e0a000' });
+    body.localToWorld(sprite.position.set(tip[0], tip[2], -tip[1]));
+    sprite.position.y += LABEL_ABOVE;
+    sprite.parent?.worldToLocal(sprite.position);
+  }
+
+  /**
+   * The hand's position in the arm's base link, or null while it is not tracked.
+   * @param {import('./xr_input.js').InputSlot} slot @param {THREE.Object3D} body
+   * @returns {[number, number, number] | null}
+   */
+  #hand(slot, body) {
+    const handedness = slot.source?.handedness;
+    const wrist = handedness === 'left' || handedness === 'right' ? this.host.input.wrist(handedness) : null;
+    const carrier = wrist?.carrier ?? slot.grip;
+    if (!carrier.visible && !wrist?.hand) return null;
+    carrier.getWorldPosition(world);
+    const local = body.worldToLocal(world);
+    return [local.x, -local.z, local.y];
+  }
+
+  dispose() {
+    this.label.sprite.removeFromParent();
+    this.label.dispose();
+  }
+}
