@@ -7,7 +7,10 @@
  * heading and the twin's scale are already in them. No DOM, no WebGL: test/arm_grab.test.js drives it.
  *
  * The twist is a position loop, not the hand's velocity: it drives the tip toward where the hand puts it, so a
- * refused or clamped motion never accumulates an offset, and the tip stops where the hand stops. The hand's motion is
+ * refused or clamped motion never accumulates an offset, and the tip stops where the hand stops. A twist stands until
+ * the next frame sends another, and the tip it is computed from is at least a frame old: on slow frames the loop's
+ * gain comes down (FOLLOW_PER_FRAME), or a gain fit for 72 frames a second overshoots where the hand stopped (a CI
+ * run's emulated headset, at a few frames a second, put the gripper 38 % past it). The hand's motion is
  * scaled by half unless the operator asks for 1:1 (the menu's **Hand 1:1**). While the hand holds the arm, its
  * trigger is the gripper (GripperTrigger): its travel from rest to fully pulled is the gripper's from open to closed,
  * from the moment the hand takes the arm (a trigger at rest opens it).
@@ -19,6 +22,15 @@ export const GRAB_RADIUS = 0.15;
 export const HAND_SCALE = 0.5;
 /** Of the distance between where the tip is and where the hand puts it, this much a second (1/s). */
 export const FOLLOW_GAIN = 3;
+/**
+ * At most this much of the distance left is covered in one frame's interval (the twist stands that long, and the tip
+ * it was computed from is a frame late): a quarter keeps the loop from overshooting with one frame of delay (its
+ * poles meet at 0.5), where a gain of FOLLOW_GAIN at a frame of 0.33 s or more overshoots. A headset's 72 frames a
+ * second (14 ms) keep FOLLOW_GAIN.
+ */
+export const FOLLOW_PER_FRAME = 0.25;
+/** The frame interval the gain is fitted to forgets a slow frame by this much a frame (a stall is not forever). */
+const INTERVAL_DECAY = 0.9;
 /** Closer than this (m) the tip is where the hand puts it: no twist (the joint states' rounding is 0.1 mm). */
 export const DEAD_BAND = 0.002;
 /** The trigger moves the gripper at most this often (ms): 10 commands a second, each acknowledged by the relay. */
@@ -39,6 +51,10 @@ export class ArmGrab {
   held = null;
   /** The tip's motion per metre of the hand's. */
   scale = HAND_SCALE;
+  /** The frames' interval (s): the longest lately, forgotten slowly (INTERVAL_DECAY). */
+  interval = 0;
+  /** When follow was last asked (ms). */
+  lastFollow = NaN;
 
   /**
    * Scale the hand's motion by `scale` from now: a held arm is taken again where the hand and the tip are, so the
@@ -52,24 +68,31 @@ export class ArmGrab {
 
   /**
    * A squeeze began: the hand of `slot` takes the arm when it is within GRAB_RADIUS of the tip (and no other hand
-   * holds it). @param {number} slot @param {Vec3} hand @param {Vec3} tip @returns {boolean} whether it took it
+   * holds it). @param {number} slot @param {Vec3} hand @param {Vec3} tip @param {number} now ms (the frame's)
+   * @returns {boolean} whether it took it
    */
-  squeeze(slot, hand, tip) {
+  squeeze(slot, hand, tip, now) {
     if (this.held !== null || distance(hand, tip) > GRAB_RADIUS) return false;
     this.held = { slot, hand: [...hand], tip: [...tip] };
+    this.lastFollow = now; // the first twist's gain is fitted to the frame it follows
+    this.interval = 0;
     return true;
   }
 
   /**
-   * The tip's velocity (m/s) toward where the held hand puts it now; zeros when nothing holds it.
-   * @param {Vec3} hand @param {Vec3} tip @returns {Vec3}
+   * The tip's velocity (m/s) toward where the held hand puts it now, asked once a frame; zeros when nothing holds it.
+   * @param {Vec3} hand @param {Vec3} tip @param {number} now ms @returns {Vec3}
    */
-  follow(hand, tip) {
+  follow(hand, tip, now) {
+    const dt = (now - this.lastFollow) / 1000;
+    this.lastFollow = now;
     if (this.held === null) return [0, 0, 0];
+    if (dt > 0) this.interval = Math.max(dt, this.interval * INTERVAL_DECAY);
     const { hand: hand0, tip: tip0 } = this.held;
     const error = /** @type {Vec3} */ ([0, 1, 2].map((i) => tip0[i] + this.scale * (hand[i] - hand0[i]) - tip[i]));
     if (distance(error, [0, 0, 0]) < DEAD_BAND) return [0, 0, 0];
-    return /** @type {Vec3} */ (error.map((e) => FOLLOW_GAIN * e));
+    const gain = this.interval > 0 ? Math.min(FOLLOW_GAIN, FOLLOW_PER_FRAME / this.interval) : FOLLOW_GAIN;
+    return /** @type {Vec3} */ (error.map((e) => gain * e));
   }
 
   /** The hand of `slot` let go (or left tracking): whether it held the arm. @param {number} slot */

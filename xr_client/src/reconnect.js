@@ -10,6 +10,13 @@ export const MAX_RETRY_MS = 5000;
 export const PING_PERIOD_MS = 2000;
 /** No pong for this long: the link is dead even if the socket has not noticed (Wi-Fi roaming). */
 export const PONG_TIMEOUT_MS = 6000;
+/**
+ * A check later than its period by more than this (ms) finds a page that could not listen meanwhile (a long frame, a
+ * glTF being parsed): the pongs that came are still queued behind the check, so that time is not the relay's silence.
+ * A CI run's page, drawing a 3D map on SwiftShader at a load of 15, missed its pongs for 6 s this way and dropped a
+ * live link.
+ */
+export const STALL_MS = 500;
 
 /** @typedef {'connecting' | 'connected' | 'reconnecting' | 'refused'} LinkState */
 
@@ -28,6 +35,10 @@ export class ReconnectPolicy {
     this.latency = null;
     /** @type {number | null} */
     this.lastPong = null;
+    /** When the link was last checked (stale), and how long the page could not listen since the last pong (ms). */
+    /** @type {number | null} */
+    this.lastCheck = null;
+    this.deaf = 0;
     /** @type {number | null} */
     this.openedAt = null;
     this.everOpened = false;
@@ -68,6 +79,8 @@ export class ReconnectPolicy {
     this.everOpened = true;
     this.openedAt = now;
     this.lastPong = now;
+    this.lastCheck = null;
+    this.deaf = 0;
     this.retryAt = null;
   }
 
@@ -93,11 +106,18 @@ export class ReconnectPolicy {
     // A light moving average: one slow frame does not make the number jump.
     this.latency = this.latency === null ? sample : this.latency * 0.7 + sample * 0.3;
     this.lastPong = now;
+    this.deaf = 0;
   }
 
-  /** Whether the open link has gone silent past PONG_TIMEOUT_MS. @param {number} now */
+  /**
+   * Whether the open link has gone silent past PONG_TIMEOUT_MS, asked every PING_PERIOD_MS: the time the page itself
+   * could not listen (a check later than that by over STALL_MS) is not counted.
+   * @param {number} now
+   */
   stale(now) {
-    return this.state === 'connected' && this.lastPong !== null && now - this.lastPong > PONG_TIMEOUT_MS;
+    if (this.lastCheck !== null) this.deaf += Math.max(0, now - this.lastCheck - PING_PERIOD_MS - STALL_MS);
+    this.lastCheck = now;
+    return this.state === 'connected' && this.lastPong !== null && now - this.lastPong - this.deaf > PONG_TIMEOUT_MS;
   }
 
   /** The status line: "connected · 12 ms", "reconnecting in 3 s", "connecting…". @param {number} now */

@@ -4,6 +4,7 @@ import assert from 'node:assert/strict';
 import {
   ArmGrab,
   FOLLOW_GAIN,
+  FOLLOW_PER_FRAME,
   GRAB_RADIUS,
   GRIP_PERIOD_MS,
   GRIP_REFRESH_MS,
@@ -15,42 +16,76 @@ import {
 const TIP = [0.07, 0, 0.29];
 
 /** @param {number[]} a @param {number[]} b */
+/** A headset's frames: 72 a second (ms). */
+const FRAME_MS = 1000 / 72;
+/** @param {ArmGrab} grab @param {[number, number, number]} hand @param {[number, number, number]} tip */
+const frame = (grab, hand, tip) => grab.follow(hand, tip, (grab.lastFollow || 0) + FRAME_MS);
 const close = (a, b) => a.forEach((v, i) => assert.ok(Math.abs(v - b[i]) < 1e-9, `${a} != ${b}`));
 
 test('a squeeze near the gripper takes the arm; one away from it, or by a second hand, does not', () => {
   const grab = new ArmGrab();
-  assert.equal(grab.squeeze(0, [TIP[0] + GRAB_RADIUS + 0.01, 0, TIP[2]], TIP), false);
-  assert.equal(grab.squeeze(0, [TIP[0] + 0.05, 0, TIP[2]], TIP), true);
-  assert.equal(grab.squeeze(1, TIP, TIP), false);
-  assert.deepEqual(grab.follow([TIP[0] + 0.05, 0, TIP[2]], TIP), [0, 0, 0]); // the hand has not moved
+  assert.equal(grab.squeeze(0, [TIP[0] + GRAB_RADIUS + 0.01, 0, TIP[2]], TIP, 0), false);
+  assert.equal(grab.squeeze(0, [TIP[0] + 0.05, 0, TIP[2]], TIP, 0), true);
+  assert.equal(grab.squeeze(1, TIP, TIP, 0), false);
+  assert.deepEqual(frame(grab, [TIP[0] + 0.05, 0, TIP[2]], TIP), [0, 0, 0]); // the hand has not moved
 });
 
 test('the tip follows the hand from where the squeeze began, scaled down', () => {
   const grab = new ArmGrab();
-  grab.squeeze(0, [0.1, 0, 0.3], TIP);
+  grab.squeeze(0, [0.1, 0, 0.3], TIP, 0);
   // The hand 10 cm up: the tip should go 5 cm up; it is still where it was.
-  close(grab.follow([0.1, 0, 0.4], TIP), [0, 0, FOLLOW_GAIN * HAND_SCALE * 0.1]);
+  close(frame(grab, [0.1, 0, 0.4], TIP), [0, 0, FOLLOW_GAIN * HAND_SCALE * 0.1]);
   // Halfway there, half the speed; there, none.
-  close(grab.follow([0.1, 0, 0.4], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, FOLLOW_GAIN * 0.025]);
-  assert.deepEqual(grab.follow([0.1, 0, 0.4], [TIP[0], 0, TIP[2] + 0.05]), [0, 0, 0]);
+  close(frame(grab, [0.1, 0, 0.4], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, FOLLOW_GAIN * 0.025]);
+  assert.deepEqual(frame(grab, [0.1, 0, 0.4], [TIP[0], 0, TIP[2] + 0.05]), [0, 0, 0]);
+});
+
+test('on slow frames the tip comes to where the hand puts it without passing it', () => {
+  // A loaded machine's emulated headset: a frame every 0.4 s; each twist stands until the next frame's, and the tip a
+  // frame reads is the one the twist before last left (the joint states' trip). The hand goes 10 cm up at once.
+  for (const frameMs of [FRAME_MS, 100, 400, 900]) {
+    const grab = new ArmGrab();
+    grab.squeeze(0, [0.1, 0, 0.3], TIP, 0);
+    const target = TIP[2] + HAND_SCALE * 0.1;
+    let tip = TIP[2];
+    let seen = tip;
+    let highest = tip;
+    for (let i = 1; i <= 400; i++) {
+      const v = grab.follow([0.1, 0, 0.4], [TIP[0], 0, seen], i * frameMs);
+      seen = tip;
+      tip += (v[2] * Math.min(frameMs, 500)) / 1000; // the arm's deadman stops a twist 0.5 s old
+      highest = Math.max(highest, tip);
+    }
+    assert.ok(highest < target + 0.001, `at a frame every ${frameMs} ms the tip went ${highest - target} m past`);
+    assert.ok(Math.abs(tip - target) < 0.003, `at a frame every ${frameMs} ms the tip stopped ${target - tip} m short`);
+  }
+  // At 72 frames a second the loop keeps its full gain; at 1 frame a second a quarter of the distance a frame.
+  const fast = new ArmGrab();
+  fast.squeeze(0, [0.1, 0, 0.3], TIP, 0);
+  for (let i = 1; i < 5; i++) frame(fast, [0.1, 0, 0.3], TIP);
+  close(frame(fast, [0.1, 0, 0.4], TIP), [0, 0, FOLLOW_GAIN * HAND_SCALE * 0.1]);
+  const slow = new ArmGrab();
+  slow.squeeze(0, [0.1, 0, 0.3], TIP, 0);
+  slow.follow([0.1, 0, 0.3], TIP, 0);
+  close(slow.follow([0.1, 0, 0.4], TIP, 1000), [0, 0, FOLLOW_PER_FRAME * HAND_SCALE * 0.1]);
 });
 
 test('letting go releases the arm (only the hand that holds it), and then nothing moves it', () => {
   const grab = new ArmGrab();
-  grab.squeeze(1, TIP, TIP);
+  grab.squeeze(1, TIP, TIP, 0);
   assert.equal(grab.release(0), false);
   assert.equal(grab.release(1), true);
-  assert.deepEqual(grab.follow([1, 1, 1], TIP), [0, 0, 0]);
+  assert.deepEqual(frame(grab, [1, 1, 1], TIP), [0, 0, 0]);
   assert.equal(grab.held, null);
 });
 
 test('with 1:1 the tip follows the whole motion, and the change takes the arm again where it is', () => {
   const grab = new ArmGrab();
-  grab.squeeze(0, [0.1, 0, 0.3], TIP);
+  grab.squeeze(0, [0.1, 0, 0.3], TIP, 0);
   grab.setScale(1, [0.1, 0, 0.35], [TIP[0], 0, TIP[2] + 0.025]);
   // No jump: where the hand and the tip were at the change is the new start.
-  assert.deepEqual(grab.follow([0.1, 0, 0.35], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, 0]);
-  close(grab.follow([0.1, 0, 0.45], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, FOLLOW_GAIN * 0.1]);
+  assert.deepEqual(frame(grab, [0.1, 0, 0.35], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, 0]);
+  close(frame(grab, [0.1, 0, 0.45], [TIP[0], 0, TIP[2] + 0.025]), [0, 0, FOLLOW_GAIN * 0.1]);
   grab.setScale(HAND_SCALE, null, null); // back to half (nothing to take again with)
   assert.equal(grab.scale, HAND_SCALE);
 });

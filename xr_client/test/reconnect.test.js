@@ -1,7 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { ReconnectPolicy, PONG_TIMEOUT_MS } from '../src/reconnect.js';
+import { ReconnectPolicy, PING_PERIOD_MS, PONG_TIMEOUT_MS } from '../src/reconnect.js';
 import { accessRefusal } from '../src/connection.js';
 import { operatorToken, relayUrl } from '../src/connection.js';
 
@@ -53,6 +53,27 @@ test('a connection that lasted resets the backoff; latency from ping/pong', () =
   assert.equal(p.stale(2020 + PONG_TIMEOUT_MS + 1), true);
   assert.equal(p.closed(20_000), 500);
   assert.equal(p.latency, null);
+});
+
+test("a page that could not listen (a long frame) does not count that time as the relay's silence", () => {
+  const p = new ReconnectPolicy();
+  p.connecting(0);
+  p.opened(0);
+  assert.equal(p.stale(PING_PERIOD_MS), false);
+  // The page's thread is busy for 8 s: the pongs of that time wait behind this check.
+  assert.equal(p.stale(PING_PERIOD_MS + 8000), false);
+  p.pong(PING_PERIOD_MS, PING_PERIOD_MS + 8001);
+  // A relay that then falls silent while the page checks on time is found out after PONG_TIMEOUT_MS of it.
+  let now = PING_PERIOD_MS + 8001;
+  const silentFrom = now;
+  while (!p.stale((now += PING_PERIOD_MS)));
+  assert.ok(now - silentFrom > PONG_TIMEOUT_MS && now - silentFrom <= PONG_TIMEOUT_MS + PING_PERIOD_MS, `${now}`);
+  // Silent on time from the start: as before.
+  const q = new ReconnectPolicy();
+  q.connecting(0);
+  q.opened(0);
+  for (let t = PING_PERIOD_MS; t <= PONG_TIMEOUT_MS; t += PING_PERIOD_MS) assert.equal(q.stale(t), false);
+  assert.equal(q.stale(PONG_TIMEOUT_MS + PING_PERIOD_MS), true);
 });
 
 test('a refused token stops the retries and says what to do', () => {

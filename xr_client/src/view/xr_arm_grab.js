@@ -53,7 +53,7 @@ export class XRArmGrab {
       const hand = body && tip && slot.source ? this.#hand(slot, body) : null;
       const began = slot.squeezing && !this.squeezed[slot.index];
       this.squeezed[slot.index] = slot.squeezing;
-      if (hand && tip && began && this.grab.squeeze(slot.index, hand, tip)) input.pulse(slot, 0.5, 40);
+      if (hand && tip && began && this.grab.squeeze(slot.index, hand, tip, now)) input.pulse(slot, 0.5, 40);
       if (this.grab.held?.slot === slot.index && (!slot.squeezing || !hand)) this.#release(slot.index);
     }
     const held = this.grab.held ? input.slots[this.grab.held.slot] : null;
@@ -63,7 +63,7 @@ export class XRArmGrab {
       input.takeEvents(held); // its trigger closes the gripper: it selects nothing under its ray meanwhile
       const position = this.trigger.update(input.trigger(held), joints.gripper ?? [], now);
       if (position !== null) actions.grip(position);
-      actions.jogArm(this.grab.follow(hand, tip));
+      actions.jogArm(this.grab.follow(hand, tip, now));
       this.moving = true;
     } else if (this.moving) {
       this.grab.held = null; // the robot was deselected or its arm went: the hand holds nothing
