@@ -4,7 +4,7 @@
 
 The JSON says what to publish: ``odom``/``amcl``/``pose`` poses, planned paths (nav_msgs/Path), sensor values,
 raw and compressed images (from a real image file), any message serialized to a file (``raw``: CDR, restamped as it
-is sent), and which command topics to echo. Every received command is
+is sent), and which command topics (and an arm's joint states) to echo. Every received command is
 printed to stdout as one JSON line with the receive time on the shared monotonic clock, so the test can time the
 deadman.
 """
@@ -149,6 +149,15 @@ def main() -> int:
                     "linear": [m.twist.linear.x, m.twist.linear.y, m.twist.linear.z],
                     "angular": [m.twist.angular.x, m.twist.angular.y, m.twist.angular.z],
                 }
+            ),
+            reliable,
+        )
+    for topic in spec.get("echo_joint_states", []):  # an arm's joint_state_broadcaster, as the relay also reads it
+        node.create_subscription(
+            JointState,
+            topic,
+            lambda m, t=topic: emit(
+                {"topic": t, "t": time.monotonic(), "names": list(m.name), "positions": list(m.position)}
             ),
             reliable,
         )

@@ -6,6 +6,9 @@ peer process (tests/ros_peer.py) with the two-joint arm of tests/helpers/arm.py.
 from __future__ import annotations
 
 import asyncio
+import math
+import os
+import sys
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -13,10 +16,11 @@ from typing import Any
 
 import pytest
 
-from relay.config import parse_config
-from tests.conftest import RunningRelay, start_relay
-from tests.helpers.arm import PLANAR_URDF
+from relay.config import load_config, parse_config
+from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.helpers.arm import PLANAR_URDF, tb3_manipulation
 from tests.helpers.ros import start_peer
+from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -86,3 +90,76 @@ async def test_arm_twists_reach_moveit_servo_as_twist_stamped_and_the_deadman_ze
     finally:
         await client.close()
         await peer.stop()
+
+
+FAKE_FLEET = """
+safety: {deadman_timeout: 0.5, offline_after: 2.0}
+robots:
+  - name: robot3
+    pose: odom
+    limits: {linear: 0.3, angular: 0.8}
+    scan: null
+    arm:
+      urdf: URDF
+      srdf: SRDF
+      base_link: base_link
+      tip_link: end_effector_link
+      gripper_joint: gripper_left_joint
+      limits: {linear: 0.1, angular: 0.5}
+      workspace: {min: [-0.05, -0.3, 0.0], max: [0.4, 0.3, 0.45]}
+"""
+
+
+async def test_the_fake_fleets_arm_follows_a_hand_over_dds_and_the_twin_shows_its_published_joints(
+    ros_domain: int, tmp_path: Path
+) -> None:
+    """Issue #32 over real DDS: the real TurtleBot3 manipulator as tools/fake_fleet.py runs it (tools/fake_arm.py:
+    joint_state_broadcaster's JointState out, MoveIt Servo's TwistStamped in, the simulator's kinematics between). A
+    client's arm twists move its gripper up; they stop, and so does the arm (its own deadman); the joints the relay
+    gives the twin are the ones published on DDS, within a degree."""
+    urdf = tb3_manipulation("turtlebot3_manipulation.urdf")
+    srdf = tb3_manipulation("config", "turtlebot3_manipulation.srdf")
+    config = tmp_path / "fleet.yaml"
+    config.write_text(FAKE_FLEET.replace("URDF", str(urdf)).replace("SRDF", str(srdf)))
+    fleet = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tools" / "fake_fleet.py"), "--config", str(config), "--log-level", "warning",
+        stdout=asyncio.subprocess.DEVNULL, env=dict(os.environ),
+    )  # fmt: skip
+    running = await start_relay(await asyncio.to_thread(load_config, config), "ros")
+    peer = await start_peer({"echo_joint_states": ["/robot3/joint_states"]}, tmp_path)
+    client = await TestClient.open(running.ws_url)
+    try:
+        await client.hello()
+        first = await client.wait_for(lambda m: m["identifier"] == "robot3/joints", timeout=30)
+        start = first["points"][-1][2]  # the tip's height in the arm's base link
+        # A hand moving the gripper up at 5 cm/s for 1.5 s: 20 twists a second, as the page sends them.
+        for _ in range(30):
+            await client.send({"identifier": "robot3/arm/twist", "linear": [0.0, 0.0, 0.05], "angular": [0, 0, 0]})
+            await asyncio.sleep(0.05)
+        # The hand falls silent: the arm stops (the relay's deadman zeroes the servo; the arm's own would too).
+        await wait_until(lambda: _settled(client), 10, "robot3's arm standing still after the twists stopped")
+        joints = _last([m for _, m in client.messages], "robot3/joints")
+        assert joints["points"][-1][2] > start + 0.02, (start, joints["points"][-1])
+        published = _last(peer.lines, "/robot3/joint_states", key="topic")
+        assert joints["names"] == published["names"]
+        apart = max(abs(a - b) for a, b in zip(joints["positions"], published["positions"], strict=True))
+        assert math.degrees(apart) < 1.0, (joints["positions"], published["positions"])
+    finally:
+        await client.close()
+        await peer.stop()
+        await running.runner.cleanup()
+        fleet.terminate()
+        await fleet.wait()
+
+
+def _last(messages: list[dict[str, Any]], name: str, key: str = "identifier") -> dict[str, Any]:
+    return next(m for m in reversed(messages) if m.get(key) == name)
+
+
+def _settled(client: TestClient) -> bool:
+    """Whether the arm's last second of joint states (at 20 Hz) shows no motion."""
+    recent = [m for _, m in client.messages if m.get("identifier") == "robot3/joints"][-20:]
+    if len(recent) < 20:
+        return False
+    last: list[float] = recent[-1]["positions"]
+    return all(abs(a - b) < 1e-6 for m in recent for a, b in zip(m["positions"], last, strict=True))

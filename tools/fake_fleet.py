@@ -11,7 +11,8 @@ CompressedImage, once the simulated camera is available), and the facility's map
 ``sim`` backend does; robots with ``cmd_vel.watchdog`` get their teleop through the watchdog (relay/watchdog),
 which runs in this process, on the robots' side of the network (``--no-watchdog``: it runs elsewhere, as
 ``xr-relay watchdog``). It is the demo for people without robots, and the counterpart of the integration tests:
-``xr-relay --backend ros`` against it gives the same experience as ``--backend sim``.
+``xr-relay --backend ros`` against it gives the same experience as ``--backend sim``. Robots with an ``arm:`` get a
+fake one (tools/fake_arm.py): joint states out, MoveIt Servo's twists in, through the simulator's kinematics.
 
 ``--nav2``: each robot navigates as a Nav2 robot does (tools/fake_nav2.py): goal_pose starts a NavigateToPose goal
 whose status, cancel service (and, with nav2_msgs, feedback and result) are Nav2's, and whose controller publishes
@@ -36,13 +37,14 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
-from relay.errors import ConfigError  # noqa: E402
+from relay.errors import ConfigError, RelayError  # noqa: E402
 from relay.fleet.geometry import quaternion_to_yaw, yaw_to_quaternion  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 from relay.watchdog.node import Watchdogs  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fake_arm import FakeArms  # noqa: E402
 from fake_nav2 import Nav2Servers, add_nav2_arguments, nav2_ready  # noqa: E402
 
 logger = logging.getLogger("fake_fleet")
@@ -143,6 +145,7 @@ class FakeFleet:
         self.nav2 = None
         if nav2:
             self.nav2 = Nav2Servers(self.node, self.world, config.robots, misbehave_after_cancel=misbehave_after_cancel)
+        self.arms = FakeArms(self.node, config, config.safety.deadman_timeout)
         self._cameras: list[tuple[str, Any, Any, Any, float]] = []  # robot, camera spec, publisher, lens, period
         self._start_cameras()
         sim = config.sim
@@ -315,11 +318,17 @@ def main(argv: list[str] | None = None) -> int:
         logger.error("fake_fleet needs rclpy: `pip install '.[ros]'` or source a ROS 2 installation")
         return 2
     rclpy.init()
-    fleet = FakeFleet(
-        config, nav2=args.nav2, misbehave_after_cancel=args.misbehave_after_cancel, watchdog=not args.no_watchdog
-    )
+    try:
+        fleet = FakeFleet(
+            config, nav2=args.nav2, misbehave_after_cancel=args.misbehave_after_cancel, watchdog=not args.no_watchdog
+        )
+    except RelayError as exc:  # a required arm whose URDF cannot be read
+        logger.error("%s", exc)
+        rclpy.try_shutdown()
+        return 2
     signal.signal(signal.SIGTERM, lambda *_: rclpy.try_shutdown())
-    print(f"fake_fleet: {len(config.robots)} robots on ROS_DOMAIN_ID", end=" ", flush=True)  # noqa: T201
+    arms = f" ({len(fleet.arms)} with an arm)" if len(fleet.arms) else ""
+    print(f"fake_fleet: {len(config.robots)} robots{arms} on ROS_DOMAIN_ID", end=" ", flush=True)  # noqa: T201
     import os
 
     print(os.environ.get("ROS_DOMAIN_ID", "0"), flush=True)  # noqa: T201
