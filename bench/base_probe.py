@@ -2,10 +2,12 @@
 
     python -m bench.base_probe --topic /robot2/cmd_vel              (over DDS: rclpy, this process's ROS domain)
     python -m bench.base_probe --topic /robot2/cmd_vel --zenoh tcp/127.0.0.1:7447   (rmw_zenoh's keys, CDR)
+    python -m bench.base_probe --topic /robot3/servo_node/delta_twist_cmds --stamped   (MoveIt Servo's input, DDS)
 
-Each line is ``{"t": <CLOCK_MONOTONIC s>, "linear": x, "angular": z}``; the first is ``{"ready": true}``. The
-monotonic clock is the machine's, the same in every process: bench/bench_estop.py compares these times with when
-its estop frame left. Twist only (the demo's robots take Twist); a benchmark, not a tool.
+Each line is ``{"t": <CLOCK_MONOTONIC s>, "linear": x, "angular": z}`` (with ``--stamped``, a TwistStamped's whole
+``linear`` and ``angular`` vectors and its ``frame``); the first is ``{"ready": true}``. The monotonic clock is the
+machine's, the same in every process: bench/bench_estop.py and bench/bench_arm.py compare these times with when
+their frames left. A benchmark, not a tool.
 """
 
 from __future__ import annotations
@@ -23,9 +25,9 @@ def emit(line: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
-def over_dds(topic: str) -> None:
+def over_dds(topic: str, stamped: bool) -> None:
     import rclpy
-    from geometry_msgs.msg import Twist
+    from geometry_msgs.msg import Twist, TwistStamped
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
     rclpy.init()
@@ -34,7 +36,19 @@ def over_dds(topic: str) -> None:
     def on_twist(message: Any) -> None:
         emit({"t": time.monotonic(), "linear": message.linear.x, "angular": message.angular.z})
 
-    node.create_subscription(Twist, topic, on_twist, QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+    def on_stamped(message: Any) -> None:
+        linear, angular = message.twist.linear, message.twist.angular
+        emit(
+            {
+                "t": time.monotonic(),
+                "frame": message.header.frame_id,
+                "linear": [linear.x, linear.y, linear.z],
+                "angular": [angular.x, angular.y, angular.z],
+            }
+        )
+
+    qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(TwistStamped if stamped else Twist, topic, on_stamped if stamped else on_twist, qos)
     emit({"ready": True})
     rclpy.spin(node)
 
@@ -65,11 +79,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--topic", required=True)
     parser.add_argument("--zenoh", default=None, help="a Zenoh endpoint: listen there instead of over DDS")
+    parser.add_argument("--stamped", action="store_true", help="geometry_msgs/TwistStamped (over DDS)")
     args = parser.parse_args()
     if args.zenoh:
         over_zenoh(args.topic, args.zenoh)
     else:
-        over_dds(args.topic)
+        over_dds(args.topic, args.stamped)
 
 
 if __name__ == "__main__":

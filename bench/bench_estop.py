@@ -97,8 +97,9 @@ class Operator:
 
 
 async def relay(args: list[str], env: dict[str, str]) -> tuple[asyncio.subprocess.Process, str]:
+    """The relay as users run it, a lab bench's (the token alone: no accounts file made or read); its address."""
     process = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "relay", *args, "--port", "0", cwd=ROOT, env=env,
+        sys.executable, "-m", "relay", *args, "--no-accounts", "--port", "0", cwd=ROOT, env=env,
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
     )  # fmt: skip
     assert process.stdout is not None

@@ -89,7 +89,7 @@ async def client_loop(index: int, url: str, deadline: float, rng: random.Random,
 async def soak(minutes: float, seed: int) -> dict[str, Any]:
     relay = await asyncio.create_subprocess_exec(
         sys.executable, "-m", "relay", "--port", "0", "--token", TOKEN, "--allow-weak-token", "--audit-log", "",
-        "--log-level", "warning",
+        "--no-accounts", "--log-level", "warning",
         cwd=ROOT, stdout=asyncio.subprocess.PIPE,
     )  # fmt: skip
     assert relay.stdout is not None

@@ -7,20 +7,27 @@ Every figure on the page comes from a bench/results/<name>.json; the page is rew
 from __future__ import annotations
 
 import json
-import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
-
-import matplotlib
-
-matplotlib.use("Agg")  # files only: no display on a benchmark machine
 
 import matplotlib.pyplot as plt
 
 from .common import JsonDict, Settings, fmt
+from .report_operators import arm_section, recording_section
+from .report_page import Page, anchor, pct, section, status, table
 
-ORDER = ("pose_fanout", "ros_ingest", "camera", "video", "slow_clients", "client_frame", "foxglove_peer", "estop")
+ORDER = (
+    "pose_fanout",
+    "ros_ingest",
+    "camera",
+    "video",
+    "slow_clients",
+    "client_frame",
+    "foxglove_peer",
+    "estop",
+    "arm",
+    "recording",
+)
 COLOURS = {"xr": "#1f77b4", "xr-single": "#9467bd", "naive": "#d62728", "foxglove": "#2ca02c"}
 LABELS = {
     "xr": "xr-relay (batched)",
@@ -37,47 +44,6 @@ def load(settings: Settings) -> dict[str, JsonDict]:
         if path.exists():
             results[name] = json.loads(path.read_text())
     return results
-
-
-def table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    for row in rows:
-        lines.append("| " + " | ".join(str(c) for c in row) + " |")
-    return "\n".join(lines) + "\n"
-
-
-def status(t: JsonDict) -> str:
-    if t["met"] is True:
-        return "met"
-    if t["met"] is False:
-        return "**MISSED**"
-    return "n/a" if t.get("reason") else "reported"
-
-
-def pct(value: float | None) -> str:
-    return "n/a" if value is None else f"{100 * value:.0f} %"
-
-
-class Page:
-    def __init__(self, settings: Settings) -> None:
-        self.settings = settings
-        self.parts: list[str] = []
-        settings.img.mkdir(parents=True, exist_ok=True)
-
-    def add(self, text: str) -> None:
-        self.parts.append(text.rstrip("\n") + "\n")
-
-    def image(self, fig: Any, name: str, alt: str) -> None:
-        path = self.settings.img / f"bench_{name}.png"
-        if fig.get_layout_engine() is None:
-            fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        relative = os.path.relpath(path, self.settings.doc.parent)
-        self.add(f"![{alt}]({relative})\n")
-
-    def text(self) -> str:
-        return "\n".join(self.parts)
 
 
 def header(page: Page, results: dict[str, JsonDict]) -> None:
@@ -148,22 +114,6 @@ def header(page: Page, results: dict[str, JsonDict]) -> None:
     page.add(
         table(["benchmark", "target", "measured", "baseline / limit (same run)", "status", "why (measured)"], rows)
     )
-
-
-def anchor(title: str) -> str:
-    return "".join(c for c in title.lower().replace(" ", "-") if c.isalnum() or c == "-")
-
-
-def section(page: Page, r: JsonDict, doc: str) -> bool:
-    page.add(f"## {r['title']}\n")
-    page.add(doc)
-    if "error" in r:
-        page.add(f"**The benchmark failed:** `{r['error']}`\n")
-        return False
-    if "skipped" in r:
-        page.add(f"**Not measured:** {r['skipped']}.\n")
-        return False
-    return True
 
 
 # -- 1 and 6: fan-out ---------------------------------------------------------------------------------
@@ -884,6 +834,8 @@ SECTIONS = {
     "slow_clients": slow_section,
     "client_frame": client_section,
     "foxglove_peer": foxglove_section,
+    "arm": arm_section,
+    "recording": recording_section,
 }
 
 

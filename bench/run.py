@@ -20,6 +20,7 @@ from collections.abc import Awaitable, Callable
 from types import ModuleType
 
 from . import (
+    bench_arm,
     bench_camera,
     bench_client_frame,
     bench_estop,
@@ -43,6 +44,7 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_video,
     bench_estop,
     bench_recording,
+    bench_arm,
 )
 
 
