@@ -18,9 +18,8 @@ import pytest
 
 from relay.config import load_config, parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.arm import PLANAR_URDF, tb3_manipulation
+from tests.helpers.arm import PLANAR_URDF, jog_up_and_settle, tb3_manipulation
 from tests.helpers.ros import start_peer
-from tests.helpers.waiting import wait_until
 from tests.wsclient import TestClient
 
 pytest.importorskip("rclpy", reason="rclpy is not importable: `pip install '.[ros]'` installs the ROS 2 wheels")
@@ -130,17 +129,9 @@ async def test_the_fake_fleets_arm_follows_a_hand_over_dds_and_the_twin_shows_it
     client = await TestClient.open(running.ws_url)
     try:
         await client.hello()
-        first = await client.wait_for(lambda m: m["identifier"] == "robot3/joints", timeout=30)
-        start = first["points"][-1][2]  # the tip's height in the arm's base link
-        # A hand moving the gripper up at 5 cm/s for 1.5 s: 20 twists a second, as the page sends them.
-        for _ in range(30):
-            await client.send({"identifier": "robot3/arm/twist", "linear": [0.0, 0.0, 0.05], "angular": [0, 0, 0]})
-            await asyncio.sleep(0.05)
-        # The hand falls silent: the arm stops (the relay's deadman zeroes the servo; the arm's own would too).
-        await wait_until(lambda: _settled(client), 10, "robot3's arm standing still after the twists stopped")
-        joints = _last([m for _, m in client.messages], "robot3/joints")
+        start, joints = await jog_up_and_settle(client, "robot3")
         assert joints["points"][-1][2] > start + 0.02, (start, joints["points"][-1])
-        published = _last(peer.lines, "/robot3/joint_states", key="topic")
+        published = next(line for line in reversed(peer.lines) if line.get("topic") == "/robot3/joint_states")
         assert joints["names"] == published["names"]
         apart = max(abs(a - b) for a, b in zip(joints["positions"], published["positions"], strict=True))
         assert math.degrees(apart) < 1.0, (joints["positions"], published["positions"])
@@ -150,16 +141,3 @@ async def test_the_fake_fleets_arm_follows_a_hand_over_dds_and_the_twin_shows_it
         await running.runner.cleanup()
         fleet.terminate()
         await fleet.wait()
-
-
-def _last(messages: list[dict[str, Any]], name: str, key: str = "identifier") -> dict[str, Any]:
-    return next(m for m in reversed(messages) if m.get(key) == name)
-
-
-def _settled(client: TestClient) -> bool:
-    """Whether the arm's last second of joint states (at 20 Hz) shows no motion."""
-    recent = [m for _, m in client.messages if m.get("identifier") == "robot3/joints"][-20:]
-    if len(recent) < 20:
-        return False
-    last: list[float] = recent[-1]["positions"]
-    return all(abs(a - b) < 1e-6 for m in recent for a, b in zip(m["positions"], last, strict=True))

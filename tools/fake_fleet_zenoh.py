@@ -12,7 +12,8 @@ follows cmd_vel and goal_pose. Robots with ``cmd_vel.watchdog`` have their watch
 the rules of relay/watchdog/rules.py; ``--no-watchdog``: an ``xr-relay watchdog`` under rmw_zenoh runs instead):
 the only publisher of their cmd_vel, the relay's gate and heartbeat in, so a relay that dies stops its robots here.
 ``--nav2`` (``--misbehave-after-cancel``) as tools/fake_fleet.py: the robots navigate as Nav2 robots do, status,
-feedback, cancel_goal and get_result included (Nav2's types through tools/nav2_types.py).
+feedback, cancel_goal and get_result included (Nav2's types through tools/nav2_types.py). Robots with an ``arm:``
+get the simulator's arm (tools/fake_arm.py): JointState out, MoveIt Servo's TwistStamped in.
 """
 
 from __future__ import annotations
@@ -41,10 +42,12 @@ from relay.fleet.geometry import quaternion_to_yaw  # noqa: E402
 from relay.ros.ros_env import typestore  # noqa: E402
 from relay.ros.rosmsg import POSE_TYPES, image_type  # noqa: E402
 from relay.sim import navigator as nav  # noqa: E402
+from relay.sim.arms import JOINT_STATE_RATE  # noqa: E402
 from relay.sim.laser import LaserScanner  # noqa: E402
 from relay.sim.world import Goal, NoPathError, Outcome, SimWorld  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fake_arm import Arms  # noqa: E402
 from fake_nav2 import add_nav2_arguments, nav2_ready  # noqa: E402
 from fake_nav2_zenoh import ZenohNav2, ZenohWatchdogs  # noqa: E402
 from fake_zenoh_messages import SimMessages  # noqa: E402
@@ -52,6 +55,8 @@ from fake_zenoh_messages import SimMessages  # noqa: E402
 logger = logging.getLogger("fake_fleet_zenoh")
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+JOINTS = "sensor_msgs/msg/JointState"
+TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 SCAN_RATE = 10.0
 
 
@@ -71,6 +76,7 @@ class FakeZenohFleet:
         self._gid = bytes(range(GID_SIZE))
         self.nav2 = nav2
         self.publishers: dict[str, Any] = {}
+        self.arms = Arms(config, config.safety.deadman_timeout)
         for robot in config.robots:
             self._declare(robot)
         watched = [r for r in config.robots if r.watchdog_topic is not None] if watchdog else []
@@ -124,6 +130,11 @@ class FakeZenohFleet:
             self.publishers[f"{name}/camera/{camera.name}"] = self.session.declare_publisher(
                 self.key(camera.topic, image_type(camera.compressed))
             )
+        if robot.arm is not None and name in self.arms.specs:
+            topics = robot.arm.topics
+            self.publishers[f"{name}/joints"] = self.session.declare_publisher(self.key(topics.joint_states, JOINTS))
+            on_twist = lambda s, r=name: self._on_arm_twist(r, s)  # noqa: E731
+            self.session.declare_subscriber(self.selector(topics.delta_twist_cmds), on_twist)
         # The base follows cmd_vel, which the watchdog (or, without one, the relay) publishes.
         self.session.declare_subscriber(self.selector(robot.cmd_vel_topic), lambda s, r=robot: self._on_cmd_vel(r, s))
         if not self.nav2:
@@ -147,6 +158,16 @@ class FakeZenohFleet:
         with self.lock:
             self.world.set_velocity(robot.name, linear, angular)
 
+    def _on_arm_twist(self, robot: str, sample: Any) -> None:
+        try:
+            message = self.store.deserialize_cdr(sample.payload.to_bytes(), TWIST_STAMPED)
+        except Exception as exc:  # rosbags raises several kinds on bytes that are not the type
+            logger.warning("%s: an arm twist on %s is not a TwistStamped: %s", robot, sample.key_expr, exc)
+            return
+        t = message.twist
+        linear, angular = (t.linear.x, t.linear.y, t.linear.z), (t.angular.x, t.angular.y, t.angular.z)
+        self.arms.twist(robot, message.header.frame_id, linear, angular)
+
     def _on_goal(self, robot: Robot, sample: Any) -> None:
         try:
             message = self.store.deserialize_cdr(sample.payload.to_bytes(), "geometry_msgs/msg/PoseStamped")
@@ -168,6 +189,7 @@ class FakeZenohFleet:
         sim = self.config.sim
         dt = 1.0 / max(sim.physics_rate, 50.0)
         periods = {"pose": 1.0 / sim.pose_rate, "sensor": 1.0 / sim.sensor_rate, "scan": 1.0 / SCAN_RATE}
+        periods["joint"] = 1.0 / JOINT_STATE_RATE
         due = dict.fromkeys(periods, 0.0)
         last = next_nav = time.monotonic()
         self._start_cameras()
@@ -175,6 +197,7 @@ class FakeZenohFleet:
             now = time.monotonic()
             with self.lock:
                 self.world.step(min(now - last, 0.2))
+            self.arms.step()
             if self.watchdogs is not None:
                 self.watchdogs.tick(time.time())
             if self.navigation is not None and now >= next_nav:
@@ -202,6 +225,11 @@ class FakeZenohFleet:
                 sensor = next(s for s in robot.sensors if s.name == sensor_name)
                 message = self.messages.sensor(sensor.type, value, f"{robot.name}/base_link")
                 self.put(self.publishers[f"{robot.name}/{sensor_name}"], message, sensor.type)
+
+    def _publish_joints(self) -> None:
+        for event in self.arms.states():
+            message = self.messages.joint_state(event, f"{event.robot}/base_link")
+            self.put(self.publishers[f"{event.robot}/joints"], message, JOINTS)
 
     def _publish_scans(self) -> None:
         for robot in self.config.robots:

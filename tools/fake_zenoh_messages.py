@@ -1,5 +1,5 @@
 """The simulated robots' state as ROS messages in rosbags' types, as tools/fake_fleet_zenoh.py publishes them: poses,
-sensor readings, laser scans, the map and camera images, each stamped now."""
+sensor readings, laser scans, the map, camera images and arms' joints, each stamped now."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from relay.config import Robot
+from relay.fleet.events import JointStateEvent
 from relay.fleet.geometry import yaw_to_quaternion
 from relay.fleet.occupancy import OccupancyGrid
 from relay.ros.rosmsg import POSE_TYPES
@@ -80,6 +81,16 @@ class SimMessages:
             if cls not in ("Float32", "Float64"):
                 fields = self._full(type_name, {"header": self.header(frame), **fields})
         return self.t[type_name](**fields)
+
+    def joint_state(self, event: JointStateEvent, frame: str) -> Any:
+        """An arm's sensor_msgs/JointState, as joint_state_broadcaster publishes it (no efforts)."""
+        return self.t["sensor_msgs/msg/JointState"](
+            header=self.header(frame),
+            name=list(event.names),
+            position=np.asarray(event.positions, dtype=np.float64),
+            velocity=np.asarray(event.velocities, dtype=np.float64),
+            effort=np.zeros(0, dtype=np.float64),
+        )
 
     def _full(self, type_name: str, given: dict[str, Any]) -> dict[str, Any]:
         """Every field of a message type, zero/empty where not ``given`` (BatteryState has many)."""

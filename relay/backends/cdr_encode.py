@@ -41,6 +41,15 @@ class CommandEncoder:
         message = self._t[TWIST_STAMPED](header=self._header(stamp, frame), twist=twist)
         return bytes(self._store.serialize_cdr(message, TWIST_STAMPED))
 
+    def arm_twist(
+        self, linear: tuple[float, float, float], angular: tuple[float, float, float], *, stamp: float, frame: str
+    ) -> bytes:
+        """MoveIt Servo's input: a TwistStamped of the arm's tip, in ``frame`` (the arm's base link)."""
+        vector = self._t["geometry_msgs/msg/Vector3"]
+        twist = self._t[TWIST](linear=vector(*map(float, linear)), angular=vector(*map(float, angular)))
+        message = self._t[TWIST_STAMPED](header=self._header(stamp, frame), twist=twist)
+        return bytes(self._store.serialize_cdr(message, TWIST_STAMPED))
+
     def goal(self, x: float, y: float, yaw: float | None, *, stamp: float, frame: str) -> bytes:
         # Nav2 needs a valid quaternion; without a requested yaw, keep the identity (facing +x).
         qx, qy, qz, qw = yaw_to_quaternion(yaw if yaw is not None else 0.0)

@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ..fleet.events import Event, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
+from ..fleet.events import Event, JointStateEvent, PathEvent, PoseEvent, RobotModelEvent, SensorEvent
 from ..fleet.scan import RateCap, scan_event
 from ..ros.rosmsg import POSE_TYPES, SCAN_TYPE, SENSOR_TYPES, header_stamp, message_stamp, transform_of
 from ..ros.tf import TfPose
@@ -29,6 +29,7 @@ Warn = Callable[..., None]
 
 PATH_TYPE = "nav_msgs/msg/Path"
 STRING_TYPE = "std_msgs/msg/String"
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 
 
 def read_tf(robot: str, tracker: TfPose, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
@@ -96,3 +97,18 @@ def read_model(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn 
     message = _decoded(robot, data, decode, STRING_TYPE, "robot description", warn)
     if message is not None:
         put(RobotModelEvent(robot, str(message.data)))
+
+
+def read_joint_state(robot: str, data: bytes, decode: Decode, put: Put, *, warn: Warn = logger.warning) -> None:
+    """An arm's sensor_msgs/JointState (joint_state_broadcaster's): names, positions and velocities, whose lengths
+    must agree (velocities may be empty); the relay checks the names against the arm's URDF where it reads them."""
+    message = _decoded(robot, data, decode, JOINT_STATE_TYPE, "joint_states", warn)
+    if message is None:
+        return
+    names, positions, velocities = list(message.name), list(message.position), list(message.velocity)
+    if len(positions) != len(names) or len(velocities) not in (0, len(names)):
+        warn("%s joint_states: %d names, %d positions, %d velocities", robot, len(names), len(positions),
+             len(velocities))  # fmt: skip
+        return
+    put(JointStateEvent(robot, message_stamp(message), tuple(names), tuple(map(float, positions)),
+                        tuple(map(float, velocities))))  # fmt: skip

@@ -36,11 +36,13 @@ from ..errors import BackendUnavailable
 from ..fleet.events import Event, EventSink, PoseEvent
 from ..logs.budget import BudgetedLog
 from ..ros.rosmsg import MAP_TYPE, POSE_TYPES, SCAN_TYPE, image_type
+from .base import Vec3
 from .cdr_encode import HEADER, POSE_STAMPED, TWIST, TWIST_STAMPED, CommandEncoder
 from .cloud_intake import TF_MESSAGE
 from .ingest import RawDecoder
 from .live import LiveBackend
 from .raw_readers import PATH_TYPE, STRING_TYPE, read_model, read_path, read_sensor
+from .zenoh_arms import ZenohArms
 from .zenoh_fleet import ZenohFleet
 from .zenoh_keys import topic_selector
 from .zenoh_nav2 import ZenohNav2
@@ -76,6 +78,7 @@ class ZenohBackend(LiveBackend):
         self._entities: list[Any] = []
         self._cmd: dict[str, ZenohPublisher] = {}
         self._goal: dict[str, ZenohPublisher] = {}
+        self._arms = ZenohArms(self._decode_raw, self._post, self._peer_log.warning)
         self._heartbeat: ZenohPublisher | None = None
         self._fleet = ZenohFleet(
             self.settings.fleet_key,
@@ -139,6 +142,7 @@ class ZenohBackend(LiveBackend):
         if self._heartbeat is not None:
             self._heartbeat.undeclare()
         self._entities, self._cmd, self._goal, self._heartbeat, self._topics = [], {}, {}, None, None
+        self._arms.forget()
         self._cameras.forget_subscriptions()
         if self._session is not None:
             with contextlib.suppress(Exception):
@@ -245,6 +249,7 @@ class ZenohBackend(LiveBackend):
         else:
             self._cmd[name] = topics.publisher(robot.cmd_vel_topic, TWIST_STAMPED if robot.cmd_vel_stamped else TWIST)
         self._goal[name] = topics.publisher(robot.goal_topic, POSE_STAMPED)
+        self._entities += self._arms.declare(topics, robot)
 
     def _sensor(self, robot: str, sensor: str, type_name: str) -> Callable[[bytes], None]:
         def on_bytes(data: bytes) -> None:
@@ -288,6 +293,16 @@ class ZenohBackend(LiveBackend):
         assert self._encode is not None
         payload = self._encode.twist(linear, angular, stamped=stamped, stamp=stamp, frame=spec.pose.base_frame)
         self._send(self._cmd, spec.name, payload)
+
+    async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
+        if self._encode is None or not self._arms.moves(robot):
+            await super().send_arm_twist(robot, linear, angular)
+            return
+        self._arms.twist(self._encode, robot, linear, angular)
+
+    async def stop_arm(self, robot: str) -> None:
+        if self._arms.moves(robot):
+            await self.send_arm_twist(robot, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         assert self._encode is not None

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from relay.arm.model import ArmModel, arm_from_urdf, load_arm
 from tests.conftest import SHARED_DATA
+from tests.helpers.waiting import wait_until
+from tests.wsclient import TestClient
 
 #: ROBOTIS's turtlebot3_manipulation_description, expanded from its xacro (its PROVENANCE.txt says how).
 TB3_MANIPULATION = SHARED_DATA / "robot" / "turtlebot3_manipulation_description"
@@ -53,3 +57,28 @@ PLANAR_URDF = """<?xml version="1.0"?>
 
 def planar() -> ArmModel:
     return arm_from_urdf(PLANAR_URDF, "base_link", "tip")
+
+
+def joint_states(client: TestClient, robot: str) -> list[dict[str, Any]]:
+    """The ``<robot>/joints`` messages the client got, oldest first."""
+    return [m for _, m in client.messages if m.get("identifier") == f"{robot}/joints"]
+
+
+async def jog_up_and_settle(client: TestClient, robot: str, seconds: float = 1.5) -> tuple[float, dict[str, Any]]:
+    """Move ``robot``'s gripper up at 5 cm/s for ``seconds``, 20 twists a second as the page sends them, then fall
+    silent until the arm stands still (a second of its joint states unchanged: its deadman stopped it). The tip's
+    height before, and the joints once still."""
+    first = await client.wait_for(lambda m: m["identifier"] == f"{robot}/joints", timeout=30)
+    for _ in range(round(seconds * 20)):
+        await client.send({"identifier": f"{robot}/arm/twist", "linear": [0.0, 0.0, 0.05], "angular": [0, 0, 0]})
+        await asyncio.sleep(0.05)
+
+    def settled() -> bool:
+        recent = joint_states(client, robot)[-20:]
+        if len(recent) < 20:
+            return False
+        last: list[float] = recent[-1]["positions"]
+        return all(abs(a - b) < 1e-6 for m in recent for a, b in zip(m["positions"], last, strict=True))
+
+    await wait_until(settled, 10, f"{robot}'s arm standing still after the twists stopped")
+    return float(first["points"][-1][2]), joint_states(client, robot)[-1]
