@@ -243,7 +243,10 @@ async def test_vr_inspection_by_pointing(station: Station, open_client: OpenClie
     # A region from one point of the image: the relay's outline is proposed, then accepted.
     await point_and_select(points["pixel"], "insp:image")
     await client.wait("s.inspection.review.proposal", 30)
-    points = await client.page.evaluate("() => window.__xrRelay.cardPoints(null)")
+    # The card's buttons are laid out when it is next drawn: its Accept appears then.
+    points = await client.wait(
+        "(() => { const p = window.__xrRelay.cardPoints(null); return p['region:accept'] ? p : null; })()", 20
+    )
     await client.frames(2)
     await client.shot("09-finding-card", "vr-finding-card.png")
     await point_and_select(points["region:accept"], "insp:card:region:accept")

@@ -87,6 +87,8 @@ async def test_the_wrist_estop_rides_on_the_hand_drawn_and_a_pinch_on_it_stops_t
 ) -> None:
     client = await hands_vr(open_client, station)
     await hand(client.page, "left", [-0.05, 1.3, -0.45])  # raised in front, the back of the wrist to the eyes
+    # The hand moves on the next XR frame, and the panel's world position is the last drawn frame's: read it after.
+    await client.frames(3)
     s = await client.wait("s.estop.wristDrawn && s.estop.points.wrist && s", 10)
     # On the left hand: within a hand's length of its index tip (it stayed at the controller's old place before).
     wrist, tip = s["estop"]["points"]["wrist"], s["hands"]["tips"]["left"]

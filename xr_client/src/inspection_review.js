@@ -215,6 +215,11 @@ export class InspectionReview {
       );
   }
 
+  /** Whether an outline on the open finding's image waits to be judged (proposed, or asked for). */
+  get judging() {
+    return this.proposal !== null || this.pending !== null;
+  }
+
   /** Keep the proposed outline as the open finding's region. @returns {ReviewCommand[]} */
   accept() {
     if (!this.selected || !this.proposal) return [];

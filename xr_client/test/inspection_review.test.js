@@ -73,10 +73,12 @@ test('a region is asked at the selected pixel, proposed when its outline arrives
   assert.deepEqual(review.imageClick(model, 10, 20), [], 'no finding open: nothing');
   review.select('f-1');
   assert.deepEqual(review.imageClick(model, 240, 260), [{ type: 'region', capture: 'c-1', u: 240, v: 260 }]);
+  assert.equal(review.judging, false, 'nothing to judge: a gaze resting on the image may mark there');
   review.regionAsked('r-7');
   assert.equal(review.hint(), 'segmenting…');
   review.sync(model);
   assert.equal(review.proposal, null, 'no outline yet');
+  assert.equal(review.judging, true, 'asked: a glance at the image is not another point');
   const outline = [
     [200, 220],
     [280, 220],
@@ -87,8 +89,10 @@ test('a region is asked at the selected pixel, proposed when its outline arrives
   review.sync(model);
   assert.deepEqual(review.proposal, outline);
   assert.deepEqual(review.outline(model), outline, 'the proposal is drawn over the image');
+  assert.equal(review.judging, true, 'proposed: the operator reads it before Accept or Redo');
   review.redo();
   assert.equal(review.outline(model), null, 'redo drops it; the finding had no region');
+  assert.equal(review.judging, false);
   review.regionAsked('r-8');
   model.apply({ identifier: 'region', id: 'r-8', capture: 'c-1', outline });
   review.sync(model);

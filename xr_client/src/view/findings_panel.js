@@ -24,6 +24,8 @@ export class FindingsPanel {
   filter = '';
   /** The before/after slider's position (0-100): how much of the after image shows, from the left. */
   wipe = WIPE_START;
+  /** The markup last put on the page. */
+  html = '';
   /** The selected robot (a mission for it alone), or null (for the fleet). @type {string | null} */
   robot = null;
   /**
@@ -124,11 +126,16 @@ export class FindingsPanel {
     const writing = /** @type {HTMLTextAreaElement | null} */ (this.root.querySelector('textarea[data-finding-note]'));
     const caret = writing !== null && writing === document.activeElement ? writing.selectionStart : null;
     const targets = targetList(this.model.targets.values(), this.review.picked, this.robot, this.group);
-    this.root.innerHTML =
+    const html =
       `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${targets}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `${sinceSwitch(this.model.sinceLastRound)}<ol>${items}</ol>${this.#older()}${this.#detail()}`;
+    // Most updates (a target's progress, a mission's step) change nothing shown here: the page is left as it is, so
+    // the images are not reloaded, a slider being dragged is not taken from under the mouse and nothing flickers.
+    if (html === this.html) return;
+    this.html = html;
+    this.root.innerHTML = html;
     const input = /** @type {HTMLInputElement | null} */ (this.root.querySelector('input[data-note]'));
     if (input && note) input.value = note;
     if (input && focused) input.focus();

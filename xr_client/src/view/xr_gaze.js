@@ -1,8 +1,8 @@
 // @ts-check
 /**
- * The head's gaze in VR, once per XR frame: a dwell (gestures.js) on a point of a finding's image, of the live Robot
- * POV image, or (with the menu's Gaze press option) on a menu button acts there, and a reticle at the centre of view
- * fills while the dwell runs.
+ * The head's gaze in VR, once per XR frame: a dwell (gestures.js) on a point of a finding's image (unless an outline
+ * on it is being judged), of the live Robot POV image, or (with the menu's Gaze press option) on a menu button acts
+ * there, and a reticle at the centre of view fills while the dwell runs.
  */
 import * as THREE from 'three';
 import { Dwell } from '../gestures.js';
@@ -50,7 +50,7 @@ export class GazeDwell {
       id = host.menu.options.dwellPress ? host.menuPanel.buttonAtUv(first.uv) : null;
     else if (first) {
       const name = host.inspect.idOf(first);
-      id = name === 'insp:image' ? name : null;
+      id = name === 'insp:image' && !host.inspect.judging() ? name : null;
     } else if ((live = host.inspect.liveAt(this.raycaster.ray.direction))) id = 'pov:image';
     // On the live image (5 m away, around the eyes) the gaze's steadiness is judged 1 m out: 3 degrees of wander.
     const at = first ? first.point : live ? this.raycaster.ray.at(1, new THREE.Vector3()) : null;

@@ -80,6 +80,15 @@ export class XRInspection {
   }
 
   /**
+   * Whether the open finding's image shows an outline being judged (proposed, or asked for): a glance resting on it
+   * then is reading it, not marking another (a CI run's headset, resting 1.5 s on the card while it waited, asked
+   * for a region at the top of the image and lost the proposal that was to be accepted).
+   */
+  judging() {
+    return this.host.ui.review.judging;
+  }
+
+  /**
    * In Robot POV with the Inspect tool, the pixel of the live image in a world direction from the eyes (null: not
    * here, not now, or off the image). @param {import('three').Vector3} direction
    * @returns {[number, number] | null}
