@@ -50,6 +50,7 @@ SAMPLES: dict[str, Any] = {"id": "r1", "x": 1.0, "y": 2.0, "yaw": 0.5, "linear":
                            "answers": [50, 40, 30, 60, 55, 20], "probe": "corridor",
                            "head": {"position": [1.0, 2.0, 1.6], "look": [1.0, 0.0, 0.0]},
                            "hands": [{"hand": "right", "position": [1.2, 1.8, 1.1], "ray": [0.0, 0.6, -0.8]}],
+                           "view": "top",
                            }  # fmt: skip
 #: A schedule's ``mission`` is mission/start's form, where mission/* commands name a mission by id.
 SCHEDULE_SAMPLES: dict[str, Any] = {**SAMPLES, "mission": {"targets": ["spill"]}}

@@ -294,7 +294,7 @@ tasks:
 """
 
 
-async def test_a_probe_an_estop_a_refusal_and_a_goal_reached_are_counted_in_the_task(
+async def test_a_probe_an_estop_a_refusal_a_goal_reached_and_view_switches_are_counted_in_the_task(
     fleet_config: FleetConfig, tmp_path: Path
 ) -> None:
     (tmp_path / "study.yaml").write_text(GOAL_STUDY)
@@ -313,6 +313,14 @@ async def test_a_probe_an_estop_a_refusal_and_a_goal_reached_are_counted_in_the_
         assert (await ask(client, {"identifier": "study/answer", "probe": "nowhere"}))["code"] == "bad_request"
         assert (await ask(client, {"identifier": "study/answer", "probe": "corridor"}))["identifier"] == "ack"
         assert latest_study(client)["phase"] == "task"
+        # What the page looks through, with its viewpoint: where it starts is no switch, the same view again neither.
+        head = {"position": [3.0, 1.0, 1.6], "look": [1.0, 0.0, 0.0]}
+        for view in ("orbit", "top", "top", "pov"):
+            await client.send({"identifier": "viewer", "head": head, "view": view})
+        mark_error = len(client.messages)
+        await client.send({"identifier": "viewer", "head": head, "view": "sideways"})
+        error = await client.wait_for(lambda m: m["identifier"] == "error", WAIT, mark_error)
+        assert error["code"] == "bad_request" and "view must be one of orbit, top" in error["message"], error
 
         assert (await ask(client, {"identifier": "estop"}))["identifier"] == "ack"
         goal = {"identifier": "robot1/goal_pose", "x": 3.0, "y": 2.0}
@@ -328,6 +336,7 @@ async def test_a_probe_an_estop_a_refusal_and_a_goal_reached_are_counted_in_the_
     assert measures["success"] == 1.0 and measures["time_s"] == pytest.approx(1.5)
     assert measures["probe_correct"] == 1.0 and measures["probe_room_s"] == 0.0
     assert (measures["commands"], measures["refusals"], measures["estops"]) == (4.0, 1.0, 1.0)
+    assert measures["view_switches"] == 2.0  # orbit -> top -> pov
 
 
 async def test_a_task_that_places_robots_is_refused_where_the_backend_cannot_place_them(

@@ -105,8 +105,9 @@ class CommandHandler:
             # Dropped before it can reach a robot; an estop is never held back.
             self._rate_limited(client, request_id, command_identifier(command), command, now)
             return
-        if isinstance(command, Viewer):
-            return  # checked; kept by the session's recording (relay/station/core.py), no reply, no audit record
+        if isinstance(command, Viewer):  # checked, no reply, no audit; recorded (station/core.py), a study counts views
+            self.study.events.viewed(client.client_id, command.view)
+            return
         if isinstance(command, (Snapshot, *InspectionCommands, *StudyCommands)):
             self._run_apart_admitted(client, command, now)
             return

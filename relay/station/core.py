@@ -101,7 +101,7 @@ class Relay:
         self.audit = CommandAudit(
             AuditLog(options.audit_log) if options.audit_log else None,
             clock=self.clock,
-            outcomes=lambda command, error: self.study.observe(command, error),  # the study, built below, counts them
+            outcomes=lambda command, error: self.study.events.observe(command, error),  # the study: built below
         )
         stops = StopNotices()
         self.control = Control(
@@ -125,7 +125,8 @@ class Relay:
         self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)
         self.inspection = Inspection(
             config, options, backend=self.backend, control=self.control, stops=stops, fleet=self.fleet,
-            outbox=self.outbox, map_grid=self.map_grid, clock=clock, wall_clock=wall_clock, marked=self.study.finding,
+            outbox=self.outbox, map_grid=self.map_grid, clock=clock, wall_clock=wall_clock,
+            marked=self.study.events.finding,
         )  # fmt: skip
         self._clients: dict[str, Client] = {}
         #: The arms: their chains, latest joints, commands and deadman (relay.control.arm_control).
@@ -162,8 +163,8 @@ class Relay:
         self.map_stream = MapStream(self.hub, self.fusion) if self.fusion is not None else None
         self.router = EventRouter(
             self.robots, self.fleet, self.outbox, self.assets, self.streams, self.control, self.inspection,
-            self.latency, clock, self.arms,
-            self.fusion.submit if self.fusion is not None else None, reached=self.study.goal_reached,
+            self.latency, clock, self.arms, self.fusion.submit if self.fusion is not None else None,
+            reached=self.study.events.goal_reached,
         )  # fmt: skip
         #: The rooms of robots.yaml's scene file (``sim.world``), named in every hello.
         self.rooms: list[RoomDescription] = []
@@ -282,8 +283,8 @@ class Relay:
         if client.name is not None:
             self.outbox.operators(roster(self._clients))
         client.cancel_tasks()
-        self.commands.snapshots.forget(client.client_id)
-        self.audit.forget(client.client_id)
+        for part in (self.commands.snapshots, self.audit, self.study.events):  # what each kept of the client
+            part.forget(client.client_id)
         streams = list(client.channel.streams)
         await self.hub.remove(client.channel)
         self.streams.streams_ended(streams)

@@ -6,8 +6,8 @@
   questionnaire or a probe. Joining and starting need an operator's role; answers come from the participant's client.
 - **What feeds the run**: a ticker (every ``TICK`` of the relay's clock) passes the fleet's poses and modes for the
   task's time, its success (relay/study/rules.py) and near-collisions; the session hands every command's outcome
-  (:meth:`StudyService.observe`), inspection every finding marked, the event router every goal reached. None of it
-  is on a stop's path: the hooks count and return.
+  and every viewpoint's view, inspection every finding marked, the event router every goal reached
+  (relay/study/observer.py). None of it is on a stop's path: the hooks count and return.
 - **Every change** is sent to every client as a ``study`` message and saved (relay/study/store.py): the run's JSON
   is written whole off the loop by one writer, the newest state of each participant waiting, so that at most one
   write per participant is ever queued.
@@ -29,6 +29,7 @@ from ..errors import CommandRejected, ConfigError, ProtocolError
 from ..fleet.occupancy import OccupancyGrid
 from ..wire.fields import ErrorCode, RequestId
 from .model import GoalReached, Probe, RobotInRegion, Study
+from .observer import StudyEvents
 from .probes import choices, truth
 from .run import StudyError, StudyRun
 from .scores import AnswerError
@@ -42,7 +43,6 @@ if TYPE_CHECKING:
     from ..control.control import Control
     from ..fleet.state import FleetState
     from ..session.clients import Client
-    from ..session.protocol import Command
     from ..station.messages import RoomDescription
     from ..station.outbox import Outbox
 
@@ -53,11 +53,6 @@ logger = logging.getLogger(__name__)
 TICK: Final = 0.05
 #: A robot's footprint radius for near-collisions (m): the simulated robots' (relay/sim/world.py ROBOT_RADIUS).
 ROBOT_RADIUS: Final = 0.2
-#: Commands that are not the operator's work in a task: keep-alives, names, streams, history, the study's own.
-_NOT_COUNTED: Final = frozenset({"ping", "name", "findings/page", "study/join", "study/start", "study/answer"})
-#: Commands sent continuously while a robot or arm is driven by hand: counted only when refused (their time is
-#: ``teleop_s``).
-_CONTINUOUS: Final = ("cmd_vel", "arm/twist")
 
 
 class StudyService:
@@ -88,6 +83,8 @@ class StudyService:
         self._lock = asyncio.Lock()  # one study command at a time (they await robots and files between checks)
         self.writer: RunWriter | None = None
         self._ticking: asyncio.Task[None] | None = None
+        #: What the relay's events count in the task running (the session's, inspection's, the router's hooks).
+        self.events = StudyEvents(lambda: self.run)
 
     # -- lifecycle ------------------------------------------------------------------------------------------------
 
@@ -253,28 +250,6 @@ class StudyService:
         self._changed(run)
 
     # -- the relay's events ---------------------------------------------------------------------------------------
-
-    def observe(self, command: Command, error: ProtocolError | None) -> None:
-        """A command's outcome (the session calls this beside the audit): counted in the task running."""
-        run = self.run
-        if run is None or run.state.phase != "task" or command.identifier in _NOT_COUNTED:
-            return
-        if command.identifier.endswith("/stream"):
-            return
-        if error is None and command.identifier.endswith(_CONTINUOUS):
-            return
-        if error is None and command.identifier == "estop" and getattr(command, "action", "stop") == "stop":
-            run.estop()
-        run.command(refused=error is not None)
-
-    def finding(self, target: str | None) -> None:
-        """A finding was marked (about a capture of ``target``, if any)."""
-        if self.run is not None and target is not None:
-            self.run.finding(target)
-
-    def goal_reached(self, robot: str) -> None:
-        if self.run is not None:
-            self.run.goal_reached(robot)
 
     def tick(self, now: float) -> None:
         """Time passes: the task's success, its limit and its probes are judged on the fleet as it is now."""

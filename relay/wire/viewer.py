@@ -24,6 +24,9 @@ MAX_VIEWER_DISTANCE: Final = 10_000.0
 HANDS: Final = ("left", "right")
 #: How far a direction's length may be from 1 (rounding on the page).
 UNIT_SLACK: Final = 0.01
+#: What the operator looks through: the desktop's orbiting, top and following views, a robot's camera (Robot POV, on
+#: the desktop or in a headset) and the headset's own view of the twin. A study counts the changes (relay/study/).
+VIEWS: Final = ("orbit", "top", "follow", "pov", "free_roam")
 
 Vec3 = tuple[float, float, float]
 Hand = Literal["left", "right"]
@@ -95,13 +98,25 @@ def _hands(value: Any, field: str, identifier: str) -> tuple[tuple[Hand, Vec3, V
     return tuple(hands)
 
 
+def _view(value: Any, field: str, identifier: str) -> str | None:
+    if value is None:
+        return None
+    if value not in VIEWS:
+        raise ProtocolError(
+            ErrorCode.BAD_REQUEST, f"{identifier}: {field} must be one of {', '.join(VIEWS)}, got {show(value)}"
+        )
+    return str(value)
+
+
 @command("viewer")
 @dataclass(frozen=True, slots=True)
 class Viewer(WireCommand):
-    """The page's viewpoint: its head and, in VR, its hands with their rays (map frame). No reply."""
+    """The page's viewpoint: its head and, in VR, its hands with their rays (map frame), and what it looks through
+    (``view``, one of VIEWS; absent: not said). No reply."""
 
     head: tuple[Vec3, Vec3] = custom(_head, "ViewerHead", required=True)
     hands: tuple[tuple[Hand, Vec3, Vec3], ...] = custom(_hands, "ViewerHand[]", default=())
+    view: str | None = custom(_view, " | ".join(f"'{v}'" for v in VIEWS))
 
 
 #: The viewpoint's commands, gathered in relay/session/protocol.py.

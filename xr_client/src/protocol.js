@@ -98,7 +98,7 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 /** @typedef {{identifier: 'playback/pause' | 'playback/resume', id: RequestId}} PlaybackCommand */
 /** @typedef {{identifier: 'playback/seek', id: RequestId, t: number}} PlaybackSeekCommand */
 /** @typedef {{identifier: 'playback/rate', id: RequestId, rate: number}} PlaybackRateCommand */
-/** @typedef {{identifier: 'viewer', head: ViewerHead, hands?: ViewerHand[]}} ViewerCommand */
+/** @typedef {{identifier: 'viewer', head: ViewerHead, hands?: ViewerHand[], view?: 'orbit' | 'top' | 'follow' | 'pov' | 'free_roam'}} ViewerCommand */
 /** @typedef {{identifier: 'mission/start', id: RequestId, file: string}} MissionFileCommand */
 /** @typedef {{identifier: 'mission/start', id: RequestId, robot: string, steps: Object<string, unknown>[], name?: string}} MissionStepsCommand */
 /** @typedef {{identifier: 'mission/start', id: RequestId, targets: string[], name?: string, robots?: string[]}} MissionTargetsCommand */

@@ -49,10 +49,12 @@ export function directionToScene(t, d) {
 /**
  * The `viewer` message of a head and hands seen in the scene: map frame, positions to the millimetre, directions to
  * 1e-4; null when the head's pose is not a pose (a zero or non-finite direction). A hand without one is left out.
+ * `view`: what the operator looks through (a study counts its changes).
  * @param {MapToScene} t @param {ScenePose} head @param {SceneHand[]} [hands]
+ * @param {import('./protocol.js').ViewerCommand['view']} [view]
  * @returns {import('./protocol.js').ViewerCommand | null}
  */
-export function viewerMessage(t, head, hands = []) {
+export function viewerMessage(t, head, hands = [], view = undefined) {
   /** @param {Vec3} p */
   const point = (p) => sceneToMap(t, p[0], p[1], p[2]).map((v) => round(v, 3));
   /** @param {Vec3} d */
@@ -68,7 +70,10 @@ export function viewerMessage(t, head, hands = []) {
     if (ray && at.every(Number.isFinite) && !seen.some((h) => h.hand === hand.hand))
       seen.push({ hand: hand.hand, position: at, ray });
   }
-  return { identifier: 'viewer', head: { position, look }, hands: seen };
+  /** @type {import('./protocol.js').ViewerCommand} */
+  const message = { identifier: 'viewer', head: { position, look }, hands: seen };
+  if (view) message.view = view;
+  return message;
 }
 
 /** A recorded pose back in the scene. @param {MapToScene} t @param {number[]} position @param {number[]} direction */

@@ -34,6 +34,8 @@ test('a viewpoint goes to the map frame, rounded, and comes back into the scene 
   assert.ok(back);
   near(back.position, eye, 1e-9);
   near(back.direction, along(1, 0), 1e-9);
+  assert.equal(message.view, undefined, 'what it looks through: not said');
+  assert.equal(viewerMessage(T, { position: eye, direction: along(1, 0) }, [], 'top')?.view, 'top');
   assert.equal(viewerMessage(T, { position: eye, direction: [0, 0, 0] }), null, 'no facing: no viewpoint');
   assert.equal(viewerMessage(T, { position: [NaN, 0, 0], direction: [1, 0, 0] }), null);
 });

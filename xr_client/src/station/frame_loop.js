@@ -123,8 +123,8 @@ export class FrameLoop {
 
   /**
    * Where the operator looks from, for the session's recording (viewer_pose.js): the head, and in VR each hand's or
-   * controller's ray. Not before the relay's `hello` (no fleet, no map frame yet), in a replay (its viewpoints are the
-   * recording's), nor while the link is down.
+   * controller's ray; and what through (the desktop's view, Robot POV, the headset's world). Not before the relay's
+   * `hello` (no fleet, no map frame yet), in a replay (its viewpoints are the recording's), nor while the link is down.
    * @param {THREE.Vector3} eye the camera's world position
    */
   #viewpoint(eye) {
@@ -142,7 +142,9 @@ export class FrameLoop {
       }
     }
     const head = { position: eye.toArray(), direction: direction.toArray() };
-    const message = viewerMessage(fleet.scene.mapToScene, head, hands);
+    const { menu } = this.host;
+    const through = this.stage.presenting ? 'free_roam' : this.views.desktop.views.mode;
+    const message = viewerMessage(fleet.scene.mapToScene, head, hands, menu.mode === 'pov' ? 'pov' : through);
     if (message) this.views.send(message, false); // no id, no reply: the next goes a quarter of a second later
   }
 }

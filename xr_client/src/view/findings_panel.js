@@ -127,7 +127,7 @@ export class FindingsPanel {
     const caret = writing !== null && writing === document.activeElement ? writing.selectionStart : null;
     const targets = targetList(this.model.targets.values(), this.review.picked, this.robot, this.group);
     const html =
-      `${this.#alerts()}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${targets}` +
+      `${alertList(this.model)}${scheduleList(this.model.schedules, this.schedules?.visible ?? false)}${targets}` +
       `<div class="head"><b>Findings (${this.model.findings.size})</b>` +
       `<span class="links">${links}</span><select aria-label="filter">${options}</select></div>` +
       `${sinceSwitch(this.model.sinceLastRound)}<ol>${items}</ol>${this.#older()}${this.#detail()}`;
@@ -152,24 +152,6 @@ export class FindingsPanel {
     }
     this.schedules?.mount(this.root.querySelector('.schedule-form-slot'));
     this.#clip();
-  }
-
-  /** The alerts nobody acknowledged, newest first, with their count and an Acknowledge button each. */
-  #alerts() {
-    const alerts = this.model.openAlerts();
-    if (!alerts.length) return '';
-    const rows = alerts
-      .map(
-        (a) =>
-          `<li data-alert="${esc(a.alert)}" class="alert ${esc(a.severity)}">${esc(a.text)}` +
-          `<br><small>${esc(new Date(a.raised * 1000).toLocaleString())}</small> ` +
-          `<button type="button" data-ack="${esc(a.alert)}">Acknowledge</button></li>`,
-      )
-      .join('');
-    return (
-      `<div class="head"><b>Alerts <span class="badge" title="alerts to acknowledge">${alerts.length}</span></b>` +
-      `</div><ol class="alerts">${rows}</ol>`
-    );
   }
 
   /** Older findings from the relay's database, a page at a time, until the oldest is here. */
@@ -398,5 +380,26 @@ function trendFigure(f) {
     `aria-label="${esc(said)}">${limit}<polyline points="${polyline(line.points)}"/>${dots}</svg>` +
     `<figcaption><small>${esc(said)}${trend.threshold === null ? '' : ', its limit dashed'}</small></figcaption>` +
     '</figure>'
+  );
+}
+
+/**
+ * The alerts nobody acknowledged, newest first, with their count and an Acknowledge button each.
+ * @param {import('../inspection_model.js').InspectionModel} model
+ */
+function alertList(model) {
+  const alerts = model.openAlerts();
+  if (!alerts.length) return '';
+  const rows = alerts
+    .map(
+      (a) =>
+        `<li data-alert="${esc(a.alert)}" class="alert ${esc(a.severity)}">${esc(a.text)}` +
+        `<br><small>${esc(new Date(a.raised * 1000).toLocaleString())}</small> ` +
+        `<button type="button" data-ack="${esc(a.alert)}">Acknowledge</button></li>`,
+    )
+    .join('');
+  return (
+    `<div class="head"><b>Alerts <span class="badge" title="alerts to acknowledge">${alerts.length}</span></b>` +
+    `</div><ol class="alerts">${rows}</ol>`
   );
 }
