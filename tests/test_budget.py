@@ -61,7 +61,7 @@ async def test_the_sim_plans_goals_while_its_rendering_pool_is_full(fleet_config
     await backend.start()
     gate = threading.Event()
     try:
-        rendering = backend._rendering
+        rendering = backend.cameras._rendering
         fills = [asyncio.ensure_future(rendering.run(gate.wait)) for _ in range(rendering.capacity)]
         await asyncio.sleep(0)
         with pytest.raises(CommandRejected) as refused:

@@ -7,6 +7,8 @@ import asyncio
 import dataclasses
 from pathlib import Path
 
+import cv2
+import numpy as np
 import pytest
 
 from relay.arm.fleet_arms import load_fleet_arms
@@ -16,6 +18,7 @@ from relay.config import FleetConfig, load_config
 from relay.errors import CommandRejected, ConfigError
 from relay.fleet.events import Event, JointStateEvent
 from relay.sim.arms import SimArms
+from relay.sim.camera import embree_available
 from relay.station.core import Relay
 from relay.twin.urdf.errors import RobotModelError
 from tests.helpers.arm import tb3_manipulation
@@ -152,3 +155,38 @@ def test_an_arm_from_robot_description_is_not_read_yet_and_says_so(fleet_config:
     ]
     loaded = load_fleet_arms(robots)
     assert loaded.arms == {} and "robot_description" in loaded.health()["robot3"]
+
+
+async def test_the_gripper_camera_sees_from_the_gripper_and_its_view_moves_with_the_arm(
+    fleet_config: FleetConfig,
+) -> None:
+    """robot3's `gripper` camera (robots.yaml `arm.camera`) is rendered from the arm's tip, looking along the fingers:
+    not the base camera's view, and another one once the arm has moved (issue #32, camera on the gripper)."""
+    tb3_manipulation("turtlebot3_manipulation.urdf")
+    if not embree_available():
+        pytest.skip("the simulated camera's renders need Embree (embreex, installed by make setup)")
+    backend = SimBackend(fleet_config, lambda event: None)
+    await backend.start()
+    try:
+        arms = backend._arms
+        x, y, yaw = backend._pose_of("robot3")
+        cx, cy, height, heading, pitch = arms.camera_pose("robot3", (x, y, yaw))
+        tip = arms.tip("robot3")
+        # At the tip, in the map (robot3 faces north: the arm's x is the map's y).
+        assert (cx, cy, height) == pytest.approx((x - tip[1], y + tip[0], tip[2]), abs=1e-6)
+        assert abs(heading - yaw) < 0.3 and -1.2 < pitch < 1.2  # the fingers point ahead of the robot
+        front = await backend.snapshot("robot3", "front")
+        first = await backend.snapshot("robot3", "gripper")
+        assert front is not None and first is not None
+        assert (first.width, first.height) == (320, 240) and (front.width, front.height) == (480, 480)
+        await backend.send_arm_twist("robot3", (0.0, 0.0, 0.1), (0.0, 0.0, 0.0))  # up, until its deadman (0.5 s)
+        await asyncio.sleep(1.0)
+        await backend.stop_arm("robot3")
+        assert arms.camera_pose("robot3", (x, y, yaw))[2] > height + 0.03, "the camera rose with the gripper"
+        moved = await backend.snapshot("robot3", "gripper")
+        assert moved is not None
+        before, after = (cv2.imdecode(np.frombuffer(f.jpeg, np.uint8), cv2.IMREAD_GRAYSCALE) for f in (first, moved))
+        assert before is not None and after is not None
+        assert float(np.abs(before.astype(int) - after.astype(int)).mean()) > 3.0, "the view did not move"
+    finally:
+        await backend.stop()

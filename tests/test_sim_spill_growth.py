@@ -186,7 +186,7 @@ async def test_the_sim_backends_snapshots_show_the_spill_as_grown_at_their_time(
     try:
         x, y, yaw = poses()["spill"]
         backend.world.robots["robot1"].state = DiffDriveState(x, y, yaw, 0.0, 0.0)
-        camera, lens = backend.camera, backend._lenses[("robot1", "front")]
+        camera, lens = backend.cameras.camera, backend.cameras._lenses[("robot1", "front")]
         assert camera is not None
         grown = []
         for _ in range(2):

@@ -7,10 +7,8 @@ robot that has a ``scan`` at ``sim.scan_rate``. Planning a goal runs in a pool o
 so do the scans (about 2.5 ms of numpy each on this project's 2-core machine: 3 robots at 5 Hz would
 otherwise take ~4 % of the loop's time in slices that delay every frame sent meanwhile).
 
-Cameras: each camera of robots.yaml sees the scene's glTF through its lens, ray cast by
-:class:`relay.sim.camera.SimCamera` in a worker thread (about 65-115 ms for 480x480 with Embree on 2 cores).
-A stream renders at most one frame at a time per camera, at up to the rate asked for; renders (streams and
-snapshots) share one rendering thread with a bounded queue (relay.station.work).
+Cameras (relay.backends.sim_cameras): each camera of robots.yaml sees the scene's glTF through its lens, from its
+robot or from the gripper it rides on, rendered in one worker thread with a bounded queue.
 
 Arms (relay.sim.arms): every robot whose ``arm:`` could be read carries a simulated arm, stepped with the world and
 its joints published at ``JOINT_STATE_RATE``; one whose files are absent runs without it (the log and /healthz's
@@ -37,17 +35,14 @@ from ..errors import BackendUnavailable, CommandRejected
 from ..fleet.events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, SensorEvent
 from ..fleet.geometry import yaw_to_quaternion
 from ..fleet.occupancy import OccupancyGrid
-from ..media.lens import LensModel
-from ..session.budget import TOTAL as SNAPSHOTS_AT_ONCE
 from ..session.protocol import ErrorCode
 from ..sim.arms import JOINT_STATE_RATE, SimArms
-from ..sim.camera import SimCamera, rgb_to_jpeg
 from ..sim.depth_camera import SimDepthCamera
 from ..sim.laser import LaserScanner
 from ..sim.world import Goal, NoPathError, Outcome, SimWorld
 from ..station.work import Busy, WorkPool
-from ..twin.frames import map_to_scene_matrix
 from .base import Backend, Vec3
+from .sim_cameras import SimCameras
 from .sim_feeds import SweepFeed, depth_feed, scan_feed
 
 logger = logging.getLogger(__name__)
@@ -60,20 +55,14 @@ class SimBackend(Backend):
         super().__init__(config, sink)
         self._world: SimWorld | None = None
         self._task: asyncio.Task[None] | None = None
-        self.camera: SimCamera | None = None
-        self._lenses: dict[tuple[str, str], LensModel] = {}
-        self._streams: dict[tuple[str, str], tuple[float, asyncio.Task[None]]] = {}
-        # Pools of their own (relay.station.work), not asyncio's default one that anything can fill. One render thread:
-        # the other core stays for the event loop and planning. The rendering queue holds every camera's stream
-        # frame (one each) and the snapshot budget's total (relay.session.budget), so a snapshot within budget never
-        # finds it full.
-        cameras = sum(len(robot.cameras) for robot in config.robots)
+        # A pool of its own (relay.station.work), not asyncio's default one that anything can fill.
         self._planning = WorkPool("planning", workers=1, queue=4)
-        self._rendering = WorkPool("rendering", workers=1, queue=cameras + SNAPSHOTS_AT_ONCE)
         # Scans and depth clouds: one sweep of every robot at a time (relay.backends.sim_feeds), made in start().
         self._scanned = [r.name for r in config.robots if r.scan_topic is not None]
         self._feeds: list[SweepFeed[Any]] = []
         self._arms = SimArms({}, FleetArms(), config.safety.deadman_timeout)  # read in start()
+        #: The cameras (relay.backends.sim_cameras): each renders from its robot, or from the gripper it rides on.
+        self.cameras = SimCameras(config, sink, self._pose_of, lambda: self._arms, lambda: self.world.spill_at())
         self._depth_rate = config.cloud.sim_depth_rate if config.cloud is not None else 0.0  # issue #33
 
     def _on_nav(self, robot: str, navigating: bool, goal: Goal | None, outcome: Outcome, message: str) -> None:
@@ -96,37 +85,23 @@ class SimBackend(Backend):
         robots = {r.name: r for r in self.config.robots}
         loaded = await asyncio.to_thread(load_fleet_arms, self.config.robots)  # parsing URDFs: off the loop
         self._arms = SimArms(robots, loaded, self.config.safety.deadman_timeout)
-        glb = self.world.scene_glb
-        cameras = [(r, c) for r in self.config.robots for c in r.cameras]
-        if (cameras or self._depth_rate) and glb is None:
-            logger.warning("sim: no scene glTF to look at (sim.world); the simulated cameras stay dark")
-        elif (cameras or self._depth_rate) and glb is not None:
-            m = self.config.scene.map_to_scene
-            self.camera = await asyncio.to_thread(
-                SimCamera.load, glb, map_to_scene=map_to_scene_matrix(m.x, m.y, m.z, m.yaw)
-            )
-            for robot, cam in cameras:
-                self._lenses[(robot.name, cam.name)] = self.camera.fit_lens(cam.lens, cam.width, cam.height)
-            logger.info("sim: %d cameras render %s with %s", len(cameras), glb.name, self.camera.engine)
+        await self.cameras.load(self.world.scene_glb, needed=self._depth_rate > 0)
         loop = asyncio.get_running_loop()
         self._task = loop.create_task(self._run(), name="sim-backend")
         if self._scanned:
             scanned = partial(self._poses_of, self._scanned)
             rate = self.config.sim.scan_rate
             self._feeds.append(scan_feed(LaserScanner(self.world.grid), rate, scanned, self.sink))
-        if self._depth_rate > 0 and self.camera is not None:
+        if self._depth_rate > 0 and self.cameras.camera is not None:
             every = partial(self._poses_of, list(self.world.robots))
-            self._feeds.append(depth_feed(SimDepthCamera(self.camera), self._depth_rate, every, self.sink))
+            self._feeds.append(depth_feed(SimDepthCamera(self.cameras.camera), self._depth_rate, every, self.sink))
 
     async def stop(self) -> None:
-        for _, task in self._streams.values():
-            task.cancel()
-        self._streams.clear()
+        self.cameras.stop()
         for feed in self._feeds:
             await feed.stop()
         self._feeds.clear()
         self._planning.shutdown()
-        self._rendering.shutdown()
         if self._world is None:
             return
         for name in self.world.robots:
@@ -208,44 +183,11 @@ class SimBackend(Backend):
     # -- cameras ----------------------------------------------------------------------------------
 
     async def snapshot(self, robot: str, camera: str) -> FrameEvent | None:
-        lens = self._lenses.get((robot, camera))
-        if self.camera is None or lens is None:
-            return None
-        # Plain floats cross to the worker thread: the world keeps moving on the loop meanwhile.
-        (x, y, yaw), stamp = self._pose_of(robot), time.time()
-        render, spill = self.camera.render, self.world.spill_at()  # the spill as grown at this frame's time
-
-        def work() -> tuple[bytes, Any]:
-            rgb = render(x, y, yaw, lens, spill=spill)
-            return rgb_to_jpeg(rgb), rgb[:, :, ::-1]  # BGR, a view: the H.264 encoder takes it as it is
-
-        try:
-            jpeg, bgr = await self._rendering.run(work)
-        except Busy as exc:
-            raise CommandRejected(ErrorCode.BUSY, f"{robot}/snapshot: {exc}; try again shortly") from None
-        return FrameEvent(robot, camera, stamp, lens.width, lens.height, jpeg, bgr)
+        frame: FrameEvent | None = await self.cameras.snapshot(robot, camera)
+        return frame
 
     def set_stream(self, robot: str, camera: str, fps: float) -> None:
-        key = (robot, camera)
-        current = self._streams.pop(key, None)
-        if current is not None:
-            current[1].cancel()
-        if fps > 0 and self.camera is not None:
-            task = asyncio.get_running_loop().create_task(self._stream(robot, camera, fps), name=f"sim-camera-{robot}")
-            self._streams[key] = (fps, task)
-
-    async def _stream(self, robot: str, camera: str, fps: float) -> None:
-        loop = asyncio.get_running_loop()
-        period = 1.0 / fps
-        while True:
-            started = loop.time()
-            with contextlib.suppress(CommandRejected):  # the rendering pool is full: this frame is skipped
-                frame = await self.snapshot(robot, camera)
-                if frame is not None:
-                    self.sink(frame)
-            # One render in flight: when rendering is slower than the period, the rate drops instead of
-            # frames piling up.
-            await asyncio.sleep(max(0.0, period - (loop.time() - started)))
+        self.cameras.set_stream(robot, camera, fps)
 
     # -- the simulation loop ----------------------------------------------------------------------
 

@@ -73,6 +73,19 @@ class SimArms:
         arm = self.arms[robot]
         return forward(arm.model, arm.positions)[:3, 3]
 
+    def camera_pose(self, robot: str, pose: tuple[float, float, float]) -> tuple[float, float, float, float, float]:
+        """Where a camera on the arm's tip looks from, for the simulator's camera (relay/sim/camera.py): its x, y and
+        height in the map and its heading and downward pitch (rad), looking along the tip link's +x (the gripper's
+        fingers point that way on OpenManipulator-X) from the robot at ``pose`` (x, y, yaw). No roll: the arm's
+        joints are one yaw and pitches."""
+        arm = self.arms[robot]
+        tip = forward(arm.model, arm.positions)
+        x, y, z = tip_in_map(pose, tip[:3, 3])
+        ahead = tip[:3, 0]
+        yaw = pose[2] + math.atan2(float(ahead[1]), float(ahead[0]))
+        pitch = math.atan2(-float(ahead[2]), math.hypot(float(ahead[0]), float(ahead[1])))
+        return x, y, z, yaw, pitch
+
     def gripping(self, robot: str) -> bool:
         """Whether the gripper is closed: nearer its closed end than its open one."""
         arm = self.arms[robot]

@@ -34,6 +34,7 @@ def describe_robot(robot: Robot, model_url: str | None = None) -> RobotDescripti
                 "height": c.height,
                 # H.264 (4:2:0) needs an even width and height.
                 "codecs": ["jpeg", "h264"] if c.width % 2 == 0 and c.height % 2 == 0 else ["jpeg"],
+                "on_arm": robot.arm is not None and robot.arm.camera == c.name,
             }
             for c in robot.cameras
         ],

@@ -21,6 +21,7 @@ class CameraDescription(TypedDict):
     width: int
     height: int
     codecs: list[str]  # what ``<robot>/stream`` may ask for: "jpeg", and "h264" when the size allows it
+    on_arm: bool  # it rides on the robot's arm (robots.yaml ``arm.camera``): its view moves with the gripper
 
 
 class SensorDescription(TypedDict):

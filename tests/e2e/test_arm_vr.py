@@ -1,6 +1,7 @@
 """robot3's arm by the hand in VR (issue #32), on IWER's emulated Quest 3: with robot3 selected, a squeeze of the
 right controller at the arm's gripper takes it, the gripper follows the controller's motion (half of it) while the
-squeeze is held, and letting go stops the arm. Needs the shared data (turtlebot3_manipulation_description)."""
+squeeze is held, the gripper's camera shows beside it meanwhile, and letting go stops the arm and that camera's stream.
+Needs the shared data (turtlebot3_manipulation_description)."""
 
 from __future__ import annotations
 
@@ -50,8 +51,15 @@ async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_han
     # The hand 10 cm up: the gripper goes 5 cm up.
     await client.page.evaluate("(p) => window.__iwer.controllers.right.position.set(p[0], p[1] + 0.1, p[2])", held)
     await wait_until(lambda: tip_height(station) > start + 0.03, 30, "robot3's gripper following the hand up")
+    # The gripper's own camera (robots.yaml arm.camera), streamed and shown beside it while the hand holds the arm.
+    camera = await client.wait("s.arms.robot3.gripperCamera.frames > 0 && s.arms.robot3.gripperCamera", 30)
+    assert camera["visible"] and camera["identifier"] == "robot3/camera/gripper", camera
+    await client.shot("00-gripper-camera")
     await button(client, "right", "squeeze", 0)
-    await client.wait("!s.arms.robot3.held", 10)
+    await client.wait("!s.arms.robot3.held && !s.arms.robot3.gripperCamera.visible", 10)
+    backend: Any = station.running.relay.backend
+    streams = backend.cameras._streams
+    await wait_until(lambda: ("robot3", "gripper") not in streams, 10, "the gripper's stream stopped on letting go")
     await client.frames(3)
     after = tip_height(station)
     await client.frames(6)

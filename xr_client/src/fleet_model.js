@@ -115,8 +115,12 @@ export class FleetModel {
     return name === null ? null : (this.robots.get(name) ?? null);
   }
 
-  /** The robot's first camera, or null. @param {string | null} name */
+  /**
+   * The robot's camera for Robot POV (its first not on an arm: that one looks where the gripper does, not where the
+   * robot goes), or null. @param {string | null} name
+   */
   camera(name) {
-    return this.robot(name)?.description.cameras?.[0] ?? null;
+    const cameras = this.robot(name)?.description.cameras ?? [];
+    return cameras.find((c) => !c.on_arm) ?? null;
   }
 }

@@ -26,7 +26,7 @@ export const ROLE_PERMISSIONS = Object.freeze({"admin": ["drive", "inspect", "re
 
 // Server to client
 /** @typedef {{model: string, fov: number, K?: number[], D?: number[]}} Lens */
-/** @typedef {{name: string, identifier: string, lens: Lens, width: number, height: number, codecs: string[]}} CameraDescription */
+/** @typedef {{name: string, identifier: string, lens: Lens, width: number, height: number, codecs: string[], on_arm: boolean}} CameraDescription */
 /** @typedef {{name: string, unit: string, warn_above: number | null, warn_below: number | null}} SensorDescription */
 /** @typedef {{linear: number, angular: number}} Limits */
 /** @typedef {{name: string, colour: string, model: string, cameras: CameraDescription[], sensors: SensorDescription[], limits: Limits, team: string | null}} RobotDescription */

@@ -98,6 +98,7 @@ export class FrameLoop {
         hemisphere.group.rotation.set(0, this.host.povYaw(), 0);
       }
     } else {
+      views.armGrab.idle(); // left VR: no hand holds an arm, and its gripper's camera stops
       views.desktop.update(dt);
       views.goalView.setPointer(
         fleet.scene.mapToScene,

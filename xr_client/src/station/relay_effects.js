@@ -151,7 +151,7 @@ export class RelayEffects {
     }
     const robots = [...fleet.robots.values()].map((r) => ({
       name: r.description.name,
-      hasCamera: (r.description.cameras ?? []).length > 0,
+      hasCamera: (r.description.cameras ?? []).some((c) => !c.on_arm),
     }));
     this.menuEffects.apply(menu.setFleet(robots, fleet.role));
     this.menuEffects.syncSelection();

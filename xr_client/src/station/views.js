@@ -132,7 +132,17 @@ export class StationViews {
     });
     this.xrInput = new XRInput(renderer, rig, scene);
     /** The hand on the selected robot's arm (squeeze near its gripper). */
-    this.armGrab = new XRArmGrab({ input: this.xrInput, menu, robotViews: stage.robotViews, actions, world });
+    this.armGrab = new XRArmGrab({
+      input: this.xrInput,
+      menu,
+      robotViews: stage.robotViews,
+      actions,
+      world,
+      camera,
+      stream: (robot, name, fps) => sender.stream(robot, name, fps, fps > 0 ? 'jpeg' : undefined),
+      armCamera: (robot) => fleet.robot(robot)?.description.cameras?.find((c) => c.on_arm) ?? null,
+    });
+    this.feed.also(this.armGrab.gripperCamera.decoder);
     /** A note dictated on the VR finding card (its Dictate button). */
     this.dictation = new Dictation((text) => this.notify(text, 'warning'));
     this.findingCard = new FindingCard(token);

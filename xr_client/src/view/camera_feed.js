@@ -39,6 +39,8 @@ export class CameraFeed {
     const { hemisphere, sender } = host;
     /** When each picture was decoded, beside its publisher's stamp (both paths): what latency is measured on. */
     this.times = new PictureTimes();
+    /** Decoders of cameras shown elsewhere (also). @type {FrameDecoder[]} */
+    this.others = [];
     this.jpeg = new FrameDecoder(
       () => ({ width: hemisphere.width, height: hemisphere.height }),
       (bitmap, header) => {
@@ -110,6 +112,14 @@ export class CameraFeed {
     return id;
   }
 
+  /**
+   * Another camera shown elsewhere than the POV screen (the gripper's, view/gripper_camera.js): the frames of the
+   * camera it accepts go to it. @param {FrameDecoder} decoder
+   */
+  also(decoder) {
+    this.others.push(decoder);
+  }
+
   /** A binary frame from the relay. @param {ArrayBuffer} buffer */
   push(buffer) {
     let frame;
@@ -119,7 +129,9 @@ export class CameraFeed {
       console.warn('camera frame dropped:', error);
       return;
     }
-    if (frame.header.encoding === 'h264') this.video.push(frame.header, frame.payload);
+    const other = this.others.find((d) => d.accept !== '' && d.accept === frame.header.identifier);
+    if (other) other.pushFrame(frame);
+    else if (frame.header.encoding === 'h264') this.video.push(frame.header, frame.payload);
     else this.jpeg.pushFrame(frame);
   }
 

@@ -39,6 +39,8 @@ export function snapshotState(app) {
           // The hand's scale on it, and why its last motion was refused while that is shown (VR).
           scale: app.views.armGrab.grab.scale,
           refusal: app.router.arms.refusal(robot, performance.now()),
+          // The gripper's camera beside it while held (VR): shown, its frames' identifier, pictures shown.
+          gripperCamera: app.menu.selected === robot ? app.views.armGrab.gripperCamera.state() : null,
         },
       ]),
     ),

@@ -5,12 +5,14 @@
  * arm twists at the teleop rate (the station's jogArm: arm_jog.js), and letting go, or the hand leaving tracking,
  * stops it. While held, the hand's trigger is the gripper (its travel from open to closed, `GripperTrigger`) and
  * selects nothing else. A tick of haptics says the arm was taken; a motion the relay refuses (a joint limit, the
- * workspace's edge, the arm reaching into its base) pulses the holding hand and shows why beside the gripper.
+ * workspace's edge, the arm reaching into its base) pulses the holding hand and shows why beside the gripper. The
+ * camera on the gripper, if the arm has one, is shown beside it while it is held (view/gripper_camera.js).
  * The hand's position is read in the robot's body (RobotView.body), so the robot's pose, heading and the twin's scale
  * are in it; the body's glTF frame (y up, z back) is turned into the arm's base link (x forward, y left, z up).
  */
 import * as THREE from 'three';
 import { ArmGrab, GripperTrigger, HAND_SCALE } from '../arm_grab.js';
+import { GripperCamera } from './gripper_camera.js';
 import { LabelSprite } from './label_sprite.js';
 
 const world = new THREE.Vector3();
@@ -20,7 +22,10 @@ const LABEL_ABOVE = 0.07;
 /**
  * @typedef {{input: import('./xr_input.js').XRInput, menu: import('../menu_state.js').MenuState,
  *   robotViews: Map<string, import('./robot_view.js').RobotView>,
- *   actions: import('../app.js').OperatorActions, world: THREE.Object3D}} ArmGrabHost
+ *   actions: import('../app.js').OperatorActions, world: THREE.Object3D, camera: THREE.Camera,
+ *   stream: (robot: string, camera: string, fps: number) => void,
+ *   armCamera: (robot: string) => import('../protocol.js').CameraDescription | null}} ArmGrabHost `armCamera`: the
+ *   robot's camera on its arm (hello's `on_arm`), `stream` asks the relay for a camera's pictures
  */
 
 export class XRArmGrab {
@@ -37,6 +42,8 @@ export class XRArmGrab {
     this.label = new LabelSprite({ width: 768, height: 96, worldHeight: 0.045, onTop: true });
     this.label.sprite.visible = false;
     host.world.add(this.label.sprite);
+    /** The gripper's own camera, beside it while the arm is held. */
+    this.gripperCamera = new GripperCamera({ world: host.world, camera: host.camera, stream: host.stream });
   }
 
   /**
@@ -72,6 +79,13 @@ export class XRArmGrab {
       this.moving = false;
     }
     this.#showRefusal(robot ? arms.refusal(robot, now) : null, body, tip);
+    const holding = this.grab.held && robot ? robot : null;
+    this.gripperCamera.update(holding, holding ? this.host.armCamera(holding) : null, body, tip);
+  }
+
+  /** Outside VR: nothing is held, and the gripper's camera stops. */
+  idle() {
+    this.gripperCamera.update(null, null, undefined, undefined);
   }
 
   /** The relay refused a motion of `robot`'s arm: the hand holding it feels it. @param {string} robot */
@@ -116,6 +130,7 @@ export class XRArmGrab {
   }
 
   dispose() {
+    this.gripperCamera.dispose();
     this.label.sprite.removeFromParent();
     this.label.dispose();
   }
