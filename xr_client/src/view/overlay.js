@@ -69,6 +69,8 @@ export class Overlay {
     this.banner = null;
     this.bannerKey = '';
     this.menuKey = '';
+    /** What the menu's buttons were drawn from. */
+    this.drawnMenu = '';
     this.messageTimer = /** @type {ReturnType<typeof setTimeout> | undefined} */ (undefined);
     this.sensorKey = '';
     this.lastSensorDraw = 0;
@@ -208,7 +210,15 @@ export class Overlay {
   #drawMenu() {
     const groups = new Map();
     const picking = this.host.menu.robots.length > ROBOTS_PER_PAGE;
-    for (const button of this.host.menu.buttons()) {
+    const buttons = this.host.menu.buttons();
+    // Most menu changes (a robot's status, a count elsewhere) leave its buttons as they were: they stay in the page,
+    // not replaced under the mouse (a click, or a scroll to the menu's end, on a button just taken out).
+    const drawn = `${picking}|${this.groupBar.visible}|${buttons
+      .map((b) => `${b.group}:${b.id}:${b.label}:${b.enabled}:${b.active}:${Boolean(b.danger)}`)
+      .join('|')}`;
+    if (drawn === this.drawnMenu) return;
+    this.drawnMenu = drawn;
+    for (const button of buttons) {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
       if (picking && (button.group === 'robots' || button.group === 'pages')) {
         groups.set('robots', this.picker.element); // the picker lists every robot: no page of buttons
