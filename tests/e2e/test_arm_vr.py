@@ -10,21 +10,7 @@ from typing import Any
 from relay.arm.kinematics import forward
 from tests.helpers.arm import tb3_manipulation
 from tests.helpers.browser import OpenClient, Station, wait_until
-from tests.helpers.xr import button, enter_vr, press_menu_button, set_menu
-
-#: The right controller at a world point: the reference space is the rig's (position, turn), as tests/helpers/xr.py
-#: aims; returns where it was put in the reference space.
-_HOLD_AT = """
-async ([world]) => {
-  const THREE = await import('three');
-  const s = window.__xrRelay.state;
-  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
-  const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
-    .applyQuaternion(rigRotation.invert());
-  window.__iwer.controllers.right.position.set(local.x, local.y, local.z);
-  return local.toArray();
-}
-"""
+from tests.helpers.xr import button, enter_vr, hold_at, press_menu_button, set_menu
 
 
 def tip_height(station: Station) -> float:
@@ -43,7 +29,7 @@ async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_han
     await client.wait("s.menu.selected === 'robot3'")
     await set_menu(client, False)
     tip = await client.wait("s.arms.robot3 && s.arms.robot3.drawn && s.arms.robot3.tip", 20)
-    held = await client.page.evaluate(_HOLD_AT, [tip])
+    held = await hold_at(client, tip)
     await client.frames(3)
     await button(client, "right", "squeeze", 1)
     await client.wait("s.arms.robot3.held", 10)

@@ -29,7 +29,7 @@ from tests.helpers.browser import (
     goal_at_backend,
     wait_until,
 )
-from tests.helpers.xr import aim, aim_arc, button, click, present, press_menu_button, set_menu
+from tests.helpers.xr import aim, aim_arc, button, click, hold_at, present, press_menu_button, set_menu
 
 #: Where robot3 stands to turn the valve (docs/configuration.md, the demo fleet): 0.22 m south of the wheel, facing
 #: north; the arm reaches the wheel's rim from there (tests/test_sim_valve.py servos it so).
@@ -37,17 +37,6 @@ STANDOFF = 0.22
 #: Where the operator watches from: the plumbing room's floor, south-east of the valve, a metre from it.
 WATCH = (16.3, 6.4)
 
-#: The right controller at a world point (the reference space is the rig's, as tests/helpers/xr.py aims).
-_HOLD_AT = """
-async ([world]) => {
-  const THREE = await import('three');
-  const s = window.__xrRelay.state;
-  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
-  const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
-    .applyQuaternion(rigRotation.invert());
-  window.__iwer.controllers.right.position.set(local.x, local.y, local.z);
-}
-"""
 
 #: The emulated headset at a world point (the operator crouching beside the valve to watch the gripper).
 _HEAD_AT = """
@@ -225,7 +214,7 @@ async def test_robot3_turns_the_valve_shut_by_the_operators_hand_and_the_humidit
         (await scene_point(client, tip_on_map(station))).tolist(),
     )
     hand0, tip0 = np.array(tip), tip_on_map(station)
-    await client.page.evaluate(_HOLD_AT, [hand0.tolist()])
+    await hold_at(client, hand0.tolist())
     await client.frames(3)
     await button(client, "right", "squeeze", 1)
     await client.wait("s.arms.robot3.held", 10)
@@ -234,7 +223,7 @@ async def test_robot3_turns_the_valve_shut_by_the_operators_hand_and_the_humidit
     async def tip_to(target: np.ndarray, tolerance: float, what: str) -> None:
         # The gripper follows half the hand's motion from where the squeeze began: the hand goes twice as far.
         hand = hand0 + 2.0 * (await scene_point(client, target) - await scene_point(client, tip0))
-        await client.page.evaluate(_HOLD_AT, [hand.tolist()])
+        await hold_at(client, hand.tolist())
         await wait_until(lambda: bool(np.linalg.norm(tip_on_map(station) - target) < tolerance), 30, what)
 
     top = math.pi / 2

@@ -65,6 +65,27 @@ async ([hand, origin, target, kind]) => {
 """
 
 
+#: The right controller at a world point: the reference space is the rig's (position, turn), as ``aim`` aims.
+_HOLD_AT = """
+async ([world]) => {
+  const THREE = await import('three');
+  const s = window.__xrRelay.state;
+  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
+  const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
+    .applyQuaternion(rigRotation.invert());
+  window.__iwer.controllers.right.position.set(local.x, local.y, local.z);
+  return local.toArray();
+}
+"""
+
+
+async def hold_at(client: Client, world: list[float]) -> list[float]:
+    """Put the right controller at a world point (it applies on the next XR frame); where it is in the reference
+    space."""
+    local: list[float] = await client.page.evaluate(_HOLD_AT, [world])
+    return local
+
+
 async def aim(client: Client, hand: str, target: list[float], kind: str = "controller") -> None:
     """Point a controller's ray (``kind`` 'hand': IWER's emulated hand's) from where it is held at a world point."""
     await client.page.evaluate(_AIM, [hand, HAND_ORIGIN[hand], target, kind])
