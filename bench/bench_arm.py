@@ -15,17 +15,15 @@ frame: 14 ms at a headset's 72 Hz), which the e2e tests drive but do not time.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import os
 import secrets
-import signal
 import tempfile
 import time
 from pathlib import Path
 
 from websockets.asyncio.client import connect
 
-from .bench_estop import Operator, relay
+from .bench_estop import Operator, relay, stop_relay
 from .common import ROOT, Child, JsonDict, Report, Settings, new_ros_domain, ros_env, summary, target
 
 NAME = "arm"
@@ -98,12 +96,7 @@ async def measure(samples: int, report: Report) -> JsonDict:
             await asyncio.sleep(1.0)
             await op.close()
         finally:
-            if process is not None and process.returncode is None:
-                process.send_signal(signal.SIGTERM)
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(process.wait(), 10)
-                if process.returncode is None:
-                    process.kill()
+            await stop_relay(process)
             for child in reversed(children):
                 await child.stop()
     arrived_arm, arrived_base = first_arrivals(servo.lines, "arm"), first_arrivals(base.lines, "base")

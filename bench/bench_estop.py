@@ -109,6 +109,17 @@ async def relay(args: list[str], env: dict[str, str]) -> tuple[asyncio.subproces
     return process, line.split("open ")[1].split("/#")[0]
 
 
+async def stop_relay(process: asyncio.subprocess.Process | None) -> None:
+    """The relay stopped as its service manager would: SIGTERM (it stops its robots), then SIGKILL after 10 s."""
+    if process is None or process.returncode is not None:
+        return
+    process.send_signal(signal.SIGTERM)
+    with contextlib.suppress(TimeoutError):
+        await asyncio.wait_for(process.wait(), 10)
+    if process.returncode is None:
+        process.kill()
+
+
 async def trial(op: Operator, probe: Child | None) -> JsonDict:
     """One goal, one estop, one reset: the delays in seconds from the estop frame's departure."""
     _, here = await op.until(lambda m: m["identifier"] == f"{ROBOT}/pose", 30, max(0, len(op.messages) - 50))
@@ -179,12 +190,7 @@ async def one_stack(stack: str, trials: int, report: Report) -> JsonDict:
             results = [await trial(op, probe) for _ in range(trials)]
             await op.close()
         finally:
-            if process is not None and process.returncode is None:
-                process.send_signal(signal.SIGTERM)
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(process.wait(), 10)
-                if process.returncode is None:
-                    process.kill()
+            await stop_relay(process)
             for child in (probe, fleet):
                 if child is not None:
                     await child.stop()

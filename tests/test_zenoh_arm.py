@@ -6,7 +6,6 @@ TwistStamped in the arm's base link and move the gripper; they stop, and so does
 from __future__ import annotations
 
 import asyncio
-import sys
 
 import pytest
 
@@ -16,22 +15,14 @@ from relay.cli.options import Options, ZenohOptions
 from relay.config import load_config
 from tests.conftest import ROOT, start_relay
 from tests.helpers.arm import jog_up_and_settle, tb3_manipulation
+from tests.helpers.zenoh import demo_fleet_over_zenoh
 from tests.wsclient import TestClient
-from tests.zenoh_robots import free_port
 
 
 async def test_the_demo_fleets_arm_over_zenoh_follows_the_operator_and_stops_when_the_twists_stop() -> None:
     tb3_manipulation("turtlebot3_manipulation.urdf")  # robot3's arm: without the shared data it runs as a base
-    port = free_port()
-    fleet = await asyncio.create_subprocess_exec(
-        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
-        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
-    )  # fmt: skip
-    assert fleet.stdout is not None
-    try:
-        line = await asyncio.wait_for(fleet.stdout.readline(), 30)
-        assert b"a Zenoh router on" in line, line
-        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(f"tcp/127.0.0.1:{port}",)))
+    async with demo_fleet_over_zenoh() as endpoint:
+        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,)))
         running = await start_relay(await asyncio.to_thread(load_config, ROOT / "robots.yaml"), options=options)
         client = await TestClient.open(running.ws_url)
         try:
@@ -42,6 +33,3 @@ async def test_the_demo_fleets_arm_over_zenoh_follows_the_operator_and_stops_whe
         finally:
             await client.close()
             await running.runner.cleanup()
-    finally:
-        fleet.terminate()
-        await asyncio.wait_for(fleet.wait(), 10)

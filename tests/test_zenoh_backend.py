@@ -10,7 +10,6 @@ import json
 import logging
 import math
 import struct
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import load_config, parse_config  # noqa: E402
 from relay.errors import BackendUnavailable  # noqa: E402
 from tests.conftest import ROOT, start_relay  # noqa: E402
-from tests.helpers.zenoh import FLEET, ODOM, Router, decode, fleet, until, zenoh_relay  # noqa: E402
+from tests.helpers.zenoh import FLEET, ODOM, Router, decode, demo_fleet_over_zenoh, fleet, until, zenoh_relay  # noqa: E402
 from tests.wsclient import TestClient  # noqa: E402
 from tests.zenoh_robots import (  # noqa: E402
     STORE,
@@ -267,16 +266,8 @@ async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path:
     """tools/fake_fleet_zenoh.py (what `make run ARGS="--backend zenoh"` is shown beside) is a router with the demo's
     robots: a relay started after it gets every robot's pose, its sensors, and the map from the publisher's cache
     (a late joiner, as with a transient-local /map), and a goal moves a robot."""
-    port = free_port()
-    fleet_process = await asyncio.create_subprocess_exec(
-        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
-        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
-    )  # fmt: skip
-    assert fleet_process.stdout is not None
-    try:
-        line = await asyncio.wait_for(fleet_process.stdout.readline(), 30)
-        assert b"a Zenoh router on" in line, line
-        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(f"tcp/127.0.0.1:{port}",)))
+    async with demo_fleet_over_zenoh() as endpoint:
+        options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,)))
         running = await start_relay(load_config(ROOT / "robots.yaml"), options=options)
         client = await TestClient.open(running.ws_url)
         try:
@@ -296,9 +287,6 @@ async def test_the_demo_fleet_over_zenoh_shows_in_a_relay_map_included(tmp_path:
         finally:
             await client.close()
             await running.runner.cleanup()
-    finally:
-        fleet_process.terminate()
-        await asyncio.wait_for(fleet_process.wait(), 10)
 
 
 async def test_behind_zenoh_bridge_ros2dds_keys_are_the_topics(router: Router) -> None:

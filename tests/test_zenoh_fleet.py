@@ -7,12 +7,12 @@ robot. tests/test_zenoh_backend.py has the router and the robots' side.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import datetime
 import ipaddress
 import json
 import math
 import signal
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -25,7 +25,7 @@ pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pip instal
 from relay.cli.options import Options, ZenohOptions
 from relay.config import load_config, parse_config
 from tests.conftest import ROOT, relay_process, start_relay
-from tests.helpers.zenoh import FLEET, ODOM, Router, decode, until, zenoh_relay
+from tests.helpers.zenoh import FLEET, ODOM, Router, decode, demo_fleet_over_zenoh, until, zenoh_relay
 from tests.wsclient import TestClient
 from tests.zenoh_robots import attachment, free_port, key, odometry_by_hand
 
@@ -88,9 +88,6 @@ async def test_estop_and_leases_are_shared_by_two_relays_and_a_killed_relay_free
     finally:
         await client_a.close()
         await running_a.runner.cleanup()
-        if relay_b.returncode is None:
-            relay_b.kill()
-            await relay_b.wait()
 
 
 TWIST = "geometry_msgs/msg/Twist"
@@ -102,25 +99,24 @@ def distance(a: dict[str, Any] | None, b: dict[str, Any] | None) -> float:
     return math.hypot(a["x"] - b["x"], a["y"] - b["y"])
 
 
+async def kill_if_running(process: asyncio.subprocess.Process) -> None:
+    if process.returncode is None:
+        process.kill()
+        await process.wait()
+
+
 async def test_a_killed_relays_robot_is_stopped_by_its_watchdog_and_freed_for_the_other_relay(tmp_path: Path) -> None:
     """The demo fleet over Zenoh (tools/fake_fleet_zenoh.py: robots with cmd_vel.watchdog, the watchdog's rules on
     the robots' side): relay B drives robot2 and is killed mid-drive; the heartbeat stops, the watchdog stops robot2
     (relay A sees it stand still), and A's operator gets robot2's lease."""
-    port = free_port()
-    fleet = await asyncio.create_subprocess_exec(
-        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
-        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
-    )  # fmt: skip
-    assert fleet.stdout is not None
-    relay_b = None
-    try:
-        assert b"a Zenoh router on" in await asyncio.wait_for(fleet.stdout.readline(), 30)
-        endpoint = f"tcp/127.0.0.1:{port}"
+    async with contextlib.AsyncExitStack() as stack:
+        endpoint = await stack.enter_async_context(demo_fleet_over_zenoh())
         relay_b, base_b = await relay_process(
             "--backend", "zenoh", "--config", str(ROOT / "robots.yaml"), "--zenoh-connect", endpoint,
             "--relay-id", "B", "--token", "t", "--allow-weak-token", "--audit-log", "",
             "--database", str(tmp_path / "b.sqlite"),
         )  # fmt: skip
+        stack.push_async_callback(kill_if_running, relay_b)
         options = Options(backend="zenoh", zenoh=ZenohOptions(connect=(endpoint,), relay_id="A"))
         running_a = await start_relay(load_config(ROOT / "robots.yaml"), options=options)
         client_a = await TestClient.open(running_a.ws_url)
@@ -155,12 +151,6 @@ async def test_a_killed_relays_robot_is_stopped_by_its_watchdog_and_freed_for_th
         finally:
             await client_a.close()
             await running_a.runner.cleanup()
-    finally:
-        if relay_b is not None and relay_b.returncode is None:
-            relay_b.kill()
-            await relay_b.wait()
-        fleet.terminate()
-        await asyncio.wait_for(fleet.wait(), 10)
 
 
 # -- the fleet's keys for relays only: TLS, a user per relay, and the router's access control (docs/zenoh.md) -------

@@ -38,17 +38,6 @@ STANDOFF = 0.22
 WATCH = (16.3, 6.4)
 
 
-#: The emulated headset at a world point (the operator crouching beside the valve to watch the gripper).
-_HEAD_AT = """
-async ([world]) => {
-  const THREE = await import('three');
-  const s = window.__xrRelay.state;
-  const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
-  const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
-    .applyQuaternion(rigRotation.invert());
-  window.__iwer.position.set(local.x, local.y, local.z);
-}
-"""
 #: Where the operator crouches to watch: south-east of the wheel, its face seen aslant, robot3's arm in front.
 CROUCH = (0.3, -0.34, 0.3)
 
@@ -199,7 +188,7 @@ async def test_robot3_turns_the_valve_shut_by_the_operators_hand_and_the_humidit
     warn = next(s.warn_above for s in robot3.sensors if s.name == "humidity")
     assert warn is not None and before > warn, f"robot3 reads {before} by the leak, its warning is {warn}"
     eye = await scene_point(client, np.array([valve.x, valve.y, valve.z]) + CROUCH)
-    await client.page.evaluate(_HEAD_AT, [eye.tolist()])
+    await hold_at(client, eye.tolist(), "head")  # the operator crouching beside the valve to watch the gripper
     await client.frames(2)
     watched = await scene_point(client, (valve.x, valve.y - 0.1, valve.z + 0.02))
     await client.page.evaluate(_LOOK_AT, [watched.tolist()])

@@ -65,24 +65,26 @@ async ([hand, origin, target, kind]) => {
 """
 
 
-#: The right controller at a world point: the reference space is the rig's (position, turn), as ``aim`` aims.
-_HOLD_AT = """
-async ([world]) => {
+#: The right controller (``device`` 'controller') or the headset ('head') at a world point: the reference space is the
+#: rig's (position, turn), as ``aim`` aims.
+_PUT_AT = """
+async ([world, device]) => {
   const THREE = await import('three');
   const s = window.__xrRelay.state;
   const rigRotation = new THREE.Quaternion(...s.rig.quaternion);
   const local = new THREE.Vector3(...world).sub(new THREE.Vector3(...s.rig.position))
     .applyQuaternion(rigRotation.invert());
-  window.__iwer.controllers.right.position.set(local.x, local.y, local.z);
+  const moved = device === 'head' ? window.__iwer : window.__iwer.controllers.right;
+  moved.position.set(local.x, local.y, local.z);
   return local.toArray();
 }
 """
 
 
-async def hold_at(client: Client, world: list[float]) -> list[float]:
-    """Put the right controller at a world point (it applies on the next XR frame); where it is in the reference
-    space."""
-    local: list[float] = await client.page.evaluate(_HOLD_AT, [world])
+async def hold_at(client: Client, world: list[float], device: str = "controller") -> list[float]:
+    """Put the right controller (or, ``device`` 'head', the headset) at a world point (it applies on the next XR
+    frame); where it is in the reference space."""
+    local: list[float] = await client.page.evaluate(_PUT_AT, [world, device])
     return local
 
 

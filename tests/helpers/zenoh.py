@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import sys
 import time
+from collections.abc import AsyncIterator
 from typing import Any
 
 import pytest
@@ -12,11 +15,12 @@ zenoh = pytest.importorskip("zenoh", reason="eclipse-zenoh is not installed: `pi
 
 from relay.cli.options import Options, ZenohOptions  # noqa: E402
 from relay.config import FleetConfig, parse_config  # noqa: E402
-from tests.conftest import RunningRelay, start_relay  # noqa: E402
+from tests.conftest import ROOT, RunningRelay, start_relay  # noqa: E402
 from tests.zenoh_robots import (  # noqa: E402
     STORE,
     Received,
     attachment,
+    free_port,
     router_config,
 )
 
@@ -89,3 +93,22 @@ async def until(condition: Any, timeout: float, what: str) -> Any:
             return value
         await asyncio.sleep(0.05)
     raise AssertionError(f"{what}: not within {timeout} s")
+
+
+@contextlib.asynccontextmanager
+async def demo_fleet_over_zenoh() -> AsyncIterator[str]:
+    """tools/fake_fleet_zenoh.py with the demo's robots.yaml, its own router on a free loopback port, once it says it
+    listens; the endpoint a relay connects to. Stopped on the way out."""
+    port = free_port()
+    fleet = await asyncio.create_subprocess_exec(
+        sys.executable, str(ROOT / "tools" / "fake_fleet_zenoh.py"), "--listen", f"tcp/127.0.0.1:{port}",
+        "--log-level", "warning", stdout=asyncio.subprocess.PIPE,
+    )  # fmt: skip
+    assert fleet.stdout is not None
+    try:
+        line = await asyncio.wait_for(fleet.stdout.readline(), 30)
+        assert b"a Zenoh router on" in line, line
+        yield f"tcp/127.0.0.1:{port}"
+    finally:
+        fleet.terminate()
+        await asyncio.wait_for(fleet.wait(), 10)
