@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from playwright.async_api import Dialog, Page
+from playwright.async_api import Error as PlaywrightError
 
 from tests.conftest import ROOT, RunningRelay
 from tests.helpers import waiting
@@ -288,4 +289,14 @@ async def wiped(client: Client, position: int) -> bytes:
     await client.page.locator("#findings input[data-wipe]").fill(str(position))
     await client.wait(f"s.inspection.card.wipe === {position}")
     await client.page.wait_for_timeout(100)  # the clip painted
+    for _ in range(2):
+        # The panel is redrawn when what it lists changes (a round's progress): the box is drawn anew, at the same
+        # position, and its picture is taken again.
+        try:
+            return await client.page.locator("#findings .capture.wipe").screenshot()
+        except PlaywrightError as exc:
+            if "not attached" not in str(exc):
+                raise
+        await client.wait(f"s.inspection.card.wipe === {position}")
+        await client.page.wait_for_timeout(100)
     return await client.page.locator("#findings .capture.wipe").screenshot()

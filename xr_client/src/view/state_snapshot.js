@@ -17,6 +17,8 @@ export function snapshotState(app) {
   const groupBar = app.views.overlay.groupBar;
   return {
     connected: app.relay.linkOk,
+    // When the relay's last pong was read (performance.now() ms): what the link's liveness is judged on (reconnect.js).
+    pongAt: app.connection.policy.lastPong,
     link: app.relay.linkText,
     // A replay's position as the page shows it, and its operators drawn (view/avatar_view.js, view/playback_bar.js).
     playback: app.router.playback,
