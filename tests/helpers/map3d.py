@@ -10,6 +10,7 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 import numpy as np
+from playwright.async_api import Error as PlaywrightError
 
 from tests.conftest import RunningRelay
 from tests.helpers.browser import Client, wait_until
@@ -59,18 +60,27 @@ def map_spots(
 
 async def goal_at_relay(client: Client, running: RunningRelay, robot: str, press: Callable[[], Awaitable[Any]]) -> Any:
     """``press`` the page's goal (a click, a trigger) until the relay holds a goal for ``robot``, at most three
-    times: a press read just after a stall of the loop is dropped as stale, as an operator would press again."""
+    times, as an operator would press again: a press read just after a stall of the loop is dropped as stale, and one
+    the page did not send (its link down, the pointer elsewhere) is said in the failure."""
 
     def goal() -> Any:
         return running.relay.fleet.status(robot, time.monotonic())["goal"]
 
+    missed: list[Any] = []
     for _ in range(3):
+        await client.wait("s.connected", 30)  # a press while the link is down sends nothing (the page says so)
         before = (await client.state())["goal"]["sent"]
         await press()
-        await client.wait("s.goal.sent > arg", 20, before)
+        try:
+            await client.wait("s.goal.sent > arg", 20, before)
+        except PlaywrightError:
+            # Not sent: what the page knew then, for the failure's message; an operator would press again.
+            s = await client.state()
+            missed.append({k: s[k] for k in ("connected", "pongAt", "goal", "menu")})
+            continue
         with contextlib.suppress(AssertionError):
             await wait_until(lambda: goal() is not None, 20, f"{robot}'s goal at the relay")
             break
     sent = goal()
-    assert sent is not None, f"{robot} has no goal at the relay after three presses"
+    assert sent is not None, f"{robot} has no goal at the relay after three presses; presses not sent: {missed}"
     return sent

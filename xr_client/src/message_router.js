@@ -45,6 +45,7 @@ import { StudyModel } from './study_model.js';
  *   | {type: 'inspection'}
  *   | {type: 'voxels'}
  *   | {type: 'study'}
+ *   | {type: 'condition', muted: boolean | null, ask: string}
  *   | {type: 'arm_refused', robot: string}
  *   | {type: 'nav', robot: string, text: string, kind: NoticeKind, mine: boolean}} RouterEffect
  * @typedef {{fleet: import('./fleet_model.js').FleetModel, goals: import('./goal_pointer.js').GoalTracker,

@@ -10,7 +10,10 @@
 /**
  * @typedef {import('./protocol.js').StudyMessage} StudyMessage
  * @typedef {{type: 'study'}
- *   | {type: 'notify', text: string, kind: 'info' | 'error' | 'warning', toast: boolean}} StudyEffect
+ *   | {type: 'notify', text: string, kind: 'info' | 'error' | 'warning', toast: boolean}
+ *   | {type: 'condition', muted: boolean | null, ask: string}} StudyEffect `condition`: a new condition's page settings
+ *   (the study file's `client`): the sound on or off (null: as it is), and what the participant is asked to do that a
+ *   page cannot do by itself (put on the headset, use the hands), '' when nothing
  * @typedef {Omit<import('./protocol.js').StudyJoinCommand, 'id'>
  *   | Omit<import('./protocol.js').StudyStartCommand, 'id'>
  *   | Omit<import('./protocol.js').StudyQuestionnaireAnswerCommand, 'id'>
@@ -84,6 +87,10 @@ export class StudyModel {
     if (asked !== wasAsked || before?.task !== message.task || before?.condition !== message.condition) this.#fresh();
     /** @type {StudyEffect[]} */
     const effects = [{ type: 'study' }];
+    // A condition starts for the participant (joined, or the next in their order): the page takes its settings.
+    const joined = message.participant !== null && message.condition !== null;
+    if (joined && (message.condition !== before?.condition || message.participant !== before?.participant))
+      effects.push(conditionEffect(/** @type {string} */ (message.condition), message.settings));
     if (before?.phase === 'task' && message.phase === 'questions' && message.questionnaire !== null)
       effects.push({
         type: 'notify',
@@ -172,4 +179,20 @@ export function probeQuestion(probe) {
   if (probe.question === 'room') return `Which room is ${probe.robot} in?`;
   if (probe.question === 'mode') return `What is ${probe.robot} doing?`;
   return `Which robot is nearest to ${probe.robot}?`;
+}
+
+/**
+ * What the page does as a condition starts: the sound as the condition sets it; the view and the input, which only
+ * the participant can change (entering VR needs their gesture), asked of them.
+ * @param {string} condition @param {Record<string, string>} settings the study file's `client` (docs/study.md)
+ * @returns {StudyEffect}
+ */
+export function conditionEffect(condition, settings) {
+  const muted = settings.sound === 'off' ? true : settings.sound === 'on' ? false : null;
+  const asks = [];
+  if (settings.view === 'headset') asks.push('put on the headset (Enter VR)');
+  if (settings.view === 'desktop') asks.push('stay at the desktop');
+  if (settings.input === 'hands') asks.push('use your hands, controllers down');
+  if (settings.input === 'controllers') asks.push('use the controllers');
+  return { type: 'condition', muted, ask: asks.length ? `Condition ${condition}: ${asks.join(', ')}` : '' };
 }

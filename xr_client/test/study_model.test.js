@@ -1,7 +1,7 @@
 // @ts-check
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { SUS_ITEMS, StudyModel, TLX_SCALES, clockText, probeQuestion } from '../src/study_model.js';
+import { SUS_ITEMS, StudyModel, TLX_SCALES, clockText, conditionEffect, probeQuestion } from '../src/study_model.js';
 import { MessageRouter } from '../src/message_router.js';
 import { FleetModel } from '../src/fleet_model.js';
 import { GoalTracker } from '../src/goal_pointer.js';
@@ -50,6 +50,26 @@ test('the router hands the study message to the study model, whose effect redraw
   // A participant picked stays picked while the study has them, whoever the relay says joined.
   router.route(study({ participant: 'P01' }), 2000);
   assert.equal(router.study.participant, 'P02');
+});
+
+test("a condition's settings are taken as it starts: the sound set, the view and the input asked of the participant", () => {
+  const model = new StudyModel();
+  assert.deepEqual(model.apply(study({ phase: 'waiting', participant: null, condition: null, settings: {} }), 0), [
+    { type: 'study' },
+  ]);
+  // P01 joins under `desktop` (sound off): the page mutes, and the participant is asked to stay at the desktop.
+  const joined = model.apply(study({}), 1000);
+  assert.deepEqual(joined[1], { type: 'condition', muted: true, ask: 'Condition desktop: stay at the desktop' });
+  // The same condition's next message (its task running) changes nothing.
+  assert.deepEqual(model.apply(study({ phase: 'task' }), 2000), [{ type: 'study' }]);
+  // The next condition: the headset and the hands, sound as it is.
+  const next = model.apply(study({ condition: 'headset', settings: { view: 'headset', input: 'hands' } }), 3000);
+  assert.deepEqual(next[1], {
+    type: 'condition',
+    muted: null,
+    ask: 'Condition headset: put on the headset (Enter VR), use your hands, controllers down',
+  });
+  assert.deepEqual(conditionEffect('quiet', { sound: 'on' }), { type: 'condition', muted: false, ask: '' });
 });
 
 test('a task counts its time left on the page clock from the relay elapsed, and says when it ends', () => {

@@ -133,6 +133,10 @@ export class RelayEffects {
       case 'study':
         views.studyPanel.update();
         break;
+      case 'condition': // a study's condition starts: its sound set, what only the participant can do asked
+        if (effect.muted !== null) views.sound.setMuted(effect.muted);
+        if (effect.ask) views.notify(effect.ask, 'info');
+        break;
       case 'nav':
         if (effect.mine || effect.robot === menu.selected) views.notify(effect.text, effect.kind);
         break;
