@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from tests.helpers.browser import OpenClient, Station, goal_at_backend
-from tests.helpers.xr import GOAL, aim, enter_vr, gaze_pinch
+from tests.helpers.xr import GOAL, aim, enter_vr, gaze_pinch, settled_point
 
 
 async def test_a_look_and_a_pinch_select_a_robot_press_the_menu_and_send_a_goal_where_the_eyes_are(
@@ -39,12 +39,10 @@ async def test_a_look_and_a_pinch_select_a_robot_press_the_menu_and_send_a_goal_
     s = await client.wait("s.menu.selected === 'robot2' && s", 10)
     assert not s["menu"]["open"]
     # The menu: its tab, the Goal button, Close; each a look and a pinch.
-    s = await client.wait("s.menu.tab && s", 10)
-    await gaze_pinch(client, s["menu"]["tab"])
-    s = await client.wait("s.menu.open && Object.keys(s.menu.centres).length > 0 && s", 10)
-    await gaze_pinch(client, s["menu"]["centres"]["tool:goal"])
-    s = await client.wait("s.menu.tool === 'goal' && s", 10)
-    await gaze_pinch(client, s["menu"]["centres"]["menu:close"])
+    await gaze_pinch(client, await settled_point(client, "s.menu.tab"))
+    await gaze_pinch(client, await settled_point(client, "s.menu.open && s.menu.centres['tool:goal']"))
+    await client.wait("s.menu.tool === 'goal'", 10)
+    await gaze_pinch(client, await settled_point(client, "s.menu.open && s.menu.centres['menu:close']"))
     await client.wait("!s.menu.open", 10)
     # A goal: the eyes on the corridor's floor, pinch, look 1.5 m further east along it while pinched (the heading),
     # let go.

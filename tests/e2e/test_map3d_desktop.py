@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import math
+import time
 
 from relay.config import Cloud, load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
@@ -53,8 +54,11 @@ async def over_the_map(client: Client, spot: tuple[float, float, float], voxel: 
     """The page point over a map point, once the pointer there meets the map at it and a press would send a goal
     (the cursor's verdict): the view may still be framing itself after a panel opened (a loaded run computed the point,
     the view moved, and the click met unseen floor). None when it never does."""
-    for _ in range(5):
+    for _ in range(3):
         x, y = await client.page.evaluate("([x, y, z]) => window.__xrRelay.mapToPage(x, y, z)", list(spot))
+        free = (await client.state())["view"]["free"]  # the window's part no panel covers
+        if not (free["left"] + 10 < x < free["right"] - 10 and free["top"] + 10 < y < free["bottom"] - 10):
+            return None
         await client.page.mouse.move(x, y)
         await client.drawn(2)
         goal = (await client.state())["goal"]
@@ -82,12 +86,14 @@ async def goals_are_set_on_the_map(client: Client, running: RunningRelay) -> Non
     await client.drawn(2)
     assert (await client.state())["goal"]["sent"] == before, f"a goal was sent at {unseen}, where the map has nothing"
     top = fusion.voxel  # the floor voxels' top face
-    # The first patch of seen floor where the cursor says a press sends a goal (one seen from far above may lie within
-    # a click's reach of a robot, which the press would select instead).
-    for seen in patches[:5]:
+    # A patch of seen floor where the cursor says a press sends a goal: the farthest from the robots first (seen from
+    # far above, a robot's label covers floor a metre or two away, and a press there selects the robot instead).
+    robots = list(running.relay.fleet.positions(time.monotonic()).values())
+    patches.sort(key=lambda p: -min(math.dist(p, r) for r in robots))
+    for seen in patches[:10]:
         if (at := await over_the_map(client, (*seen, top), fusion.voxel)) is not None:
             break
-    assert at is not None, f"the pointer met none of the map's floor patches {patches[:5]}: {await client.state()}"
+    assert at is not None, f"the pointer met none of the map's floor patches {patches[:10]}: {await client.state()}"
     x, y = at
     sent = await goal_at_relay(client, running, "robot1", lambda: page.mouse.click(x, y))
     assert sent is not None and math.dist((sent["x"], sent["y"]), seen) < 2 * fusion.voxel, (sent, seen)

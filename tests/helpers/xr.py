@@ -4,6 +4,7 @@ rig carries through the scene; the rig's pose comes from the client's state."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from playwright.async_api import TimeoutError as PlaywrightTimeout
@@ -247,6 +248,20 @@ async () => {
   };
 }
 """
+
+
+async def settled_point(client: Client, expression: str, frames: int = 2, tolerance: float = 0.01) -> list[float]:
+    """A world point of the page's state (``expression`` over ``s``) once it stands still: the same within
+    ``tolerance`` metres ``frames`` frames apart (what follows the head or a hand is where the last drawn frame put it,
+    and it is still moving for a few frames after the head or the hand did)."""
+    point: list[float] = await client.wait(expression, 10)
+    for _ in range(10):
+        await client.frames(frames)
+        now: list[float] = await client.wait(expression, 10)
+        if math.dist(now, point) < tolerance:
+            return now
+        point = now
+    raise AssertionError(f"{expression} never stood still: {point}")
 
 
 async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] | None = None, hold: int = 3) -> None:
