@@ -57,7 +57,13 @@ export class Latency {
   /** @param {ClockSync} clock */
   constructor(clock) {
     this.clock = clock;
-    /** @type {Map<string, number[]>} `${robot}|${stage}` -> recent samples, ms */
+    /**
+     * `${robot}|${stage}` -> recent samples: a command's round trip (ms), or a pose's or picture's stamp (s) beside
+     * its arrival (page ms). Stamped samples are mapped onto the relay's clock when read, by the best ping then: a
+     * sample taken while the only pings were slow is not stuck with their error (a CI run's figure stayed 46 ms off
+     * the pictures' own, and a pose that seemed 300 ms in the future by an early slow ping was never shown).
+     * @type {Map<string, (number | [number, number])[]>}
+     */
     this.samples = new Map();
     /** @type {Map<string, {robot: string, at: number}>} command id -> its robot and when it left */
     this.pending = new Map();
@@ -65,12 +71,12 @@ export class Latency {
 
   /** A pose stamped `stamp` (s, the robot's clock) arrived at page time `at` (ms). */
   pose(/** @type {string} */ robot, /** @type {number} */ stamp, /** @type {number} */ at) {
-    this.#stamped(robot, 'pose', stamp, at);
+    if (Number.isFinite(stamp)) this.#add(robot, 'pose', [stamp, at]);
   }
 
   /** A picture stamped `stamp` (s, the publisher's clock) became drawable at page time `at` (ms). */
   picture(/** @type {string} */ robot, /** @type {number} */ stamp, /** @type {number} */ at) {
-    this.#stamped(robot, 'picture', stamp, at);
+    if (Number.isFinite(stamp)) this.#add(robot, 'picture', [stamp, at]);
   }
 
   /** A command for `robot` left with `id` at page time `at` (ms). */
@@ -104,28 +110,29 @@ export class Latency {
     };
   }
 
-  /** @param {string} robot @param {Stage} stage @param {number} stamp @param {number} at */
-  #stamped(robot, stage, stamp, at) {
-    const now = this.clock.relayTime(at);
-    if (now === null || !Number.isFinite(stamp)) return;
-    const ms = (now - stamp) * 1000;
-    if (ms >= COMPARABLE_MS[0] && ms <= COMPARABLE_MS[1]) this.#add(robot, stage, Math.max(0, ms));
-  }
-
-  /** @param {string} robot @param {Stage} stage @param {number} ms */
-  #add(robot, stage, ms) {
+  /** @param {string} robot @param {Stage} stage @param {number | [number, number]} sample */
+  #add(robot, stage, sample) {
     const key = `${robot}|${stage}`;
     const list = this.samples.get(key) ?? [];
-    list.push(ms);
+    list.push(sample);
     if (list.length > SAMPLES) list.shift();
     this.samples.set(key, list);
   }
 
+  /** A sample in ms: a round trip as it is, a stamp's age by the clock mapping now (null: none, or not comparable). */
+  #ms(/** @type {number | [number, number]} */ sample) {
+    if (typeof sample === 'number') return sample;
+    const now = this.clock.relayTime(sample[1]);
+    if (now === null) return null;
+    const ms = (now - sample[0]) * 1000;
+    return ms >= COMPARABLE_MS[0] && ms <= COMPARABLE_MS[1] ? Math.max(0, ms) : null;
+  }
+
   /** @param {string} robot @param {Stage} stage */
   #median(robot, stage) {
-    const list = this.samples.get(`${robot}|${stage}`);
-    if (!list || list.length === 0) return null;
-    const sorted = [...list].sort((a, b) => a - b);
+    const list = (this.samples.get(`${robot}|${stage}`) ?? []).map((s) => this.#ms(s)).filter((ms) => ms !== null);
+    if (list.length === 0) return null;
+    const sorted = /** @type {number[]} */ (list).sort((a, b) => a - b);
     const mid = sorted.length >> 1;
     return sorted.length % 2 ? sorted[mid] : (sorted[mid - 1] + sorted[mid]) / 2;
   }

@@ -47,6 +47,20 @@ test('stamps from a clock that does not compare give no number rather than a wro
   assert.equal(unsynced.of('robot1').pose, null);
 });
 
+test('samples are mapped by the best ping when read: a quicker ping later corrects those taken before it', () => {
+  const clock = new ClockSync();
+  const latency = new Latency(clock);
+  latency.pose('robot1', 1_700_000_010, 10_000); // before any pong: kept, not yet a number
+  assert.equal(latency.of('robot1').pose, null);
+  // A slow ping held 600 ms on its way out: the mapping is 300 ms ahead, and everything seems that much older.
+  clock.pong(1000, 1600, 1_700_000_000 + 1.6);
+  for (const late of [0.04, 0.05, 0.06]) latency.picture('robot1', 1_700_000_010 - late, 10_000);
+  near(latency.of('robot1').picture, 350);
+  clock.pong(3000, 3010, 1_700_000_000 + 3.005); // a quick symmetric one: the true mapping
+  near(latency.of('robot1').picture, 50);
+  near(latency.of('robot1').pose, 0);
+});
+
 test('a command round trip is from sending to its answer; unanswered ones are forgotten, bounded', () => {
   const latency = new Latency(new ClockSync());
   latency.sent('7', 'robot2', 1000);
