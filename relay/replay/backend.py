@@ -11,44 +11,34 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import math
-from collections.abc import Callable
 from pathlib import Path
 
 from ..backends.bag.cameras import BagCameras
 from ..backends.bag.clock import PlaybackClock
 from ..backends.bag.player import Player
-from ..backends.base import Backend
+from ..backends.bag.recorded import RecordedFleet
 from ..cli.options import ReplayOptions
 from ..config import FleetConfig
-from ..errors import BackendUnavailable, CommandRejected
+from ..errors import BackendUnavailable
 from ..fleet.events import EventSink
-from ..session.protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
 from .reader import SessionReader
 
 logger = logging.getLogger(__name__)
 
 
-class ReplayBackend(Backend):
+class ReplayBackend(RecordedFleet):
     """Replays a session recording as the robots of robots.yaml. Everything here runs on the event loop."""
 
     name = "replay"
 
     def __init__(self, config: FleetConfig, sink: EventSink, options: ReplayOptions) -> None:
         """Check the arguments (cheap); the file is opened in :meth:`start`."""
-        super().__init__(config, sink)
-        if not (math.isfinite(options.rate) and MIN_PLAYBACK_RATE <= options.rate <= MAX_PLAYBACK_RATE):
-            raise BackendUnavailable(
-                f"--rate {options.rate:g}: expected a speed factor from {MIN_PLAYBACK_RATE:g} to {MAX_PLAYBACK_RATE:g}"
-            )
-        if not (math.isfinite(options.start) and options.start >= 0):
-            raise BackendUnavailable(f"--start {options.start:g}: expected seconds from the session's start, >= 0")
+        super().__init__(config, sink, rate=options.rate, start=options.start, what="the session")
         if options.session is None:
             raise BackendUnavailable("the replay backend needs a session recording: xr-relay replay FILE")
         self.options = options
         self.path = Path(options.session)
         self._reader: SessionReader | None = None
-        self._player: Player | None = None
         self._cameras = BagCameras(sink)  # a session holds no pictures: it stays empty
         self._robots: frozenset[str] = frozenset()
 
@@ -98,24 +88,6 @@ class ReplayBackend(Backend):
 
     def command_refusal(self, robot: str) -> str | None:
         return f"{robot} is a replayed session ({self.path.name}); nothing reaches a robot in a replay"
-
-    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
-        """Nothing to drive: only stop paths (deadman, estop, shutdown) get here."""
-
-    async def send_goal(
-        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
-    ) -> None:
-        """Never reached for goals (command_refusal refuses them all)."""
-
-    async def cancel(self, robot: str) -> None:
-        """Only stop paths get here; a replay has no goal to cancel."""
-
-    # -- playback ---------------------------------------------------------------------------------
-
-    async def playback(self, action: str, value: float | None) -> None:
-        if self._player is None:
-            raise CommandRejected(ErrorCode.INTERNAL, "the session is not open yet")
-        self._player.command(action, value)
 
     def health(self) -> dict[str, object]:
         if self._player is None:

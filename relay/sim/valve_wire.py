@@ -7,7 +7,8 @@ A message of its own, global (the facility's, not a robot's), latest-value state
 
 from __future__ import annotations
 
-from typing import Literal, TypedDict
+import dataclasses
+from typing import Final, Literal, TypedDict, cast
 
 from ..fleet.events import ValveEvent
 
@@ -26,16 +27,12 @@ class ValveMessage(TypedDict):
     shut: bool
 
 
+#: Decimals on the wire: millimetres and milliradians, far finer than a wheel of 10 cm drawn in the twin.
+_DECIMALS: Final = {"x": 3, "y": 3, "z": 3, "yaw": 4, "radius": 3, "angle": 3}
+
+
 def valve_message(event: ValveEvent) -> ValveMessage:
-    # Millimetres and milliradians: far finer than a wheel of 10 cm drawn in the twin.
-    return {
-        "identifier": "valve",
-        "x": round(event.x, 3),
-        "y": round(event.y, 3),
-        "z": round(event.z, 3),
-        "yaw": round(event.yaw, 4),
-        "radius": round(event.radius, 3),
-        "angle": round(event.angle, 3),
-        "held": event.held,
-        "shut": event.shut,
-    }
+    """The event's fields as the wire has them (the event's ``robot``, always empty, left out)."""
+    fields = {f.name: getattr(event, f.name) for f in dataclasses.fields(event) if f.name != "robot"}
+    rounded = {name: round(value, _DECIMALS[name]) if name in _DECIMALS else value for name, value in fields.items()}
+    return cast(ValveMessage, {"identifier": "valve", **rounded})

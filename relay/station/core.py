@@ -51,6 +51,7 @@ from ..session.commands import CommandHandler
 from ..session.protocol import Role
 from ..session.ratelimit import TokenBucket
 from ..session.snapshots import Snapshots
+from ..study.observer import StudyEvents
 from ..study.service import StudyService
 from ..twin.facility import load_facility
 from .assets import GeneratedAssets
@@ -98,10 +99,12 @@ class Relay:
         #: The session's recording, when asked for (--record-session): what goes out and what comes in.
         self.recorder = SessionRecorder(Path(options.record_session)) if options.record_session else None
         self.outbox = Outbox(self.hub, self.fleet, self.recorder.record if self.recorder else None)
+        #: What a study's task running counts (the study service below sets its active run).
+        study_events = StudyEvents()
         self.audit = CommandAudit(
             AuditLog(options.audit_log) if options.audit_log else None,
             clock=self.clock,
-            outcomes=lambda command, error: self.study.events.observe(command, error),  # the study: built below
+            outcomes=study_events.observe,
         )
         stops = StopNotices()
         self.control = Control(
@@ -120,6 +123,7 @@ class Relay:
         self.study = StudyService(
             options.study, Path(options.study_runs), config.names, backend=self.backend, control=self.control,
             fleet=self.fleet, outbox=self.outbox, map_grid=self.map_grid, rooms=lambda: self.rooms, clock=clock,
+            events=study_events,
         )  # fmt: skip
         self.streams = CameraStreams(self.robots, self.hub, self.outbox, self.backend)
         self.assets = GeneratedAssets(config.scene, self.robots, self.outbox)

@@ -4,7 +4,6 @@ each counts and returns (none is on a stop's path), and nothing is counted outsi
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Final
 
 from ..errors import ProtocolError
@@ -21,15 +20,16 @@ _CONTINUOUS: Final = ("cmd_vel", "arm/twist")
 
 
 class StudyEvents:
-    """The hooks into the run that ``run()`` gives (the study's active one, or None)."""
+    """The hooks into the study's active run (``active``, which the study service sets; None: nothing counts). Built
+    before the parts that call it (the audit, inspection, the event router), and given to the study service."""
 
-    def __init__(self, run: Callable[[], StudyRun | None]) -> None:
-        self._run = run
+    def __init__(self) -> None:
+        self.active: StudyRun | None = None
         self._views: dict[str, str] = {}  # what each client last said it looks through (its `viewer`'s view)
 
     def observe(self, command: Command, error: ProtocolError | None) -> None:
         """A command's outcome (the session calls this beside the audit): counted in the task running."""
-        run = self._run()
+        run = self.active
         if run is None or run.state.phase != "task" or command.identifier in _NOT_COUNTED:
             return
         if command.identifier.endswith("/stream"):
@@ -47,7 +47,7 @@ class StudyEvents:
             return
         before = self._views.get(client_id)
         self._views[client_id] = view
-        run = self._run()
+        run = self.active
         if before is not None and before != view and run is not None:
             run.view_switch()
 
@@ -57,11 +57,11 @@ class StudyEvents:
 
     def finding(self, target: str | None) -> None:
         """A finding was marked (about a capture of ``target``, if any)."""
-        run = self._run()
+        run = self.active
         if run is not None and target is not None:
             run.finding(target)
 
     def goal_reached(self, robot: str) -> None:
-        run = self._run()
+        run = self.active
         if run is not None:
             run.goal_reached(robot)

@@ -71,20 +71,29 @@ class StudyService:
         map_grid: Callable[[], OccupancyGrid | None],
         rooms: Callable[[], Sequence[RoomDescription]],
         clock: Callable[[], float],
+        events: StudyEvents,
     ) -> None:
         self.path, self.runs_folder, self.robots = path, runs, list(robots)
         self.backend, self.control, self.fleet, self.outbox = backend, control, fleet, outbox
         self.map_grid, self.rooms, self.clock = map_grid, rooms, clock
         self.study: Study | None = None
         self.store: RunStore | None = None
-        self.run: StudyRun | None = None  # the active run
         self.client_id: str | None = None  # the participant's client: where answers come from
         self._runs: dict[str, StudyRun] = {}  # every run loaded in this process, by participant
         self._lock = asyncio.Lock()  # one study command at a time (they await robots and files between checks)
         self.writer: RunWriter | None = None
         self._ticking: asyncio.Task[None] | None = None
         #: What the relay's events count in the task running (the session's, inspection's, the router's hooks).
-        self.events = StudyEvents(lambda: self.run)
+        self.events = events
+
+    @property
+    def run(self) -> StudyRun | None:
+        """The active run: the one the relay's events count in."""
+        return self.events.active
+
+    @run.setter
+    def run(self, run: StudyRun | None) -> None:
+        self.events.active = run
 
     # -- lifecycle ------------------------------------------------------------------------------------------------
 

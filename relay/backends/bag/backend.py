@@ -5,15 +5,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 from ...cli.options import BagOptions
 from ...config import FleetConfig
-from ...errors import BackendUnavailable, CommandRejected
 from ...fleet.events import CloudEvent, EventSink, FrameEvent, RobotModelEvent
-from ...session.protocol import MAX_PLAYBACK_RATE, MIN_PLAYBACK_RATE, ErrorCode
-from ..base import Backend
 from ..cloud_intake import CloudIntake, cloud_intake
 from .binding import BagContents, BagPlan, BagSpec, _lookup, bind_bags, parse_bag_specs
 from .cameras import BagCameras
@@ -21,30 +17,24 @@ from .clock import PlaybackClock
 from .decoding import _first_string
 from .player import Player
 from .reader import _BagReader
+from .recorded import RecordedFleet
 
 logger = logging.getLogger(__name__)
 
 
-class BagBackend(Backend):
+class BagBackend(RecordedFleet):
     """Replays recordings as the robots of robots.yaml. Everything here runs on the event loop."""
 
     name = "bag"
 
     def __init__(self, config: FleetConfig, sink: EventSink, options: BagOptions) -> None:
         """Check the arguments (cheap: a stat per path); opening the bags happens in :meth:`start`."""
-        super().__init__(config, sink)
-        if not (math.isfinite(options.rate) and MIN_PLAYBACK_RATE <= options.rate <= MAX_PLAYBACK_RATE):
-            raise BackendUnavailable(
-                f"--rate {options.rate:g}: expected a speed factor from {MIN_PLAYBACK_RATE:g} to {MAX_PLAYBACK_RATE:g}"
-            )
-        if not (math.isfinite(options.start) and options.start >= 0):
-            raise BackendUnavailable(f"--start {options.start:g}: expected seconds from the recordings' start, >= 0")
+        super().__init__(config, sink, rate=options.rate, start=options.start, what="the recordings")
         self.options = options
         self._specs = parse_bag_specs(options.bags, config)
         self._readers: list[_BagReader] = []
         self._plans: list[BagPlan] = []
         self._bound: dict[str, BagSpec] = {}
-        self._player: Player | None = None
         self._cameras = BagCameras(sink)
         self._clouds: CloudIntake | None = None  # the robots' recorded clouds, with robots.yaml's cloud
 
@@ -155,25 +145,6 @@ class BagBackend(Backend):
         if spec is not None:
             return f"{robot} is a recording (bag {spec.shown}); it cannot be commanded"
         return f"{robot} is not in any of the replayed recordings; with --backend bag no robot can be commanded"
-
-    async def send_velocity(self, robot: str, linear: float, angular: float, *, stamp: float | None = None) -> None:
-        """Nothing to drive: only stop paths (deadman, estop, shutdown) get here, and a recording is stopped."""
-
-    async def send_goal(
-        self, robot: str, x: float, y: float, yaw: float | None, *, current: Callable[[], bool] = lambda: True
-    ) -> None:
-        """Never reached for goals (command_refusal refuses them all); a no-op."""
-
-    async def cancel(self, robot: str) -> None:
-        """Only stop paths get here; a recording has no goal to cancel."""
-
-    # -- playback ---------------------------------------------------------------------------------
-
-    async def playback(self, action: str, value: float | None) -> None:
-        """Pause, resume, seek (``value`` s from the start, clamped) or set the rate (``value``)."""
-        if self._player is None:
-            raise CommandRejected(ErrorCode.INTERNAL, "the recordings are not open yet")
-        self._player.command(action, value)
 
     def health(self) -> dict[str, object]:
         if self._player is None:
