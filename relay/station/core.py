@@ -99,13 +99,9 @@ class Relay:
         #: The session's recording, when asked for (--record-session): what goes out and what comes in.
         self.recorder = SessionRecorder(Path(options.record_session)) if options.record_session else None
         self.outbox = Outbox(self.hub, self.fleet, self.recorder.record if self.recorder else None)
-        #: What a study's task running counts (the study service below sets its active run).
-        study_events = StudyEvents()
-        self.audit = CommandAudit(
-            AuditLog(options.audit_log) if options.audit_log else None,
-            clock=self.clock,
-            outcomes=study_events.observe,
-        )
+        study_events = StudyEvents()  # what a study's task running counts (the study service sets its active run)
+        audit_log = AuditLog(options.audit_log) if options.audit_log else None
+        self.audit = CommandAudit(audit_log, clock=self.clock, outcomes=study_events.observe)
         stops = StopNotices()
         self.control = Control(
             config.names,
