@@ -71,6 +71,10 @@ export class Overlay {
     this.menuKey = '';
     /** What the menu's buttons were drawn from. */
     this.drawnMenu = '';
+    /** The menu's rows and buttons as last drawn, kept across drawings. @type {Map<string, HTMLElement>} */
+    this.menuRows = new Map();
+    /** @type {Map<string, HTMLButtonElement>} */
+    this.menuButtons = new Map();
     this.messageTimer = /** @type {ReturnType<typeof setTimeout> | undefined} */ (undefined);
     this.sensorKey = '';
     this.lastSensorDraw = 0;
@@ -218,6 +222,12 @@ export class Overlay {
       .join('|')}`;
     if (drawn === this.drawnMenu) return;
     this.drawnMenu = drawn;
+    // The rest keep their elements too (a new alert row's buttons came while a test scrolled to the menu's last
+    // button, and it was detached under it): each button and row is its element of the last drawing, updated.
+    /** @type {Map<HTMLElement, HTMLElement[]>} */
+    const contents = new Map();
+    /** @type {Map<string, HTMLButtonElement>} */
+    const kept = new Map();
     for (const button of buttons) {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
       if (picking && (button.group === 'robots' || button.group === 'pages')) {
@@ -227,36 +237,26 @@ export class Overlay {
       }
       let row = groups.get(button.group);
       if (!row) {
-        row = document.createElement('div');
+        row = this.menuRows.get(button.group) ?? document.createElement('div');
         row.className = `row ${button.group}`;
+        this.menuRows.set(button.group, row);
         groups.set(button.group, row);
+        contents.set(row, []);
         if (button.group === 'robots' && this.groupBar.visible) groups.set('group', this.groupBar.element);
       }
-      const b = document.createElement('button');
+      const b = this.menuButtons.get(button.id) ?? document.createElement('button');
       b.type = 'button';
       b.dataset.button = button.id;
-      b.textContent = button.label;
+      if (b.textContent !== button.label) b.textContent = button.label;
       b.disabled = !button.enabled;
       b.setAttribute('aria-pressed', String(button.active));
-      if (button.danger) b.className = 'estop';
-      row.append(b);
+      b.className = button.danger ? 'estop' : '';
+      kept.set(button.id, b);
+      contents.get(row)?.push(b);
     }
-    this.#place([...groups.values()]);
-  }
-
-  /**
-   * The menu's rows in order, the picker's never taken out: a focused search box taken out of the page loses its
-   * focus, and each status that changes the menu would end a search being typed.
-   * @param {HTMLElement[]} rows
-   */
-  #place(rows) {
-    for (const child of [...this.menu.children]) if (!rows.includes(/** @type {HTMLElement} */ (child))) child.remove();
-    /** @type {ChildNode | null} */
-    let at = this.menu.firstChild;
-    for (const row of rows) {
-      if (row !== at) this.menu.insertBefore(row, at);
-      at = row.nextSibling;
-    }
+    this.menuButtons = kept;
+    for (const [row, children] of contents) arrange(row, children);
+    arrange(this.menu, [...groups.values()]);
   }
 
   /** The POV panel's rectangle in CSS pixels, for the scissored render. */
@@ -270,5 +270,20 @@ export class Overlay {
     this.picker.dispose();
     this.groupBar.dispose();
     for (const off of this.unlisten) off();
+  }
+}
+
+/**
+ * `parent`'s children made `children`, in order, the ones already there never taken out: a focused search box taken
+ * out of the page loses its focus (the robot picker's), a button taken out loses the click or scroll aimed at it.
+ * @param {HTMLElement} parent @param {HTMLElement[]} children
+ */
+function arrange(parent, children) {
+  for (const child of [...parent.children]) if (!children.includes(/** @type {HTMLElement} */ (child))) child.remove();
+  /** @type {ChildNode | null} */
+  let at = parent.firstChild;
+  for (const child of children) {
+    if (child !== at) parent.insertBefore(child, at);
+    at = child.nextSibling;
   }
 }
