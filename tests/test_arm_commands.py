@@ -16,6 +16,7 @@ import orjson
 import pytest
 
 from relay.arm.kinematics import jacobian
+from relay.arm.named import NAMED_SPEED_SCALE
 from relay.backends.base import Backend
 from relay.cli.options import Options
 from relay.config import Arm, ArmTopics, FleetConfig, Limits, Workspace
@@ -30,9 +31,18 @@ START = (0.0, 0.5)
 UP = {"linear": [0.0, 0.0, 0.05], "angular": [0.0, 0.0, 0.0]}
 
 
+#: The planar arm's named poses, as MoveIt's SRDF names them.
+SRDF = """<robot name="planar"><group name="arm"><chain base_link="base_link" tip_link="tip"/></group>
+<group_state name="home" group="arm"><joint name="shoulder" value="0"/><joint name="elbow" value="1.0"/></group_state>
+</robot>"""
+
+
 def with_arm(config: FleetConfig, urdf: Path) -> FleetConfig:
     topics = ArmTopics("/robot1/joint_states", "/robot1/servo", "/robot1/trajectory", "/robot1/gripper")
-    arm = Arm(urdf, "base_link", "tip", None, topics, Limits(0.1, 0.5), Workspace((-0.5, -0.5, -0.5), (0.6, 0.5, 0.6)))
+    srdf = urdf.with_suffix(".srdf")
+    srdf.write_text(SRDF)
+    bounds = Limits(0.1, 0.5), Workspace((-0.5, -0.5, -0.5), (0.6, 0.5, 0.6))
+    arm = Arm(urdf, "base_link", "tip", None, topics, *bounds, srdf=srdf)
     robots = tuple(dataclasses.replace(r, arm=arm) if r.name == "robot1" else r for r in config.robots)
     return dataclasses.replace(config, robots=robots)
 
@@ -177,7 +187,7 @@ async def test_a_twist_in_the_tips_frame_is_turned_into_the_base_links(station: 
 
 
 async def test_arm_commands_are_audited_like_every_command(station: Station, tmp_path: Path) -> None:
-    client, _ = station.connect()
+    client, seen = station.connect()
     await station.send(client, {"identifier": "robot1/arm/pose", "id": "p1", "name": "home"})
     await station.send(client, {"identifier": "robot1/arm/gripper", "id": "g1", "state": "open"})
     records = [orjson.loads(line) for line in (tmp_path / "audit.jsonl").read_text().splitlines()]
@@ -185,7 +195,24 @@ async def test_arm_commands_are_audited_like_every_command(station: Station, tmp
         "robot1/arm/pose",
         "robot1/arm/gripper",
     ]
-    assert station.backend.arm_moves("robot1") == [("arm_pose", "robot1", "home"), ("gripper", "robot1", "open")]
+    assert seen.replies("g1")[0]["code"] == "arm_refused", seen.replies("g1")  # this arm has no gripper
+    assert [call[:3] for call in station.backend.arm_moves("robot1")] == [("arm_pose", "robot1", "home")]
+
+
+async def test_a_named_pose_reaches_the_arm_as_its_joints_timed_by_the_slowest(station: Station) -> None:
+    """The relay resolves the SRDF's pose into what an arm controller takes: every joint's position, and the time the
+    farthest joint needs at a named pose's share of its limit (the planar URDF's 2 rad/s: 0.2 rad/s)."""
+    client, seen = station.connect()
+    await station.send(client, {"identifier": "robot1/arm/pose", "id": 1, "name": "home"})
+    assert seen.replies(1) == [{"identifier": "ack", "id": 1}]
+    (call,) = station.backend.arm_moves("robot1")
+    goal = call[3]
+    assert goal.names == ("shoulder", "elbow") and goal.positions == (0.0, 1.0)
+    assert goal.seconds == pytest.approx(abs(1.0 - START[1]) / (2.0 * NAMED_SPEED_SCALE))
+    await station.send(client, {"identifier": "robot1/arm/pose", "id": 2, "name": "stow"})
+    (refusal,) = seen.replies(2)
+    assert refusal["code"] == "arm_refused" and '"stow"' in refusal["message"] and "home" in refusal["message"]
+    assert len(station.backend.arm_moves("robot1")) == 1  # nothing more reached the arm
 
 
 class HeldChecks:

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from relay.arm.kinematics import forward
+from relay.arm.named import NAMED_SPEED_SCALE
 from relay.arm.rules import ArmBounds
-from relay.arm.sim_arm import NAMED_SPEED_SCALE, SimArm
+from relay.arm.sim_arm import SimArm
 from relay.arm.srdf import load_group_states
 from relay.config import Limits, Workspace
 from tests.helpers.arm import omx, tb3_manipulation

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from relay.backends.ingest import RawDecoder
-from relay.ros import nav2_types
+from relay.ros import idl_types, nav2_types
 from relay.ros.nav2_types import (
     CANCEL_RESPONSE,
     FEEDBACK_MESSAGE,
@@ -122,4 +122,4 @@ def test_bytes_that_are_not_the_message_are_an_error_naming_it() -> None:
     with pytest.raises(ValueError, match="a goal id is 16 bytes, not 3"):
         nav2_types.get_result_request(nav2_types.typestore(), b"abc")
     with pytest.raises(ValueError, match="expected 3 parts"):
-        nav2_types.action_types("nav2_msgs/action/Broken", "int8 a\n---\nint8 b\n")
+        idl_types.action_types("nav2_msgs/action/Broken", "int8 a\n---\nint8 b\n")

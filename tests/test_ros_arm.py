@@ -115,7 +115,8 @@ async def test_the_fake_fleets_arm_follows_a_hand_over_dds_and_the_twin_shows_it
     """Issue #32 over real DDS: the real TurtleBot3 manipulator as tools/fake_fleet.py runs it (tools/fake_arm.py:
     joint_state_broadcaster's JointState out, MoveIt Servo's TwistStamped in, the simulator's kinematics between). A
     client's arm twists move its gripper up; they stop, and so does the arm (its own deadman); the joints the relay
-    gives the twin are the ones published on DDS, within a degree."""
+    gives the twin are the ones published on DDS, within a degree. A named pose or a gripper goal is refused, saying
+    why."""
     urdf = tb3_manipulation("turtlebot3_manipulation.urdf")
     srdf = tb3_manipulation("config", "turtlebot3_manipulation.srdf")
     config = tmp_path / "fleet.yaml"
@@ -135,6 +136,12 @@ async def test_the_fake_fleets_arm_follows_a_hand_over_dds_and_the_twin_shows_it
         assert joints["names"] == published["names"]
         apart = max(abs(a - b) for a, b in zip(joints["positions"], published["positions"], strict=True))
         assert math.degrees(apart) < 1.0, (joints["positions"], published["positions"])
+        # Named poses and gripper goals are not sent over DDS: refused, saying why and what does send them.
+        for command, package in (({"name": "home"}, "trajectory_msgs"), ({"state": "close"}, "control_msgs")):
+            what = "pose" if "name" in command else "gripper"
+            refusal = await client.request({"identifier": f"robot3/arm/{what}", **command}, 10)
+            assert refusal["code"] == "arm_refused" and package in refusal["message"], refusal
+            assert "zenoh backend" in refusal["message"], refusal
     finally:
         await client.close()
         await peer.stop()

@@ -123,7 +123,7 @@ async def test_robot3s_arm_publishes_its_joints_moves_and_stops_with_the_robot(f
             await backend.send_arm_twist("robot3", (0.0, 0.0, 0.05), (0.0, 0.0, 0.0))
         assert refused.value.code == "arm_refused" and "estop latched" in refused.value.message
         backend.release_estop("robot3")
-        await backend.send_gripper("robot3", "open")
+        await backend.send_gripper("robot3", "open", 0.01)
     finally:
         await backend.stop()
 

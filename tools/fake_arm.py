@@ -3,11 +3,13 @@ a real one runs.
 
 What the real TurtleBot3 manipulator's launch files bring up, seen from the relay: ros2_control's
 joint_state_broadcaster publishing ``sensor_msgs/JointState`` on the robot's ``joint_states`` (the arm's joints, the
-gripper's and its mimic), and MoveIt Servo taking ``geometry_msgs/TwistStamped`` on ``servo_node/delta_twist_cmds``
-in the arm's base link. The arm is the simulator's (relay/arm/sim_arm.py): the same URDF, kinematics, limits and
-rules, and its own deadman (Servo's ``incoming_command_timeout``: a twist stream that stops, stops the arm). A twist
-in another frame is dropped with a warning, as Servo without that frame's transform would. :class:`Arms` is that,
-without I/O; :class:`FakeArms` carries it over DDS, fake_fleet_zenoh.py over Zenoh.
+gripper's and its mimic), MoveIt Servo taking ``geometry_msgs/TwistStamped`` on ``servo_node/delta_twist_cmds`` in
+the arm's base link, and over Zenoh the arm controller's ``trajectory_msgs/JointTrajectory`` and the gripper
+controller's GripperCommand goals (the PyPI wheels lack both packages: not over DDS). The arm is the simulator's
+(relay/arm/sim_arm.py): the same URDF, kinematics, limits and rules, and its own deadman (Servo's
+``incoming_command_timeout``: a twist stream that stops, stops the arm). A twist in another frame is dropped with a
+warning, as Servo without that frame's transform would. :class:`Arms` is that, without I/O; :class:`FakeArms` carries
+it over DDS, fake_fleet_zenoh.py over Zenoh.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ import logging
 import threading
 import time
 from typing import Any
+
+import numpy as np
 
 from relay.arm.fleet_arms import load_fleet_arms
 from relay.config import FleetConfig
@@ -53,6 +57,28 @@ class Arms:
             refused = self.sim.arm(robot, "servo").servo(linear, angular, time.monotonic())
         if refused is not None:
             logger.info("%s's arm: twist refused: %s", robot, refused)
+
+    def trajectory(self, robot: str, names: tuple[str, ...], positions: tuple[float, ...]) -> None:
+        """A JointTrajectory on the arm controller's topic: the arm goes to its last point (every joint of the arm
+        named, else it is dropped with a warning, as joint_trajectory_controller drops one missing a joint)."""
+        arm = self.sim.arm(robot, "trajectory")
+        by_name = dict(zip(names, positions, strict=False))
+        missing = [name for name in arm.model.names if name not in by_name]
+        if missing:
+            logger.warning("%s's arm: a trajectory without %s dropped", robot, ", ".join(missing)[:120])
+            return
+        with self.lock:
+            refused = arm.move_to(np.array([by_name[name] for name in arm.model.names]), "trajectory")
+        if refused is not None:
+            logger.info("%s's arm: trajectory refused: %s", robot, refused)
+
+    def gripper(self, robot: str, position: float) -> bool:
+        """A GripperCommand goal: whether the gripper controller accepts it (and then moves there)."""
+        with self.lock:
+            refused = self.sim.arm(robot, "gripper").gripper(position)
+        if refused is not None:
+            logger.info("%s's gripper: goal rejected: %s", robot, refused)
+        return refused is None
 
     def step(self) -> None:
         with self.lock:

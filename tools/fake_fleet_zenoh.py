@@ -35,10 +35,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from relay.backends.zenoh_keys import GID_SIZE, Attachment, topic_key, topic_selector  # noqa: E402
+from relay.backends.zenoh_keys import GID_SIZE, Attachment, decode_attachment, topic_key, topic_selector  # noqa: E402
 from relay.config import FleetConfig, Robot, load_config  # noqa: E402
 from relay.errors import ConfigError  # noqa: E402
 from relay.fleet.geometry import quaternion_to_yaw  # noqa: E402
+from relay.ros import control_types  # noqa: E402
 from relay.ros.ros_env import typestore  # noqa: E402
 from relay.ros.rosmsg import POSE_TYPES, image_type  # noqa: E402
 from relay.sim import navigator as nav  # noqa: E402
@@ -66,7 +67,7 @@ class FakeZenohFleet:
         misbehave_after_cancel: bool = False, watchdog: bool = True,
     ) -> None:  # fmt: skip
         self.zenoh, self.session, self.config, self.domain = zenoh, session, config, domain
-        self.store = typestore()
+        self.store = control_types.register(typestore())
         self.messages = SimMessages(self.store)
         self.lock = threading.Lock()  # the world is stepped here and commanded from Zenoh's threads
         self.world = SimWorld(config, self._on_nav)
@@ -135,6 +136,14 @@ class FakeZenohFleet:
             self.publishers[f"{name}/joints"] = self.session.declare_publisher(self.key(topics.joint_states, JOINTS))
             on_twist = lambda s, r=name: self._on_arm_twist(r, s)  # noqa: E731
             self.session.declare_subscriber(self.selector(topics.delta_twist_cmds), on_twist)
+            on_trajectory = lambda s, r=name: self._on_arm_trajectory(r, s)  # noqa: E731
+            self.session.declare_subscriber(self.selector(topics.joint_trajectory), on_trajectory)
+            # The action's send_goal service; its key's hash is the request's (the relay asks any type and hash).
+            service, request = f"{topics.gripper_cmd}/_action/send_goal", control_types.SEND_GOAL_REQUEST
+            key = topic_key("rmw_zenoh", self.domain, service, request.removesuffix("_Request"),
+                            self.store.hash_rihs01(request))  # fmt: skip
+            on_goal = lambda q, r=name, k=key: self._on_gripper_goal(r, k, q)  # noqa: E731
+            self.session.declare_queryable(key, on_goal, complete=True)
         # The base follows cmd_vel, which the watchdog (or, without one, the relay) publishes.
         self.session.declare_subscriber(self.selector(robot.cmd_vel_topic), lambda s, r=robot: self._on_cmd_vel(r, s))
         if not self.nav2:
@@ -167,6 +176,30 @@ class FakeZenohFleet:
         t = message.twist
         linear, angular = (t.linear.x, t.linear.y, t.linear.z), (t.angular.x, t.angular.y, t.angular.z)
         self.arms.twist(robot, message.header.frame_id, linear, angular)
+
+    def _on_arm_trajectory(self, robot: str, sample: Any) -> None:
+        try:
+            message = self.store.deserialize_cdr(sample.payload.to_bytes(), control_types.JOINT_TRAJECTORY)
+        except Exception as exc:  # rosbags raises several kinds on bytes that are not the type
+            logger.warning("%s: a trajectory on %s is not a JointTrajectory: %s", robot, sample.key_expr, exc)
+            return
+        if message.points:
+            positions = tuple(float(v) for v in message.points[-1].positions)
+            self.arms.trajectory(robot, tuple(message.joint_names), positions)
+
+    def _on_gripper_goal(self, robot: str, key: str, query: Any) -> None:
+        try:
+            position = control_types.read_gripper_goal(query.payload.to_bytes(), self.store.deserialize_cdr)
+            request = decode_attachment(query.attachment.to_bytes())
+        except Exception as exc:  # no payload or attachment, or not the type
+            query.reply_err(f"not a GripperCommand goal: {exc}"[:200].encode())
+            query.drop()
+            return
+        accepted = self.arms.gripper(robot, position)
+        # rmw_zenoh's service reply: the request's sequence number and client GID, the reply's own time.
+        attachment = Attachment(request.sequence, time.time_ns(), request.gid).encode()
+        query.reply(key, control_types.accepted_response(self.store, accepted), attachment=attachment)
+        query.drop()
 
     def _on_goal(self, robot: Robot, sample: Any) -> None:
         try:

@@ -11,10 +11,12 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 from ..config import Robot
 from ..twin.urdf.errors import RobotModelError
 from .model import ArmModel, load_arm
+from .named import NamedStates
 from .srdf import GroupStates, load_group_states
 
 logger = logging.getLogger(__name__)
@@ -24,6 +26,11 @@ logger = logging.getLogger(__name__)
 class FleetArm:
     model: ArmModel
     poses: GroupStates  # the SRDF's group states (none without an SRDF)
+
+    @cached_property
+    def states(self) -> NamedStates:
+        """Its named poses and gripper states, as the controllers take them."""
+        return NamedStates(self.model, self.poses)
 
     @property
     def gripper_range(self) -> tuple[float, float] | None:

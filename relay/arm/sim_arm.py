@@ -16,11 +16,9 @@ import numpy as np
 from ..config import Limits
 from .kinematics import Vector, velocity_step
 from .model import ArmModel
+from .named import NAMED_SPEED_SCALE, NamedStateError, NamedStates
 from .rules import ESTOP_REFUSAL, ArmBounds, ArmGate, ClampedTwist, clamp_twist, step_refusal
 
-#: A named pose or the gripper moves at this share of each joint's velocity limit: MoveIt's
-#: ``default_velocity_scaling_factor`` in turtlebot3_manipulation's joint_limits.yaml (0.48 rad/s of its 4.8).
-NAMED_SPEED_SCALE: Final = 0.1
 #: How far ahead (seconds) a twist is checked against the rules when it arrives, so that the reply can refuse it.
 LOOKAHEAD: Final = 0.05
 
@@ -56,15 +54,8 @@ class SimArm:
         self._qdot: Vector = np.zeros(len(model.joints))
         self._twist: ClampedTwist | None = None
         self._target: Vector | None = None  # a named pose under way
-        self._arm_poses: dict[str, Vector] = {}
-        self._gripper_poses: dict[str, float] = {}
+        self.states = NamedStates(model, poses)
         gripper = model.gripper
-        for states in poses.values():
-            for name, joints in states.items():
-                if set(joints) == set(model.names):
-                    self._arm_poses[name] = np.array([joints[j] for j in model.names])
-                elif gripper is not None and set(joints) == {gripper.name}:
-                    self._gripper_poses[name] = joints[gripper.name]
         self._grip = 0.0 if gripper is None else min(max(0.0, gripper.lower), gripper.upper)
         self._grip_target = self._grip
         self._grip_speed = 0.0
@@ -76,7 +67,7 @@ class SimArm:
 
     @property
     def named_poses(self) -> tuple[str, ...]:
-        return tuple(sorted(self._arm_poses))
+        return tuple(sorted(self.states.arm))
 
     def servo(self, linear: Sequence[float], angular: Sequence[float], now: float) -> str | None:
         """A hand's twist (base frame; m/s, rad/s) arriving at ``now``: why it is refused, or None. It is followed
@@ -102,32 +93,31 @@ class SimArm:
         """Move to a named pose (the SRDF's ``home``, ...) at a bounded joint speed: why not, or None."""
         if self.gate.latched:
             return ESTOP_REFUSAL
-        if pose not in self._arm_poses:
-            known = ", ".join(self.named_poses) or "none"
-            return f'no named pose "{pose}" for the arm (the SRDF has: {known})'
-        target = self._arm_poses[pose]
+        try:
+            return self.move_to(self.states.pose(pose), pose)
+        except NamedStateError as err:
+            return str(err)
+
+    def move_to(self, target: Vector, what: str) -> str | None:
+        """Move to these joint positions (the model's order), every joint arriving together at a named pose's
+        speed, as an arm controller follows a trajectory's point: why not (``what`` names it), or None."""
+        if self.gate.latched:
+            return ESTOP_REFUSAL
         refused = step_refusal(self.model, self._q, target, self.bounds)
         if refused is not None:
-            return f"{pose}: {refused}"
+            return f"{what}: {refused}"
         self._twist = None
-        self._target = target
+        self._target = np.asarray(target, dtype=np.float64)
         return None
 
     def gripper(self, command: str | float) -> str | None:
         """Open, close (the SRDF's gripper states) or a position (m or rad, clipped to the joint's limits)."""
-        gripper = self.model.gripper
-        if gripper is None:
-            return "this arm has no gripper_joint"
-        if self.gate.latched:
+        if self.model.gripper is not None and self.gate.latched:
             return ESTOP_REFUSAL
-        if isinstance(command, str):
-            if command not in self._gripper_poses:
-                known = ", ".join(sorted(self._gripper_poses)) or "none"
-                return f'no gripper state "{command}" (the SRDF has: {known})'
-            command = self._gripper_poses[command]
-        if not np.isfinite(command):
-            return "a gripper position must be finite"
-        self._grip_target = min(max(float(command), gripper.lower), gripper.upper)
+        try:
+            self._grip_target = self.states.gripper_position(command)
+        except NamedStateError as err:
+            return str(err)
         return None
 
     def stop(self) -> None:

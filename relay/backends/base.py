@@ -6,6 +6,7 @@ import abc
 from collections.abc import Callable
 from typing import ClassVar
 
+from ..arm.named import JointGoal
 from ..config import FleetConfig
 from ..control.fleet_peer import FleetPeer
 from ..errors import CommandRejected
@@ -69,13 +70,14 @@ class Backend(abc.ABC):
         Raises CommandRejected (``arm_refused``) with the robot side's reason when it refuses."""
         raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/twist: the {self.name} backend moves no arm")
 
-    async def send_arm_pose(self, robot: str, pose: str) -> None:
-        """Move the arm to a named pose (its SRDF's group state); CommandRejected says why not."""
+    async def send_arm_pose(self, robot: str, pose: str, goal: JointGoal) -> None:
+        """Move the arm to a named pose (its SRDF's group state): ``goal`` is its joints as the relay resolved them,
+        and the time the slowest takes at a named pose's speed. CommandRejected says why not."""
         raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/pose: the {self.name} backend moves no arm")
 
-    async def send_gripper(self, robot: str, command: str | float) -> None:
-        """Open or close the gripper (``"open"``, ``"close"``) or move it to a position; CommandRejected says why
-        not."""
+    async def send_gripper(self, robot: str, command: str | float, position: float) -> None:
+        """Open or close the gripper (``"open"``, ``"close"``) or move it to a position: ``position`` is the
+        gripper joint's, as the relay resolved it (within its limits). CommandRejected says why not."""
         raise CommandRejected(ErrorCode.NO_ARM, f"{robot}/arm/gripper: the {self.name} backend moves no arm")
 
     async def stop_arm(self, robot: str) -> None:  # noqa: B027 - optional hook: a robot without an arm has none

@@ -1,12 +1,15 @@
-"""The messages the relay sends (Twist, TwistStamped, PoseStamped, the watchdog's Header) as CDR bytes, built with
-rosbags' typestore: a backend that publishes bytes (``zenoh``) needs no ROS install. No I/O.
+"""The messages the relay sends (Twist, TwistStamped, PoseStamped, the watchdog's Header, an arm's JointTrajectory
+and GripperCommand goal) as CDR bytes, built with rosbags' typestore: a backend that publishes bytes (``zenoh``) needs
+no ROS install. No I/O.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from ..arm.named import JointGoal
 from ..fleet.geometry import yaw_to_quaternion
+from ..ros.control_types import gripper_goal, joint_trajectory
 
 TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
@@ -49,6 +52,14 @@ class CommandEncoder:
         twist = self._t[TWIST](linear=vector(*map(float, linear)), angular=vector(*map(float, angular)))
         message = self._t[TWIST_STAMPED](header=self._header(stamp, frame), twist=twist)
         return bytes(self._store.serialize_cdr(message, TWIST_STAMPED))
+
+    def joint_goal(self, goal: JointGoal) -> bytes:
+        """An arm controller's input for a named pose: a one-point trajectory_msgs/JointTrajectory."""
+        return joint_trajectory(self._store, goal.names, goal.positions, goal.seconds)
+
+    def gripper(self, position: float) -> bytes:
+        """A gripper controller's GripperCommand goal (its action's SendGoal request), under a new goal id."""
+        return gripper_goal(self._store, position)
 
     def goal(self, x: float, y: float, yaw: float | None, *, stamp: float, frame: str) -> bytes:
         # Nav2 needs a valid quaternion; without a requested yaw, keep the identity (facing +x).

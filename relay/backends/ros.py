@@ -19,13 +19,13 @@ import contextlib
 import importlib
 import logging
 import os
-import time
 from collections.abc import Callable
 from typing import Any
 
+from ..arm.named import JointGoal
 from ..config import Camera, FleetConfig, Robot
 from ..errors import BackendUnavailable
-from ..fleet.events import EventSink, JointStateEvent, PathEvent, RobotModelEvent, SensorEvent
+from ..fleet.events import EventSink, PathEvent, RobotModelEvent, SensorEvent
 from ..fleet.geometry import yaw_to_quaternion
 from ..ros.ros_env import load_rclpy
 from ..ros.rosmsg import POSE_MESSAGES, SENSOR_TYPES, message_stamp
@@ -34,10 +34,12 @@ from .base import Vec3
 from .cloud_intake import CAMERA_INFO, TF_MESSAGE, message_type, static_topic
 from .ingest import RawDecoder
 from .live import LiveBackend
+from .ros_arms import RosArms, stamp_header
 from .ros_nav2 import RosNav2, needed_messages
 from .ros_spinner import Spinner
 
 logger = logging.getLogger(__name__)
+
 
 #: History depth of image subscriptions (see ``_qos``).
 IMAGE_DEPTH = 10
@@ -110,10 +112,6 @@ def _key(type_name: str) -> str:
     return ".".join(_class(type_name))
 
 
-def _stamp(header: Any, when: float) -> None:
-    header.stamp.sec, header.stamp.nanosec = int(when), int((when - int(when)) * 1e9)
-
-
 class RosBackend(LiveBackend):
     """The robots of a ROS 2 graph: one rclpy node, its executor thread, and its publishers of commands."""
 
@@ -132,7 +130,7 @@ class RosBackend(LiveBackend):
         self._spinner: Spinner | None = None
         self._cmd_pubs: dict[str, Any] = {}
         self._goal_pubs: dict[str, Any] = {}
-        self._arm_pubs: dict[str, Any] = {}  # MoveIt Servo's delta_twist_cmds of each robot with an arm
+        self._arms = RosArms(self._msg, self._post)  # MoveIt Servo's topics of each robot with an arm
         self._heartbeat_pub: Any = None
         #: The Fast DDS profile in effect (dds_profile.apply), for /healthz.
         self.dds_profile = ""
@@ -207,7 +205,7 @@ class RosBackend(LiveBackend):
             return
         header = self._msg("std_msgs.msg", "Header")()
         header.frame_id = "xr_relay"
-        _stamp(header, when)
+        stamp_header(header, when)
         self._heartbeat_pub.publish(header)
 
     async def _disconnect(self) -> None:
@@ -290,19 +288,7 @@ class RosBackend(LiveBackend):
         self._goal_pubs[name] = node.create_publisher(
             self._msg("geometry_msgs.msg", "PoseStamped"), robot.goal_topic, self._qos("commands")
         )
-        if robot.arm is not None:  # the arm: its joints in, MoveIt Servo's twists out (relay/config/arm.py's topics)
-            topics = robot.arm.topics
-            self._arm_pubs[name] = node.create_publisher(
-                self._msg("geometry_msgs.msg", "TwistStamped"), topics.delta_twist_cmds, self._qos("commands")
-            )
-            node.create_subscription(
-                self._msg("sensor_msgs.msg", "JointState"),
-                topics.joint_states,
-                lambda m, r=name: self._post(
-                    JointStateEvent(r, message_stamp(m), tuple(m.name), tuple(m.position), tuple(m.velocity))
-                ),
-                self._qos("sensors"),
-            )
+        self._arms.create(node, robot, self._qos("commands"), self._qos("sensors"))
 
     def _map_message(self, data: Any) -> Any:
         return data  # rclpy's message
@@ -317,27 +303,26 @@ class RosBackend(LiveBackend):
         message = self._msg("geometry_msgs.msg", "TwistStamped" if stamped else "Twist")()
         twist = message.twist if stamped else message
         if stamped:
-            _stamp(message.header, stamp)
+            stamp_header(message.header, stamp)
             message.header.frame_id = spec.pose.base_frame
         twist.linear.x = float(linear)
         twist.angular.z = float(angular)
         self._cmd_pubs[spec.name].publish(message)
 
     async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
-        publisher, spec = self._arm_pubs.get(robot), self._robot(robot)
-        if publisher is None or spec.arm is None:
+        if not self._arms.moves(robot):
             await super().send_arm_twist(robot, linear, angular)
             return
-        message = self._msg("geometry_msgs.msg", "TwistStamped")()
-        _stamp(message.header, time.time())  # MoveIt Servo drops a twist older than its incoming_command_timeout
-        message.header.frame_id = spec.arm.base_link  # its robot_link_command_frame
-        message.twist.linear.x, message.twist.linear.y, message.twist.linear.z = (float(v) for v in linear)
-        message.twist.angular.x, message.twist.angular.y, message.twist.angular.z = (float(v) for v in angular)
-        publisher.publish(message)
+        self._arms.twist(robot, linear, angular)
+
+    async def send_arm_pose(self, robot: str, pose: str, goal: JointGoal) -> None:
+        raise self._arms.refuse(robot, "pose", "trajectory_msgs")
+
+    async def send_gripper(self, robot: str, command: str | float, position: float) -> None:
+        raise self._arms.refuse(robot, "gripper", "control_msgs")
 
     async def stop_arm(self, robot: str) -> None:
-        if robot in self._arm_pubs:
-            await self.send_arm_twist(robot, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self._arms.stop(robot)
 
     def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         message = self._msg("geometry_msgs.msg", "PoseStamped")()

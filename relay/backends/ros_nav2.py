@@ -24,7 +24,8 @@ from typing import Any, TypeVar
 from ..config import FleetConfig, Robot
 from ..fleet.events import GateWord
 from ..fleet.scan import RateCap
-from ..ros.nav2_types import ALL_GOALS, CancelAnswer, Decode, ResultAnswer, read_feedback, read_status
+from ..ros.idl_types import Decode
+from ..ros.nav2_types import ALL_GOALS, CancelAnswer, ResultAnswer, read_feedback, read_status
 from .navigation import Arrive
 
 T = TypeVar("T")

@@ -30,6 +30,7 @@ from functools import partial
 from typing import Any
 
 from ..arm.fleet_arms import FleetArms, load_fleet_arms
+from ..arm.named import JointGoal
 from ..config import FleetConfig
 from ..errors import BackendUnavailable, CommandRejected
 from ..fleet.events import EventSink, FrameEvent, NavEvent, PathEvent, PoseEvent, SensorEvent
@@ -156,10 +157,10 @@ class SimBackend(Backend):
         arm = self._arms.arm(robot, f"{robot}/arm/twist")
         _refused(f"{robot}/arm/twist", arm.servo(linear, angular, asyncio.get_running_loop().time()))
 
-    async def send_arm_pose(self, robot: str, pose: str) -> None:
+    async def send_arm_pose(self, robot: str, pose: str, goal: JointGoal) -> None:
         _refused(f"{robot}/arm/pose", self._arms.arm(robot, f"{robot}/arm/pose").named(pose))
 
-    async def send_gripper(self, robot: str, command: str | float) -> None:
+    async def send_gripper(self, robot: str, command: str | float, position: float) -> None:
         _refused(f"{robot}/arm/gripper", self._arms.arm(robot, f"{robot}/arm/gripper").gripper(command))
 
     async def stop_arm(self, robot: str) -> None:

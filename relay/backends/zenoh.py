@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from ..arm.named import JointGoal
 from ..cli.options import ZenohOptions
 from ..config import Camera, FleetConfig, Robot
 from ..control.fleet_peer import FleetPeer
@@ -129,7 +130,7 @@ class ZenohBackend(LiveBackend):
         if any(robot.watchdog_topic is not None for robot in self.config.robots):
             self._heartbeat = topics.publisher(self.config.ros.heartbeat_topic, HEADER)
         latched = lambda topic, type_name: topics.publisher(topic, type_name, latched=True)  # noqa: E731
-        self._entities += self._nav2.declare(self._session, self._store, self._decode_raw, topics.subscribe, latched)
+        self._entities += self._nav2.declare(topics.query, self._store, self._decode_raw, topics.subscribe, latched)
         self._fleet.open(self._zenoh, self._session)
 
     def _close_session(self) -> None:
@@ -202,8 +203,7 @@ class ZenohBackend(LiveBackend):
         return self._fleet
 
     def health(self) -> dict[str, object]:
-        s = self.settings
-        session = self._session
+        s, session = self.settings, self._session
         link = session is not None and not session.is_closed() and connected(session)
         return {
             "zenoh": {
@@ -244,10 +244,9 @@ class ZenohBackend(LiveBackend):
             add(subscribe(what, robot.model_source.topic, STRING_TYPE, on_model, history=True))
         for topic, type_name, callback in self._cloud_topics(robot):
             add(subscribe(f"{name} cloud {topic}", topic, type_name, callback, history=type_name == TF_MESSAGE))
-        if robot.watchdog_topic is not None:
-            self._cmd[name] = topics.publisher(robot.watchdog_topic, TWIST_STAMPED)
-        else:
-            self._cmd[name] = topics.publisher(robot.cmd_vel_topic, TWIST_STAMPED if robot.cmd_vel_stamped else TWIST)
+        # Through its watchdog (always stamped) when it has one, else straight to its cmd_vel.
+        twist = TWIST_STAMPED if robot.watchdog_topic is not None or robot.cmd_vel_stamped else TWIST
+        self._cmd[name] = topics.publisher(robot.watchdog_topic or robot.cmd_vel_topic, twist)
         self._goal[name] = topics.publisher(robot.goal_topic, POSE_STAMPED)
         self._entities += self._arms.declare(topics, robot)
 
@@ -295,14 +294,16 @@ class ZenohBackend(LiveBackend):
         self._send(self._cmd, spec.name, payload)
 
     async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
-        if self._encode is None or not self._arms.moves(robot):
-            await super().send_arm_twist(robot, linear, angular)
-            return
-        self._arms.twist(self._encode, robot, linear, angular)
+        self._arms.twist(robot, linear, angular)
+
+    async def send_arm_pose(self, robot: str, pose: str, goal: JointGoal) -> None:
+        self._arms.pose(robot, goal)
+
+    async def send_gripper(self, robot: str, command: str | float, position: float) -> None:
+        self._arms.gripper(robot, position)
 
     async def stop_arm(self, robot: str) -> None:
-        if self._arms.moves(robot):
-            await self.send_arm_twist(robot, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self._arms.stop(robot)
 
     def _publish_goal(self, spec: Robot, x: float, y: float, yaw: float | None) -> None:
         assert self._encode is not None

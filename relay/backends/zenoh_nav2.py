@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import asyncio
 import functools
-import hashlib
-import itertools
 import logging
 import time
 from collections.abc import Callable
@@ -30,11 +28,11 @@ from typing import Any, Protocol
 from ..config import FleetConfig
 from ..fleet.events import GateWord
 from ..fleet.scan import RateCap
+from ..ros.idl_types import Decode
 from ..ros.nav2_types import (
     FEEDBACK_MESSAGE,
     STATUS_ARRAY,
     CancelAnswer,
-    Decode,
     ResultAnswer,
     cancel_request,
     get_result_request,
@@ -45,14 +43,16 @@ from ..ros.nav2_types import (
 )
 from .navigation import Arrive
 from .ros_nav2 import FEEDBACK_RATE, gate_word
-from .zenoh_keys import GID_SIZE, Attachment, topic_selector
 from .zenoh_session import ZenohSettings
+from .zenoh_topics import Reply
 
 logger = logging.getLogger(__name__)
 
 STRING = "std_msgs/msg/String"
 
 Hop = Callable[[Callable[[], None]], None]
+#: A session's query (relay/backends/zenoh_topics.py ``ZenohTopics.query``): service, request, reply, timeout.
+Ask = Callable[[str, bytes, Reply, float], None]
 
 
 class Subscribe(Protocol):
@@ -76,24 +76,22 @@ class ZenohNav2:
         self._hop = hop
         self._arrive = arrive
         self._feedback_cap = RateCap(FEEDBACK_RATE)
-        self._sequence = itertools.count(1)
-        self._session: Any = None
+        self._ask: Ask | None = None
         self._store: Any = None
         self._decode: Decode | None = None
         self._gates: dict[str, Publish] = {}
-        self._gid = b""
 
     def declare(
         self,
-        session: Any,
+        ask: Ask,
         store: Any,
         decode: Decode,
         subscribe: Subscribe,
         publisher: Callable[[str, str], Publish],
     ) -> list[Any]:
-        """Worker thread: every subscriber and gate publisher on ``session``; returns what to undeclare later."""
-        self._session, self._store, self._decode = session, store, decode
-        self._gid = hashlib.blake2b(f"{session.zid()}/nav2".encode(), digest_size=GID_SIZE).digest()
+        """Worker thread: every subscriber and gate publisher of a session (``ask`` sends its queries); returns what
+        to undeclare later."""
+        self._ask, self._store, self._decode = ask, store, decode
         # rosbags builds each type's serializer on its first use (tens to hundreds of milliseconds on a loaded
         # machine): here, in the worker thread, not in the estop that sends the first cancel.
         cancel_request(store)
@@ -129,7 +127,7 @@ class ZenohNav2:
     def close(self) -> None:
         for gate in self._gates.values():
             gate.undeclare()
-        self._gates, self._session = {}, None
+        self._gates, self._ask = {}, None
 
     # -- samples (Zenoh's threads) ----------------------------------------------------------------
 
@@ -162,31 +160,25 @@ class ZenohNav2:
     def _query(self, service: str, payload: bytes, read: Callable[[bytes], Any], timeout: float) -> asyncio.Future[Any]:
         """Send the request now; the loop's future gets ``read(the first reply's payload)``."""
         answer: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
-        if self._session is None:
+        if self._ask is None:
             raise RuntimeError(f"no Zenoh session to ask {service}")
 
         def settle(value: Any) -> None:
             if not answer.done():
                 answer.set_result(value)
 
-        def on_reply(reply: Any) -> None:  # Zenoh's thread
-            if reply.ok is None:
-                logger.warning("%s answered with an error: %s", service, reply.err.payload.to_bytes()[:200])
+        def on_reply(data: bytes | None, error: str | None) -> None:  # Zenoh's thread
+            if data is None:
+                logger.warning("%s answered with an error: %s", service, error)
                 return
             try:
-                value = read(reply.ok.payload.to_bytes())
+                value = read(data)
             except ValueError as exc:
                 logger.warning("%s: %s", service, exc)
                 value = None
             self._hop(lambda: settle(value))
 
-        s = self._settings
-        attachment = (
-            Attachment(next(self._sequence), time.time_ns(), self._gid).encode() if s.keys == "rmw_zenoh" else None
-        )
-        self._session.get(
-            topic_selector(s.keys, s.domain, service), on_reply, payload=payload, attachment=attachment, timeout=timeout
-        )
+        self._ask(service, payload, on_reply, timeout)
         return answer
 
     def request_cancel(self, robot: str) -> asyncio.Future[CancelAnswer | None]:

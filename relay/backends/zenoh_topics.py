@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import importlib
+import itertools
 import time
 from collections.abc import Callable
 from typing import Any
@@ -21,6 +22,8 @@ from .cdr_encode import CommandEncoder
 from .zenoh_keys import GID_SIZE, Attachment, key_type, show_key, topic_key, topic_selector
 from .zenoh_session import ZenohSettings
 
+#: A query's answer, on Zenoh's thread: the reply's payload, or None and the error reply's text.
+Reply = Callable[[bytes | None, str | None], None]
 #: Keys remembered as warned about at most (a sender can make up new keys without end).
 MAX_WARNED_KEYS = 1000
 
@@ -97,6 +100,14 @@ class ZenohTopics:
         self._settings = settings
         self._encode = encode
         self._warn_once = warn_once
+        self._queries = itertools.count(1)
+        # A query carries rmw_zenoh's attachment as a client's request does; any 16 bytes unique to this session do.
+        self._gid = hashlib.blake2b(f"{session.zid()}/queries".encode(), digest_size=GID_SIZE).digest()
+
+    @property
+    def encoder(self) -> CommandEncoder:
+        """What encodes the messages sent on these topics (and the types' hashes in their keys)."""
+        return self._encode
 
     def publisher(self, topic: str, type_name: str, *, latched: bool = False) -> ZenohPublisher:
         s = self._settings
@@ -131,3 +142,20 @@ class ZenohTopics:
                 self._session, selector, on_sample, history=ext.HistoryConfig(detect_late_publishers=True)
             )
         return self._session.declare_subscriber(selector, on_sample)
+
+    def query(self, service: str, payload: bytes, on_reply: Reply, timeout: float) -> None:
+        """Ask ``service`` (a ROS service, or an action's ``_action/...``) now with a request's CDR bytes: each
+        reply's payload goes to ``on_reply(payload, None)``, an error reply's text to ``on_reply(None, text)``, on
+        Zenoh's thread. Returns at once."""
+        s = self._settings
+        attach = s.keys == "rmw_zenoh"
+        attachment = Attachment(next(self._queries), time.time_ns(), self._gid).encode() if attach else None
+
+        def reply(answer: Any) -> None:
+            if answer.ok is None:
+                on_reply(None, show(answer.err.payload.to_bytes()[:200].decode("utf-8", "replace")))
+            else:
+                on_reply(answer.ok.payload.to_bytes(), None)
+
+        selector = topic_selector(s.keys, s.domain, service)
+        self._session.get(selector, reply, payload=payload, attachment=attachment, timeout=timeout)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..arm.fleet_arms import FleetArm, FleetArms, load_fleet_arms
 from ..arm.kinematics import Vector, forward, points, velocity_step
+from ..arm.named import NamedStateError
 from ..arm.rules import ArmBounds, ClampedTwist, clamp_twist, step_refusal
 from ..arm.sim_arm import LOOKAHEAD
 from ..arm.wire import ArmCommand, ArmGripper, ArmPose, ArmTwist, JointsMessage, Vec3, joints_message
@@ -108,10 +109,15 @@ class ArmControl:
             self.gate.admit(client, command.robot, identifier, command.id, now, age)
             # Not a stream of twists: nothing for the deadman to watch (its motion is bounded, and every stop ends it).
             self.deadman.release_robot(command.robot)
-            if isinstance(command, ArmPose):
-                await self.backend.send_arm_pose(command.robot, command.name)
-            elif isinstance(command, ArmGripper):
-                await self.backend.send_gripper(command.robot, command.state or command.position or 0.0)
+            try:
+                if isinstance(command, ArmPose):
+                    goal = arm.states.goal(command.name, self.positions.get(command.robot))
+                    await self.backend.send_arm_pose(command.robot, command.name, goal)
+                elif isinstance(command, ArmGripper):
+                    wanted = command.state or command.position or 0.0
+                    await self.backend.send_gripper(command.robot, wanted, arm.states.gripper_position(wanted))
+            except NamedStateError as err:
+                raise CommandRejected(ErrorCode.ARM_REFUSED, f"{identifier}: {err}", command.id) from err
         if command.id is not None:
             self.outbox.ack(client, command.id)
 

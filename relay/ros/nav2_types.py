@@ -4,22 +4,22 @@ installed (the PyPI ROS wheels have none). No I/O.
 
 **The definitions** are Nav2 Jazzy's own: ``nav2_msgs/action/NavigateToPose.action`` of ros-navigation/navigation2,
 branch ``jazzy`` at f4108e5b1c2bce804a1aa0c7be6673a8eb4a1501, and ``action_msgs/srv/CancelGoal.srv`` (ROS 2 Jazzy
-and Kilted alike). rosidl splits an action ``A`` into the messages ``A_Goal``, ``A_Result``, ``A_Feedback``, the
-services ``A_SendGoal`` (``goal_id`` + goal -> ``accepted`` + ``stamp``) and ``A_GetResult`` (``goal_id`` ->
-``status`` + result), and the feedback topic's ``A_FeedbackMessage`` (``goal_id`` + feedback); a service ``S`` into
-``S_Request`` and ``S_Response``. :func:`action_types` and :func:`service_types` do the same from the text, so the
-RIHS01 hashes rosbags computes are those of the definitions above.
+and Kilted alike), split into messages as rosidl splits them (relay/ros/idl_types.py), so the RIHS01 hashes rosbags
+computes are those of the definitions above.
 
-**The type store** is the one the project uses everywhere (``relay.ros.ros_env.typestore``: the running distribution's,
-else the latest), with these types added (:func:`typestore`). rosbags' objects have rclpy's attribute names.
+**The type store** is the one the project uses everywhere (``relay.ros.ros_env.typestore``: the running
+distribution's, else the latest), with these types and control_msgs' GripperCommand added (:func:`typestore`).
+rosbags' objects have rclpy's attribute names.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final
+
+from . import control_types
+from .idl_types import Decode, action_types, goal_id_message, service_types
 
 #: nav2_msgs/action/NavigateToPose.action, Nav2 Jazzy (see the module's docstring).
 NAVIGATE_TO_POSE_ACTION: Final = """\
@@ -112,51 +112,6 @@ NAV2_ERRORS: Final = {
 #: The 16 zero bytes of a goal id that means "every goal" in a CancelGoal request.
 ALL_GOALS: Final = bytes(16)
 
-Typesdict = dict[str, Any]
-
-
-def _parts(text: str, count: int, what: str) -> list[str]:
-    parts: list[list[str]] = [[]]
-    for line in text.splitlines():
-        if line.strip() == "---":
-            parts.append([])
-        else:
-            parts[-1].append(line)
-    if len(parts) != count:
-        raise ValueError(f"{what}: expected {count} parts separated by '---', got {len(parts)}")
-    return ["\n".join(part) + "\n" for part in parts]
-
-
-def _msg(text: str, name: str) -> Typesdict:
-    from rosbags.typesys import get_types_from_msg
-
-    # rosbags files a name whose folder is neither msg nor action under msg (action_msgs/srv/msg/...): the definition
-    # is the same, its name is put back.
-    (definition,) = get_types_from_msg(text, name).values()
-    return {name: definition}
-
-
-def action_types(name: str, text: str) -> Typesdict:
-    """The messages rosidl makes of the action ``name`` (``pkg/action/Name``) defined by ``text``."""
-    goal, result, feedback = _parts(text, 3, name)
-    types: Typesdict = {}
-    types |= _msg(goal, f"{name}_Goal")
-    types |= _msg(result, f"{name}_Result")
-    types |= _msg(feedback, f"{name}_Feedback")
-    uuid = "unique_identifier_msgs/UUID goal_id\n"
-    types |= _msg(f"{uuid}{name}_Goal goal\n", f"{name}_SendGoal_Request")
-    types |= _msg("bool accepted\nbuiltin_interfaces/Time stamp\n", f"{name}_SendGoal_Response")
-    types |= _msg(uuid, f"{name}_GetResult_Request")
-    types |= _msg(f"int8 status\n{name}_Result result\n", f"{name}_GetResult_Response")
-    types |= _msg(f"{uuid}{name}_Feedback feedback\n", f"{name}_FeedbackMessage")
-    return types
-
-
-def service_types(name: str, text: str) -> Typesdict:
-    """The request and response of the service ``name`` (``pkg/srv/Name``) defined by ``text``."""
-    request, response = _parts(text, 2, name)
-    return _msg(request, f"{name}_Request") | _msg(response, f"{name}_Response")
-
 
 def register(store: Any) -> Any:
     """Add NavigateToPose's and CancelGoal's types to ``store`` (those it lacks); returns it."""
@@ -166,16 +121,14 @@ def register(store: Any) -> Any:
 
 
 def typestore() -> Any:
-    """The project's type store (``relay.ros.ros_env.typestore``) with Nav2's action types registered."""
+    """The project's type store (``relay.ros.ros_env.typestore``) with Nav2's action types and control_msgs'
+    GripperCommand (relay/ros/control_types.py) registered."""
     from .ros_env import typestore as project_typestore
 
-    return register(project_typestore())
+    return control_types.register(register(project_typestore()))
 
 
 # -- what the relay reads -------------------------------------------------------------------------
-
-#: ``decode(data, type_name)``: the message (rosbags), or ValueError naming the type (relay.backends.ingest.RawDecoder).
-Decode = Callable[[bytes, str], Any]
 
 
 def _seconds(t: Any) -> float:
@@ -258,20 +211,12 @@ def read_result_response(data: bytes, decode: Decode) -> ResultAnswer:
 # -- what the relay writes ------------------------------------------------------------------------
 
 
-def _goal_id(store: Any, goal_id: bytes) -> Any:
-    import numpy as np
-
-    if len(goal_id) != 16:
-        raise ValueError(f"a goal id is 16 bytes, not {len(goal_id)}")
-    return store.types["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(goal_id, dtype=np.uint8).copy())
-
-
 def cancel_request(store: Any, goal_id: bytes = ALL_GOALS, stamp: float = 0.0) -> bytes:
     """A CancelGoal request's CDR; the defaults (zero id, zero stamp) cancel every goal of the server."""
     t = store.types
     sec = int(stamp)
     info = t["action_msgs/msg/GoalInfo"](
-        goal_id=_goal_id(store, goal_id),
+        goal_id=goal_id_message(store, goal_id),
         stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=int((stamp - sec) * 1e9)),
     )
     return bytes(store.serialize_cdr(t[CANCEL_REQUEST](goal_info=info), CANCEL_REQUEST))
@@ -279,7 +224,8 @@ def cancel_request(store: Any, goal_id: bytes = ALL_GOALS, stamp: float = 0.0) -
 
 def get_result_request(store: Any, goal_id: bytes) -> bytes:
     t = store.types
-    return bytes(store.serialize_cdr(t[GET_RESULT_REQUEST](goal_id=_goal_id(store, goal_id)), GET_RESULT_REQUEST))
+    request = t[GET_RESULT_REQUEST](goal_id=goal_id_message(store, goal_id))
+    return bytes(store.serialize_cdr(request, GET_RESULT_REQUEST))
 
 
 def failure_reason(error_code: int, error_msg: str) -> str:

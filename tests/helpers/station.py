@@ -10,6 +10,7 @@ from typing import Any, ClassVar
 
 import orjson
 
+from relay.arm.named import JointGoal
 from relay.backends.base import Backend, Vec3
 from relay.config import FleetConfig
 from relay.fleet.events import EventSink, FrameEvent
@@ -66,11 +67,11 @@ class FakeBackend(Backend):
     async def send_arm_twist(self, robot: str, linear: Vec3, angular: Vec3) -> None:
         self.arm_calls.append(("arm_twist", robot, linear, angular))
 
-    async def send_arm_pose(self, robot: str, pose: str) -> None:
-        self.arm_calls.append(("arm_pose", robot, pose))
+    async def send_arm_pose(self, robot: str, pose: str, goal: JointGoal) -> None:
+        self.arm_calls.append(("arm_pose", robot, pose, goal))
 
-    async def send_gripper(self, robot: str, command: str | float) -> None:
-        self.arm_calls.append(("gripper", robot, command))
+    async def send_gripper(self, robot: str, command: str | float, position: float) -> None:
+        self.arm_calls.append(("gripper", robot, command, position))
 
     async def stop_arm(self, robot: str) -> None:
         self.arm_calls.append(("arm_stop", robot))
