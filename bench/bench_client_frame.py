@@ -140,8 +140,8 @@ def client_takes_token() -> bool:
     return source.exists() and "token" in source.read_text()
 
 
-async def start_relay(name: str, config: Path, token: str | None) -> tuple[Child, int]:
-    args = ["-m", "bench.relay_proc", "--server", "xr", "--backend", "sim", "--config", str(config)]
+async def start_relay(name: str, config: Path, token: str | None, *extra: str) -> tuple[Child, int]:
+    args = ["-m", "bench.relay_proc", "--server", "xr", "--backend", "sim", "--config", str(config), *extra]
     args += ["--camera-jpeg", str(FISHEYE / "front.jpg"), "--camera-size", str(SIZE), str(SIZE)]
     args += ["--camera-rate", str(STREAM_FPS)]
     if token:

@@ -261,10 +261,14 @@ class Counter:
 
 
 def relay_options(
-    backend: str, token: str | None, zenoh_connect: str | None = None, record_session: str | None = None
+    backend: str,
+    token: str | None,
+    zenoh_connect: str | None = None,
+    record_session: str | None = None,
+    database: str | None = None,
 ) -> Options:
     names = {f.name for f in dataclasses.fields(Options)}
-    kwargs: dict[str, Any] = {"backend": backend, "audit_log": None}
+    kwargs: dict[str, Any] = {"backend": backend, "audit_log": None, "database": database}
     if record_session and "record_session" in names:
         kwargs["record_session"] = record_session
     if token and "token" in names:
@@ -297,7 +301,11 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
         return create_backend(cfg, counter, options)
 
     options = relay_options(
-        "sim" if args.backend == "synthetic" else args.backend, args.token, args.zenoh_connect, args.record_session
+        "sim" if args.backend == "synthetic" else args.backend,
+        args.token,
+        args.zenoh_connect,
+        args.record_session,
+        args.database,
     )
     # The benchmarks' publishers stamp with time.monotonic() (bench/ros_pub.py, the synthetic backend): it is the
     # relay's clock of record here, so that the latency it exports and the page shows compare the same clocks.
@@ -546,6 +554,7 @@ def main() -> None:
     parser.add_argument("--camera-rate", type=float, default=30.0)
     parser.add_argument("--token", default=None)
     parser.add_argument("--record-session", default=None, help="record the session to this MCAP file (xr only)")
+    parser.add_argument("--database", default=None, help="the inspection database (xr only; the 3D map's file beside)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from .common import JsonDict, Settings, fmt
+from .report_map import cloud_section, map_frame_section
 from .report_operators import arm_section, recording_section
 from .report_page import Page, anchor, pct, section, status, table
 
@@ -27,6 +28,8 @@ ORDER = (
     "estop",
     "arm",
     "recording",
+    "cloud",
+    "map_frame",
 )
 COLOURS = {"xr": "#1f77b4", "xr-single": "#9467bd", "naive": "#d62728", "foxglove": "#2ca02c"}
 LABELS = {
@@ -836,6 +839,8 @@ SECTIONS = {
     "foxglove_peer": foxglove_section,
     "arm": arm_section,
     "recording": recording_section,
+    "cloud": cloud_section,
+    "map_frame": map_frame_section,
 }
 
 

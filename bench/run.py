@@ -23,8 +23,10 @@ from . import (
     bench_arm,
     bench_camera,
     bench_client_frame,
+    bench_cloud,
     bench_estop,
     bench_foxglove_peer,
+    bench_map_frame,
     bench_pose_fanout,
     bench_recording,
     bench_ros_ingest,
@@ -45,6 +47,8 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_estop,
     bench_recording,
     bench_arm,
+    bench_cloud,
+    bench_map_frame,
 )
 
 

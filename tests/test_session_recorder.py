@@ -41,11 +41,11 @@ def test_a_session_reads_back_from_its_mcap_in_order(tmp_path: Path) -> None:
     assert recorder.written == 505 and recorder.dropped == 0
 
 
-def test_the_queue_is_bounded_and_a_full_one_drops_counted(tmp_path: Path) -> None:
+def test_what_waits_for_the_writer_is_bounded_and_a_full_list_drops_counted(tmp_path: Path) -> None:
     recorder = SessionRecorder(tmp_path / "never-opened.mcap", max_queue=10)
     for k in range(15):  # no writer drains it: the loop must still never wait
         recorder.record("/out/robot1/pose", b"{}", k)
-    assert recorder.queue.qsize() == 10 and recorder.dropped == 5
+    assert len(recorder.pending) == 10 and recorder.dropped == 5
 
 
 def test_an_existing_file_is_kept_and_an_unwritable_place_named(tmp_path: Path) -> None:

@@ -1,10 +1,13 @@
 """robot3's arm by the hand in VR (issue #32), on IWER's emulated Quest 3: with robot3 selected, a squeeze of the
 right controller at the arm's gripper takes it, the gripper follows the controller's motion (half of it) while the
-squeeze is held, the gripper's camera shows beside it meanwhile, and letting go stops the arm and that camera's stream.
+squeeze is held, and pitches with it, the gripper's camera shows beside it meanwhile, and letting go stops the arm and
+that camera's stream.
 Needs the shared data (turtlebot3_manipulation_description)."""
 
 from __future__ import annotations
 
+import math
+import time
 from typing import Any
 
 from relay.arm.kinematics import forward
@@ -17,6 +20,28 @@ def tip_height(station: Station) -> float:
     backend: Any = station.running.relay.backend
     arm = backend._arms.arms["robot3"]
     return float(forward(arm.model, arm.positions)[2, 3])
+
+
+def gripper_pitch(station: Station) -> float:
+    """How far the gripper's axis points below the horizontal (rad)."""
+    backend: Any = station.running.relay.backend
+    arm = backend._arms.arms["robot3"]
+    return -math.asin(float(forward(arm.model, arm.positions)[2, 0]))
+
+
+#: Turn the right controller by an angle about a world axis (the reference space is the rig's: the axis is turned
+#: into it), on the next XR frame.
+_TURN = """
+async ([axis, angle]) => {
+  const THREE = await import('three');
+  const rig = new THREE.Quaternion(...window.__xrRelay.state.rig.quaternion);
+  const local = new THREE.Vector3(...axis).applyQuaternion(rig.invert()).normalize();
+  const c = window.__iwer.controllers.right;
+  const turned = new THREE.Quaternion().setFromAxisAngle(local, angle)
+    .multiply(new THREE.Quaternion(c.quaternion.x, c.quaternion.y, c.quaternion.z, c.quaternion.w));
+  c.quaternion.set(turned.x, turned.y, turned.z, turned.w);
+}
+"""
 
 
 async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_hand(
@@ -41,6 +66,13 @@ async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_han
     camera = await client.wait("s.arms.robot3.gripperCamera.frames > 0 && s.arms.robot3.gripperCamera", 30)
     assert camera["visible"] and camera["identifier"] == "robot3/camera/gripper", camera
     await client.shot("00-gripper-camera")
+    # The hand pitches its fingers down 0.6 rad (about the robot's left, in the twin: the map's y turned by its yaw):
+    # the gripper pitches down too, where the tip stays (the relay fits the turn in what its position leaves free).
+    pitch = gripper_pitch(station)
+    yaw = station.running.relay.fleet.snapshot(time.monotonic())["robot3"]["pose"]["yaw"]
+    left = [-math.sin(yaw), 0.0, -math.cos(yaw)]  # the map's (-sin, cos, 0) in the twin's frame (x, up, -y)
+    await client.page.evaluate(_TURN, [left, 0.6])
+    await wait_until(lambda: gripper_pitch(station) > pitch + 0.1, 30, "robot3's gripper pitching down with the hand")
     await button(client, "right", "squeeze", 0)
     await client.wait("!s.arms.robot3.held && !s.arms.robot3.gripperCamera.visible", 10)
     backend: Any = station.running.relay.backend

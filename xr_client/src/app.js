@@ -39,7 +39,7 @@ import { isVoxelFrame } from './voxel_map.js';
  *   say: (text: string, toast?: boolean) => void,
  *   offerTakeOver: (goal: Goal) => void, goalTo: (robot: string, goal: Goal) => void,
  *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void,
- *   confirmVoice: (how: string) => boolean, jogArm: (linear: import('./arm_jog.js').Vec3) => void,
+ *   confirmVoice: (how: string) => boolean, jogArm: (linear: import('./arm_jog.js').Vec3, angular?: import('./arm_jog.js').Vec3) => void,
  *   grip: (state: string | number) => void}} OperatorActions
  */
 
@@ -97,7 +97,7 @@ export class App {
       apply: (effects) => this.menuEffects.apply(effects),
       talk: (down) => this.views.voice.talk(down),
       confirmVoice: (how) => this.views.voice.confirmByGesture(how),
-      jogArm: (linear) => this.#jogArm(linear),
+      jogArm: (linear, angular) => this.#jogArm(linear, angular),
       grip: (state) => {
         const robot = this.#armRobot();
         if (robot) this.armSender.gripper(robot, state);
@@ -253,11 +253,11 @@ export class App {
   }
 
   /**
-   * The arm's keys on the 100 Hz timer: twists at 20 Hz while held, one zero on release.
-   * @param {import('./arm_jog.js').Vec3} linear
+   * The arm's keys on the 100 Hz timer, or the hand holding it: twists at 20 Hz while held, one zero on release.
+   * @param {import('./arm_jog.js').Vec3} linear @param {import('./arm_jog.js').Vec3} [angular]
    */
-  #jogArm(linear) {
-    for (const twist of this.armJog.update(this.#armRobot(), linear, [0, 0, 0], performance.now()))
+  #jogArm(linear, angular = [0, 0, 0]) {
+    for (const twist of this.armJog.update(this.#armRobot(), linear, angular, performance.now()))
       this.armSender.twist(twist);
   }
 

@@ -6,6 +6,12 @@
  * y left, z up): the view turns the hand's pose into that frame through the robot's body, so the robot's pose, its
  * heading and the twin's scale are already in them. No DOM, no WebGL: test/arm_grab.test.js drives it.
  *
+ * The hand's turn is followed too, as the tip's pointing (the gripper's axis: the last link of the joints' skeleton):
+ * the hand's rotation since the squeeze, scaled as its motion is, turns the direction the tip pointed then, and the
+ * twist's angular part turns the tip toward it at the same gain (the relay fits orientation in what the position
+ * leaves free: a four-joint arm follows the hand's pitch and yaw as far as its wrist can). Roll about the gripper's
+ * own axis is not followed (the demo arm has no wrist roll).
+ *
  * The twist is a position loop, not the hand's velocity: it drives the tip toward where the hand puts it, so a
  * refused or clamped motion never accumulates an offset, and the tip stops where the hand stops. A twist stands until
  * the next frame sends another, and the tip it is computed from is at least a frame old: on slow frames the loop's
@@ -33,6 +39,8 @@ export const FOLLOW_PER_FRAME = 0.25;
 const INTERVAL_DECAY = 0.9;
 /** Closer than this (m) the tip is where the hand puts it: no twist (the joint states' rounding is 0.1 mm). */
 export const DEAD_BAND = 0.002;
+/** Closer than this (rad, about a degree) the tip points where the hand turns it: no turn. */
+export const TURN_DEAD_BAND = 0.02;
 /** The trigger moves the gripper at most this often (ms): 10 commands a second, each acknowledged by the relay. */
 export const GRIP_PERIOD_MS = 100;
 /** A change of the trigger smaller than this (of its travel) is not sent, except to reach either end. */
@@ -44,11 +52,15 @@ export const GRIP_STEP = 0.05;
 export const GRIP_REFRESH_MS = 1000;
 
 /** @typedef {[number, number, number]} Vec3 */
+/** @typedef {[number, number, number, number]} Quat x, y, z, w */
+/** @typedef {{hand: Quat, dir: Vec3}} Pointing the hand's orientation and the tip's direction, in the base link */
 
 export class ArmGrab {
-  /** The hand holding the arm (its input slot), where it and the tip were when it took it. */
-  /** @type {{slot: number, hand: Vec3, tip: Vec3} | null} */
+  /** The hand holding the arm (its input slot), where it and the tip were when it took it, and how they pointed. */
+  /** @type {{slot: number, hand: Vec3, tip: Vec3, pointing: Pointing | null} | null} */
   held = null;
+  /** The loop's gain at the last follow (1/s): the turn uses the frame's. */
+  gain = FOLLOW_GAIN;
   /** The tip's motion per metre of the hand's. */
   scale = HAND_SCALE;
   /** The frames' interval (s): the longest lately, forgotten slowly (INTERVAL_DECAY). */
@@ -59,21 +71,23 @@ export class ArmGrab {
   /**
    * Scale the hand's motion by `scale` from now: a held arm is taken again where the hand and the tip are, so the
    * change never makes the tip jump. @param {number} scale @param {Vec3 | null} hand @param {Vec3 | null} tip
+   * @param {Pointing | null} [pointing]
    */
-  setScale(scale, hand, tip) {
+  setScale(scale, hand, tip, pointing = null) {
     if (scale === this.scale) return;
     this.scale = scale;
-    if (this.held && hand && tip) this.held = { slot: this.held.slot, hand: [...hand], tip: [...tip] };
+    if (this.held && hand && tip) this.held = { slot: this.held.slot, hand: [...hand], tip: [...tip], pointing };
   }
 
   /**
    * A squeeze began: the hand of `slot` takes the arm when it is within GRAB_RADIUS of the tip (and no other hand
    * holds it). @param {number} slot @param {Vec3} hand @param {Vec3} tip @param {number} now ms (the frame's)
+   * @param {Pointing | null} [pointing] how the hand and the tip point (null: the turn is not followed)
    * @returns {boolean} whether it took it
    */
-  squeeze(slot, hand, tip, now) {
+  squeeze(slot, hand, tip, now, pointing = null) {
     if (this.held !== null || distance(hand, tip) > GRAB_RADIUS) return false;
-    this.held = { slot, hand: [...hand], tip: [...tip] };
+    this.held = { slot, hand: [...hand], tip: [...tip], pointing };
     this.lastFollow = now; // the first twist's gain is fitted to the frame it follows
     this.interval = 0;
     return true;
@@ -92,7 +106,29 @@ export class ArmGrab {
     const error = /** @type {Vec3} */ ([0, 1, 2].map((i) => tip0[i] + this.scale * (hand[i] - hand0[i]) - tip[i]));
     if (distance(error, [0, 0, 0]) < DEAD_BAND) return [0, 0, 0];
     const gain = this.interval > 0 ? Math.min(FOLLOW_GAIN, FOLLOW_PER_FRAME / this.interval) : FOLLOW_GAIN;
+    this.gain = gain;
     return /** @type {Vec3} */ (error.map((e) => gain * e));
+  }
+
+  /**
+   * The tip's angular velocity (rad/s, base link) toward where the held hand's turn points it, asked after `follow`
+   * in the same frame (its gain); zeros when nothing holds it or its pointing was not known.
+   * @param {Quat | null} hand the hand's orientation now @param {Vec3 | null} dir the tip's direction now @returns {Vec3}
+   */
+  turn(hand, dir) {
+    const start = this.held?.pointing;
+    if (!start || !hand || !dir) return [0, 0, 0];
+    const [axis, angle] = axisAngle(multiply(hand, conjugate(start.hand)));
+    const wanted = rotate(fromAxisAngle(axis, this.scale * angle), start.dir);
+    const cross = /** @type {Vec3} */ ([
+      dir[1] * wanted[2] - dir[2] * wanted[1],
+      dir[2] * wanted[0] - dir[0] * wanted[2],
+      dir[0] * wanted[1] - dir[1] * wanted[0],
+    ]);
+    const sine = Math.hypot(...cross);
+    const off = Math.atan2(sine, dir[0] * wanted[0] + dir[1] * wanted[1] + dir[2] * wanted[2]);
+    if (off < TURN_DEAD_BAND || sine === 0) return [0, 0, 0];
+    return /** @type {Vec3} */ (cross.map((c) => (this.gain * off * c) / sine));
   }
 
   /** The hand of `slot` let go (or left tracking): whether it held the arm. @param {number} slot */
@@ -137,4 +173,42 @@ export class GripperTrigger {
 /** @param {number[]} a @param {number[]} b */
 function distance(a, b) {
   return Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+}
+
+/** The rotation `b`, then `a` (the Hamilton product a * b). @param {Quat} a @param {Quat} b @returns {Quat} */
+function multiply(a, b) {
+  const [ax, ay, az, aw] = a;
+  const [bx, by, bz, bw] = b;
+  return [
+    aw * bx + ax * bw + ay * bz - az * by,
+    aw * by - ax * bz + ay * bw + az * bx,
+    aw * bz + ax * by - ay * bx + az * bw,
+    aw * bw - ax * bx - ay * by - az * bz,
+  ];
+}
+
+/** @param {Quat} q @returns {Quat} */
+function conjugate(q) {
+  return [-q[0], -q[1], -q[2], q[3]];
+}
+
+/** The rotation's unit axis and its angle in [0, pi] (rad). @param {Quat} q @returns {[Vec3, number]} */
+function axisAngle(q) {
+  const w = q[3] < 0 ? -q[3] : q[3]; // the shorter way round
+  const sign = q[3] < 0 ? -1 : 1;
+  const s = Math.hypot(q[0], q[1], q[2]);
+  if (s < 1e-12) return [[1, 0, 0], 0];
+  return [[(sign * q[0]) / s, (sign * q[1]) / s, (sign * q[2]) / s], 2 * Math.atan2(s, w)];
+}
+
+/** @param {Vec3} axis unit @param {number} angle rad @returns {Quat} */
+function fromAxisAngle(axis, angle) {
+  const s = Math.sin(angle / 2);
+  return [axis[0] * s, axis[1] * s, axis[2] * s, Math.cos(angle / 2)];
+}
+
+/** The vector `v` turned by `q`. @param {Quat} q @param {Vec3} v @returns {Vec3} */
+function rotate(q, v) {
+  const r = multiply(multiply(q, [v[0], v[1], v[2], 0]), conjugate(q));
+  return [r[0], r[1], r[2]];
 }

@@ -109,3 +109,42 @@ test("the trigger's travel is the gripper's, open to closed, at most 10 a second
   trigger.reset(); // let go: the next hold sets it afresh
   assert.equal(trigger.update(0.7, range, 1000), 0.01 + 0.7 * -0.02);
 });
+
+/** A turn of `angle` rad about the unit `axis`, as a quaternion [x, y, z, w]. @returns {[number, number, number, number]} */
+function about(/** @type {number[]} */ axis, /** @type {number} */ angle) {
+  const s = Math.sin(angle / 2);
+  return [axis[0] * s, axis[1] * s, axis[2] * s, Math.cos(angle / 2)];
+}
+
+test("the hand's turn points the tip, scaled as its motion, and stops once the tip points there", () => {
+  const grab = new ArmGrab();
+  /** @type {[number, number, number]} */ const forward = [1, 0, 0];
+  assert.ok(grab.squeeze(0, [0.3, 0, 0.2], [0.3, 0, 0.2], 0, { hand: about([0, 0, 1], 0), dir: forward }));
+  grab.follow([0.3, 0, 0.2], [0.3, 0, 0.2], 14);
+  // The hand yaws 90 degrees left: at half scale the tip should point 45 degrees left, so it turns about +z.
+  const yawed = grab.turn(about([0, 0, 1], Math.PI / 2), forward);
+  assert.ok(Math.abs(yawed[0]) < 1e-9 && Math.abs(yawed[1]) < 1e-9, String(yawed));
+  assert.ok(Math.abs(yawed[2] - FOLLOW_GAIN * (Math.PI / 4)) < 1e-9, String(yawed));
+  // Once the tip points there, no turn.
+  const there = /** @type {[number, number, number]} */ ([Math.SQRT1_2, Math.SQRT1_2, 0]);
+  assert.deepEqual(grab.turn(about([0, 0, 1], Math.PI / 2), there), [0, 0, 0]);
+  // The hand pitches its fingers down (about +y in the base link, x forward, z up): the tip turns down the same way.
+  const pitched = grab.turn(about([0, 1, 0], 0.6), forward);
+  assert.ok(pitched[1] > 0 && Math.abs(pitched[0]) < 1e-9 && Math.abs(pitched[2]) < 1e-9, String(pitched));
+  // A roll about the tip's own axis points it nowhere new.
+  assert.deepEqual(grab.turn(about([1, 0, 0], 1.0), forward), [0, 0, 0]);
+});
+
+test('the turn is nothing without a held arm or a known pointing, and 1:1 follows the whole turn', () => {
+  const grab = new ArmGrab();
+  assert.deepEqual(grab.turn(about([0, 0, 1], 1), [1, 0, 0]), [0, 0, 0]);
+  grab.squeeze(0, [0, 0, 0], [0, 0, 0], 0); // its pointing unknown (no skeleton yet)
+  assert.deepEqual(grab.turn(about([0, 0, 1], 1), [1, 0, 0]), [0, 0, 0]);
+  grab.release(0);
+  const start = { hand: about([0, 0, 1], 0), dir: /** @type {[number, number, number]} */ ([1, 0, 0]) };
+  grab.squeeze(0, [0, 0, 0], [0, 0, 0], 0, start);
+  grab.setScale(1, [0, 0, 0], [0, 0, 0], start);
+  grab.follow([0, 0, 0], [0, 0, 0], 14);
+  const turned = grab.turn(about([0, 0, 1], 0.5), [1, 0, 0]);
+  assert.ok(Math.abs(turned[2] - FOLLOW_GAIN * 0.5) < 1e-9, String(turned));
+});

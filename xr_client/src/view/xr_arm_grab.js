@@ -7,8 +7,9 @@
  * selects nothing else. A tick of haptics says the arm was taken; a motion the relay refuses (a joint limit, the
  * workspace's edge, the arm reaching into its base) pulses the holding hand and shows why beside the gripper. The
  * camera on the gripper, if the arm has one, is shown beside it while it is held (view/gripper_camera.js).
- * The hand's position is read in the robot's body (RobotView.body), so the robot's pose, heading and the twin's scale
- * are in it; the body's glTF frame (y up, z back) is turned into the arm's base link (x forward, y left, z up).
+ * The hand's position and turn are read in the robot's body (RobotView.body), so the robot's pose, heading and the
+ * twin's scale are in them; the body's glTF frame (y up, z back) is turned into the arm's base link (x forward, y left,
+ * z up). The tip's pointing is its last link in the joints' skeleton (from the wrist to the tip).
  */
 import * as THREE from 'three';
 import { ArmGrab, GripperTrigger, HAND_SCALE } from '../arm_grab.js';
@@ -16,6 +17,11 @@ import { GripperCamera } from './gripper_camera.js';
 import { LabelSprite } from './label_sprite.js';
 
 const world = new THREE.Vector3();
+const turned = new THREE.Quaternion();
+const bodyTurn = new THREE.Quaternion();
+/** The body's glTF frame (y up, z back) to the arm's base link (x forward, y left, z up): a quarter turn about x. */
+const TO_BASE = new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(1, 0, 0), Math.PI / 2);
+const FROM_BASE = TO_BASE.clone().invert();
 /** The refusal's line hangs this far over the gripper (m). */
 const LABEL_ABOVE = 0.07;
 
@@ -60,17 +66,20 @@ export class XRArmGrab {
       const hand = body && tip && slot.source ? this.#hand(slot, body) : null;
       const began = slot.squeezing && !this.squeezed[slot.index];
       this.squeezed[slot.index] = slot.squeezing;
-      if (hand && tip && began && this.grab.squeeze(slot.index, hand, tip, now)) input.pulse(slot, 0.5, 40);
+      const pointing = hand && began && joints ? this.#pointing(slot, body, joints.points) : null;
+      if (hand && tip && began && this.grab.squeeze(slot.index, hand, tip, now, pointing)) input.pulse(slot, 0.5, 40);
       if (this.grab.held?.slot === slot.index && (!slot.squeezing || !hand)) this.#release(slot.index);
     }
     const held = this.grab.held ? input.slots[this.grab.held.slot] : null;
     const hand = held && body ? this.#hand(held, body) : null;
-    this.grab.setScale(menu.options.handOneToOne ? 1 : HAND_SCALE, hand, tip ?? null);
+    const pointing = held && body && joints ? this.#pointing(held, body, joints.points) : null;
+    this.grab.setScale(menu.options.handOneToOne ? 1 : HAND_SCALE, hand, tip ?? null, pointing);
     if (held && hand && tip && joints) {
       input.takeEvents(held); // its trigger closes the gripper: it selects nothing under its ray meanwhile
       const position = this.trigger.update(input.trigger(held), joints.gripper ?? [], now);
       if (position !== null) actions.grip(position);
-      actions.jogArm(this.grab.follow(hand, tip, now));
+      const linear = this.grab.follow(hand, tip, now);
+      actions.jogArm(linear, this.grab.turn(pointing?.hand ?? null, pointing?.dir ?? null));
       this.moving = true;
     } else if (this.moving) {
       this.grab.held = null; // the robot was deselected or its arm went: the hand holds nothing
@@ -127,6 +136,28 @@ export class XRArmGrab {
     carrier.getWorldPosition(world);
     const local = body.worldToLocal(world);
     return [local.x, -local.z, local.y];
+  }
+
+  /**
+   * The hand's orientation and the tip's direction in the arm's base link, or null (no tracked hand, no wrist link).
+   * @param {import('./xr_input.js').InputSlot} slot @param {THREE.Object3D | undefined} body
+   * @param {number[][]} points the joints' skeleton, base link to tip
+   * @returns {import('../arm_grab.js').Pointing | null}
+   */
+  #pointing(slot, body, points) {
+    if (!body || points.length < 2) return null;
+    const [a, b] = points.slice(-2);
+    const length = Math.hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    const handedness = slot.source?.handedness;
+    const wrist = handedness === 'left' || handedness === 'right' ? this.host.input.wrist(handedness) : null;
+    const carrier = wrist?.carrier ?? slot.grip;
+    if (length === 0 || (!carrier.visible && !wrist?.hand)) return null;
+    carrier.getWorldQuaternion(turned);
+    body.getWorldQuaternion(bodyTurn);
+    // In the body's frame, then its axes renamed as the base link's: q_base = TO_BASE * q_body * TO_BASE^-1.
+    turned.premultiply(bodyTurn.invert()).premultiply(TO_BASE).multiply(FROM_BASE);
+    const dir = /** @type {[number, number, number]} */ ([0, 1, 2].map((i) => (b[i] - a[i]) / length));
+    return { hand: [turned.x, turned.y, turned.z, turned.w], dir };
   }
 
   dispose() {
