@@ -69,7 +69,9 @@ async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_han
     # The hand pitches its fingers down 0.6 rad (about the robot's left, in the twin: the map's y turned by its yaw):
     # the gripper pitches down too, where the tip stays (the relay fits the turn in what its position leaves free).
     pitch = gripper_pitch(station)
-    yaw = station.running.relay.fleet.snapshot(time.monotonic())["robot3"]["pose"]["yaw"]
+    pose = station.running.relay.fleet.snapshot(time.monotonic())["robot3"]["pose"]
+    assert pose is not None
+    yaw = pose["yaw"]
     left = [-math.sin(yaw), 0.0, -math.cos(yaw)]  # the map's (-sin, cos, 0) in the twin's frame (x, up, -y)
     await client.page.evaluate(_TURN, [left, 0.6])
     await wait_until(lambda: gripper_pitch(station) > pitch + 0.1, 30, "robot3's gripper pitching down with the hand")

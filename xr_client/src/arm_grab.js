@@ -113,7 +113,8 @@ export class ArmGrab {
   /**
    * The tip's angular velocity (rad/s, base link) toward where the held hand's turn points it, asked after `follow`
    * in the same frame (its gain); zeros when nothing holds it or its pointing was not known.
-   * @param {Quat | null} hand the hand's orientation now @param {Vec3 | null} dir the tip's direction now @returns {Vec3}
+   * @param {Quat | null} hand the hand's orientation now @param {Vec3 | null} dir the tip's direction now
+   * @returns {Vec3}
    */
   turn(hand, dir) {
     const start = this.held?.pointing;
