@@ -39,7 +39,8 @@ import { isVoxelFrame } from './voxel_map.js';
  *   say: (text: string, toast?: boolean) => void,
  *   offerTakeOver: (goal: Goal) => void, goalTo: (robot: string, goal: Goal) => void,
  *   apply: (effects: import('./menu_state.js').MenuEffect[]) => void, talk: (down: boolean) => void,
- *   confirmVoice: (how: string) => boolean, jogArm: (linear: import('./arm_jog.js').Vec3, angular?: import('./arm_jog.js').Vec3) => void,
+ *   confirmVoice: (how: string) => boolean,
+ *   jogArm: (linear: import('./arm_jog.js').Vec3, angular?: import('./arm_jog.js').Vec3) => void,
  *   grip: (state: string | number) => void}} OperatorActions
  */
 
