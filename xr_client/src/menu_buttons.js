@@ -31,6 +31,7 @@ export function menuButtons(menu) {
     held: menu.holder !== null && !latched,
   };
   return [
+    ...questionButtons(menu),
     ...modeButtons(menu, context),
     ...robotButtons(menu),
     ...toolButtons(menu, context),
@@ -41,6 +42,33 @@ export function menuButtons(menu) {
     ...optionButtons(menu),
     ...estopButtons(menu, context),
   ];
+}
+
+/** The groups of a study's question (questionButtons): the VR panel's first rows while one is asked. */
+export const QUESTION_GROUPS = Object.freeze(['question', 'question2', 'answers', 'answering']);
+
+/**
+ * A study's question asked now: its words (a caption a line), its answers, and Back, Next and Send.
+ * @param {MenuState} menu @returns {MenuButton[]}
+ */
+function questionButtons(menu) {
+  const q = menu.question;
+  if (!q) return [];
+  return [
+    ...q.lines.map((label, i) => ({ id: `study:line${i}`, label, group: i ? 'question2' : 'question', active: false,
+                                     enabled: false, caption: true })), // prettier-ignore
+    ...q.answers.map((b) => ({ ...b, group: 'answers' })),
+    ...q.moves.map((b) => ({ ...b, group: 'answering' })),
+  ];
+}
+
+/**
+ * What the VR panel shows of the buttons: while a study's question is asked, only it and E-STOP (the headset's
+ * only way to answer; the robots wait, and E-STOP never goes). @param {MenuButton[]} buttons @returns {MenuButton[]}
+ */
+export function panelButtons(buttons) {
+  if (!buttons.some((b) => QUESTION_GROUPS.includes(b.group))) return buttons;
+  return buttons.filter((b) => QUESTION_GROUPS.includes(b.group) || b.group === 'estop');
 }
 
 /**

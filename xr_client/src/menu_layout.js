@@ -6,6 +6,10 @@
 
 /** Row order and titles of the button groups. */
 export const MENU_ROWS = Object.freeze([
+  ['question', 'Study'],
+  ['question2', ''],
+  ['answers', 'Answer'],
+  ['answering', ''],
   ['mode', 'View'],
   ['robots', 'Robot'],
   ['pages', ''],

@@ -18,6 +18,8 @@
  *   target's last round (or the switch is on); the second, pressed again, is the first: with the
  *   second, the pins (and the desktop's findings list) show only what changed since each target's last round
  *   (change_colour.js), the same switch as the findings panel's;
+ * - a study's question asked now (its words, its answers, Back, Next and Send) heads the menu; in VR the panel then
+ *   shows only it and E-STOP (`panelButtons`), the desktop its own study panel instead;
  * - E-STOP (every robot) is always there, with `Stop <robot>` for the selected one; while an emergency stop is
  *   latched, `Reset E-STOP` sits beside them;
  * - every change that ends driving (robot or mode switch, tool off, E-STOP, menu opened) asks for a
@@ -52,6 +54,7 @@ import { RobotPages } from './robot_pages.js';
  *   | {type: 'tool', tool: Tool}
  *   | {type: 'mission', action: MissionAction, robot: string | null}
  *   | {type: 'alert_ack', alert: string}
+ *   | {type: 'study_press', id: string}
  *   | {type: 'since_last_round', on: boolean}} MenuEffect
  */
 /** @typedef {{alert: string, text: string, severity: string, robot: string | null}} MenuAlert */
@@ -77,6 +80,9 @@ export class MenuState {
     /** Robots whose emergency stop is latched (from their statuses): they cannot be driven or sent
      * anywhere, and `Reset E-STOP` is offered. @type {string[]} */
     this.latched = [];
+    /** The study's question asked now (`show('question', ...)`), its words and answers the VR panel's first rows.
+     * @type {import('./study_model.js').MenuQuestion | null} */
+    this.question = null;
     /** The selected robot's mission, if it is on one (`Pause`/`Resume` and `Abort mission` are offered).
      * @type {'running' | 'paused' | null} */
     this.mission = null;
@@ -156,7 +162,8 @@ export class MenuState {
    * News from the relay the menu shows: whether the selected robot follows a goal (its status), its mission's state
    * (`running`, `paused` or null), how many targets are picked, the open alerts newest first (the inspection
    * model's, the same objects while unchanged). Redrawn only when it changes.
-   * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound' | 'changed'} key @param {any} value
+   * @param {'goalActive' | 'mission' | 'picked' | 'alerts' | 'sinceLastRound' | 'changed' | 'question'} key
+   * @param {any} value
    */
   show(key, value) {
     if (same(/** @type {any} */ (this)[key], value)) return;
@@ -207,13 +214,11 @@ export class MenuState {
     /** @type {MenuEffect[]} */
     let effects = [];
     const [kind, arg] = id.includes(':') ? [id.slice(0, id.indexOf(':')), id.slice(id.indexOf(':') + 1)] : [id, ''];
-    if (kind === 'mode') effects = this.#setMode(/** @type {Mode} */ (arg));
+    const requested = requestEffects(id, kind, arg, this);
+    if (requested) effects = requested;
+    else if (kind === 'mode') effects = this.#setMode(/** @type {Mode} */ (arg));
     else if (kind === 'robot') effects = this.#select(this.selected === arg ? null : arg);
     else if (kind === 'tool') effects = this.#setTool(this.tool === arg ? 'none' : /** @type {Tool} */ (arg));
-    else if (id === 'goal:cancel' && this.selected) effects = [{ type: 'cancel', robot: this.selected }];
-    else if (id === 'lease:take' && this.selected && this.holder)
-      effects = [{ type: 'takeover', robot: this.selected, holder: this.holder }];
-    else if (id === 'camera:snapshot' && this.selected) effects = [{ type: 'snapshot', robot: this.selected }];
     else if (id === 'camera:live' && this.selected) {
       this.live = !this.live;
       effects = [{ type: 'stream', robot: this.selected, fps: this.live ? MAX_STREAM_FPS : 0 }];
@@ -223,9 +228,6 @@ export class MenuState {
     else if (id === 'estop') effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop' }];
     else if (id === 'estop:robot' && this.selected)
       effects = [...(this.#moves() ? this.#setTool('none') : []), { type: 'estop', robot: this.selected }];
-    else if (id === 'estop:reset') effects = [{ type: 'estop_reset' }];
-    else if (kind === 'mission') effects = missionEffects(arg, this);
-    else if (kind === 'alert') effects = [{ type: 'alert_ack', alert: arg }];
     else if (kind === 'findings') {
       this.sinceLastRound = id === 'findings:since' && !this.sinceLastRound; // pressed again: all findings
       effects = [{ type: 'since_last_round', on: this.sinceLastRound }];
@@ -307,6 +309,23 @@ export class MenuState {
   #changed() {
     this.version++;
   }
+}
+
+/**
+ * What a press asks of the application and changes nothing in the menu: a goal cancelled, a take-over offered, a
+ * snapshot, an E-STOP's reset asked, a mission's command, an alert acknowledged, a study's answer; else null.
+ * @param {string} id @param {string} kind @param {string} arg @param {MenuState} menu @returns {MenuEffect[] | null}
+ */
+function requestEffects(id, kind, arg, menu) {
+  const robot = menu.selected;
+  if (id === 'goal:cancel' && robot) return [{ type: 'cancel', robot }];
+  if (id === 'lease:take' && robot && menu.holder) return [{ type: 'takeover', robot, holder: menu.holder }];
+  if (id === 'camera:snapshot' && robot) return [{ type: 'snapshot', robot }];
+  if (id === 'estop:reset') return [{ type: 'estop_reset' }];
+  if (kind === 'mission') return missionEffects(arg, menu);
+  if (kind === 'alert') return [{ type: 'alert_ack', alert: arg }];
+  if (kind === 'study') return [{ type: 'study_press', id }];
+  return null;
 }
 
 /**

@@ -5,6 +5,10 @@
  * 1-5, the raw NASA-TLX's six scales 0-100) until they are sent. Pure: `apply` returns effects (as
  * message_router.js does), the answers return the command to send or why not; view/study_panel.js draws it and
  * test/study_model.test.js drives it.
+ *
+ * In the headset, where the page's panel is not seen, the question asked now is the VR menu's (`menuQuestion`: its
+ * words, then its answers as buttons, a pointer's, a pinch's or a glance's), one SUS item or TLX scale at a time;
+ * `pressMenu` takes those buttons' presses.
  */
 
 /**
@@ -60,6 +64,16 @@ export const TLX_SCALES = Object.freeze([
 ]);
 /** Where a TLX slider starts: the middle, so that an untouched scale is visible as one. */
 export const TLX_START = 50;
+/** The VR menu's TLX buttons: the scale's ends, its quarters, and a step of 5 either way. */
+const TLX_PRESETS = [0, 25, 50, 75, 100];
+/** The SUS's answers as the VR menu labels them. */
+const SUS_LABELS = ['1 Disagree', '2', '3', '4', '5 Agree'];
+
+/**
+ * The question the VR menu shows: its words (one line each), its answers and how to move between items and send.
+ * @typedef {{id: string, label: string, active: boolean, enabled: boolean}} QuestionButton
+ * @typedef {{lines: string[], answers: QuestionButton[], moves: QuestionButton[]}} MenuQuestion
+ */
 
 export class StudyModel {
   /** The relay's newest `study` message (null: the relay runs no study). @type {StudyMessage | null} */
@@ -72,6 +86,8 @@ export class StudyModel {
   tlx = TLX_SCALES.map(() => TLX_START);
   /** The participant picked to join. */
   participant = '';
+  /** The SUS item or TLX scale the VR menu shows (0-based). */
+  item = 0;
 
   /**
    * @param {StudyMessage} message @param {number} now page ms @returns {StudyEffect[]}
@@ -112,6 +128,73 @@ export class StudyModel {
   #fresh() {
     this.sus = SUS_ITEMS.map(() => null);
     this.tlx = TLX_SCALES.map(() => TLX_START);
+    this.item = 0;
+  }
+
+  /** The question asked now as the VR menu shows it, or null (none asked). @returns {MenuQuestion | null} */
+  menuQuestion() {
+    const m = this.message;
+    if (m?.phase === 'probe' && m.probe) {
+      const answers = m.probe.choices.map((c) => ({ id: `study:probe:${c}`, label: c, active: false, enabled: true }));
+      return { lines: splitLine(probeQuestion(m.probe)), answers, moves: [] };
+    }
+    const asked = m?.phase === 'questions' ? m.questionnaire : null;
+    if (asked !== 'sus' && asked !== 'tlx') return null;
+    const count = asked === 'sus' ? SUS_ITEMS.length : TLX_SCALES.length;
+    const i = Math.min(this.item, count - 1);
+    /** @type {QuestionButton[]} */
+    let answers;
+    let text;
+    if (asked === 'sus') {
+      text = `SUS ${i + 1}/${count}: ${SUS_ITEMS[i]}`;
+      answers = SUS_LABELS.map((label, k) => ({ id: `study:sus:${k + 1}`, label, active: this.sus[i] === k + 1,
+                                                enabled: true })); // prettier-ignore
+    } else {
+      const scale = TLX_SCALES[i];
+      text = `TLX ${i + 1}/${count}: ${scale.question} Now ${this.tlx[i]} (0 ${scale.low}, 100 ${scale.high})`;
+      answers = [
+        ...TLX_PRESETS.map((v) => ({
+          id: `study:tlx:${v}`,
+          label: String(v),
+          active: this.tlx[i] === v,
+          enabled: true,
+        })),
+        { id: 'study:tlx:-5', label: '−5', active: false, enabled: this.tlx[i] > 0 },
+        { id: 'study:tlx:+5', label: '+5', active: false, enabled: this.tlx[i] < 100 },
+      ];
+    }
+    const moves = [
+      { id: 'study:prev', label: '‹ Back', active: false, enabled: i > 0 },
+      { id: 'study:next', label: 'Next ›', active: false, enabled: i < count - 1 },
+      { id: 'study:send', label: 'Send answers', active: false, enabled: !('missing' in this.answer()) },
+    ];
+    return { lines: splitLine(text), answers, moves };
+  }
+
+  /**
+   * A press of the VR menu's question buttons: the answer set (a SUS answer moves on to the next item), or the
+   * command to send (the probe's choice, the questionnaire's answers), or why not.
+   * @param {string} id @returns {{command: StudyCommand} | {missing: string} | {}}
+   */
+  pressMenu(id) {
+    const [, kind, value] = id.split(':');
+    const asked = this.message?.phase === 'questions' ? this.message.questionnaire : null;
+    if (kind === 'probe') {
+      const command = this.answerProbe(value);
+      return command ? { command } : { missing: 'that is not one of the answers' };
+    }
+    if (kind === 'send') return this.answer();
+    const count = asked === 'sus' ? SUS_ITEMS.length : TLX_SCALES.length;
+    if (kind === 'prev') this.item = Math.max(0, this.item - 1);
+    else if (kind === 'next') this.item = Math.min(count - 1, this.item + 1);
+    else if (kind === 'sus' && asked === 'sus') {
+      this.setSus(this.item, Number(value));
+      this.item = Math.min(count - 1, this.item + 1);
+    } else if (kind === 'tlx' && asked === 'tlx') {
+      const step = value === '+5' ? 5 : value === '-5' ? -5 : null;
+      this.setTlx(this.item, step === null ? Number(value) : this.tlx[this.item] + step);
+    }
+    return {};
   }
 
   /** Seconds left in the task running now (counted on the page's clock), else null. @param {number} now page ms */
@@ -166,6 +249,22 @@ export class StudyModel {
     const probe = this.message?.phase === 'probe' ? this.message.probe : null;
     return probe && probe.choices.includes(choice) ? { identifier: 'study/answer', probe: choice } : null;
   }
+}
+
+/** Where a long question breaks onto a second line (characters): the VR menu's row holds about this many. */
+const LINE_CHARS = 60;
+
+/**
+ * A question in one line, or two broken at a space near the middle when it is long.
+ * @param {string} text @returns {string[]}
+ */
+export function splitLine(text) {
+  if (text.length <= LINE_CHARS) return [text];
+  const middle = text.length / 2;
+  let cut = -1;
+  for (let i = 0; i < text.length; i++)
+    if (text[i] === ' ' && (cut < 0 || Math.abs(i - middle) < Math.abs(cut - middle))) cut = i;
+  return cut < 0 ? [text] : [text.slice(0, cut), text.slice(cut + 1)];
 }
 
 /** Seconds as m:ss. @param {number} seconds @returns {string} */

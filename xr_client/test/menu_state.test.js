@@ -3,6 +3,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { ButtonEdge, MenuState } from '../src/menu_state.js';
 import { MAX_STREAM_FPS } from '../src/protocol.js';
+import { panelButtons } from '../src/menu_buttons.js';
 
 function menu() {
   const m = new MenuState();
@@ -389,4 +390,36 @@ test('an inspector is offered what the relay accepts from one: E-STOP, missions 
   admin.setConnected(true);
   admin.press('robot:robot1');
   assert.equal(button(admin, 'tool:teleop')?.enabled, true);
+});
+
+test("a study's question heads the menu, and the VR panel then shows only it and E-STOP; its presses are answers", () => {
+  const menu = new MenuState();
+  menu.setFleet([{ name: 'robot1', hasCamera: true }], 'operator');
+  const version = menu.version;
+  menu.show('question', {
+    lines: ['SUS 1/10: I think that I would like to use this system', 'frequently.'],
+    answers: [{ id: 'study:sus:1', label: '1 Disagree', active: false, enabled: true }],
+    moves: [{ id: 'study:send', label: 'Send answers', active: false, enabled: false }],
+  });
+  assert.ok(menu.version > version, 'the menu is drawn again');
+  const buttons = menu.buttons();
+  assert.deepEqual(
+    buttons.slice(0, 4).map((b) => [b.group, b.caption ?? false]),
+    [
+      ['question', true],
+      ['question2', true],
+      ['answers', false],
+      ['answering', false],
+    ],
+  );
+  assert.ok(
+    buttons.some((b) => b.id === 'robot:robot1'),
+    'the desktop menu keeps its other buttons',
+  );
+  const panel = panelButtons(buttons);
+  assert.deepEqual([...new Set(panel.map((b) => b.group))], ['question', 'question2', 'answers', 'answering', 'estop']);
+  assert.deepEqual(menu.press('study:sus:1'), [{ type: 'study_press', id: 'study:sus:1' }]);
+  assert.deepEqual(menu.press('study:send'), [], 'a disabled Send does nothing');
+  menu.show('question', null);
+  assert.equal(panelButtons(menu.buttons()).length, menu.buttons().length);
 });

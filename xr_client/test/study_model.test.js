@@ -136,3 +136,66 @@ test('nothing is sent for a questionnaire or a probe that is not asked', () => {
   assert.equal(model.answerProbe('kitchen'), null);
   assert.deepEqual(model.answerProbe('plumbing'), { identifier: 'study/answer', probe: 'plumbing' });
 });
+
+test('in VR the SUS is asked an item at a time on the menu: an answer moves on, Send once all ten are answered', () => {
+  const model = new StudyModel();
+  model.apply(study({ phase: 'questions', questionnaire: 'sus' }), 0);
+  let q = /** @type {import('../src/study_model.js').MenuQuestion} */ (model.menuQuestion());
+  assert.ok(q.lines.join(' ').startsWith('SUS 1/10: I think that I would like'), q.lines.join(' '));
+  assert.ok(
+    q.lines.every((line) => line.length <= 60),
+    String(q.lines),
+  );
+  assert.deepEqual(
+    q.answers.map((b) => b.label),
+    ['1 Disagree', '2', '3', '4', '5 Agree'],
+  );
+  assert.equal(q.moves.find((b) => b.id === 'study:send')?.enabled, false);
+  for (let i = 0; i < SUS_ITEMS.length; i++) assert.deepEqual(model.pressMenu(`study:sus:${(i % 5) + 1}`), {});
+  q = /** @type {import('../src/study_model.js').MenuQuestion} */ (model.menuQuestion());
+  assert.ok(q.lines.join(' ').startsWith('SUS 10/10'), 'the last item stays shown');
+  assert.equal(q.answers.find((b) => b.active)?.id, 'study:sus:5');
+  model.pressMenu('study:prev');
+  assert.ok(model.menuQuestion()?.lines[0].startsWith('SUS 9/10'));
+  assert.deepEqual(model.pressMenu('study:send'), {
+    command: { identifier: 'study/answer', questionnaire: 'sus', answers: [1, 2, 3, 4, 5, 1, 2, 3, 4, 5] },
+  });
+});
+
+test('in VR the TLX scales are set by their quarters and steps of 5, and an unanswered SUS item is named', () => {
+  const model = new StudyModel();
+  model.apply(study({ phase: 'questions', questionnaire: 'sus' }), 0);
+  model.pressMenu('study:sus:4');
+  assert.deepEqual(model.pressMenu('study:send'), { missing: 'please answer items 2, 3, 4, 5, 6, 7, 8, 9, 10' });
+  model.apply(study({ phase: 'questions', questionnaire: 'tlx' }), 1);
+  assert.equal(model.item, 0, 'a new questionnaire starts at its first item');
+  model.pressMenu('study:tlx:75');
+  model.pressMenu('study:tlx:+5');
+  model.pressMenu('study:next');
+  model.pressMenu('study:tlx:0');
+  model.pressMenu('study:tlx:-5'); // at its end: stays 0
+  const q = /** @type {import('../src/study_model.js').MenuQuestion} */ (model.menuQuestion());
+  assert.ok(q.lines.join(' ').includes('TLX 2/6') && q.lines.join(' ').includes('Now 0'), q.lines.join(' '));
+  assert.equal(q.answers.find((b) => b.id === 'study:tlx:-5')?.enabled, false);
+  assert.deepEqual(model.pressMenu('study:send'), {
+    command: { identifier: 'study/answer', questionnaire: 'tlx', answers: [80, 0, 50, 50, 50, 50] },
+  });
+});
+
+test("in VR a probe's question and its choices are the menu's, and nothing is asked during a task", () => {
+  const model = new StudyModel();
+  model.apply(study({ phase: 'task' }), 0);
+  assert.equal(model.menuQuestion(), null);
+  const probe = { question: 'room', robot: 'robot2', choices: ['Plumbing', 'Power distribution'] };
+  model.apply(study({ phase: 'probe', probe }), 1);
+  const q = /** @type {import('../src/study_model.js').MenuQuestion} */ (model.menuQuestion());
+  assert.deepEqual(q.lines, ['Which room is robot2 in?']);
+  assert.deepEqual(
+    q.answers.map((b) => b.id),
+    ['study:probe:Plumbing', 'study:probe:Power distribution'],
+  );
+  assert.deepEqual(model.pressMenu('study:probe:Plumbing'), {
+    command: { identifier: 'study/answer', probe: 'Plumbing' },
+  });
+  assert.deepEqual(model.pressMenu('study:probe:Kitchen'), { missing: 'that is not one of the answers' });
+});

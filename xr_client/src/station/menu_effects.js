@@ -79,6 +79,10 @@ export class MenuEffects {
         case 'alert_ack':
           sender.alertAck(effect.alert);
           break;
+        case 'study_press': // a study's question answered in VR (the page's panel takes the same answers)
+          views.studyPanel.pressMenu(effect.id);
+          menu.show('question', views.studyPanel.model.menuQuestion());
+          break;
         case 'since_last_round':
           views.inspectionUi.sinceLastRound(effect.on, menu);
           break;

@@ -130,9 +130,14 @@ export class RelayEffects {
       case 'voxels':
         stage.voxels.schedule();
         break;
-      case 'study':
+      case 'study': {
         views.studyPanel.update();
+        // In the headset the question asked comes to the menu, opened for it (the page's panel is not seen there).
+        const question = views.studyPanel.model.menuQuestion();
+        if (question && !menu.question && stage.presenting && !menu.open) this.menuEffects.apply(menu.setOpen(true));
+        menu.show('question', question);
         break;
+      }
       case 'condition': // a study's condition starts: its sound set, what only the participant can do asked
         if (effect.muted !== null) views.sound.setMuted(effect.muted);
         if (effect.ask) views.notify(effect.ask, 'info');

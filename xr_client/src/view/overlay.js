@@ -4,6 +4,7 @@
  * is unavailable, the same menu as the VR panel (rendered from MenuState.buttons()), the sensor panel in a corner, the
  * Robot POV panel and a message line. Reads what its host gives it; clicks go back through the host's actions.
  */
+import { QUESTION_GROUPS } from '../menu_buttons.js';
 import { drawSensorPanel } from './sensor_drawing.js';
 import { PagePanels } from './page_panels.js';
 import { RobotPicker } from './robot_picker.js';
@@ -230,6 +231,7 @@ export class Overlay {
     const kept = new Map();
     for (const button of buttons) {
       if (button.id === 'menu:close') continue; // the desktop menu is always open
+      if (QUESTION_GROUPS.includes(button.group)) continue; // the page's study panel asks it
       if (picking && (button.group === 'robots' || button.group === 'pages')) {
         groups.set('robots', this.picker.element); // the picker lists every robot: no page of buttons
         if (this.groupBar.visible) groups.set('group', this.groupBar.element);

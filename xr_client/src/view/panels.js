@@ -3,6 +3,7 @@
  * The VR panels drawn on canvas textures: the floating menu (buttons from MenuState, hover highlight) and
  * the wrist sensor panel. Both redraw only when what they show changed, never per frame, and the menu only while open.
  */
+import { panelButtons } from '../menu_buttons.js';
 import * as THREE from 'three';
 import { CanvasPlane } from './canvas_plane.js';
 import { buttonAt, layoutMenu, MENU_ROWS } from '../menu_layout.js';
@@ -52,7 +53,7 @@ export class MenuPanel {
     if (key === this.key) return;
     this.key = key;
     const [w, h] = MENU_PX;
-    this.buttons = menu.buttons();
+    this.buttons = panelButtons(menu.buttons());
     this.rects = layoutMenu(this.buttons, w, h);
     const ctx = /** @type {CanvasRenderingContext2D} */ (this.canvas.getContext('2d'));
     ctx.clearRect(0, 0, w, h);
@@ -77,7 +78,9 @@ export class MenuPanel {
       if (button.caption) {
         ctx.fillStyle = '#c8d0dc';
         ctx.textAlign = 'center';
-        fitText(ctx, button.label, rect.x + rect.w / 2, rect.y + rect.h / 2 + 1, rect.w - 20, 26, 600);
+        // A study's question is read, not glanced at: its words as large as the row lets them be.
+        const size = button.group.startsWith('question') ? 40 : 26;
+        fitText(ctx, button.label, rect.x + rect.w / 2, rect.y + rect.h / 2 + 1, rect.w - 20, size, 600);
         continue;
       }
       roundRect(ctx, rect.x, rect.y, rect.w, rect.h, 16);

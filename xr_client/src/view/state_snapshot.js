@@ -50,11 +50,13 @@ export function snapshotState(app) {
     study: app.router.study.message && {
       phase: app.router.study.message.phase,
       participant: app.router.study.message.participant,
+      condition: app.router.study.message.condition,
       task: app.router.study.message.task,
       questionnaire: app.router.study.message.questionnaire,
       done: app.router.study.message.done,
       sus: app.router.study.sus,
       tlx: app.router.study.tlx,
+      item: app.router.study.item, // the SUS item or TLX scale the VR menu asks
     },
     // The facility's valve wheel as reported, and where it is drawn (world; view/valve_view.js).
     valve: app.router.arms.valve && {

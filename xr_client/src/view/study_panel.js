@@ -86,6 +86,18 @@ export class StudyPanel {
       this.onNotSent(`not connected: ${command.identifier} not sent`);
   }
 
+  /**
+   * A press of the VR menu's question buttons (study_model.js `menuQuestion`): the answer set, or the command sent,
+   * or why not said; the page's panel drawn again with the answers so far. @param {string} id
+   */
+  pressMenu(id) {
+    const result = this.model.pressMenu(id);
+    if ('missing' in result) this.onNotSent(result.missing);
+    else if ('command' in result && this.link.send(/** @type {Record<string, unknown>} */ (result.command)) === null)
+      this.onNotSent(`not connected: ${result.command.identifier} not sent`);
+    this.#draw();
+  }
+
   /** @param {HTMLInputElement} input */
   #input(input) {
     const model = this.model;
