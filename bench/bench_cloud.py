@@ -34,7 +34,7 @@ from relay.cloud.pointcloud2 import encode_pointcloud2
 from relay.cloud.voxels import VoxelMap
 from relay.ros.ros_env import typestore
 
-from .bench_cloud_fusion import DATA, dense_cloud, dict_of_blocks, traced_steps, turned
+from .bench_cloud_fusion import DATA, dense_cloud, dict_of_blocks, traced_steps, turned, warmed_map
 from .common import JsonDict, Report, Settings, fmt, target
 
 NAME = "cloud"
@@ -49,9 +49,7 @@ VOXEL = 0.05
 def fusion(repeat: int) -> JsonDict:
     """The CPU and wall time of each of ``repeat`` fusions of the dense cloud into a warmed map, and the baselines."""
     cloud = dense_cloud()
-    voxels = VoxelMap(VOXEL, budget_blocks=50_000)
-    for k in range(3):
-        voxels.integrate(cloud, turned(0.01 * k), float(k))
+    voxels = warmed_map(cloud, VOXEL)
     cpu, wall = [], []
     for k in range(repeat):
         pose = turned(0.002 * k)

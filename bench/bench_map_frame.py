@@ -16,12 +16,11 @@ import asyncio
 import tempfile
 from pathlib import Path
 
-from relay.cloud.voxels import VoxelMap
 from relay.mapping.fusion import map_path
 
 from .bench_client_frame import CHROMIUM, CHROMIUM_ARGS, chromium_missing, fleet_yaml, measured, open_vr, start_relay
 from .bench_cloud import VOXEL
-from .bench_cloud_fusion import DATA, dense_cloud, turned
+from .bench_cloud_fusion import DATA, dense_cloud, warmed_map
 from .common import TOKEN, JsonDict, Report, Settings, fmt, target
 
 NAME = "map_frame"
@@ -35,12 +34,7 @@ BUDGET_S = 600.0
 
 def write_map(path: Path) -> int:
     """A map of at least VOXELS voxels (if the cloud gives them) from the dense cloud, saved at ``path``; its count."""
-    cloud = dense_cloud()
-    voxels = VoxelMap(VOXEL, budget_blocks=50_000)
-    for k in range(3):  # the scan seen from three headings a little apart, as a robot turning on the spot sees it
-        voxels.integrate(cloud, turned(0.01 * k), float(k))
-        if len(voxels) >= VOXELS:
-            break
+    voxels = warmed_map(dense_cloud(), VOXEL, VOXELS)
     voxels.save(path)
     return len(voxels)
 

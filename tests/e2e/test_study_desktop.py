@@ -5,8 +5,6 @@ instruction, presses Start, sends robot1 into the task's region with the goal to
 from __future__ import annotations
 
 import asyncio
-import csv
-import io
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -14,9 +12,9 @@ import pytest
 
 from relay.cli.options import Options
 from relay.config import load_config
-from relay.study import cli as study_cli
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, wait_until
+from tests.helpers.study import exported
 from tests.test_study_relay import GOAL_AT, STUDY
 
 #: The SUS answers clicked, item by item, and their score: (3+3+4+4+3+3+4+4+3+3) * 2.5.
@@ -102,11 +100,7 @@ async def test_a_desktop_participant_does_a_task_and_answers_tlx_and_sus_in_the_
     assert client.errors == []
 
     await running.runner.cleanup()  # the run's last state written as the relay stops
-    out = folder / "results"
-    argv = ["export", str(folder / "study.yaml"), "--runs", str(folder / "runs"), "--out", str(out)]
-    assert await asyncio.to_thread(study_cli.main, argv) == 0
-    text = await asyncio.to_thread((out / "drive-study.csv").read_text)
-    values = {(r["condition"], r["task"], r["measure"]): float(r["value"]) for r in csv.DictReader(io.StringIO(text))}
+    values = await exported(folder)
     assert values[("desktop", "reach-storage", "success")] == 1.0
     assert 0 < values[("desktop", "reach-storage", "time_s")] < 120
     assert values[("desktop", "reach-storage", "commands")] >= 1

@@ -6,8 +6,6 @@ menu, and `xr-relay study export` then holds what was pressed."""
 from __future__ import annotations
 
 import asyncio
-import csv
-import io
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -15,9 +13,9 @@ import pytest
 
 from relay.cli.options import Options
 from relay.config import load_config
-from relay.study import cli as study_cli
 from tests.conftest import ROOT, RunningRelay, start_relay
 from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient
+from tests.helpers.study import exported
 from tests.helpers.xr import present, press_menu_button
 from tests.test_study_relay import STUDY
 
@@ -74,10 +72,6 @@ async def test_the_tlx_and_the_sus_are_answered_in_the_headset_by_pointing(
     assert client.errors == [], client.errors
 
     await running.runner.cleanup()  # the run's last state written as the relay stops
-    out = folder / "results"
-    argv = ["export", str(folder / "study.yaml"), "--runs", str(folder / "runs"), "--out", str(out)]
-    assert await asyncio.to_thread(study_cli.main, argv) == 0
-    text = await asyncio.to_thread((out / "drive-study.csv").read_text)
-    values = {(r["condition"], r["task"], r["measure"]): float(r["value"]) for r in csv.DictReader(io.StringIO(text))}
+    values = await exported(folder)
     assert values[("headset", "reach-storage", "tlx")] == pytest.approx((75 + 5 * 50) / 6)
     assert values[("headset", "", "sus")] == SUS_SCORE

@@ -132,6 +132,7 @@ export function snapshotState(app) {
     xr: {
       hover: app.presenting ? interaction.hovered() : {},
       vignette: app.views.vignette.strength,
+      haptics: { ...app.views.xrInput.felt }, // the pulses a controller's actuator was given, and the last
       teleport:
         interaction.motion.teleport.aiming || interaction.motion.pinchTeleport
           ? (interaction.motion.teleportHit?.toArray() ?? 'no floor')

@@ -36,6 +36,8 @@ export class XRInput {
     this.cursorMaterial = new THREE.MeshBasicMaterial({ color: '#ffffff', depthTest: false });
     /** @type {InputSlot[]} */
     this.slots = [];
+    /** The haptic pulses handed to a device's actuator: how many, and the last (the state snapshot shows it). */
+    this.felt = { count: 0, hand: '', intensity: 0, ms: 0 };
     /** @type {(() => void)[]} */
     this.unlisten = [];
     for (let index = 0; index < SLOTS; index++) {
@@ -182,6 +184,7 @@ export class XRInput {
       if (actuator?.pulse) actuator.pulse(intensity, ms);
       else
         actuator?.playEffect?.('dual-rumble', { duration: ms, strongMagnitude: intensity, weakMagnitude: intensity });
+      if (actuator) this.felt = { count: this.felt.count + 1, hand: slot?.source?.handedness ?? '', intensity, ms };
     } catch {
       // Haptics are a courtesy: a device without them is not an error.
     }
