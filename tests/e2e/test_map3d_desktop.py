@@ -5,26 +5,18 @@ map alone shows what the robots saw, and `3D map` hides the map. The screenshot 
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import math
 import time
 
-from relay.config import Cloud, load_config
-from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.conftest import RunningRelay
 from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, wait_until
-from tests.helpers.map3d import GOALS, goal_at_relay, map_spots
+from tests.helpers.map3d import goal_at_relay, map_spots, mapping_relay
 
 
 async def test_the_map_is_drawn_and_the_twin_switches_off(open_client: OpenClient) -> None:
-    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
-    # 10 cm voxels: SwiftShader draws a few thousand boxes in a frame it can screenshot; at 5 cm the same drive made
-    # 95 000 (1.1 M triangles: seconds a frame on a loaded CI machine).
-    running = await start_relay(dataclasses.replace(config, cloud=Cloud(voxel=0.1, sim_depth_rate=2.0)))
-    try:
+    async with mapping_relay() as running:
         fusion = running.relay.fusion
         assert fusion is not None
-        for robot, (x, y) in GOALS.items():
-            await running.relay.backend.send_goal(robot, x, y, None)
         client = await open_client(f"{running.url}/?{SOFTWARE_GL}", "map3d", 1280, 760)
         await wait_until(lambda: fusion.counters.integrated >= 9, 60, "9 clouds fused")
         # The page holds the map the relay has, drawn: thousands of voxels, one instanced mesh.
@@ -46,8 +38,6 @@ async def test_the_map_is_drawn_and_the_twin_switches_off(open_client: OpenClien
         await client.page.click('#menu button[data-button="opt:map3d"]')
         await client.wait("!s.voxels.visible", 5)
         assert client.errors == [], client.errors
-    finally:
-        await running.runner.cleanup()
 
 
 async def over_the_map(client: Client, spot: tuple[float, float, float], voxel: float) -> tuple[float, float] | None:

@@ -6,29 +6,22 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import math
 
 import pytest
 from playwright.async_api import TimeoutError as PlaywrightTimeout
 
-from relay.config import Cloud, load_config
-from tests.conftest import ROOT, start_relay
 from tests.helpers.browser import OpenClient, wait_until
-from tests.helpers.map3d import GOALS, goal_at_relay, map_spots
+from tests.helpers.map3d import goal_at_relay, map_spots, mapping_relay
 from tests.helpers.xr import aim_arc, button, enter_vr, press_menu_button, set_menu
 
 
 @pytest.mark.heavy
 @pytest.mark.timeout(600)  # the map drawn in both eyes on SwiftShader: 280 s on an idle 2-core machine
 async def test_the_map_is_drawn_in_vr_and_on_the_table_and_a_goal_is_pointed_on_it(open_client: OpenClient) -> None:
-    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
-    running = await start_relay(dataclasses.replace(config, cloud=Cloud(voxel=0.1, sim_depth_rate=2.0)))
-    try:
+    async with mapping_relay() as running:
         fusion = running.relay.fusion
         assert fusion is not None
-        for robot, (x, y) in GOALS.items():
-            await running.relay.backend.send_goal(robot, x, y, None)
         await wait_until(lambda: fusion.counters.integrated >= 9, 60, "9 clouds fused")
         client = await enter_vr(open_client, running.url)
         await client.wait("s.voxels.drawn > 1000 && s.voxels.visible", 30)
@@ -78,5 +71,3 @@ async def test_the_map_is_drawn_in_vr_and_on_the_table_and_a_goal_is_pointed_on_
         sent = await goal_at_relay(client, running, "robot1", press)
         assert sent is not None and math.dist((sent["x"], sent["y"]), seen) < 0.3, (sent, seen)
         assert client.errors == [], client.errors
-    finally:
-        await running.runner.cleanup()

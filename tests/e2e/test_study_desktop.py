@@ -53,7 +53,7 @@ async def test_a_desktop_participant_does_a_task_and_answers_tlx_and_sus_in_the_
     await page.click('#study button[data-study="join"]')
     await client.wait("s.study.phase === 'ready' && s.study.participant === 'P01'")
     assert "Send robot1 into chemical storage." in await page.inner_text("#study")
-    await client.shot("01-instruction")
+    await client.shot("01-instruction", "study-instruction.png")
 
     await page.click('#study button[data-study="start"]')
     await client.wait("s.study.phase === 'task'")
@@ -84,7 +84,7 @@ async def test_a_desktop_participant_does_a_task_and_answers_tlx_and_sus_in_the_
         await page.mouse.click(box["x"] + share * box["width"], box["y"] + box["height"] / 2)
     tlx = await client.wait("s.study.tlx[5] !== 50 && s.study.tlx")
     assert len(tlx) == 6 and tlx[0] < tlx[2] < tlx[4], tlx
-    await client.shot("03-tlx")
+    await client.shot("03-tlx", "study-tlx.png")
     await page.click('#study button[data-study="answer"]')
 
     await client.wait("s.study.questionnaire === 'sus'")
@@ -93,7 +93,7 @@ async def test_a_desktop_participant_does_a_task_and_answers_tlx_and_sus_in_the_
     for item, answer in enumerate(SUS):
         await page.click(f'#study .scale[data-item="{item + 1}"] input[value="{answer}"]')
     await client.wait("s.study.sus.every((a) => a !== null)")
-    await client.shot("04-sus")
+    await client.shot("04-sus", "study-sus.png")
     await page.click('#study button[data-study="answer"]')
     await client.wait("s.study.phase === 'ready' && s.study.done === 1")  # the next condition's instruction
     await client.shot("05-next-condition")
