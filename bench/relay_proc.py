@@ -48,10 +48,12 @@ from aiohttp import web
 
 from relay.backends.base import Backend
 from relay.cli.options import Options
-from relay.config import FleetConfig, load_config, parse_config
+from relay.config import Cloud, FleetConfig, load_config, parse_config
 from relay.fleet.events import Event, EventSink, FrameEvent, PoseEvent
 from relay.fleet.geometry import yaw_to_quaternion
 from relay.station.messages import encode, pose_message
+
+from .map_feed import MapFeed
 
 logger = logging.getLogger("bench.relay_proc")
 
@@ -161,11 +163,15 @@ class SyntheticBackend(Backend):
 
     name = "synthetic"
 
-    def __init__(self, config: FleetConfig, sink: EventSink, rate: float, jpeg: bytes | None) -> None:
+    def __init__(
+        self, config: FleetConfig, sink: EventSink, rate: float, jpeg: bytes | None, map_feed: float = 0.0
+    ) -> None:
         super().__init__(config, sink)
         self._names = [r.name for r in config.robots]
         self._rate = rate
         self._jpeg = jpeg
+        self._map_feed = map_feed  # Hz of the first robot's lidar (bench/map_feed.py), 0: none
+        self.feed: MapFeed | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self.producer: Producer | None = None
         self.cameras: dict[tuple[str, str], FrameProducer] = {}
@@ -184,8 +190,13 @@ class SyntheticBackend(Backend):
             len(names), self._rate, lambda i, t, x, y, yaw: self._post(pose_event(names[i], t, x, y, yaw))
         )
         self.producer.start()
+        if self._map_feed > 0:
+            self.feed = MapFeed(names[0], self._map_feed, self._post)
+            self.feed.start()
 
     async def stop(self) -> None:
+        if self.feed is not None:
+            self.feed.stop()
         if self.producer is not None:
             self.producer.stop()
             await asyncio.to_thread(self.producer.join, 2.0)
@@ -296,7 +307,7 @@ async def serve_xr(args: argparse.Namespace, config: FleetConfig, jpeg: bytes | 
         nonlocal synthetic, counter
         counter = Counter(sink)
         if args.backend == "synthetic":
-            synthetic = SyntheticBackend(cfg, counter, args.rate, jpeg)
+            synthetic = SyntheticBackend(cfg, counter, args.rate, jpeg, args.map_feed)
             return synthetic
         return create_backend(cfg, counter, options)
 
@@ -554,6 +565,7 @@ def main() -> None:
     parser.add_argument("--camera-rate", type=float, default=30.0)
     parser.add_argument("--token", default=None)
     parser.add_argument("--record-session", default=None, help="record the session to this MCAP file (xr only)")
+    parser.add_argument("--map-feed", type=float, default=0.0, help="a robot's lidar at this rate (Hz): a 3D map")
     parser.add_argument("--database", default=None, help="the inspection database (xr only; the 3D map's file beside)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
@@ -577,6 +589,8 @@ def main() -> None:
     else:
         camera = (width, height, args.camera_rate) if jpeg is not None else None
         config = parse_config(synthetic_fleet_yaml(args.robots, camera), "bench-fleet.yaml")
+        if args.map_feed > 0:  # the live 3D map on, fed by bench/map_feed.py (the sim's depth cameras off)
+            config = dataclasses.replace(config, cloud=Cloud(voxel=0.05, budget_blocks=20_000, sim_depth_rate=0.0))
     names = [r.name for r in config.robots]
     if args.server == "xr":
         asyncio.run(serve_xr(args, config, jpeg))

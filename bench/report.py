@@ -13,7 +13,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from .common import JsonDict, Settings, fmt
-from .report_map import cloud_section, map_frame_section
+from .report_map import cloud_section, map_beside_section, map_frame_section
 from .report_operators import arm_section, recording_section
 from .report_page import Page, anchor, pct, section, status, table
 
@@ -30,6 +30,7 @@ ORDER = (
     "recording",
     "cloud",
     "map_frame",
+    "map_beside",
 )
 COLOURS = {"xr": "#1f77b4", "xr-single": "#9467bd", "naive": "#d62728", "foxglove": "#2ca02c"}
 LABELS = {
@@ -841,6 +842,7 @@ SECTIONS = {
     "recording": recording_section,
     "cloud": cloud_section,
     "map_frame": map_frame_section,
+    "map_beside": map_beside_section,
 }
 
 

@@ -59,3 +59,25 @@ def map_frame_section(page: Page, r: JsonDict) -> None:
         rows.append([name, f"{figures['voxels_drawn']:,}", f"{fmt(app['p50'], 2)} / {fmt(app['p95'], 2)}",
                      f"{figures['render_fps']}", pct(figures["relay_cpu"])])  # fmt: skip
     page.add(table(["map", "voxels drawn", "app JS p50 / p95 ms", "frames/s", "relay CPU"], rows))
+
+
+MAP_BESIDE_DOC = """The poses' latency with the live 3D map streaming beside them (bench/bench_map_beside.py): the pose
+fan-out's target cell (100 robots at 30 Hz to 20 clients) with and without a robot's lidar feeding the map (the shared
+Velodyne scan, 2 clouds a second, the robot moving on: fused off the relay's loop, the changed blocks streamed to
+every client through the hub's map lane), in turns.
+"""
+
+
+def map_beside_section(page: Page, r: JsonDict) -> None:
+    if not section(page, r, MAP_BESIDE_DOC):
+        return
+    rows = []
+    for c in r.get("cells", []):
+        if "error" in c:
+            rows.append(["on" if c.get("map") else "off", "failed", "", "", ""])
+            continue
+        latency = f"{fmt(c['latency_ms']['p50'], 2)} / {fmt(c['latency_ms']['p99'], 2)}"
+        kilobytes = f"{c['bytes_per_client_per_s'] / 1e3:.0f}"
+        delivered, cpu = pct(c["delivered_fraction"]), pct(c["cpu"]["server"])
+        rows.append(["on" if c["map"] else "off", latency, delivered, kilobytes, cpu])
+    page.add(table(["map", "pose p50 / p99 ms", "delivered", "kB/s a client", "relay CPU"], rows))

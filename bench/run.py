@@ -26,6 +26,7 @@ from . import (
     bench_cloud,
     bench_estop,
     bench_foxglove_peer,
+    bench_map_beside,
     bench_map_frame,
     bench_pose_fanout,
     bench_recording,
@@ -49,6 +50,7 @@ BENCHMARKS: tuple[ModuleType, ...] = (
     bench_arm,
     bench_cloud,
     bench_map_frame,
+    bench_map_beside,
 )
 
 

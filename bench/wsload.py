@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 
 import orjson
 
+from relay.cloud.blocks_wire import MAGIC as MAP_MAGIC
+
 #: Foxglove's WebSocket subprotocol (the SDK refuses a handshake without it).
 FOXGLOVE_SUBPROTOCOL = "foxglove.sdk.v1"
 _STAMP = b'"stamp":'
@@ -123,6 +125,7 @@ class WsClient(asyncio.Protocol):
         self.scans = 0
         self.frames = 0
         self.bytes = 0
+        self.map_bytes = 0  # the 3D map's block records received
         self.frames_by_id: dict[str, int] = {}
 
     # -- asyncio.Protocol -------------------------------------------------------------------------
@@ -239,6 +242,9 @@ class WsClient(asyncio.Protocol):
                 if stamp is not None:
                     self.poses += 1
                     self.recorder.pose_latency.append(now - stamp)
+            return
+        if payload[:4] == MAP_MAGIC:  # the live 3D map's block records (docs/protocol.md), not a camera's
+            self.map_bytes += len(payload)
             return
         # xr-relay camera frame: u32 header length, JSON header, JPEG.
         if not self.recorder.active:
