@@ -55,9 +55,10 @@ async def run(settings: Settings, report: Report) -> JsonDict:
                 ratio <= TARGET_RATIO,
                 ""
                 if ratio <= TARGET_RATIO
-                else "not yet diagnosed: the map's frames (64 kB each, to every client) share each client's socket and "
-                "the loop's writes with the poses, and the fusion and encoding hold the interpreter in the map's "
-                "thread; a per-client map budget and smaller frames are the next things to measure",
+                else "partly diagnosed: not the map frames' size (16 kB frames gave the same); the map's thread held "
+                "the interpreter while encoding (it now lets the loop run every 16 blocks: 7.2-7.5 ms before); what "
+                "is left, in the fusion's Python and the loop's writes of the map to every client, is to measure "
+                "next, then a per-client map budget",
                 baseline=f"the map fed {FEED_HZ:g} clouds a second of the shared Velodyne scan; each client got "
                 f"{max(on) / 1e3:.0f} kB/s with it, {max(off) / 1e3:.0f} kB/s without",
             )

@@ -40,7 +40,7 @@ MAX_FRAME: Final = 64 * 1024
 
 #: The map's thread lets the loop's thread run after encoding this many blocks: a whole map's hundreds of blocks in
 #: one go held the interpreter while poses waited (bench/bench_map_beside.py: the pose p99 beside a streaming map fell
-#: from 7.2-7.5 ms to 4.3-4.9 ms with it; 0.5 ms without the map).
+#: from 7.2-7.5 ms to 4.3-5.6 ms with it, over two runs; 0.5 ms without the map).
 YIELD_EVERY: Final = 16
 
 Batch = list[tuple[bool, bytes]]
