@@ -4,17 +4,15 @@ instruction, presses Start, sends robot1 into the task's region with the goal to
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
 
-from relay.cli.options import Options
-from relay.config import load_config
-from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.conftest import RunningRelay
 from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, wait_until
 from tests.helpers.study import exported
+from tests.helpers.study import study_relay as running_study
 from tests.test_study_relay import GOAL_AT, STUDY
 
 #: The SUS answers clicked, item by item, and their score: (3+3+4+4+3+3+4+4+3+3) * 2.5.
@@ -26,15 +24,8 @@ TLX_AT = [0.2, 0.1, 0.5, 0.3, 0.7, 0.05]
 
 @pytest.fixture
 async def study_relay(tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
-    study = tmp_path / "study.yaml"
-    await asyncio.to_thread(study.write_text, STUDY)
-    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
-    options = Options(study=str(study), study_runs=str(tmp_path / "runs"))
-    running = await start_relay(config, options=options)
-    try:
+    async with running_study(tmp_path, STUDY) as running:
         yield running, tmp_path
-    finally:
-        await running.runner.cleanup()
 
 
 async def page_point(client: Client, x: float, y: float) -> tuple[float, float]:

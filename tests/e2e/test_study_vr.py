@@ -5,17 +5,15 @@ menu, and `xr-relay study export` then holds what was pressed."""
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
 
-from relay.cli.options import Options
-from relay.config import load_config
-from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.conftest import RunningRelay
 from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient
 from tests.helpers.study import exported
+from tests.helpers.study import study_relay as running_study
 from tests.helpers.xr import present, press_menu_button
 from tests.test_study_relay import STUDY
 
@@ -28,14 +26,8 @@ TIME_LIMIT_S = 3
 
 @pytest.fixture
 async def study_relay(tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
-    study = tmp_path / "study.yaml"
-    await asyncio.to_thread(study.write_text, STUDY.replace("time_limit: 120", f"time_limit: {TIME_LIMIT_S}"))
-    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
-    running = await start_relay(config, options=Options(study=str(study), study_runs=str(tmp_path / "runs")))
-    try:
+    async with running_study(tmp_path, STUDY.replace("time_limit: 120", f"time_limit: {TIME_LIMIT_S}")) as running:
         yield running, tmp_path
-    finally:
-        await running.runner.cleanup()
 
 
 async def test_the_tlx_and_the_sus_are_answered_in_the_headset_by_pointing(

@@ -1,13 +1,33 @@
-"""A study's results as `xr-relay study export` writes them, read back by the browser tests that answered it."""
+"""The browser tests' study: a relay running tests/test_study_relay.py's study file, and its results as `xr-relay study
+export` writes them, read back."""
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import csv
 import io
+from collections.abc import AsyncIterator
 from pathlib import Path
 
+from relay.cli.options import Options
+from relay.config import load_config
 from relay.study import cli as study_cli
+from tests.conftest import ROOT, RunningRelay, start_relay
+from tests.test_study_relay import STUDY
+
+
+@contextlib.asynccontextmanager
+async def study_relay(folder: Path, study_text: str = STUDY) -> AsyncIterator[RunningRelay]:
+    """The demo fleet's relay running ``study_text`` (written to ``folder``/study.yaml, its runs in ``folder``/runs)."""
+    study = folder / "study.yaml"
+    await asyncio.to_thread(study.write_text, study_text)
+    config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
+    running = await start_relay(config, options=Options(study=str(study), study_runs=str(folder / "runs")))
+    try:
+        yield running
+    finally:
+        await running.runner.cleanup()
 
 
 async def exported(folder: Path) -> dict[tuple[str, str, str], float]:
