@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import atexit
+import contextlib
 import itertools
 import logging
 import os
@@ -37,6 +38,9 @@ from relay.net.server import RELAY_KEY, create_app, open_runner
 from relay.station.core import Relay
 from tests.helpers.hang_report import MARGIN_S, HangReport, quote, stacks_file
 from tests.helpers.shared_memory import memory_report, remove_orphaned_segments
+
+#: Fixtures kept beside their helpers, for every test module: the store's databases.
+pytest_plugins = ("tests.helpers.databases",)
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The shared recordings, maps, photos and robot description (../shared/data beside the repository; a clone of the
@@ -201,12 +205,12 @@ def _on_the_loops_thread(loop: asyncio.AbstractEventLoop, name: str, monkeypatch
     monkeypatch.setattr(loop, name, checked)
 
 
-@pytest.fixture(autouse=True)
-async def _fail_on_blocking(
-    request: pytest.FixtureRequest, loop_block_collector: SlowCallbackCollector, monkeypatch: pytest.MonkeyPatch
+@contextlib.asynccontextmanager
+async def blocking_checks(
+    request: pytest.FixtureRequest, collector: SlowCallbackCollector, monkeypatch: pytest.MonkeyPatch
 ) -> AsyncIterator[None]:
-    """Every async test runs with the two checks of asyncio's debug mode that find relay bugs: a callback that
-    blocks the loop fails the test, and the loop's scheduling calls raise when made from another thread.
+    """The two checks of asyncio's debug mode that find relay bugs, on the running loop for the length of a test: a
+    callback that blocks the loop fails the test, and the loop's scheduling calls raise when made from another thread.
 
     Not debug mode itself: it also records where every future, handle and task was made (a walk of the stack with a
     stat() of each frame's file, at every create_future and call_soon). Profiled in a VR test, that was 16 s of the
@@ -222,9 +226,18 @@ async def _fail_on_blocking(
     yield
     canary.running = False
     _TIMED.pop(loop, None)
-    blocking = loop_block_collector.blocking(canary)
+    blocking = collector.blocking(canary)
     if blocking and "allow_blocking" not in request.keywords:
         pytest.fail("the event loop was blocked:\n" + "\n".join(blocking[:5]))
+
+
+@pytest.fixture(autouse=True)
+async def _fail_on_blocking(
+    request: pytest.FixtureRequest, loop_block_collector: SlowCallbackCollector, monkeypatch: pytest.MonkeyPatch
+) -> AsyncIterator[None]:
+    """Every async test runs with the blocking checks (the browser tests' own loop: tests/e2e/conftest.py)."""
+    async with blocking_checks(request, loop_block_collector, monkeypatch):
+        yield
 
 
 @pytest.fixture

@@ -113,3 +113,18 @@ def test_the_wire_layer_imports_nothing_above_it() -> None:
     for path in wire:
         above = {m for m in load_time_imports(path, modules, everywhere=True) if not m.startswith("relay.wire")}
         assert above <= {"relay.errors"}, f"{module_name(path)} imports {sorted(above)}"
+
+
+def test_no_test_module_imports_another() -> None:
+    """What tests share is in tests/helpers/ (and the conftests): seven browser tests once imported helpers from other
+    test modules, which made a test file a library whose tests ran again wherever it was imported."""
+    paths = sorted((ROOT / "tests").rglob("*.py"))
+    modules = {module_name(path) for path in paths}
+    tests = {m for m in modules if m.rpartition(".")[2].startswith("test_")}
+    assert len(tests) > 100
+    shared = {
+        module_name(path): sorted(load_time_imports(path, modules, everywhere=True) & tests)
+        for path in paths
+        if load_time_imports(path, modules, everywhere=True) & tests
+    }
+    assert shared == {}, f"test modules imported as libraries: {shared}"

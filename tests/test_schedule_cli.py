@@ -16,9 +16,8 @@ from relay.inspection.scheduler import REREAD
 from relay.inspection.store import Store
 from tests.conftest import LOAD_SLACK, ROOT
 from tests.helpers.inspection import operator
+from tests.helpers.schedules import EVERY_DAY, HandClock, ask, listed_schedules, schedule_relay, schedule_state
 from tests.helpers.waiting import wait_until
-from tests.test_schedules import EVERY_DAY, HandClock, _relay, _schedule_state, ask
-from tests.test_schedules import _schedules as _shown
 
 
 def _run(tmp_path: Path, *args: str) -> int:
@@ -78,13 +77,13 @@ async def test_a_schedule_made_on_the_command_line_runs_in_the_relay(
     assert listed.startswith("rounds\t") and "every 3600 s" in listed and "on busy skip" in listed, listed
     assert "mon,tue,wed,thu,fri,sat,sun 0-24" in listed and "last none" in listed, listed
 
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
-        shown = await _schedule_state(ana, "rounds", lambda s: s["state"] == "scheduled")
+        shown = await schedule_state(ana, "rounds", lambda s: s["state"] == "scheduled")
         assert shown["next_run"] == start and shown["priority"] == 2 and shown["owner"].startswith("xr-relay schedule")
         clock.now = start + 1.0
-        shown = await _schedule_state(ana, "rounds", lambda s: (s["last_run"] or {}).get("outcome") == "started")
+        shown = await schedule_state(ana, "rounds", lambda s: (s["last_run"] or {}).get("outcome") == "started")
         assert shown["last_run"]["mission"].endswith(".robot3"), shown
     finally:
         await running.runner.cleanup()
@@ -100,7 +99,7 @@ async def test_a_running_relay_takes_up_what_the_command_line_adds_and_removes(
 ) -> None:
     clock = HandClock(time.time())
     start = float(int(clock.now) + 3600)
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
         made = await ask(ana, {
@@ -112,11 +111,11 @@ async def test_a_running_relay_takes_up_what_the_command_line_adds_and_removes(
         added = await asyncio.to_thread(_run, tmp_path, "add", "nightly", *args, "--window", "mon-sun", "0-24")
         assert added == 0, capsys.readouterr().err
         # Within the relay's reading period (REREAD, 5 s), with a loaded machine's margin: no restart.
-        shown = await _schedule_state(ana, "nightly", lambda s: s["state"] == "scheduled")
+        shown = await schedule_state(ana, "nightly", lambda s: s["state"] == "scheduled")
         assert shown["next_run"] == start and shown["owner"].startswith("xr-relay schedule")
         assert await asyncio.to_thread(_run, tmp_path, "remove", "nightly") == 0
-        await wait_until(lambda: "nightly" not in _shown(ana), REREAD + 10 + LOAD_SLACK, "nightly gone")
+        await wait_until(lambda: "nightly" not in listed_schedules(ana), REREAD + 10 + LOAD_SLACK, "nightly gone")
         # The schedule made by a client stays as it was: a reading never undoes a command.
-        assert _shown(ana)["by-hand"]["state"] == "scheduled"
+        assert listed_schedules(ana)["by-hand"]["state"] == "scheduled"
     finally:
         await running.runner.cleanup()

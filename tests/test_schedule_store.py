@@ -11,11 +11,11 @@ import pytest
 from relay.inspection.records import ScheduleRecord, ScheduleRun
 from relay.inspection.schema import MIGRATIONS
 from relay.inspection.store import Store
-from tests.test_store import BUSY, postgres_server, postgres_url, url  # noqa: F401 (fixtures)
+from tests.helpers.databases import BUSY
 
 
 @pytest.fixture
-def store(url: str, tmp_path: Path) -> Iterator[Store]:  # noqa: F811 (the fixture)
+def store(url: str, tmp_path: Path) -> Iterator[Store]:
     with Store.open(url, tmp_path / "images", busy_timeout=BUSY) as opened:
         yield opened
 
@@ -68,7 +68,7 @@ def test_runs_are_recorded_and_the_latest_of_each_schedule_is_found(store: Store
     assert store.last_schedule_runs() == {"weekly": runs[2]}
 
 
-def test_schedules_outlive_the_store(url: str, tmp_path: Path) -> None:  # noqa: F811 (the fixture)
+def test_schedules_outlive_the_store(url: str, tmp_path: Path) -> None:
     with Store.open(url, tmp_path / "images", busy_timeout=BUSY) as first:
         first.add_schedule(nightly())
         first.add_schedule_run(ScheduleRun("r-1", "nightly", 100.0, 101.0, "started", "m-1.robot1", ""))

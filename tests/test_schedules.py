@@ -6,71 +6,19 @@ that pauses or is missed an alert, and runs missed while the relay was down reco
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
-from aiohttp import web
-
-from relay.cli.options import Options
 from relay.config import FleetConfig
 from relay.inspection.records import ScheduleRun
 from relay.inspection.store import Store
-from relay.net.server import RELAY_KEY, create_app, open_runner
-from tests.conftest import RunningRelay
-from tests.helpers.inspection import TOKEN, operator
+from tests.helpers.inspection import operator
+from tests.helpers.schedules import EVERY_DAY, WAIT, HandClock, ask, listed_schedules, schedule_relay, schedule_state
 from tests.wsclient import TestClient
 
 T = TypeVar("T")
-#: Seconds: generous for a loaded 2-core machine (the scheduler beats once a second); never waited out when all is well.
-WAIT = 30.0
-EVERY_DAY = [{"days": ["mon", "tue", "wed", "thu", "fri", "sat", "sun"], "hours": [0, 24]}]
-
-
-class HandClock:
-    """The relay's time of day, moved by the test."""
-
-    def __init__(self, now: float) -> None:
-        self.now = now
-
-    def __call__(self) -> float:
-        return self.now
-
-
-async def _relay(
-    fleet_config: FleetConfig, tmp_path: Path, clock: HandClock, missions_dir: Path | None = None
-) -> RunningRelay:
-    options = Options(token=TOKEN, allow_viewers=True, database=str(tmp_path / "inspection.sqlite"))
-    if missions_dir is not None:
-        options = dataclasses.replace(options, missions_dir=missions_dir)
-    app = create_app(fleet_config, options, wall_clock=clock)
-    runner = await open_runner(app)
-    site = web.TCPSite(runner, "127.0.0.1", 0)
-    await site.start()
-    host, port = runner.addresses[0][:2]
-    return RunningRelay(f"http://{host}:{port}", f"ws://{host}:{port}/ws", app[RELAY_KEY], runner)
-
-
-async def ask(client: TestClient, message: dict[str, Any]) -> dict[str, Any]:
-    """A command's ack or error, within the margin a loaded machine needs (the client's default is 5 s)."""
-    return await client.request(message, WAIT)
-
-
-def _schedules(client: TestClient) -> dict[str, dict[str, Any]]:
-    """The schedules as the newest `schedules` message this client got lists them."""
-    latest = [m for _, m in client.messages if m["identifier"] == "schedules"]
-    return {s["schedule"]: s for s in latest[-1]["schedules"]} if latest else {}
-
-
-async def _schedule_state(client: TestClient, name: str, check: Any) -> dict[str, Any]:
-    """The first `schedules` message (from now on, or the newest) whose entry ``name`` passes ``check``."""
-    message = await client.wait_for(
-        lambda m: m["identifier"] == "schedules" and any(s["schedule"] == name and check(s) for s in m["schedules"]),
-        WAIT,
-    )
-    return next(s for s in message["schedules"] if s["schedule"] == name)
 
 
 def _alerts(client: TestClient, kind: str) -> list[dict[str, Any]]:
@@ -106,7 +54,7 @@ async def test_a_schedule_runs_its_mission_waits_for_a_busy_robot_skips_and_aler
 ) -> None:
     clock = HandClock(time.time())
     start = clock.now + 120.0
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
         viewer = await TestClient.open(running.ws_url)
@@ -133,18 +81,18 @@ async def test_a_schedule_runs_its_mission_waits_for_a_busy_robot_skips_and_aler
             assert says in refused["message"] and refused["message"].startswith("schedule/add: "), refused
         forbidden = await ask(viewer, nightly)
         assert forbidden["identifier"] == "error" and forbidden["code"] == "forbidden", forbidden
-        assert await _read(tmp_path, lambda s: s.schedules()) == [] and _schedules(ana) == {}
+        assert await _read(tmp_path, lambda s: s.schedules()) == [] and listed_schedules(ana) == {}
 
         added = await ask(ana, nightly)
         assert added["identifier"] == "ack", added
-        shown = await _schedule_state(viewer, "nightly", lambda s: s["state"] == "scheduled")
+        shown = await schedule_state(viewer, "nightly", lambda s: s["state"] == "scheduled")
         assert shown["next_run"] == start and shown["last_run"] is None and shown["on_busy"] == "wait"
         again = await ask(ana, nightly)
         assert again["identifier"] == "error" and "exists already" in again["message"], again
 
         # The first run: a mission like any other, owned by the schedule.
         clock.now = start + 1.0
-        shown = await _schedule_state(ana, "nightly", lambda s: s["state"] == "running")
+        shown = await schedule_state(ana, "nightly", lambda s: s["state"] == "running")
         assert shown["last_run"]["outcome"] == "started" and shown["last_run"]["slot"] == start
         mission_id = shown["last_run"]["mission"]
         # The mission's own message may come after the schedules message (the runner announces it from its task).
@@ -160,18 +108,18 @@ async def test_a_schedule_runs_its_mission_waits_for_a_busy_robot_skips_and_aler
 
         # The next run finds robot1 estopped: it waits within its window, saying why...
         clock.now = start + 3601.0
-        waiting = await _schedule_state(ana, "nightly", lambda s: s["state"] == "waiting")
+        waiting = await schedule_state(ana, "nightly", lambda s: s["state"] == "waiting")
         assert "robot1 is emergency-stopped" in waiting["reason"] and waiting["next_run"] == start + 3600
         # ... and when the window (here: the next slot) passes, it is missed, and that is an alert.
         clock.now = start + 7201.0
         missed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_missed", WAIT)
         assert "Schedule nightly missed 1 run" in missed["text"] and "emergency-stopped" in missed["text"], missed
-        await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "missed")
+        await schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "missed")
 
         # With on_busy skip, the run due now is skipped, saying so.
         changed = await ask(ana, {"identifier": "schedule/update", "schedule": "nightly", "on_busy": "skip"})
         assert changed["identifier"] == "ack", changed
-        skipped = await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
+        skipped = await schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
         assert skipped["last_run"]["slot"] == start + 7200 and "emergency-stopped" in skipped["last_run"]["reason"]
         bad_update = await ask(ana, {"identifier": "schedule/update", "schedule": "nightly", "repeat": 30})
         assert bad_update["identifier"] == "error" and "repeat must be at least 60 s" in bad_update["message"]
@@ -182,7 +130,7 @@ async def test_a_schedule_runs_its_mission_waits_for_a_busy_robot_skips_and_aler
         reset = await ask(ana, {"identifier": "estop", "robot": "robot1", "action": "reset"})
         assert reset["identifier"] == "ack", reset
         clock.now = start + 3 * 3600 + 1.0
-        shown = await _schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("slot") == start + 3 * 3600)
+        shown = await schedule_state(ana, "nightly", lambda s: (s["last_run"] or {}).get("slot") == start + 3 * 3600)
         assert shown["last_run"]["outcome"] == "started" and shown["last_run"]["mission"] != mission_id
         outcomes = [(r.slot - start, r.outcome) for r in await _runs(tmp_path, "nightly", 4)]
         assert outcomes == [(0, "started"), (3600, "missed"), (7200, "skipped"), (10800, "started")]
@@ -203,7 +151,7 @@ async def test_runs_missed_while_the_relay_was_down_are_recorded_and_alerted_nev
 ) -> None:
     clock = HandClock(time.time())
     start = clock.now + 60.0
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
         hourly = {
@@ -217,13 +165,13 @@ async def test_runs_missed_while_the_relay_was_down_are_recorded_and_alerted_nev
 
     # Down for three slots and a bit: those three are missed; the fourth is inside its time and starts.
     clock.now = start + 3 * 3600 + 10.0
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
         missed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_missed", WAIT)
         assert missed["subject"] == "hourly" and missed["robot"] == "robot2", missed
         assert "missed 3 runs" in missed["text"] and "the relay was not running" in missed["text"], missed
-        shown = await _schedule_state(ana, "hourly", lambda s: (s["last_run"] or {}).get("outcome") == "started")
+        shown = await schedule_state(ana, "hourly", lambda s: (s["last_run"] or {}).get("outcome") == "started")
         assert shown["last_run"]["slot"] == start + 3 * 3600 and shown["priority"] == 3
         runs = [(r.slot - start, r.outcome, r.reason) for r in await _runs(tmp_path, "hourly", 4)]
         assert runs == [
@@ -242,7 +190,7 @@ async def test_runs_due_together_start_by_priority_and_the_other_is_skipped_sayi
 ) -> None:
     clock = HandClock(time.time())
     start = clock.now + 120.0
-    running = await _relay(fleet_config, tmp_path, clock)
+    running = await schedule_relay(fleet_config, tmp_path, clock)
     try:
         ana = await operator(running)
         for name, priority in (("low", 1), ("high", 5)):
@@ -253,8 +201,8 @@ async def test_runs_due_together_start_by_priority_and_the_other_is_skipped_sayi
             made = await ask(ana, schedule)
             assert made["identifier"] == "ack", made
         clock.now = start + 1.0
-        high = await _schedule_state(ana, "high", lambda s: (s["last_run"] or {}).get("outcome") == "started")
-        low = await _schedule_state(ana, "low", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
+        high = await schedule_state(ana, "high", lambda s: (s["last_run"] or {}).get("outcome") == "started")
+        low = await schedule_state(ana, "low", lambda s: (s["last_run"] or {}).get("outcome") == "skipped")
         assert f"robot2 is on mission {high['last_run']['mission']}" in low["last_run"]["reason"], low
     finally:
         await running.runner.cleanup()
@@ -268,7 +216,7 @@ async def test_a_run_that_cannot_start_is_recorded_failed_and_alerted(
     (folder / "round.yaml").write_text("name: Round\nrobots: [{robot: robot1, steps: [{dwell: 1}]}]\n")
     clock = HandClock(time.time())
     start = clock.now + 120.0
-    running = await _relay(fleet_config, tmp_path, clock, folder)
+    running = await schedule_relay(fleet_config, tmp_path, clock, folder)
     try:
         ana = await operator(running)
         schedule = {
@@ -281,7 +229,7 @@ async def test_a_run_that_cannot_start_is_recorded_failed_and_alerted(
         failed = await ana.wait_for(lambda m: m["identifier"] == "alert" and m["kind"] == "schedule_failed", WAIT)
         assert failed["subject"] == "round" and "could not start" in failed["text"], failed
         assert "no mission file 'round'" in failed["text"], failed
-        shown = await _schedule_state(ana, "round", lambda s: (s["last_run"] or {}).get("outcome") == "failed")
+        shown = await schedule_state(ana, "round", lambda s: (s["last_run"] or {}).get("outcome") == "failed")
         assert shown["next_run"] == start + 3600 and "no mission file 'round'" in shown["last_run"]["reason"]
     finally:
         await running.runner.cleanup()

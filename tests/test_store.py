@@ -5,8 +5,6 @@ corrupt, unreachable)."""
 from __future__ import annotations
 
 import hashlib
-import itertools
-import os
 import socket
 import sqlite3
 import threading
@@ -23,9 +21,7 @@ import relay.inspection.store as store_module
 from relay.inspection.records import AlertRecord, CaptureRecord, FindingRecord, MissionRecord, ReadingTrend, Step
 from relay.inspection.schema import SCHEMA_VERSION
 from relay.inspection.store import Store, StoreError, UnknownRecord
-from tests.helpers.postgres import running_postgres
-
-BUSY = 0.3  # seconds: the busy timeout of the tests, short so that a lock test takes well under a second
+from tests.helpers.databases import BUSY
 
 STEPS = (
     Step("inspect", target="spill"),
@@ -56,35 +52,6 @@ JPEG = b"\xff\xd8\xff\xe0" + bytes(range(256)) * 4 + b"\xff\xd9"
 
 
 # -- the databases --------------------------------------------------------------------------------------------------
-
-
-@pytest.fixture(scope="session")
-def postgres_server() -> Iterator[str]:
-    """A throwaway PostgreSQL server on 127.0.0.1 (trust auth, user ``relay``) for the session; its admin URL."""
-    with running_postgres() as (url, _):
-        yield url
-
-
-_DATABASES = itertools.count()
-
-
-@pytest.fixture
-def postgres_url(postgres_server: str) -> str:
-    """A new, empty database on the session's server: tests do not see each other's rows."""
-    import psycopg
-
-    name = f"test_{os.getpid()}_{next(_DATABASES)}"
-    with psycopg.connect(postgres_server, autocommit=True) as admin:
-        admin.execute(f"CREATE DATABASE {name}")
-    return postgres_server.rsplit("/", 1)[0] + "/" + name
-
-
-@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.timeout(900))])
-def url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
-    """Where a store lives: a SQLite file in a directory not yet made, or a PostgreSQL database."""
-    if request.param == "sqlite":
-        return str(tmp_path / "db" / "inspection.sqlite")
-    return str(request.getfixturevalue("postgres_url"))
 
 
 @pytest.fixture

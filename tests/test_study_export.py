@@ -11,15 +11,14 @@ import pytest
 from relay.cli.main import main
 from relay.study.store import RunStore
 from relay.study.study_file import load_study
-from tests.test_study_file import STUDY
-from tests.test_study_run import tick
+from tests.helpers.study_files import VALVE_STUDY, tick
 
 INSIDE = {"robot1": (10.0, 2.0), "robot2": (20.0, 3.0)}
 
 
 def test_runs_survive_a_restart_and_export_as_csv_and_html(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     study_file = tmp_path / "study.yaml"
-    study_file.write_text(STUDY)
+    study_file.write_text(VALVE_STUDY)
     runs = tmp_path / "runs"
     store = RunStore(runs, load_study(study_file))
     first = store.load("P01")
@@ -54,7 +53,7 @@ def test_a_damaged_run_or_study_is_named_and_nothing_is_written(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     study_file = tmp_path / "study.yaml"
-    study_file.write_text(STUDY)
+    study_file.write_text(VALVE_STUDY)
     runs = tmp_path / "runs" / "valve-and-spill"
     runs.mkdir(parents=True)
     (runs / "P02.json").write_text('{"participant": "P02", "phase": ')
@@ -65,6 +64,6 @@ def test_a_damaged_run_or_study_is_named_and_nothing_is_written(
     (runs / "P02.json").write_text('{"participant": "P02", "owner": "someone"}')
     assert main(["study", "export", str(study_file), "--runs", str(tmp_path / "runs"), "--out", str(out)]) == 2
     assert "P02.json: not a run of this relay" in capsys.readouterr().err
-    study_file.write_text(STUDY.replace("time_limit: 180", "time_limit: -1"))
+    study_file.write_text(VALVE_STUDY.replace("time_limit: 180", "time_limit: -1"))
     assert main(["study", "check", str(study_file)]) == 2
     assert "study.yaml:10: tasks[0].time_limit: expected a positive number, got -1" in capsys.readouterr().err

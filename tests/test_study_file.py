@@ -13,34 +13,11 @@ from relay.study.counterbalance import latin_orders, williams
 from relay.study.model import FindingAtTarget, GoalReached, RobotInRegion
 from relay.study.scores import AnswerError, sus_score, tlx_raw
 from relay.study.study_file import parse_study
-
-STUDY = """\
-study: valve-and-spill
-participants: [P01, P02, P03, P04]
-conditions:
-  - {name: headset, client: {view: headset}}
-  - {name: desktop, client: {view: desktop, sound: off}}
-questionnaires: {after_task: [tlx], after_condition: [sus]}
-tasks:
-  - name: reach-spill
-    instruction: Send robot1 to the spill in chemical storage.
-    time_limit: 180
-    start: {reset_estop: true, robots: {robot1: {x: 2.0, y: 3.0, yaw: 0}}}
-    success: {robot_in_region: {robot: robot1, region: [[9, 1], [12, 1], [12, 4], [9, 4]]}}
-    probes: [{at: 30, question: room, robot: robot2}]
-  - name: mark-spill
-    instruction: Mark the spill as a finding.
-    time_limit: 120
-    success: {finding_at_target: {target: spill}}
-  - name: park
-    instruction: Park robot2 at the dock without touching anything.
-    time_limit: 90
-    success: {goal_reached: {robot: robot2, without_collision: true}}
-"""
+from tests.helpers.study_files import VALVE_STUDY
 
 
 def test_a_study_is_read_whole() -> None:
-    study = parse_study(STUDY)
+    study = parse_study(VALVE_STUDY)
     assert study.name == "valve-and-spill"
     assert study.participants == ("P01", "P02", "P03", "P04")
     assert [c.name for c in study.conditions] == ["headset", "desktop"]
@@ -57,7 +34,7 @@ def test_a_study_is_read_whole() -> None:
 
 
 def test_an_order_may_be_given() -> None:
-    text = STUDY.replace(
+    text = VALVE_STUDY.replace(
         "questionnaires:",
         "order: {P01: [desktop, headset], P02: [desktop, headset], P03: [headset, desktop], P04: [headset, desktop]}\n"
         "questionnaires:",
@@ -99,22 +76,24 @@ def test_an_order_may_be_given() -> None:
     ],
 )
 def test_a_mistake_is_named_by_line_and_field(change: tuple[str, str], where: str) -> None:
-    text = STUDY.replace(*change)
-    assert text != STUDY
+    text = VALVE_STUDY.replace(*change)
+    assert text != VALVE_STUDY
     with pytest.raises(ConfigError) as raised:
         parse_study(text)
     assert str(raised.value) == where
 
 
 def test_a_given_order_names_what_is_wrong() -> None:
-    missing = STUDY.replace("questionnaires:", "order: {P01: [desktop], P02: [desktop, headset]}\nquestionnaires:")
+    missing = VALVE_STUDY.replace(
+        "questionnaires:", "order: {P01: [desktop], P02: [desktop, headset]}\nquestionnaires:"
+    )
     with pytest.raises(ConfigError, match=r"study.yaml:6: order.P03: is required"):
         parse_study(missing)
     orders = "P02: [desktop, headset], P03: [headset, desktop], P04: [headset, desktop]"
     with pytest.raises(ConfigError, match=r"study.yaml:6: order.P01: every condition once; missing headset"):
-        parse_study(STUDY.replace("questionnaires:", f"order: {{P01: [desktop], {orders}}}\nquestionnaires:"))
+        parse_study(VALVE_STUDY.replace("questionnaires:", f"order: {{P01: [desktop], {orders}}}\nquestionnaires:"))
     with pytest.raises(ConfigError, match=r'order.P01: "vr" is not a condition; expected one of headset, desktop'):
-        parse_study(STUDY.replace("questionnaires:", f"order: {{P01: [vr, desktop], {orders}}}\nquestionnaires:"))
+        parse_study(VALVE_STUDY.replace("questionnaires:", f"order: {{P01: [vr, desktop], {orders}}}\nquestionnaires:"))
 
 
 def test_bad_yaml_and_an_empty_file_are_named() -> None:

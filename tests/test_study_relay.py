@@ -23,28 +23,12 @@ from relay.net.keys import RELAY_KEY
 from relay.net.server import create_app, open_runner
 from relay.study import cli as study_cli
 from tests.conftest import RunningRelay, start_relay
+from tests.helpers.study_files import DRIVE_STUDY, GOAL_AT
 from tests.wsclient import TestClient
 
 TOKEN = "study-token-for-tests-0123456789"
 WAIT = 30.0  # s: a loaded machine's margin for a robot's drive and a reply; never what a test measures
 
-#: Robot1 starts in the corridor; the task's region is in chemical storage, a few metres and a door away.
-STUDY = """\
-study: drive-study
-participants: [P01, P02]
-conditions:
-  - {name: desktop, client: {view: desktop, sound: off}}
-  - {name: headset, client: {view: headset}}
-order: {P01: [desktop, headset], P02: [headset, desktop]}
-questionnaires: {after_task: [tlx], after_condition: [sus]}
-tasks:
-  - name: reach-storage
-    instruction: Send robot1 into chemical storage.
-    time_limit: 120
-    start: {reset_estop: true, robots: {robot1: {x: 3.0, y: 1.0, yaw: 1.5708}}}
-    success: {robot_in_region: {robot: robot1, region: [[2, 4], [4, 4], [4, 5.5], [2, 5.5]]}}
-"""
-GOAL_AT = (3.0, 4.7)  # in the region
 GOAL = {"identifier": "robot1/goal_pose", "x": GOAL_AT[0], "y": GOAL_AT[1]}
 SUS = [4, 2, 5, 1, 4, 2, 5, 1, 4, 2]  # (3+3+4+4+3+3+4+4+3+3) * 2.5 = 85
 TLX = [40, 10, 30, 20, 50, 10]  # mean 26.67
@@ -65,7 +49,7 @@ async def open_relay(
 ) -> RunningRelay:
     study = tmp_path / "study.yaml"
     if not study.exists():
-        study.write_text(STUDY)
+        study.write_text(DRIVE_STUDY)
     options = Options(
         token=TOKEN, allow_viewers=True, study=str(study), study_runs=str(tmp_path / "runs"),
         database=str(tmp_path / "inspection.sqlite"),
@@ -273,7 +257,7 @@ async def test_a_relay_without_a_study_refuses_study_commands(fleet_config: Flee
 async def test_a_study_naming_a_robot_not_in_the_fleet_stops_the_start(
     fleet_config: FleetConfig, tmp_path: Path
 ) -> None:
-    (tmp_path / "study.yaml").write_text(STUDY.replace("robot: robot1", "robot: robot9"))
+    (tmp_path / "study.yaml").write_text(DRIVE_STUDY.replace("robot: robot1", "robot: robot9"))
     with pytest.raises(ConfigError, match=r"tasks\[0\]\.success\.robot_in_region\.robot: \"robot9\" is not a robot"):
         await open_relay(fleet_config, tmp_path, HandClock())
 
@@ -370,7 +354,7 @@ def test_the_command_line_refuses_a_bad_study_file_naming_its_line_and_field(
     from tests.conftest import ROOT
 
     bad = tmp_path / "study.yaml"
-    bad.write_text(STUDY.replace("time_limit: 120", "time_limit: soon"))
+    bad.write_text(DRIVE_STUDY.replace("time_limit: 120", "time_limit: soon"))
     argv = ["--config", str(ROOT / "robots.yaml"), "--study", str(bad), "--no-accounts", "--audit-log", ""]
     assert main(argv) == 2
     assert f'--study: {bad}:11: tasks[0].time_limit: expected a positive number, got "soon"' in caplog.text

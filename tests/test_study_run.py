@@ -16,19 +16,9 @@ from relay.study.run import RunState, StudyError, StudyRun
 from relay.study.scores import AnswerError
 from relay.study.study_file import parse_study
 from relay.study.summary_html import summary_html
-from tests.test_study_file import STUDY
+from tests.helpers.study_files import RADII, VALVE_STUDY, tick
 
-STUDY_ = parse_study(STUDY)
-RADII = {"robot1": 0.2, "robot2": 0.2}
-FAR = {"robot1": (2.0, 3.0), "robot2": (20.0, 3.0)}
-
-
-def truth(probe: Probe) -> str:
-    return {"room": "corridor"}[probe.question]
-
-
-def tick(run: StudyRun, now: float, poses: dict[str, tuple[float, float]] | None = None, **modes: str) -> object:
-    return run.tick(now, poses or FAR, modes, RADII, None, truth)
+STUDY_ = parse_study(VALVE_STUDY)
 
 
 def measures(run: StudyRun, task: str, condition: str) -> dict[str, float]:

@@ -102,6 +102,8 @@ class ArmControl:
     async def handle(self, client: Client, command: ArmCommand, now: float, age: float) -> None:
         """Carry out an arm command that waited ``age`` seconds; raises ProtocolError when it is refused."""
         identifier = command.identifier
+        # A recording (a bag, a replay) refuses every command as such first, whether its arm's files are here or not.
+        self.gate.require_movable(client, command.robot, identifier, command.id, moves=False)
         arm = self._arm(command.robot, identifier, command.id)
         if isinstance(command, ArmTwist):
             await self._twist(client, command, arm, now, age)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import inspect
 import io
 import os
 import time
@@ -19,12 +20,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from playwright.async_api import Browser, Page, async_playwright
+import pytest_asyncio
+from playwright.async_api import Browser, BrowserContext, Page, Playwright, async_playwright
 
 from relay.config import FleetConfig, load_config
 from relay.fleet.events import FrameEvent
-from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, Client, OpenClient, Station
+from tests.conftest import ROOT, RunningRelay, SlowCallbackCollector, blocking_checks, start_relay
+from tests.helpers.browser import CHROMIUM, CHROMIUM_ARGS, LOOP, Client, OpenClient, Station, fixture
 
 SYNTHETIC_CAMERA = "front"
 SYNTHETIC_SIZE = 512
@@ -119,14 +121,35 @@ HEAVY = os.environ.get("XR_RELAY_HEAVY") == "1"
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    here = Path(__file__).parent
     for item in items:
+        if here not in Path(str(item.path)).parents:
+            continue  # this hook sees the whole run's items
+        if inspect.iscoroutinefunction(getattr(item, "obj", None)):
+            # Before any marker pytest-asyncio gave it: the closest one sets the loop.
+            item.add_marker(pytest.mark.asyncio(loop_scope=LOOP), append=False)
         if item.get_closest_marker("heavy") is not None and not HEAVY:
             item.add_marker(
                 pytest.mark.skip(reason="a heavy VR scenario (minutes of SwiftShader): XR_RELAY_HEAVY=1 runs it")
             )
 
 
-@pytest.fixture
+@fixture(autouse=True)
+async def _fail_on_blocking(
+    request: pytest.FixtureRequest, loop_block_collector: SlowCallbackCollector, monkeypatch: pytest.MonkeyPatch
+) -> AsyncIterator[None]:
+    """The blocking checks of every test (tests/conftest.py), on the browser tests' shared loop; and what a test
+    left running on it is cancelled at its end, as closing a loop of its own would have."""
+    before = asyncio.all_tasks()
+    async with blocking_checks(request, loop_block_collector, monkeypatch):
+        yield
+    left = asyncio.all_tasks() - before - {asyncio.current_task()}
+    for task in left:
+        task.cancel()
+    await asyncio.gather(*left, return_exceptions=True)
+
+
+@fixture
 async def station() -> AsyncIterator[Station]:
     # Reading robots.yaml and the facility's occupancy grid takes a while: off the event loop.
     config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
@@ -181,24 +204,59 @@ async def station() -> AsyncIterator[Station]:
         await running.runner.cleanup()
 
 
-@pytest.fixture
-async def browser(tmp_path: Path) -> AsyncIterator[Browser]:
+class WorkerChromium:
+    """The worker's one Chromium, launched again when it went away (crashed under an earlier test)."""
+
+    def __init__(self, playwright: Playwright, executable: Path) -> None:
+        self.playwright = playwright
+        self.executable = executable
+        self.chromium: Browser | None = None
+
+    async def current(self) -> Browser:
+        if self.chromium is None or not self.chromium.is_connected():
+            self.chromium = await self.playwright.chromium.launch(
+                executable_path=str(self.executable), args=CHROMIUM_ARGS
+            )
+        return self.chromium
+
+    async def close(self) -> None:
+        if self.chromium is not None and self.chromium.is_connected():
+            await self.chromium.close()
+
+
+@pytest_asyncio.fixture(scope="session", loop_scope=LOOP)
+async def _chromium(tmp_path_factory: pytest.TempPathFactory) -> AsyncIterator[WorkerChromium | None]:
     if not await asyncio.to_thread(CHROMIUM.exists):
-        pytest.skip(f"the browser tests need Debian's Chromium at {CHROMIUM} (make test installs it)")
+        yield None
+        return
     # WebGL on SwiftShader keeps every core busy; niced, the browser leaves the in-process relay (whose
     # event loop the blocking check watches) the CPU it needs on a loaded 2-core machine.
-    launcher = tmp_path / "chromium-niced"
+    launcher = tmp_path_factory.mktemp("chromium") / "chromium-niced"
     await asyncio.to_thread(launcher.write_text, f'#!/bin/sh\nexec nice -n 10 {CHROMIUM} "$@"\n')
     await asyncio.to_thread(launcher.chmod, 0o755)
     async with async_playwright() as playwright:
-        chromium = await playwright.chromium.launch(executable_path=str(launcher), args=CHROMIUM_ARGS)
+        worker = WorkerChromium(playwright, launcher)
         try:
-            yield chromium
+            yield worker
         finally:
-            await chromium.close()
+            await worker.close()
 
 
-@pytest.fixture
+@fixture
+async def browser(_chromium: WorkerChromium | None) -> AsyncIterator[Browser]:
+    """The worker's Chromium for one test: what the test opened in it (pages, contexts) is closed at its end."""
+    if _chromium is None:
+        pytest.skip(f"the browser tests need Debian's Chromium at {CHROMIUM} (make test installs it)")
+    chromium = await _chromium.current()
+    before: set[BrowserContext] = set(chromium.contexts)
+    try:
+        yield chromium
+    finally:
+        for context in set(chromium.contexts) - before:
+            await context.close()
+
+
+@fixture
 async def open_client(browser: Browser) -> AsyncIterator[OpenClient]:
     pages: list[Page] = []
 

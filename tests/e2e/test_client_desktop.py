@@ -185,7 +185,7 @@ async def test_a_tab_with_a_wrong_token_stops_knocking_and_says_what_to_do(brows
 
 
 async def test_the_demo_mission_from_the_menu_to_a_marked_region(station: Station, open_client: OpenClient) -> None:
-    client = await open_client(station.url, "inspection")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "inspection")
     page = client.page
     await client.wait("s.inspection.targets === 3")
     await page.click('#menu button[data-button="mission:demo"]:not([disabled])')

@@ -7,19 +7,8 @@ from __future__ import annotations
 import math
 import time
 
-from playwright.async_api import Page
-
 from tests.helpers.browser import OpenClient, Station, wait_until
-from tests.helpers.xr import HAND_ORIGIN, aim_arc, enter_vr, teleop_on
-
-
-async def hand(page: Page, side: str, position: list[float], pinch: float | None = None) -> None:
-    """Move one emulated hand (IWER's device space) and, with ``pinch``, close (1) or open (0) it."""
-    await page.evaluate(
-        "([side, p, pinch]) => { const h = window.__iwer.hands[side]; h.position.set(...p);"
-        " if (pinch !== null) h.updatePinchValue(pinch); }",
-        [side, position, pinch],
-    )
+from tests.helpers.xr import HAND_ORIGIN, aim_arc, enter_vr, hand, teleop_on
 
 
 async def test_pinch_drag_drives_the_robot_and_letting_go_stops_it_at_once(

@@ -10,14 +10,10 @@ import asyncio
 import json
 from collections.abc import AsyncIterator
 
-import pytest
-
 from tests.conftest import ROOT
-from tests.helpers.browser import Client, OpenClient, Station, wait_until
-from tests.helpers.xr import HAND_ORIGIN, aim, enter_vr
+from tests.helpers.browser import Client, OpenClient, Station, fixture, wait_until
+from tests.helpers.xr import HAND_ORIGIN, aim, enter_vr, hand
 from tests.wsclient import TestClient
-
-from .test_hands import hand
 
 ROBOTS = ("robot1", "robot2", "robot3")
 FIST_JSON = "import('./test/fixtures/hand_poses.js').then((m) => process.stdout.write(JSON.stringify(m.fistHandPose)))"
@@ -33,7 +29,7 @@ def latched(station: Station) -> list[str]:
     return [r for r in ROBOTS if station.status(r)["estopped"]]
 
 
-@pytest.fixture
+@fixture
 async def reset() -> AsyncIterator[object]:
     """Lifts the fleet's E-STOP as another operator would, between the checks of one test."""
     clients: list[TestClient] = []

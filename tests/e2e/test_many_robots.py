@@ -9,17 +9,15 @@ import asyncio
 import math
 from collections.abc import AsyncIterator
 
-import pytest
-
 from bench.bench_client_frame import fleet_yaml
 from relay.config import parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient, fixture
 
 ROBOTS = 100
 
 
-@pytest.fixture
+@fixture
 async def hundred() -> AsyncIterator[RunningRelay]:
     text = await asyncio.to_thread(fleet_yaml, ROBOTS)
     # 10 poses a second (the benchmark's 30 would load the test's own event loop, which runs the relay too).

@@ -37,7 +37,7 @@ def latched(station: Station) -> list[str]:
 async def test_estop_by_key_while_driving_holds_view_and_robot_and_stays_until_reset(
     station: Station, open_client: OpenClient
 ) -> None:
-    client = await open_client(station.url, "estop")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "estop")
     page = client.page
     await choose(client, "robot1", "teleop")
     await page.locator("#viewport canvas").focus()
@@ -122,7 +122,7 @@ async def test_vr_estop_within_reach_on_a_button_and_the_wrist(station: Station,
 async def test_goal_mode_says_what_a_click_would_do_and_a_click_on_a_robot_selects_it(
     station: Station, open_client: OpenClient
 ) -> None:
-    client = await open_client(station.url, "goal-verdict")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "goal-verdict")
     page = client.page
     await choose(client, "robot1", "goal")
 
@@ -200,7 +200,7 @@ async def test_vr_arc_on_a_robot_selects_it_and_a_wall_is_refused(station: Stati
 
 
 async def test_the_plan_is_drawn_and_the_outcome_said(station: Station, open_client: OpenClient) -> None:
-    client = await open_client(station.url, "path")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "path")
     page = client.page
     await choose(client, "robot2", "goal")
     px, py = await page.evaluate("([x, y]) => window.__xrRelay.mapToPage(x, y, 0)", [9.0, 6.0])
@@ -327,8 +327,8 @@ async def test_a_frozen_relay_shows_old_data_as_old_and_a_restart_says_reconnect
 async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent(
     station: Station, open_client: OpenClient
 ) -> None:
-    ana = await open_client(f"{station.url}/?name=Ana", "lease-ana")
-    ben = await open_client(station.url, "lease-ben", operator=None)
+    ana = await open_client(f"{station.url}/?name=Ana&{SOFTWARE_GL}", "lease-ana")
+    ben = await open_client(f"{station.url}/?{SOFTWARE_GL}", "lease-ben", operator=None)
     # Ben is asked once, in the page (not modal: the station stays usable meanwhile), and remembered.
     await ben.page.wait_for_selector("#name-dialog[open]")
     assert not await ana.page.is_visible("#name-dialog"), "a name from the address is not asked again"
@@ -377,7 +377,7 @@ async def test_operators_have_names_and_take_over_in_the_page_with_the_goal_sent
 async def test_the_sensor_panel_reads_against_thresholds_and_gas_is_never_negative(
     station: Station, open_client: OpenClient
 ) -> None:
-    client = await open_client(station.url, "sensors")
+    client = await open_client(f"{station.url}/?{SOFTWARE_GL}", "sensors")
     await client.page.click('#menu button[data-button="robot:robot1"]')
     # Half a minute of 5 Hz readings in the corridor: 5 ppm of gas with 2 ppm of noise, 400 ppm to warn.
     s = await client.wait("s.panel.sensors.length === 3 && s.panel.sensors.every((x) => x.value !== null) && s", 20)

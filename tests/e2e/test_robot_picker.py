@@ -13,12 +13,19 @@ import math
 import shutil
 from collections.abc import AsyncIterator, Awaitable, Callable
 
-import pytest
-
 from bench.bench_client_frame import fleet_yaml
 from relay.config import parse_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import ARTIFACTS, DOC_IMAGES, SOFTWARE_GL, UPDATE_DOC_IMAGES, Client, OpenClient, covered
+from tests.helpers.browser import (
+    ARTIFACTS,
+    DOC_IMAGES,
+    SOFTWARE_GL,
+    UPDATE_DOC_IMAGES,
+    Client,
+    OpenClient,
+    covered,
+    fixture,
+)
 from tests.helpers.xr import enter_vr, press_menu_button, set_menu
 
 StartFleet = Callable[[int], Awaitable[RunningRelay]]
@@ -26,7 +33,7 @@ ESTOP = '#menu button[data-button="estop"]'
 SEARCH = "#menu .picker .picker-search"
 
 
-@pytest.fixture
+@fixture
 async def fleet_of() -> AsyncIterator[StartFleet]:
     """A relay with N sim robots, robot1..robotN (the benchmark's fleet), stopped after the test."""
     running: list[RunningRelay] = []

@@ -9,20 +9,19 @@ import asyncio
 from collections.abc import AsyncIterator
 from pathlib import Path
 
-import pytest
 from playwright.async_api import Browser
 
 from relay.accounts.users import UserBook
 from relay.cli.options import Options
 from relay.config import load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import Client, confirm_reset
+from tests.helpers.browser import SOFTWARE_GL, Client, confirm_reset, fixture
 from tests.helpers.oidc import CLIENT_ID, SECRET, Provider
 
 PASSWORDS = {"Ana": "ana-correct-horse", "Ben": "ben-battery-staple"}
 
 
-@pytest.fixture
+@fixture
 async def site(tmp_path: Path) -> AsyncIterator[RunningRelay]:
     book = UserBook(tmp_path / "users.sqlite")
     await asyncio.to_thread(book.add, "Ana", "operator", PASSWORDS["Ana"])
@@ -62,8 +61,8 @@ async def signed_in(browser: Browser, url: str, name: str, user: str | None, cod
 async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(
     site: RunningRelay, browser: Browser, tmp_path: Path
 ) -> None:
-    ana = await signed_in(browser, site.url, "ana", "Ana")
-    ben = await signed_in(browser, site.url, "ben", "Ben")
+    ana = await signed_in(browser, f"{site.url}/?{SOFTWARE_GL}", "ana", "Ana")
+    ben = await signed_in(browser, f"{site.url}/?{SOFTWARE_GL}", "ben", "Ben")
     assert await ana.page.locator("#account .who").inner_text() == "Ana (operator)"
     assert await ben.page.locator("#account .who").inner_text() == "Ben (viewer)"
     assert not await ana.page.locator("#name-dialog").is_visible()  # the account names her: nothing to ask
@@ -94,7 +93,7 @@ async def test_people_sign_in_in_the_page_and_are_named_by_their_accounts(
     await code_box.wait_for(state="visible", timeout=10_000)
     code = (await code_box.inner_text()).strip()
     assert len(code) == 6, code
-    headset = await signed_in(browser, site.url, "headset", None, code=code.lower())
+    headset = await signed_in(browser, f"{site.url}/?{SOFTWARE_GL}", "headset", None, code=code.lower())
     assert await headset.page.locator("#account .who").inner_text() == "Ana (operator)"
     # The 401s of /whoami, /auth and the wrong password are the page asking, not failing.
     errors = [e for c in (ana, ben, headset) for e in c.errors if "status of 401" not in e]

@@ -26,8 +26,9 @@ async ([kind, x]) => {
 """
 
 
-#: An offline rendering takes 0.02-0.5 s (the first loads Chromium's HRTF database), 2 s on a loaded machine.
-RENDER_BOUND_S = 60.0
+#: An offline rendering takes 0.02-0.5 s (the first loads Chromium's HRTF database), 2 s on a loaded machine; one
+#: that hung (about one in 20 runs) never finished in the 60 s this bound once was.
+RENDER_BOUND_S = 20.0
 
 
 async def render(open_client: OpenClient, url: str, kind: str, x: float | None, pages: list[Client]) -> list[float]:

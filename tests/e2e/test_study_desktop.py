@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import RunningRelay
-from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, wait_until
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, fixture, wait_until
 from tests.helpers.study import exported
 from tests.helpers.study import study_relay as running_study
-from tests.test_study_relay import GOAL_AT, STUDY
+from tests.helpers.study_files import DRIVE_STUDY, GOAL_AT
 
 #: The SUS answers clicked, item by item, and their score: (3+3+4+4+3+3+4+4+3+3) * 2.5.
 SUS = [4, 2, 5, 1, 4, 2, 5, 1, 4, 2]
@@ -22,9 +22,9 @@ SUS_SCORE = 85.0
 TLX_AT = [0.2, 0.1, 0.5, 0.3, 0.7, 0.05]
 
 
-@pytest.fixture
+@fixture
 async def study_relay(tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
-    async with running_study(tmp_path, STUDY) as running:
+    async with running_study(tmp_path, DRIVE_STUDY) as running:
         yield running, tmp_path
 
 

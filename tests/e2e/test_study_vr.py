@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import RunningRelay
-from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient
+from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, OpenClient, fixture
 from tests.helpers.study import exported
 from tests.helpers.study import study_relay as running_study
+from tests.helpers.study_files import DRIVE_STUDY
 from tests.helpers.xr import present, press_menu_button
-from tests.test_study_relay import STUDY
 
 #: The SUS answers pressed, item by item, and their score: (4+3+3+4+2+3+4+4+3+3) * 2.5.
 SUS = [5, 2, 4, 1, 3, 2, 5, 1, 4, 2]
@@ -24,9 +24,11 @@ SUS_SCORE = 82.5
 TIME_LIMIT_S = 3
 
 
-@pytest.fixture
+@fixture
 async def study_relay(tmp_path: Path) -> AsyncIterator[tuple[RunningRelay, Path]]:
-    async with running_study(tmp_path, STUDY.replace("time_limit: 120", f"time_limit: {TIME_LIMIT_S}")) as running:
+    async with running_study(
+        tmp_path, DRIVE_STUDY.replace("time_limit: 120", f"time_limit: {TIME_LIMIT_S}")
+    ) as running:
         yield running, tmp_path
 
 
@@ -34,7 +36,7 @@ async def test_the_tlx_and_the_sus_are_answered_in_the_headset_by_pointing(
     study_relay: tuple[RunningRelay, Path], open_client: OpenClient
 ) -> None:
     running, folder = study_relay
-    client = await open_client(f"{running.url}/?{HEADSET}&{SOFTWARE_GL}&xrfps=12", "study-vr", *VR_VIEW)
+    client = await open_client(f"{running.url}/?{HEADSET}&{SOFTWARE_GL}", "study-vr", *VR_VIEW)
     page = client.page
     # The participant joins and starts at the page, then puts the headset on: its window a desktop's meanwhile (in
     # the small window of a VR test the study panel's Start lay outside it).

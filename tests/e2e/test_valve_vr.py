@@ -164,9 +164,7 @@ async def test_robot3_turns_the_valve_shut_by_the_operators_hand_and_the_humidit
     assert valve is not None
     # robot3 drawn with its model (a TurtleBot3, 14 cm tall), not the software renderer's 0.33 m tall stand-in, which
     # hides a wheel 0.22 m ahead of the robot's centre and 0.2 m up.
-    client = await present(
-        await open_client(f"{station.url}/?{HEADSET}&{SOFTWARE_GL}&xrfps=12&detail=3", "vr", *VR_VIEW)
-    )
+    client = await present(await open_client(f"{station.url}/?{HEADSET}&{SOFTWARE_GL}&detail=3", "vr", *VR_VIEW))
     await set_menu(client, True)
     await press_menu_button(client, "robot:robot3")
     await client.wait("s.menu.selected === 'robot3'")

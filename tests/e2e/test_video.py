@@ -22,7 +22,7 @@ from playwright.async_api import FloatRect
 
 from relay.config import load_config
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, wait_until
+from tests.helpers.browser import SOFTWARE_GL, Client, OpenClient, Station, fixture, wait_until
 from tests.helpers.xr import enter_vr, press_menu_button, set_menu
 
 ROBOT = "robot2"
@@ -285,7 +285,7 @@ class HeldProxy:
             self.server.close()
 
 
-@pytest.fixture
+@fixture
 async def loud_relay() -> AsyncIterator[RunningRelay]:
     """The sim fleet with its cameras' H.264 bitrate raised (the rest as robots.yaml says)."""
     config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")

@@ -11,14 +11,13 @@ import math
 from collections.abc import AsyncIterator
 from pathlib import Path
 
-import pytest
 from PIL import Image
 
 from relay.config import load_config
 from relay.config.model import Pose2D
 from relay.twin.facility import load_facility
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.helpers.browser import OpenClient, Station, wait_until
+from tests.helpers.browser import OpenClient, Station, fixture, wait_until
 from tests.helpers.xr import HAND_ORIGIN, button, enter_vr, reset_in_vr, set_menu
 
 ROBOTS = ("robot1", "robot2", "robot3")
@@ -80,7 +79,7 @@ async def test_a_latched_estop_is_a_red_alarm_in_the_middle_of_the_view(
     assert client.errors == [], client.errors
 
 
-@pytest.fixture
+@fixture
 async def spread() -> AsyncIterator[RunningRelay]:
     config = await asyncio.to_thread(load_config, ROOT / "robots.yaml")
     robots = tuple(

@@ -1,5 +1,5 @@
-"""The browser tests' study: a relay running tests/test_study_relay.py's study file, and its results as `xr-relay study
-export` writes them, read back."""
+"""The browser tests' study: a relay running DRIVE_STUDY (tests/helpers/study_files.py), and its results as
+`xr-relay study export` writes them, read back."""
 
 from __future__ import annotations
 
@@ -14,11 +14,11 @@ from relay.cli.options import Options
 from relay.config import load_config
 from relay.study import cli as study_cli
 from tests.conftest import ROOT, RunningRelay, start_relay
-from tests.test_study_relay import STUDY
+from tests.helpers.study_files import DRIVE_STUDY
 
 
 @contextlib.asynccontextmanager
-async def study_relay(folder: Path, study_text: str = STUDY) -> AsyncIterator[RunningRelay]:
+async def study_relay(folder: Path, study_text: str = DRIVE_STUDY) -> AsyncIterator[RunningRelay]:
     """The demo fleet's relay running ``study_text`` (written to ``folder``/study.yaml, its runs in ``folder``/runs)."""
     study = folder / "study.yaml"
     await asyncio.to_thread(study.write_text, study_text)

@@ -1,5 +1,5 @@
 """The /ws fuzz with its memory traced, in a process of its own: ``python -m tests.helpers.ws_fuzz_memory SEED COUNT``
-starts a relay (the simulated fleet, port 0), sends COUNT generated bad frames (tests/test_fuzz.py's
+starts a relay (the simulated fleet, port 0), sends COUNT generated bad frames (tests/helpers/bad_frames.py's
 mutated_frames), traces what the relay's code and its server library hold after the first 100 and prints one JSON
 line of what it saw. The process exits without stopping the tracer: in CPython 3.11, tracemalloc.stop() while the
 relay's threads allocate crashed a pytest worker (seen once in a fresh clone's run), and tracing left on would have
@@ -16,8 +16,8 @@ import tracemalloc
 
 from relay.config import load_config
 from tests.conftest import ROOT, start_relay
+from tests.helpers.bad_frames import mutated_frames
 from tests.helpers.spy import CommandSpy
-from tests.test_fuzz import mutated_frames
 from tests.wsclient import TestClient
 
 #: Frames sent before tracing starts: they fill the relay's caches (tracing all of them slowed the fleet too).

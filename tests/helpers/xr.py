@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from playwright.async_api import Page
 from playwright.async_api import TimeoutError as PlaywrightTimeout
 
 from tests.helpers.browser import HEADSET, SOFTWARE_GL, VR_VIEW, Client, OpenClient
@@ -80,6 +81,15 @@ async ([world, device]) => {
   return local.toArray();
 }
 """
+
+
+async def hand(page: Page, side: str, position: list[float], pinch: float | None = None) -> None:
+    """Move one emulated hand (IWER's device space) and, with ``pinch``, close (1) or open (0) it."""
+    await page.evaluate(
+        "([side, p, pinch]) => { const h = window.__iwer.hands[side]; h.position.set(...p);"
+        " if (pinch !== null) h.updatePinchValue(pinch); }",
+        [side, position, pinch],
+    )
 
 
 async def hold_at(client: Client, world: list[float], device: str = "controller") -> list[float]:
@@ -277,11 +287,7 @@ async def gaze_pinch(client: Client, target: list[float], drag_to: list[float] |
 
 
 async def enter_vr(open_client: OpenClient, url: str) -> Client:
-    # Paced at 12 XR frames a second (src/emulator_pace.js): unpaced, SwiftShader draws back to back and a VR page
-    # takes a whole core from the browser beside it; 13 VR tests took 170 s paced, 210 s unpaced, two at once. (At 5 a
-    # second a goal was dropped as stale in 2 of 3 loaded runs; goal_at_backend now sends one again, as an operator
-    # would.)
-    return await present(await open_client(f"{url}/?{HEADSET}&{SOFTWARE_GL}&xrfps=12", "vr", *VR_VIEW))
+    return await present(await open_client(f"{url}/?{HEADSET}&{SOFTWARE_GL}", "vr", *VR_VIEW))
 
 
 async def present(client: Client) -> Client:
