@@ -14,7 +14,7 @@ import shutil
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Final, TypeVar, overload
 
 import pytest_asyncio
 from playwright.async_api import Dialog, Page
@@ -40,14 +40,19 @@ CHROMIUM = Path("/usr/bin/chromium")
 #: belongs to the loop that started it; tests/e2e/conftest.py). A Chromium per test cost each test its launch and, in
 #: SwiftShader, the compilation of every shader the page uses: a second page in the same browser took 0.15 s of the
 #: GPU process's CPU to load where the first took 0.87 s, and the launch 0.6 s more (this 2-core machine, one page).
-LOOP = "session"
+LOOP: Final = "session"
+_Fixture = TypeVar("_Fixture", bound=Callable[..., Any])
 
 
-def fixture(function: Any = None, **options: Any) -> Any:
+@overload
+def fixture(function: _Fixture) -> _Fixture: ...
+@overload
+def fixture(*, autouse: bool = False) -> Callable[[_Fixture], _Fixture]: ...
+def fixture(function: Any = None, *, autouse: bool = False) -> Any:
     """The decorator of every async fixture of the browser tests (``@fixture`` or ``@fixture(autouse=True)``): it
     runs on their loop."""
     if function is None:
-        return pytest_asyncio.fixture(loop_scope=LOOP, **options)
+        return pytest_asyncio.fixture(loop_scope=LOOP, autouse=autouse)
     return pytest_asyncio.fixture(function, loop_scope=LOOP)
 
 
