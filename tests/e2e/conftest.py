@@ -1,5 +1,6 @@
 """Fixtures for the browser tests: the relay in-process on port 0, Debian's Chromium driven by Playwright's
-async API (WebGL on SwiftShader), the headset emulated by IWER through the client's `?emulate=quest3`. The
+async API (WebGL on SwiftShader; one Chromium per worker, on the worker's one event loop, each test's pages and
+contexts closed at its end), the headset emulated by IWER through the client's `?emulate=quest3`. The
 helpers that wait on the client's read-only state (`window.__xrRelay.state`) are in tests/helpers/browser.py.
 
 When the fleet of robots.yaml has no camera yet, the relay is given a synthetic one per robot (a

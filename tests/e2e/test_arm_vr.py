@@ -13,7 +13,7 @@ from typing import Any
 from relay.arm.kinematics import forward
 from tests.helpers.arm import tb3_manipulation
 from tests.helpers.browser import OpenClient, Station, wait_until
-from tests.helpers.xr import button, enter_vr, hold_at, press_menu_button, set_menu
+from tests.helpers.xr import button, enter_vr, hold_at, press_menu_button, set_menu, turn
 
 
 def tip_height(station: Station) -> float:
@@ -27,21 +27,6 @@ def gripper_pitch(station: Station) -> float:
     backend: Any = station.running.relay.backend
     arm = backend._arms.arms["robot3"]
     return -math.asin(float(forward(arm.model, arm.positions)[2, 0]))
-
-
-#: Turn the right controller by an angle about a world axis (the reference space is the rig's: the axis is turned
-#: into it), on the next XR frame.
-_TURN = """
-async ([axis, angle]) => {
-  const THREE = await import('three');
-  const rig = new THREE.Quaternion(...window.__xrRelay.state.rig.quaternion);
-  const local = new THREE.Vector3(...axis).applyQuaternion(rig.invert()).normalize();
-  const c = window.__iwer.controllers.right;
-  const turned = new THREE.Quaternion().setFromAxisAngle(local, angle)
-    .multiply(new THREE.Quaternion(c.quaternion.x, c.quaternion.y, c.quaternion.z, c.quaternion.w));
-  c.quaternion.set(turned.x, turned.y, turned.z, turned.w);
-}
-"""
 
 
 async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_hand(
@@ -77,7 +62,7 @@ async def test_a_squeeze_at_the_gripper_takes_robot3s_arm_and_it_follows_the_han
     assert pose is not None
     yaw = pose["yaw"]
     left = [-math.sin(yaw), 0.0, -math.cos(yaw)]  # the map's (-sin, cos, 0) in the twin's frame (x, up, -y)
-    await client.page.evaluate(_TURN, [left, 0.6])
+    await turn(client, left, 0.6)
     await wait_until(lambda: gripper_pitch(station) > pitch + 0.1, 30, "robot3's gripper pitching down with the hand")
     # Hand 1:1 (the menu's Options row, pressed with the other hand): the gripper follows the whole of the hand's
     # motion from where it is (taken again there: no jump), 2.5 cm up for 2.5 cm (half of it would be 1.25; near the

@@ -67,6 +67,21 @@ async ([hand, origin, target, kind]) => {
 """
 
 
+#: Turn the right controller by an angle about a world axis (the reference space is the rig's: the axis is turned
+#: into it), on the next XR frame.
+_TURN = """
+async ([axis, angle]) => {
+  const THREE = await import('three');
+  const rig = new THREE.Quaternion(...window.__xrRelay.state.rig.quaternion);
+  const local = new THREE.Vector3(...axis).applyQuaternion(rig.invert()).normalize();
+  const c = window.__iwer.controllers.right;
+  const turned = new THREE.Quaternion().setFromAxisAngle(local, angle)
+    .multiply(new THREE.Quaternion(c.quaternion.x, c.quaternion.y, c.quaternion.z, c.quaternion.w));
+  c.quaternion.set(turned.x, turned.y, turned.z, turned.w);
+}
+"""
+
+
 #: The right controller (``device`` 'controller') or the headset ('head') at a world point: the reference space is the
 #: rig's (position, turn), as ``aim`` aims.
 _PUT_AT = """
@@ -90,6 +105,11 @@ async def hand(page: Page, side: str, position: list[float], pinch: float | None
         " if (pinch !== null) h.updatePinchValue(pinch); }",
         [side, position, pinch],
     )
+
+
+async def turn(client: Client, axis: list[float], angle: float) -> None:
+    """Turn the right controller by ``angle`` (rad) about a world axis, on the next XR frame."""
+    await client.page.evaluate(_TURN, [axis, angle])
 
 
 async def hold_at(client: Client, world: list[float], device: str = "controller") -> list[float]:

@@ -345,9 +345,15 @@ function missionEffects(button, menu) {
 
 /** A value shown, the same as before: equal, or arrays of the same items. @param {any} before @param {any} value */
 function same(before, value) {
-  return Array.isArray(value)
-    ? value.length === before.length && value.every((v, i) => v === before[i])
-    : value === before;
+  if (Array.isArray(value)) {
+    return Array.isArray(before) && value.length === before.length && value.every((v, i) => v === before[i]);
+  }
+  // A study's question is built anew from every `study` message (study_model.js menuQuestion): by value, or the VR
+  // menu was drawn again for each of them with nothing changed.
+  if (value !== null && before !== null && typeof value === 'object' && typeof before === 'object') {
+    return JSON.stringify(value) === JSON.stringify(before);
+  }
+  return value === before;
 }
 
 /** One press = one toggle: reports the rising edge of a button, never repeats while it is held. */

@@ -402,6 +402,13 @@ test("a study's question heads the menu, and the VR panel then shows only it and
     moves: [{ id: 'study:send', label: 'Send answers', active: false, enabled: false }],
   });
   assert.ok(menu.version > version, 'the menu is drawn again');
+  const drawn = menu.version;
+  menu.show('question', {
+    lines: ['SUS 1/10: I think that I would like to use this system', 'frequently.'],
+    answers: [{ id: 'study:sus:1', label: '1 Disagree', active: false, enabled: true }],
+    moves: [{ id: 'study:send', label: 'Send answers', active: false, enabled: false }],
+  });
+  assert.equal(menu.version, drawn, 'the same question from the next study message: not drawn again');
   const buttons = menu.buttons();
   assert.deepEqual(
     buttons.slice(0, 4).map((b) => [b.group, b.caption ?? false]),
